@@ -1,0 +1,265 @@
+"""Tests for spherekin.closure against independent derivations.
+
+* numerics: Bernstein tensors evaluated at random points vs q(t) times the directly computed
+  matrix product of Rx(phi) Z factors (numpy);
+* exact: recursion route == product route == sympy's expansion of the symbolic matrix product, in
+  rational arithmetic (Fractions / sympy Rationals), for n <= 5;
+* the paper's printed control points of q, g1, g2, h1, h2 (Prop. 1, Cor. 2) as test data.
+"""
+
+import itertools
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from spherekin import bernstein
+from spherekin import closure as C
+from spherekin.paper_gosselin import paper_gosselin_loops
+
+# Pythagorean (cos, sin) pairs: exact rational known angles.
+PYTHAGOREAN = [(Fraction(3, 5), Fraction(4, 5)), (Fraction(-5, 13), Fraction(12, 13)),
+               (Fraction(8, 17), Fraction(-15, 17)), (Fraction(0), Fraction(1)), (Fraction(-1), Fraction(0))]
+
+
+# ---------------------------------------------------------------- independent sympy reference
+
+def sym_factor(kind, x):
+    """(q, c, s) of one factor as sympy expressions in x, derived from trig identities.
+
+    kind = ("known", cos, sin) or ("var", t_lo, t_hi, cos_d, sin_d, sign): phi = d + sign * psi with
+    tan(psi/2) = t = t_lo + (t_hi - t_lo) x; cos/sin of phi come from sympy's expand_trig and the
+    half-angle substitution cos psi = (1-t^2)/(1+t^2), sin psi = 2t/(1+t^2).
+    """
+    if kind[0] == "known":
+        return sp.Integer(1), sp.Rational(kind[1]), sp.Rational(kind[2])
+    _, a, b, cd, sd, sign = kind
+    d, psi = sp.symbols("d psi")
+    t = sp.Rational(a) + (sp.Rational(b) - sp.Rational(a)) * x
+    subs = {sp.cos(d): sp.Rational(cd), sp.sin(d): sp.Rational(sd),
+            sp.cos(psi): (1 - t**2) / (1 + t**2), sp.sin(psi): 2 * t / (1 + t**2)}
+    q = 1 + t**2
+    cphi = sp.expand_trig(sp.cos(d + sign * psi)).subs(subs)
+    sphi = sp.expand_trig(sp.sin(d + sign * psi)).subs(subs)
+    return sp.expand(q), sp.cancel(q * cphi), sp.cancel(q * sphi)
+
+
+def sym_closure(kinds):
+    """q_n * F_n as a sympy Matrix of polynomials, plus q_n and the variable symbols."""
+    xs = []
+    mat, qn = sp.eye(3), sp.Integer(1)
+    zmat = sp.Matrix([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    for k, kind in enumerate(kinds):
+        x = sp.Symbol(f"x{k}")
+        if kind[0] == "var":
+            xs.append(x)
+        q, c, s = sym_factor(kind, x)
+        mat = mat * sp.Matrix([[q, 0, 0], [0, c, -s], [0, s, c]]) * zmat
+        qn *= q
+    return mat.applyfunc(sp.expand), sp.expand(qn), xs
+
+
+def sym_bernstein(coeffs, xs):
+    """sum_I c_I B_I(x) expanded, from the definition of the Bernstein basis."""
+    total = sp.Integer(0)
+    for idx in itertools.product(*(range(n) for n in np.shape(coeffs))):
+        term = sp.Rational(coeffs[idx])
+        for i, x in zip(idx, xs):
+            term *= sp.binomial(2, i) * x**i * (1 - x) ** (2 - i)
+        total += term
+    return sp.expand(total)
+
+
+def code_factor(kind):
+    if kind[0] == "known":
+        return C.known_factor(kind[1], kind[2])
+    return C.variable_factor(*kind[1:])
+
+
+def random_kinds(rng, n, n_var):
+    where = set(rng.choice(n, size=n_var, replace=False).tolist())
+    kinds = []
+    for k in range(n):
+        cd, sd = PYTHAGOREAN[rng.integers(len(PYTHAGOREAN))]
+        if k in where:
+            a = Fraction(int(rng.integers(-6, 4)), 4)
+            b = a + Fraction(int(rng.integers(1, 8)), 4)
+            kinds.append(("var", a, b, cd, sd, int(rng.choice([1, -1]))))
+        else:
+            kinds.append(("known", cd, sd))
+    return kinds
+
+
+# ---------------------------------------------------------------- the paper's printed data
+
+UNIT = ("var", Fraction(0), Fraction(1), Fraction(1), Fraction(0), 1)
+
+
+def test_prop1_and_cor2_constants_on_unit_ranges():
+    f = C.variable_factor(Fraction(0), Fraction(1))
+    assert list(f.q) == [1, 1, 2]                      # Prop. 1: q = b0 + b1 + 2 b2
+    h1, h2 = f.s, -f.c
+    assert list(h1) == [0, 1, 2]                       # c_1(h1) = 1, c_2(h1) = 2
+    assert list(h2) == [-1, -1, 0]                     # c_0(h2) = c_1(h2) = -1
+    g1, g2 = np.multiply.outer(f.q, h2), np.multiply.outer(f.q, h1)
+    printed_g1 = {(0, 0): -1, (0, 1): -1, (1, 0): -1, (1, 1): -1, (2, 0): -2, (2, 1): -2}
+    printed_g2 = {(0, 1): 1, (1, 1): 1, (0, 2): 2, (1, 2): 2, (2, 1): 2, (2, 2): 4}
+    for idx in itertools.product(range(3), repeat=2):
+        assert g1[idx] == printed_g1.get(idx, 0)
+        assert g2[idx] == printed_g2.get(idx, 0)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_prop1_q_is_two_to_chi(n):
+    q = C.q_control_points([C.variable_factor(Fraction(0), Fraction(1))] * n)
+    for idx in itertools.product(range(3), repeat=n):
+        assert q[idx] == 2 ** sum(i == 2 for i in idx)
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5])
+def test_paper_sigma_formula_in_paper_setting(n):
+    """All factors unknown over [0, 1]: c_I(f22bar) = c_{I^sigma}(f11bar) as the paper states."""
+    factors = [code_factor(UNIT)] * n
+    f11, _ = C.f11_f13_recursion(factors)
+    m = C.matrix_control_points(factors)
+    assert np.array_equal(m[1, 1], C.sigma_shift(f11))
+
+
+# ---------------------------------------------------------------- exact: both routes vs sympy
+
+@pytest.mark.parametrize("n, n_var, seed", [(1, 1, 0), (2, 2, 1), (3, 2, 2), (3, 3, 3), (4, 2, 4), (4, 4, 5),
+                                            (5, 3, 6), (6, 2, 7)])
+def test_routes_agree_exactly(n, n_var, seed):
+    kinds = random_kinds(np.random.default_rng(seed), n, n_var)
+    factors = [code_factor(k) for k in kinds]
+    m = C.matrix_control_points(factors)
+    f11, f13 = C.f11_f13_recursion(factors)
+    assert m.shape == (3, 3) + (3,) * n_var and m.dtype == object
+    assert np.array_equal(f11, m[0, 0]) and np.array_equal(f13, m[0, 2])
+    rec = C.scalar_control_points(factors, "recursion")
+    prod = C.scalar_control_points(factors, "product")
+    assert np.array_equal(rec, prod)
+
+
+@pytest.mark.parametrize("n, n_var, seed", [(2, 2, 11), (3, 3, 12), (4, 3, 13), (4, 4, 14), (5, 5, 15)])
+def test_control_points_equal_sympy_expansion(n, n_var, seed):
+    kinds = random_kinds(np.random.default_rng(seed), n, n_var)
+    mat, qn, xs = sym_closure(kinds)
+    factors = [code_factor(k) for k in kinds]
+    m = C.matrix_control_points(factors)
+    entries = [(0, 0), (0, 2), (1, 1)] if n == 5 else list(itertools.product(range(3), repeat=2))
+    for i, j in entries:
+        assert sym_bernstein(m[i, j], xs) == mat[i, j], f"entry ({i},{j})"
+    scalar = C.scalar_control_points(factors, "recursion")
+    assert sym_bernstein(scalar, xs) == sp.expand(mat[0, 0] + mat[1, 1] - 2 * qn)
+
+
+# ---------------------------------------------------------------- floats: vs direct numpy products
+
+def random_loop(rng, n, n_var):
+    where = set(rng.choice(n, size=n_var, replace=False).tolist())
+    factors = []
+    for k in range(n):
+        if k in where:
+            lo = rng.uniform(-6, 5)
+            u = C.Unknown(f"u{k}", lo, lo + rng.uniform(0.1, 6.2))
+            factors.append((u if rng.random() < 0.5 else -u) + rng.uniform(-4, 4) if rng.random() < 0.7 else u)
+        else:
+            factors.append(rng.choice([np.pi, -np.pi / 2, 0.0, rng.uniform(-4, 4)]))
+    return C.ClosureLoop(factors)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_control_points_match_numeric_matrix_product(seed):
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(2, 9))
+    loop = random_loop(rng, n, int(rng.integers(1, min(n, 5) + 1)))
+    x = rng.uniform(0, 1, (50, len(loop.unknowns)))
+    t_lo_hi = np.array([u.t_range for u in loop.unknowns])
+    t = t_lo_hi[:, 0] + (t_lo_hi[:, 1] - t_lo_hi[:, 0]) * x
+    qn = np.prod(1 + t**2, axis=-1)
+    expected = qn[:, None, None] * loop.closure_matrix(x)
+    got = np.moveaxis(bernstein.evaluate(loop.matrix_control_points(), x), -1, 0)
+    scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_array_less(np.abs(got - expected) / scale, 1e-12)
+    for route in C.ROUTES:
+        f = bernstein.evaluate(loop.scalar_control_points(route), x)
+        direct = qn * (np.trace(loop.closure_matrix(x), axis1=-2, axis2=-1) - loop.closure_matrix(x)[:, 2, 2] - 2)
+        np.testing.assert_array_less(np.abs(f - direct) / scale[:, 0, 0], 1e-12)
+        assert np.all(f <= 1e-12 * scale[:, 0, 0])  # Eq. (10) is <= 0 everywhere
+
+
+def test_known_angle_pi_stays_exact():
+    loop = C.ClosureLoop([np.pi, C.Unknown("a", -1, 1), 3 * np.pi / 2, -np.pi / 2])
+    polys = loop.factor_polynomials()
+    assert (float(polys[0].c), float(polys[0].s)) == (-1.0, 0.0)
+    assert (float(polys[2].c), float(polys[2].s)) == (0.0, -1.0)
+    assert (float(polys[3].c), float(polys[3].s)) == (0.0, -1.0)
+    assert np.all(np.isfinite(loop.matrix_control_points()))
+
+
+def test_unknown_range_through_pi_uses_midpoint_shift():
+    u = C.Unknown("a", 2.5, 4.0)
+    assert u.shift == pytest.approx(3.25)
+    v = C.Unknown("b", -1.0, 2.0)
+    assert v.shift == 0.0 and v.t_range == (math.tan(-0.5), math.tan(1.0))
+    theta = np.linspace(2.5, 4.0, 7)
+    np.testing.assert_allclose(u.to_angle(u.to_unit(theta)), theta, atol=1e-13)
+    np.testing.assert_allclose(u.to_unit([2.5, 4.0]), [0.0, 1.0], atol=1e-13)
+
+
+def test_angle_arithmetic_builds_terms():
+    u = C.Unknown("a", -1, 1)
+    assert (u + 0.5) == C.Term(u, 0.5, 1)
+    assert (np.float64(0.5) - u) == C.Term(u, 0.5, -1)
+    assert -(u - 1.0) == C.Term(u, 1.0, -1)
+
+
+# ---------------------------------------------------------------- the paper's Gosselin loops
+
+def test_gosselin_loops_have_81_control_points_each():
+    loops = paper_gosselin_loops(betas=(0.1, -0.2, 0.3))
+    assert [len(lp.unknowns) for lp in loops] == [4, 4]
+    sizes = [lp.scalar_control_points().size for lp in loops]
+    assert sizes == [81, 81] and sum(sizes) == 162
+    shared = set(loops[0].unknowns) & set(loops[1].unknowns)
+    assert sorted(u.name for u in shared) == ["theta4_1", "theta5_1"]
+
+
+def test_eq6_split_loop_equals_offset_loop():
+    """Loop 2 written with the paper's Eq. (6) split equals it written with theta4^1 + pi/2."""
+    split = paper_gosselin_loops(betas=(0.1, -0.2, 0.3), loop2_form="split")[1]
+    offset = paper_gosselin_loops(betas=(0.1, -0.2, 0.3), loop2_form="offset")[1]
+    assert split.n == 8 and offset.n == 6
+    np.testing.assert_allclose(split.matrix_control_points(), offset.matrix_control_points(), atol=1e-12)
+
+
+# ---------------------------------------------------------------- bad input
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: C.Unknown("a", 1.0, 1.0), "lo < hi"),
+        (lambda: C.Unknown("a", 0.0, np.nan), "a.hi"),
+        (lambda: C.Unknown("a", -4.0, 2.3), "narrower than 2"),
+        (lambda: C.Unknown("a", 0.0, 3.0, shift=-1.0), "singularity"),
+        (lambda: C.Unknown("", 0.0, 1.0), "name"),
+        (lambda: C.ClosureLoop([]), "factors"),
+        (lambda: C.ClosureLoop([0.1, np.inf]), r"factors\[1\]"),
+        (lambda: C.ClosureLoop(["x"]), r"factors\[0\]"),
+        (lambda: C.Term(C.Unknown("a", 0, 1), sign=2), "sign"),
+        (lambda: C.scalar_control_points([C.known_factor(1.0, 0.0)], "simplex"), "route"),
+        (lambda: C.ClosureLoop([C.Unknown("a", 0, 1)]).closure_matrix([[0.5, 0.5]]), "x"),
+    ],
+)
+def test_bad_input_names_the_problem(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_unknown_twice_in_a_loop_is_rejected():
+    u = C.Unknown("a", 0, 1)
+    with pytest.raises(ValueError, match="appears twice"):
+        C.ClosureLoop([u, 0.3, u + 1.0])
