@@ -1,12 +1,13 @@
 # Two commands set up and run everything from a fresh clone:
 #   make run   -- create .venv, install spherekin, run the paper's Gosselin example
 #   make test  -- create .venv, install spherekin with test extras, run the test suite
+#   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test install clean
+.PHONY: run test verify install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -23,6 +24,9 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+verify: $(STAMP)
+	$(BIN)/python -m verification
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info
