@@ -1,0 +1,183 @@
+"""Mechanism files (TOML): load, validate, write. The format is documented in docs/mechanism-format.md.
+
+Two kinds:
+
+* ``kind = "3-RRR"``: keys ``base_axes``, ``elbow_axes_at_zero``, ``platform_axes``,
+  ``distal_link_angles`` (radians), optional ``joint_ranges`` (table joint name -> [lo, hi];
+  default: every joint unlimited), ``name``, ``reference_leg``; built by :func:`~.rrr.three_rrr`.
+* ``kind = "general"``: ``[[legs]]`` tables, each with optional ``name`` and ``[[legs.joints]]``
+  tables (``name``, ``axis``, optional ``actuated``, ``range``, ``reference_angle``), listed from
+  the base to the platform; optional ``name``, ``reference_leg``, ``platform_reference``.
+
+Angles are numbers in radians or text such as "pi/2" (see :func:`~.model.parse_angle`). Every
+problem raises :class:`MechanismFileError` (a ValueError) with one message naming the file, the
+key and the problem.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from .model import Joint, Leg, SphericalMechanism
+from .rrr import THREE_RRR_KEYS, three_rrr
+
+__all__ = ["MechanismFileError", "KINDS", "load_mechanism", "mechanism_from_dict", "dumps_mechanism"]
+
+KINDS = ("3-RRR", "general")
+_RRR_OPTIONAL = ("name", "reference_leg", "joint_ranges")
+_GENERAL_REQUIRED = ("legs",)
+_GENERAL_OPTIONAL = ("name", "reference_leg", "platform_reference")
+_LEG_KEYS = ("name", "joints")
+_JOINT_KEYS = ("name", "axis", "actuated", "range", "reference_angle")
+
+_KEY_HELP = {
+    "base_axes": "the 3 base (actuated) joint axes u_i, unit vectors in the base frame",
+    "elbow_axes_at_zero": "the 3 elbow axes w_i^0 at zero actuator angle, unit vectors in the base frame",
+    "platform_axes": "the 3 platform joint axes v_i^0, unit vectors in the platform frame",
+    "distal_link_angles": "the 3 angles alpha2_i = angle(w_i, v_i) in radians",
+    "legs": "the legs, as [[legs]] tables each holding [[legs.joints]] tables",
+}
+
+
+class MechanismFileError(ValueError):
+    """A mechanism file (or dict) that cannot be read or does not describe a valid mechanism."""
+
+
+def load_mechanism(path) -> SphericalMechanism:
+    """Read, validate and build the mechanism described by the TOML file at ``path``."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise MechanismFileError(f"{p}: cannot read the file: {exc.strerror or exc}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise MechanismFileError(f"{p}: not UTF-8 text: {exc.reason} at byte {exc.start}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise MechanismFileError(f"{p}: not valid TOML: {exc}") from None
+    return mechanism_from_dict(data, source=str(p))
+
+
+def mechanism_from_dict(data: Mapping, source: str = "<mechanism>") -> SphericalMechanism:
+    """Build a mechanism from parsed TOML data (a dict); errors are prefixed with ``source``."""
+    try:
+        return _build(data)
+    except MechanismFileError:
+        raise
+    except ValueError as exc:
+        raise MechanismFileError(f"{source}: {exc}") from None
+
+
+def _check_keys(where: str, table: Mapping, required, optional) -> None:
+    prefix = f"{where}." if where else ""
+    for key in required:
+        if key not in table:
+            hint = f" ({_KEY_HELP[key]})" if key in _KEY_HELP else ""
+            raise ValueError(f"{prefix}{key}: missing key{hint}")
+    valid = tuple(required) + tuple(optional)
+    for key in table:
+        if key not in valid:
+            raise ValueError(f"{prefix}{key}: unknown key; valid keys here: {', '.join(valid)}")
+
+
+def _build(data) -> SphericalMechanism:
+    if not isinstance(data, Mapping):
+        raise ValueError(f"expected a table of keys, got {type(data).__name__}")
+    if "kind" not in data:
+        raise ValueError(f"kind: missing key; expected one of {KINDS}")
+    kind = data["kind"]
+    if kind not in KINDS:
+        raise ValueError(f"kind: expected one of {KINDS}, got {kind!r}")
+    body = {k: v for k, v in data.items() if k != "kind"}
+    if kind == "3-RRR":
+        _check_keys("", body, THREE_RRR_KEYS, _RRR_OPTIONAL)
+        return three_rrr(
+            body["base_axes"], body["elbow_axes_at_zero"], body["platform_axes"], body["distal_link_angles"],
+            body.get("joint_ranges"), name=body.get("name", "3-RRR"), reference_leg=body.get("reference_leg", "leg1"),
+        )
+    _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
+    legs_raw = body["legs"]
+    if not isinstance(legs_raw, list) or not legs_raw:
+        raise ValueError("legs: expected one or more [[legs]] tables, got " + repr(legs_raw))
+    legs = []
+    for i, leg in enumerate(legs_raw):
+        where = f"legs[{i}]"
+        if not isinstance(leg, Mapping):
+            raise ValueError(f"{where}: expected a [[legs]] table, got {leg!r}")
+        _check_keys(where, leg, ("joints",), ("name",))
+        joints_raw = leg["joints"]
+        if not isinstance(joints_raw, list) or not joints_raw:
+            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {joints_raw!r}")
+        joints = []
+        for k, j in enumerate(joints_raw):
+            jwhere = f"{where}.joints[{k}]"
+            if not isinstance(j, Mapping):
+                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {j!r}")
+            _check_keys(jwhere, j, ("name", "axis"), ("actuated", "range", "reference_angle"))
+            try:
+                joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),
+                                    j.get("reference_angle", 0.0)))
+            except ValueError as exc:
+                raise ValueError(f"{jwhere}.{exc}") from None
+        try:
+            legs.append(Leg(leg.get("name", f"leg{i + 1}"), tuple(joints)))
+        except ValueError as exc:
+            raise ValueError(f"{where}.{exc}") from None
+    kwargs = {}
+    if "platform_reference" in body:
+        kwargs["platform_reference"] = body["platform_reference"]
+    return SphericalMechanism(
+        legs=tuple(legs), name=body.get("name", "mechanism"), reference_leg=body.get("reference_leg"), **kwargs,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+# --------------------------------------------------------------------------------------------
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(_num(c) for c in v) + "]"
+
+
+def _str(s: str) -> str:
+    return json.dumps(s)  # a JSON string of printable text is a valid TOML basic string
+
+
+def dumps_mechanism(mech: SphericalMechanism) -> str:
+    """The TOML text of a mechanism (3-RRR kind if it was built as one, else general); loads back equal."""
+    lines = []
+    if mech.kind == "3-RRR" and mech.geometry is not None:
+        g = mech.geometry
+        lines += ['kind = "3-RRR"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
+        for key in ("base_axes", "elbow_axes_at_zero", "platform_axes"):
+            lines.append(f"{key} = [" + ", ".join(_vec(v) for v in getattr(g, key)) + "]")
+        lines.append("distal_link_angles = [" + ", ".join(_num(a) for a in g.distal_link_angles) + "]")
+        ranged = [j for j in mech.joints if j.range is not None]
+        if ranged:
+            lines += ["", "[joint_ranges]"] + [f"{j.name} = {_vec(j.range)}" for j in ranged]
+        return "\n".join(lines) + "\n"
+    lines += ['kind = "general"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
+    if not np.array_equal(mech.platform_reference_matrix, np.eye(3)):
+        lines.append("platform_reference = [" + ", ".join(_vec(r) for r in mech.platform_reference) + "]")
+    for leg in mech.legs:
+        lines += ["", "[[legs]]", f"name = {_str(leg.name)}"]
+        for j in leg.joints:
+            lines += ["", "[[legs.joints]]", f"name = {_str(j.name)}", f"axis = {_vec(j.axis)}"]
+            if j.actuated:
+                lines.append("actuated = true")
+            if j.range is not None:
+                lines.append(f"range = {_vec(j.range)}")
+            if j.reference_angle != 0.0 or math.copysign(1.0, j.reference_angle) < 0:
+                lines.append(f"reference_angle = {_num(j.reference_angle)}")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,729 @@
+"""General model of a spherical parallel mechanism: joint axes -> loop equations (Eq. 1/2), IK, singularities.
+
+A mechanism is a fixed base, a moving platform and l >= 2 legs. Each leg is a serial chain of
+revolute joints, listed from the base to the platform, whose axes pass through the common centre O.
+The mechanism is described by every joint axis as a unit vector (base frame) in ONE assembled
+reference configuration, which joints are actuated, each joint's range and its *reading* at the
+reference configuration (``reference_angle``, default 0). A joint's reading (radians) is
+``reference_angle + displacement``, where the displacement rotates the link after the joint
+relative to the link before it about the joint's axis by the right-hand rule. Actuator inputs and
+passive unknowns are readings; with the default reference_angle = 0 they are displacements from the
+reference configuration.
+
+Derivation (what :class:`SphericalMechanism` computes once, at construction):
+
+* one independent loop per leg j other than the reference leg r: the closed chain that goes up
+  leg j, across the platform, down leg r and across the base. Its spherical polygon (Section 2,
+  Fig. 1) has the joint axes as vertices p_1..p_m (leg j base->platform, then leg r
+  platform->base); side k joins p_k to p_{k+1} and is a link (a link twist of a leg, the platform
+  side or the base side); its pole is n_k = p_k x p_{k+1} / |.|.
+* the exterior angle at p_k is the signed angle about p_k (right-hand rule) from n_{k-1} to n_k,
+  the convention under which Eq. (1), prod_k Rx(theta_k) Rz(alpha_k) = I, holds (checked against
+  an independent polygon in tests/test_rotations.py). A joint's displacement turns the pole after
+  it relative to the pole before it, so theta_k = offset_k + sign_k * reading_k, with sign +1 on
+  leg j (traversed base->platform) and -1 on leg r (traversed platform->base); the offsets are the
+  "joint-angle offsets" of the loop.
+* the loop's closure equation in the normalized form of Eq. (2): when every side is pi/2 (the
+  Gosselin platform) Eq. (1) is already Eq. (2), phi_k = theta_k (the paper's remark after
+  Eq. (4); the "compact" form, n = m); otherwise the corrected rule of
+  :func:`spherekin.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi
+  (the "doubled" form, n = 2m, equal to Eq. (1) up to conjugation by Rx(pi/2)).
+* the same :class:`~spherekin.closure.Unknown` object stands for a passive joint in every loop
+  where it appears (the reference leg's joints appear in all loops, each loop seeing them with
+  its own offset, like Eq. (5) of the paper).
+
+Departures from the paper: the paper writes the loops of one mechanism by hand; here they are
+derived from the axes, for any number of legs and joints per leg and any link twists. A side of
+twist 0 or pi (coaxial joints) is allowed on the base or the platform (e.g. coaxial actuators); its
+pole is then any fixed perpendicular. Inside a leg, consecutive joints must not be coaxial.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..closure import ClosureLoop, Term, Unknown
+from ..rotations import normalize_polygon, normalized_closure
+from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
+from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
+
+__all__ = [
+    "PARALLEL_TOL",
+    "RIGHT_ANGLE_TOL",
+    "SINGULARITY_TOL",
+    "FORMS",
+    "Joint",
+    "Leg",
+    "LoopVertex",
+    "LoopGeometry",
+    "LoopSystem",
+    "IKSolution",
+    "ForwardResult",
+    "SingularityReport",
+    "SphericalMechanism",
+]
+
+#: |a x b| below this: the axes a, b are parallel (coaxial joints). Reason: with unit vectors
+#: rounded to double precision, |a x b| of distinct axes is far above 1e-9 for any buildable design;
+#: below it, the pole a x b / |a x b| would be dominated by rounding (error ~ 1e-16 / |a x b|).
+PARALLEL_TOL = 1e-9
+
+#: |alpha - pi/2| below this: the side is exactly pi/2 and the compact form of Eq. (2) applies.
+#: Reason: atan2 of exact orthogonal unit vectors gives pi/2 to ~1e-16; the compact form replaces
+#: Rz(alpha) by Z, changing the equation by |alpha - pi/2|, which must stay far below the 1e-12
+#: closure tolerance of the tests.
+RIGHT_ANGLE_TOL = 1e-13
+
+#: A configuration is singular when the smallest singular value of the relevant Jacobian is below
+#: this (Jacobian columns are unit joint axes, so singular values are O(1) away from singularities
+#: and behave like the sine of the distance to one). Reason: at a serial singularity the inverse
+#: kinematics has a double root whose angles are only determined to ~sqrt(machine eps) = 1.5e-8,
+#: so the computed singular value there is ~1e-8; 1e-7 leaves a margin.
+SINGULARITY_TOL = 1e-7
+
+#: Forms of the normalized loop equation (Eq. 2) that :meth:`SphericalMechanism.loop_system` builds.
+FORMS = ("auto", "compact", "doubled")
+
+_TWO_PI = 2.0 * math.pi
+_IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+# --------------------------------------------------------------------------------------------
+# Data: joints, legs, loops, results
+# --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Joint:
+    """A revolute joint: its axis (unit vector, base frame, reference configuration), whether it is
+    actuated, its range (lo, hi) in radians or None (unlimited: the full circle), and its reading
+    at the reference configuration (radians)."""
+
+    name: str
+    axis: tuple
+    actuated: bool = False
+    range: tuple | None = None
+    reference_angle: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "name", check_name("name", self.name))
+        object.__setattr__(self, "axis", check_unit_vector("axis", self.axis))
+        if not isinstance(self.actuated, (bool, np.bool_)):
+            raise ValueError(f"actuated: expected true or false, got {self.actuated!r}")
+        object.__setattr__(self, "actuated", bool(self.actuated))
+        object.__setattr__(self, "range", check_range("range", self.range))
+        object.__setattr__(self, "reference_angle", parse_angle("reference_angle", self.reference_angle))
+
+
+@dataclass(frozen=True)
+class Leg:
+    """A serial chain of revolute joints from the base (first) to the platform (last)."""
+
+    name: str
+    joints: tuple
+
+    def __post_init__(self):
+        object.__setattr__(self, "name", check_name("name", self.name))
+        if isinstance(self.joints, (str, bytes)) or not isinstance(self.joints, (Sequence, tuple)):
+            raise ValueError(f"joints: expected a list of joints, got {self.joints!r}")
+        joints = tuple(self.joints)
+        if not joints:
+            raise ValueError("joints: expected at least one joint, got none")
+        for k, j in enumerate(joints):
+            if not isinstance(j, Joint):
+                raise ValueError(f"joints[{k}]: expected a Joint, got {j!r}")
+        for k in range(len(joints) - 1):
+            a, b = np.array(joints[k].axis), np.array(joints[k + 1].axis)
+            if np.linalg.norm(np.cross(a, b)) < PARALLEL_TOL:
+                raise ValueError(
+                    f"joints[{k}], joints[{k + 1}] ({joints[k].name!r}, {joints[k + 1].name!r}): inconsistent "
+                    "geometry: consecutive axes of a leg are parallel (link twist 0 or pi); two coaxial joints "
+                    "in series act as one joint"
+                )
+        object.__setattr__(self, "joints", joints)
+
+    @property
+    def twists(self) -> tuple[float, ...]:
+        """Link twist angles (radians, in (0, pi)) between consecutive joint axes of the leg."""
+        return tuple(
+            math.atan2(float(np.linalg.norm(np.cross(a.axis, b.axis))), float(np.dot(a.axis, b.axis)))
+            for a, b in zip(self.joints, self.joints[1:])
+        )
+
+
+@dataclass(frozen=True)
+class LoopVertex:
+    """A vertex of a loop's spherical polygon: joint ``joint``, exterior angle theta = offset + sign * reading."""
+
+    joint: str
+    sign: int
+    offset: float
+    actuated: bool
+
+
+@dataclass(frozen=True)
+class LoopGeometry:
+    """The spherical polygon of one independent loop (Eq. 1): up ``legs[0]``, down ``legs[1]``.
+
+    ``vertices[k]`` is p_k; ``sides[k]`` is the side (link twist, radians in [0, pi]) from p_k to
+    p_{k+1}, the last one being the base side back to p_1. ``right_angled`` is True when every
+    side is pi/2 (within RIGHT_ANGLE_TOL), so that Eq. (1) is already in the form of Eq. (2).
+    """
+
+    legs: tuple
+    vertices: tuple
+    sides: tuple
+    right_angled: bool
+
+    def factor_specs(self, form: str = "auto") -> tuple[tuple[float, str | None, int], ...]:
+        """The factors of Eq. (2) as (offset, joint name or None, sign): phi = offset + sign * reading.
+
+        Compact form (all sides pi/2): phi_k = theta_k. Doubled form: the corrected rule of
+        :func:`spherekin.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi.
+        """
+        if form not in FORMS:
+            raise ValueError(f"form: expected one of {FORMS}, got {form!r}")
+        if form == "compact" and not self.right_angled:
+            raise ValueError(
+                "form: 'compact' needs every side of the loop to be pi/2, got sides "
+                f"{[round(s, 6) for s in self.sides]}; use 'auto' or 'doubled'"
+            )
+        if form == "compact" or (form == "auto" and self.right_angled):
+            return tuple((v.offset, v.joint, v.sign) for v in self.vertices)
+        phis = normalize_polygon(np.array(self.sides), np.array([v.offset for v in self.vertices]))
+        specs = []
+        for k, v in enumerate(self.vertices):
+            specs.append((wrap(float(phis[2 * k])), v.joint, v.sign))
+            specs.append((float(phis[2 * k + 1]), None, 0))
+        return tuple(specs)
+
+    def factor_angles(self, readings: Mapping[str, float], form: str = "auto") -> np.ndarray:
+        """The angles phi_1..phi_n of Eq. (2) at the given joint readings (radians), shape (n,)."""
+        return np.array([off + (sgn * readings[name] if name is not None else 0.0)
+                         for off, name, sgn in self.factor_specs(form)])
+
+
+@dataclass(frozen=True)
+class LoopSystem:
+    """The closure equations of a mechanism at fixed actuator inputs (Eq. 2 for each loop).
+
+    * ``loops``: the l - 1 independent loops as :class:`ClosureLoop` (normalized Eq. 2 form);
+    * ``unknowns``: every passive joint that appears in a loop, in the mechanism's passive order;
+      the same :class:`Unknown` object is used in every loop where that joint appears;
+    * ``loop_indices[k]``: positions in ``unknowns`` of the unknowns of ``loops[k]``, in that
+      loop's tensor-axis order (so ``x[..., loop_indices[k]]`` are the loop's coordinates);
+    * ``shared``: names of the unknowns that appear in more than one loop;
+    * ``inputs``/``input_names``: the actuator readings (radians) substituted as known angles;
+    * ``loop_legs[k]``: (leg traversed up, reference leg traversed down) of loop k.
+    """
+
+    loops: tuple
+    unknowns: tuple
+    loop_indices: tuple
+    shared: tuple
+    inputs: tuple
+    input_names: tuple
+    loop_legs: tuple
+    form: str
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(u.name for u in self.unknowns)
+
+    def unknown(self, name: str) -> Unknown:
+        for u in self.unknowns:
+            if u.name == name:
+                return u
+        raise ValueError(f"name: expected one of {self.names}, got {name!r}")
+
+    def to_unit(self, passive_angles: Mapping[str, float]) -> np.ndarray:
+        """Unit-box coordinates x (one per unknown, global order) of passive readings (radians)."""
+        missing = [u.name for u in self.unknowns if u.name not in passive_angles]
+        if missing:
+            raise ValueError(f"passive_angles: missing {missing}")
+        return np.array([float(u.to_unit(passive_angles[u.name])) for u in self.unknowns])
+
+    def to_angles(self, x) -> dict[str, float]:
+        """Passive readings (radians) at unit-box coordinates x, shape (n_unknowns,)."""
+        x = np.asarray(x, dtype=float)
+        if x.shape != (len(self.unknowns),):
+            raise ValueError(f"x: expected shape ({len(self.unknowns)},), got {x.shape}")
+        return {u.name: float(u.to_angle(xi)) for u, xi in zip(self.unknowns, x)}
+
+    def residuals(self, x) -> np.ndarray:
+        """||F_n - I|| (Frobenius) of each loop at unit-box points x, shape (..., n_unknowns) -> (..., n_loops)."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim == 0 or x.shape[-1] != len(self.unknowns):
+            raise ValueError(f"x: expected shape (..., {len(self.unknowns)}), got {x.shape}")
+        out = [np.linalg.norm(loop.closure_matrix(x[..., list(idx)]) - np.eye(3), axis=(-2, -1))
+               for loop, idx in zip(self.loops, self.loop_indices)]
+        return np.stack(out, axis=-1)
+
+
+@dataclass(frozen=True)
+class IKSolution:
+    """One inverse-kinematics solution: every joint reading (radians) for the given pose.
+
+    ``working_mode[i]`` is, for a leg of 3 joints, the sign of det[a_1, a_2, a_3] of its current
+    axes (the branch of the leg's inverse kinematics; 0 at a serial singularity) and 0 for legs
+    with another number of joints (one branch). ``in_range`` tells whether every reading lies in
+    its joint's range. Readings are reduced modulo 2 pi into [lo, lo + 2 pi) for a limited joint
+    and into [-pi, pi] otherwise.
+    """
+
+    joint_angles: Mapping
+    inputs: tuple
+    working_mode: tuple
+    in_range: bool
+
+    def passive(self, names: Sequence[str]) -> dict[str, float]:
+        return {n: self.joint_angles[n] for n in names}
+
+
+@dataclass(frozen=True)
+class ForwardResult:
+    """Forward evaluation at given joint readings.
+
+    ``pose``: the platform pose R (3x3) along the reference leg; ``leg_poses``: the pose along each
+    leg (in leg order); ``loop_residuals``: ||F_n - I|| (Frobenius) of each loop's Eq. (2) product,
+    0 exactly when the loop closes; ``loop_legs``: the (up, down) legs of each loop.
+    """
+
+    pose: np.ndarray
+    leg_poses: tuple
+    loop_residuals: tuple
+    loop_legs: tuple
+
+
+@dataclass(frozen=True)
+class SingularityReport:
+    """Singularity classification of a configuration (Jacobian criteria, tolerance ``tol``).
+
+    * serial (inverse-kinematic) singularity: the actuators can move while the platform stays
+      still -- a leg Jacobian [a_1 .. a_k] (current axes) loses rank with a null motion that moves
+      an actuated joint; ``serial_margin`` is the smallest singular value over the legs with an
+      actuator (``serial_legs`` names the singular ones);
+    * parallel (direct-kinematic) singularity: the passive joints can move while the actuators are
+      locked -- the Jacobian K_p of the loop constraints with respect to the passive joints loses
+      column rank; ``parallel_margin`` is its smallest singular value. This is the Jacobian of the
+      loop equations that a direct-kinematics solver faces.
+    """
+
+    serial: bool
+    parallel: bool
+    serial_margin: float
+    parallel_margin: float
+    serial_legs: tuple
+    tol: float
+
+    @property
+    def kind(self) -> str:
+        """"regular", "serial", "parallel" or "serial+parallel"."""
+        if self.serial and self.parallel:
+            return "serial+parallel"
+        return "serial" if self.serial else ("parallel" if self.parallel else "regular")
+
+
+# --------------------------------------------------------------------------------------------
+# The mechanism
+# --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SphericalMechanism:
+    """A spherical parallel mechanism: base, platform and l >= 2 legs of revolute joints (see module doc).
+
+    ``legs``: the legs (each base -> platform); ``reference_leg``: name of the leg shared by all
+    loops (default: the first leg); ``platform_reference``: the platform pose R at the reference
+    configuration (default I: the platform frame coincides with the base frame there). The pose of
+    the platform at other configurations is R = D R_ref with D the rotation of the platform relative
+    to its reference position (the product of exponentials of the reference leg, see
+    :meth:`pose_from_passive`). ``kind`` and ``geometry`` record how it was built (e.g. "3-RRR").
+
+    Public derived data: ``actuated`` and ``passive`` (joint names, leg order), ``ranges``,
+    ``loop_geometry`` (one :class:`LoopGeometry` per independent loop).
+    """
+
+    legs: tuple
+    name: str = "mechanism"
+    reference_leg: str | None = None
+    platform_reference: tuple = _IDENTITY
+    kind: str = "general"
+    geometry: object = None
+    loop_geometry: tuple = field(init=False, repr=False, compare=False, default=())
+
+    # ---------------------------------------------------------------- construction
+
+    def __post_init__(self):
+        object.__setattr__(self, "name", check_name("name", self.name))
+        if isinstance(self.legs, (str, bytes)) or not isinstance(self.legs, (Sequence, tuple)):
+            raise ValueError(f"legs: expected a list of legs, got {self.legs!r}")
+        legs = tuple(self.legs)
+        for i, leg in enumerate(legs):
+            if not isinstance(leg, Leg):
+                raise ValueError(f"legs[{i}]: expected a Leg, got {leg!r}")
+        if len(legs) < 2:
+            raise ValueError(f"legs: expected at least 2 legs (a parallel mechanism has a closed loop), got {len(legs)}")
+        leg_names = [leg.name for leg in legs]
+        for i, n in enumerate(leg_names):
+            if n in leg_names[:i]:
+                raise ValueError(f"legs[{i}].name: leg name {n!r} is used twice")
+        seen = {}
+        for i, leg in enumerate(legs):
+            for k, j in enumerate(leg.joints):
+                if j.name in seen:
+                    raise ValueError(f"legs[{i}].joints[{k}].name: joint name {j.name!r} is used twice "
+                                     f"(also {seen[j.name]})")
+                seen[j.name] = f"legs[{i}].joints[{k}]"
+        ref = leg_names[0] if self.reference_leg is None else self.reference_leg
+        if ref not in leg_names:
+            raise ValueError(f"reference_leg: expected one of {leg_names}, got {ref!r}")
+        platform = check_rotation("platform_reference", self.platform_reference)
+        object.__setattr__(self, "legs", legs)
+        object.__setattr__(self, "reference_leg", ref)
+        object.__setattr__(self, "platform_reference", tuple(tuple(float(v) for v in row) for row in platform))
+        n_loops = len(legs) - 1
+        if not self.actuated:
+            raise ValueError("legs: expected at least one actuated joint, got none")
+        if len(self.passive) > 3 * n_loops:
+            raise ValueError(
+                f"legs: the {n_loops} loop(s) give {3 * n_loops} scalar equations, which fix at most that many "
+                f"passive joints, but {len(self.passive)} joints are passive ({', '.join(self.passive)}); the "
+                "direct kinematics would have a continuum of solutions: mark more joints as actuated"
+            )
+        ref_leg = legs[leg_names.index(ref)]
+        loops = tuple(self._polygon(leg, ref_leg) for leg in legs if leg.name != ref)
+        object.__setattr__(self, "loop_geometry", loops)
+
+    @staticmethod
+    def _polygon(up: Leg, down: Leg) -> LoopGeometry:
+        """Spherical polygon of the loop up ``up`` and down ``down`` at the reference configuration."""
+        verts = [(j, 1) for j in up.joints] + [(j, -1) for j in reversed(down.joints)]
+        p = np.array([j.axis for j, _ in verts])
+        nxt = np.roll(p, -1, axis=0)
+        cross = np.cross(p, nxt)
+        sines = np.linalg.norm(cross, axis=1)
+        sides = np.arctan2(sines, np.sum(p * nxt, axis=1))
+        poles = np.empty_like(p)
+        names = [j.name for j, _ in verts]
+        for k in range(len(verts)):
+            if sines[k] >= PARALLEL_TOL:
+                poles[k] = cross[k] / sines[k]
+            elif np.array_equal(p[k], nxt[k]) or np.array_equal(p[k], -nxt[k]):
+                poles[k] = perpendicular(p[k])  # coaxial base or platform joints: any fixed normal
+            else:
+                raise ValueError(
+                    f"legs: inconsistent geometry: the axes of joints {names[k]!r} and "
+                    f"{names[(k + 1) % len(names)]!r} are parallel within {PARALLEL_TOL:g} but not equal; "
+                    "write them identical (coaxial joints) or separate them"
+                )
+        prev = np.roll(poles, 1, axis=0)
+        exterior = np.arctan2(np.sum(p * np.cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
+        vertices = tuple(
+            LoopVertex(j.name, s, wrap(float(th) - s * j.reference_angle), j.actuated)
+            for (j, s), th in zip(verts, exterior)
+        )
+        right = bool(np.all(np.abs(sides - math.pi / 2) < RIGHT_ANGLE_TOL))
+        return LoopGeometry((up.name, down.name), vertices, tuple(float(s) for s in sides), right)
+
+    # ---------------------------------------------------------------- names and ranges
+
+    @property
+    def joints(self) -> tuple[Joint, ...]:
+        return tuple(j for leg in self.legs for j in leg.joints)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def actuated(self) -> tuple[str, ...]:
+        """Names of the actuated joints: the inputs, in order (legs in order, base to platform)."""
+        return tuple(j.name for j in self.joints if j.actuated)
+
+    @property
+    def passive(self) -> tuple[str, ...]:
+        """Names of the passive joints, in the same order."""
+        return tuple(j.name for j in self.joints if not j.actuated)
+
+    @property
+    def ranges(self) -> Mapping[str, tuple[float, float] | None]:
+        """Joint name -> (lo, hi) in radians, or None for an unlimited joint (the full circle)."""
+        return MappingProxyType({j.name: j.range for j in self.joints})
+
+    @property
+    def platform_reference_matrix(self) -> np.ndarray:
+        return np.array(self.platform_reference)
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise ValueError(f"name: expected one of {self.joint_names}, got {name!r}")
+
+    def leg(self, name: str) -> Leg:
+        for leg in self.legs:
+            if leg.name == name:
+                return leg
+        raise ValueError(f"name: expected one of {[leg.name for leg in self.legs]}, got {name!r}")
+
+    def link_twists(self) -> dict[str, tuple[float, ...]]:
+        """Leg name -> link twist angles (radians) between its consecutive joints."""
+        return {leg.name: leg.twists for leg in self.legs}
+
+    # ---------------------------------------------------------------- input checks
+
+    def _check_inputs(self, inputs) -> tuple[float, ...]:
+        names = self.actuated
+        if isinstance(inputs, (str, bytes, Mapping)) or not isinstance(inputs, (Sequence, np.ndarray)):
+            raise ValueError(f"inputs: expected {len(names)} actuator angles in radians {names}, got {inputs!r}")
+        if len(inputs) != len(names):
+            raise ValueError(f"inputs: expected {len(names)} actuator angles {names}, got {len(inputs)}")
+        out = []
+        for name, value in zip(names, inputs):
+            v = parse_angle(f"inputs ({name})", value)
+            rng = self.joint(name).range
+            if rng is not None and not _in_range(v, rng):
+                raise ValueError(f"inputs ({name}): {v!r} is outside the joint range [{rng[0]!r}, {rng[1]!r}]")
+            out.append(v)
+        return tuple(out)
+
+    def _check_angles(self, key: str, angles, required: Sequence[str]) -> dict[str, float]:
+        if not isinstance(angles, Mapping):
+            raise ValueError(f"{key}: expected a mapping joint name -> angle (radians), got {type(angles).__name__}")
+        valid = set(self.joint_names)
+        unknown = [n for n in angles if n not in valid]
+        if unknown:
+            raise ValueError(f"{key}: unknown joint name(s) {unknown}; valid names: {self.joint_names}")
+        missing = [n for n in required if n not in angles]
+        if missing:
+            raise ValueError(f"{key}: missing angle(s) for {missing}")
+        return {n: parse_angle(f"{key}[{n!r}]", v) for n, v in angles.items()}
+
+    # ---------------------------------------------------------------- loop equations
+
+    def loop_system(self, inputs, passive_ranges: Mapping | None = None, form: str = "auto") -> LoopSystem:
+        """The l - 1 closure equations (Eq. 2) with the actuator readings ``inputs`` substituted.
+
+        ``inputs``: one angle (radians) per actuated joint, in the order of ``actuated``.
+        ``passive_ranges``: optional name -> (lo, hi) (width < 2 pi) overriding passive joint
+        ranges, e.g. to cover a full-circle joint by charts. A passive joint with an unlimited
+        range and no override is a ValueError (tan(theta/2) cannot cover the full circle).
+        ``form``: "auto" (compact when every side of a loop is pi/2, else doubled), "compact" or
+        "doubled" (see :meth:`LoopGeometry.factor_specs`).
+        """
+        values = self._check_inputs(inputs)
+        if form not in FORMS:
+            raise ValueError(f"form: expected one of {FORMS}, got {form!r}")
+        overrides = {}
+        if passive_ranges is not None:
+            if not isinstance(passive_ranges, Mapping):
+                raise ValueError(f"passive_ranges: expected a mapping name -> (lo, hi), got {passive_ranges!r}")
+            for n, r in passive_ranges.items():
+                if n not in self.passive:
+                    raise ValueError(f"passive_ranges: {n!r} is not a passive joint; valid names: {self.passive}")
+                if r is None:
+                    raise ValueError(f"passive_ranges[{n!r}]: expected (lo, hi) with hi - lo < 2*pi, got None")
+                overrides[n] = check_range(f"passive_ranges[{n!r}]", r)
+        known = dict(zip(self.actuated, values))
+        in_loops = {v.joint for g in self.loop_geometry for v in g.vertices if not v.actuated}
+        unknowns = {}
+        for name in self.passive:
+            if name not in in_loops:
+                continue
+            rng = overrides.get(name, self.joint(name).range)
+            if rng is None:
+                raise ValueError(
+                    f"passive_ranges: passive joint {name!r} has an unlimited range (the full circle), which one "
+                    f"unknown t = tan((theta - shift)/2) cannot cover; pass passive_ranges={{{name!r}: (lo, hi)}} "
+                    "with hi - lo < 2*pi (e.g. two charts)"
+                )
+            unknowns[name] = Unknown(name, rng[0], rng[1])
+        loops, indices = [], []
+        order = list(unknowns)
+        for g in self.loop_geometry:
+            factors = []
+            for off, name, sgn in g.factor_specs(form):
+                if name is None:
+                    factors.append(off)
+                elif name in known:
+                    factors.append(wrap(off + sgn * known[name]))
+                else:
+                    factors.append(Term(unknowns[name], off, sgn))
+            loop = ClosureLoop(factors)
+            loops.append(loop)
+            indices.append(tuple(order.index(u.name) for u in loop.unknowns))
+        counts = {n: sum(n in lp.names for lp in loops) for n in order}
+        return LoopSystem(
+            loops=tuple(loops),
+            unknowns=tuple(unknowns.values()),
+            loop_indices=tuple(indices),
+            shared=tuple(n for n in order if counts[n] > 1),
+            inputs=values,
+            input_names=self.actuated,
+            loop_legs=tuple(g.legs for g in self.loop_geometry),
+            form=form,
+        )
+
+    # ---------------------------------------------------------------- poses and forward evaluation
+
+    def _leg_pose(self, leg: Leg, readings: Mapping[str, float]) -> np.ndarray:
+        axes = np.array([j.axis for j in leg.joints])
+        disp = [readings[j.name] - j.reference_angle for j in leg.joints]
+        return chain_rotation(axes, disp) @ self.platform_reference_matrix
+
+    def pose_from_passive(self, inputs, passive_angles: Mapping[str, float]) -> np.ndarray:
+        """Platform pose R (3x3) from actuator inputs and solved passive readings (radians).
+
+        R = Rot(a_1, d_1) ... Rot(a_k, d_k) R_ref along the reference leg (product of exponentials,
+        axes a_i in the reference configuration, d_i = reading_i - reference_angle_i); for a 3-RRR
+        this is the R with v_i = R v_i^0. Only the reference leg's passive joints are needed.
+        """
+        values = dict(zip(self.actuated, self._check_inputs(inputs)))
+        ref = self.leg(self.reference_leg)
+        need = [j.name for j in ref.joints if not j.actuated]
+        angles = self._check_angles("passive_angles", passive_angles, need)
+        bad = [n for n in angles if n in values]
+        if bad:
+            raise ValueError(f"passive_angles: {bad} are actuated joints; give them in inputs")
+        return self._leg_pose(ref, {**angles, **values})
+
+    def forward(self, joint_angles: Mapping[str, float], form: str = "auto") -> ForwardResult:
+        """Forward evaluation: every joint reading (radians) -> pose and per-loop closure residuals."""
+        readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        leg_poses = tuple(self._leg_pose(leg, readings) for leg in self.legs)
+        names = [leg.name for leg in self.legs]
+        residuals = tuple(
+            float(np.linalg.norm(normalized_closure(g.factor_angles(readings, form)) - np.eye(3)))
+            for g in self.loop_geometry
+        )
+        return ForwardResult(
+            pose=leg_poses[names.index(self.reference_leg)],
+            leg_poses=leg_poses,
+            loop_residuals=residuals,
+            loop_legs=tuple(g.legs for g in self.loop_geometry),
+        )
+
+    # ---------------------------------------------------------------- inverse kinematics
+
+    def inverse_kinematics(self, R, only_in_range: bool = False) -> tuple[IKSolution, ...]:
+        """Every joint solution (all working modes) for the platform pose R (3x3 rotation).
+
+        Each leg is solved as a serial chain for the platform displacement D = R R_ref^T
+        (Paden-Kahan subproblems; legs of 1, 2 or 3 joints; up to 2 branches per 3-joint leg) and
+        the branches of the legs are combined, e.g. 2^3 = 8 working modes for a 3-RRR. A pose a leg
+        cannot reach gives no solution. With ``only_in_range`` the solutions whose readings leave a
+        joint range are dropped.
+        """
+        rot = check_rotation("R", R)
+        target = rot @ self.platform_reference_matrix.T
+        per_leg = []
+        for leg in self.legs:
+            axes = np.array([j.axis for j in leg.joints])
+            if len(leg.joints) > 3:
+                raise ValueError(
+                    f"R: inverse kinematics needs legs of at most 3 joints; leg {leg.name!r} has "
+                    f"{len(leg.joints)} (its inverse kinematics has a continuum of solutions)"
+                )
+            sols = []
+            for disp in serial_ik(axes, target):
+                readings = [wrap(j.reference_angle + d) for j, d in zip(leg.joints, disp)]
+                mode = 0
+                if len(leg.joints) == 3:
+                    cur = current_axes(axes, disp)
+                    det = float(np.linalg.det(cur))
+                    mode = 0 if abs(det) < SINGULARITY_TOL else int(math.copysign(1, det))
+                sols.append((readings, mode))
+            per_leg.append(sols)
+        out = []
+        for combo in itertools.product(*per_leg):
+            angles, ok = {}, True
+            for leg, (readings, _) in zip(self.legs, combo):
+                for j, r in zip(leg.joints, readings):
+                    if j.range is not None:
+                        r = j.range[0] + (r - j.range[0]) % _TWO_PI
+                        ok = ok and r <= j.range[1]
+                    angles[j.name] = r
+            if only_in_range and not ok:
+                continue
+            out.append(IKSolution(
+                joint_angles=MappingProxyType(angles),
+                inputs=tuple(angles[n] for n in self.actuated),
+                working_mode=tuple(mode for _, mode in combo),
+                in_range=ok,
+            ))
+        return tuple(out)
+
+    # ---------------------------------------------------------------- singularities
+
+    def jacobians(self, joint_angles: Mapping[str, float]) -> dict[str, np.ndarray]:
+        """Velocity Jacobians at given readings (radians).
+
+        ``legs``: per leg, J_i = [a_1 .. a_k] (current axes, base frame; omega = J_i qdot_i);
+        ``constraints``: K (3(l-1) x n_joints, columns in ``joint_names`` order), the loop velocity
+        constraints J_j qdot_j - J_r qdot_r = 0 of each loop (leg j vs the reference leg r);
+        ``K_a``, ``K_p``: its actuated and passive columns (K_a qdot_a + K_p qdot_p = 0).
+        """
+        readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        names = self.joint_names
+        leg_j = {}
+        for leg in self.legs:
+            axes = np.array([j.axis for j in leg.joints])
+            leg_j[leg.name] = current_axes(axes, [readings[j.name] - j.reference_angle for j in leg.joints])
+        rows = []
+        for g in self.loop_geometry:
+            up, down = g.legs
+            block = np.zeros((3, len(names)))
+            for leg_name, sgn in ((up, 1.0), (down, -1.0)):
+                for k, j in enumerate(self.leg(leg_name).joints):
+                    block[:, names.index(j.name)] += sgn * leg_j[leg_name][:, k]
+            rows.append(block)
+        k_mat = np.vstack(rows)
+        act = [names.index(n) for n in self.actuated]
+        pas = [names.index(n) for n in self.passive]
+        return {"legs": leg_j, "constraints": k_mat, "K_a": k_mat[:, act], "K_p": k_mat[:, pas]}
+
+    def singularity(self, joint_angles: Mapping[str, float], tol: float = SINGULARITY_TOL) -> SingularityReport:
+        """Classify a configuration as regular, serial-, parallel- or doubly singular (see
+        :class:`SingularityReport`; tolerance SINGULARITY_TOL by default)."""
+        if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(tol) or not tol > 0:
+            raise ValueError(f"tol: expected a positive tolerance, got {tol!r}")
+        tol = float(tol)
+        jac = self.jacobians(joint_angles)
+        serial_margin, serial_legs = math.inf, []
+        for leg in self.legs:
+            act = np.array([j.actuated for j in leg.joints])
+            if not act.any():
+                continue
+            jl = jac["legs"][leg.name]
+            _, s, vt = np.linalg.svd(jl)  # full: vt is k x k
+            s_full = np.concatenate([s, np.zeros(len(leg.joints) - len(s))])
+            serial_margin = min(serial_margin, float(s_full.min()))
+            null = vt[s_full < tol]
+            # a null motion of the leg (platform still) that moves an actuated joint
+            if null.size and np.linalg.norm(null[:, act]) > math.sqrt(tol):
+                serial_legs.append(leg.name)
+        kp = jac["K_p"]
+        if kp.shape[1] == 0:
+            parallel_margin = math.inf
+        else:
+            s = np.linalg.svd(kp, compute_uv=False)
+            parallel_margin = float(s.min()) if kp.shape[1] <= kp.shape[0] else 0.0
+        return SingularityReport(
+            serial=bool(serial_legs),
+            parallel=parallel_margin < tol,
+            serial_margin=serial_margin,
+            parallel_margin=parallel_margin,
+            serial_legs=tuple(serial_legs),
+            tol=tol,
+        )
+
+
+def _in_range(value: float, rng: tuple[float, float]) -> bool:
+    """Whether an angle lies in [lo, hi] modulo 2 pi."""
+    return rng[0] + (value - rng[0]) % _TWO_PI <= rng[1]
