@@ -2,6 +2,7 @@
 
 Commands:
     gosselin   summary of the paper's two Gosselin closure loops in Bernstein form (Section 2.1, Eq. 10)
+    verify     symbolic verification of every claim of the paper; writes verification/REPORT.md
 """
 
 from __future__ import annotations
@@ -21,9 +22,10 @@ DEFAULT_BETAS = (0.3, -0.2, 0.5)
 
 def _gosselin(args) -> int:
     t0 = time.perf_counter()
-    loops = paper_gosselin_loops(args.beta, tuple(args.range))
+    loops = paper_gosselin_loops(args.beta, tuple(args.range), corrected=True)
     rng = np.random.default_rng(args.seed)
-    print("Gosselin platform: the paper's two closure loops in Bernstein form (Section 2.1, Eq. 10)")
+    print("Gosselin platform: the paper's two closure loops in Bernstein form (Section 2.1, Eq. 10);")
+    print("  loop 2 with its first and last factors swapped back (erratum s21-final-loop2, verification/REPORT.md)")
     print(f"  actuators beta = ({', '.join(f'{b:+.4f}' for b in args.beta)}) rad; "
           f"passive joints in [{args.range[0]:+.4f}, {args.range[1]:+.4f}] rad")
     total = 0
@@ -50,6 +52,13 @@ def _gosselin(args) -> int:
     return 0
 
 
+def _verify(args) -> int:
+    from verification import main as verify_main  # sympy-heavy: imported only for this command
+
+    argv = (["--quick"] if args.quick else []) + (["--report", args.report] if args.report else [])
+    return verify_main(argv)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -61,6 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--samples", type=int, default=10000, help="random points for the sampled range")
     g.add_argument("--seed", type=int, default=0, help="seed of the random sample")
     g.set_defaults(func=_gosselin)
+    v = sub.add_parser("verify", help="verify every claim of the paper and write the errata report")
+    v.add_argument("--quick", action="store_true", help="small sizes, as in the test suite")
+    v.add_argument("--report", help="where to write the markdown report (default: verification/REPORT.md)")
+    v.set_defaults(func=_verify)
     return parser
 
 
