@@ -101,8 +101,14 @@ def _apply_along(c: np.ndarray, var: int, matrix: np.ndarray, n: int) -> np.ndar
     """new = matrix @ old along polynomial axis ``var`` of n; matrix (k_new, k_old) or
     (*mbatch, k_new, k_old) with mbatch broadcasting against c's batch axes."""
     ct = np.moveaxis(c, var - n, -1)
+    mb = matrix.shape[:-2]
     if matrix.ndim == 2:
         out = ct @ matrix.T
+    elif len(mb) <= c.ndim - n and mb[0] == c.shape[0] and all(d == 1 for d in mb[1:]):
+        # one matrix per leading batch index (the solver's case): one (rest x k) @ (k x k) product
+        # per index instead of many 1 x k products, an order of magnitude faster
+        flat = np.ascontiguousarray(ct).reshape(c.shape[0], -1, ct.shape[-1])
+        out = (flat @ np.swapaxes(matrix.reshape(mb[0], *matrix.shape[-2:]), -1, -2)).reshape(ct.shape)
     else:
         mt = np.swapaxes(matrix, -1, -2)
         mt = mt.reshape(mt.shape[:-2] + (1,) * (n - 1) + mt.shape[-2:])
@@ -284,6 +290,8 @@ def restrict(c, box, nvars=None) -> np.ndarray:
     c = _coeffs(c)
     box, n = _check_box(c, box, nvars)
     for var, m in enumerate(degrees(c, n)):
+        if m == 0:  # a constant along this axis: restriction is the identity
+            continue
         c = _apply_along(c, var, restriction_matrix(m, box[..., var, 0], box[..., var, 1]), n)
     return c
 

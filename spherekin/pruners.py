@@ -1,0 +1,151 @@
+"""Pruners: from the control points of a box, a sub-box that contains every root in it (Section 4, step 2).
+
+One small interface, chosen by name (:func:`make_pruner`): ``reduce(cps, tols)`` takes, for each
+equation block, the control points restricted to B boxes, shape (B, E, d_1, ..., d_n), and the
+absolute tolerances of the test "w = 0", shape (E,) or per box (B, E); it returns ``(lo, hi)`` of shape (B, n) in each box's
+own unit coordinates, with ``lo > hi`` in some coordinate marking a box that holds no root.
+
+* ``pp`` -- projected polyhedron: per equation and per variable k, the convex hull of the 2-D
+  points (i_k / m_k, w_I) meets the band |w| <= tol on an interval of x_k; intersect over
+  equations. No LP; vectorized over boxes. The box it returns contains the Eq. (12) box.
+* ``lp`` -- the Eq. (12) linear programs: min and max of every x_k over the intersection of all
+  equations' hulls with w = 0, solved by an LP backend (:mod:`spherekin.lp_backends`). Every answer
+  is checked; on any doubt the bound stays at the box face, so a root is never lost.
+
+Departure from the paper: the plane w = 0 becomes the slab |w| <= tol, tol scaled to the
+equation's control points on the whole unit box, because restricted control points carry rounding
+errors of that absolute size; without it a tangential root (the scalar equation touches 0 from
+below at every root) could be pruned away by rounding.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .lp_backends import LP_BACKENDS, make_backend
+
+__all__ = ["PRUNERS", "make_pruner", "ProjectedPolyhedron", "LinearProgramPruner", "pp_intervals"]
+
+#: Every interval computed in floating point is widened by this much (unit coordinates of the
+#: box): the crossing abscissae are rounded to ~1e-16 relative; 1e-12 keeps a wide safety margin
+#: while still allowing twelve orders of magnitude of shrinking per step.
+INTERVAL_MARGIN = 1e-12
+
+
+def _hull_level_interval(s: np.ndarray, vals: np.ndarray, below: bool):
+    """Interval of x where the lower (below=True: hull <= 0) or upper (hull >= 0) hull admits 0.
+
+    ``s`` (m+1,) abscissae, ``vals`` (..., m+1) ordinates (already shifted by the tolerance).
+    Returns (lo, hi) of shape (...), lo = +inf when empty. The set is the convex hull of the
+    abscissae on the admissible side and of the crossings of the segments that cross level 0.
+    """
+    ok = vals <= 0 if below else vals >= 0
+    cand_lo = np.where(ok, s, np.inf).min(axis=-1)
+    cand_hi = np.where(ok, s, -np.inf).max(axis=-1)
+    vi, vj = vals[..., :, None], vals[..., None, :]
+    cross = ok[..., :, None] & ~ok[..., None, :]   # segment from an admissible to an excluded point
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = s[:, None] + (s[None, :] - s[:, None]) * (vi / (vi - vj))
+    lo = np.minimum(cand_lo, np.where(cross, x, np.inf).min(axis=(-2, -1)))
+    hi = np.maximum(cand_hi, np.where(cross, x, -np.inf).max(axis=(-2, -1)))
+    return lo, hi
+
+
+def _gather_index(dims: tuple[int, ...]) -> tuple[tuple[int, ...], np.ndarray]:
+    """Variables k with d_k > 1 and, for each, the flat indices of the control points with i_k = i.
+
+    Returns (variables, idx) with idx of shape (|variables|, d, N / d); all d_k > 1 must be equal.
+    """
+    variables = tuple(k for k, d in enumerate(dims) if d > 1)
+    flat = np.arange(int(np.prod(dims))).reshape(dims)
+    idx = np.stack([np.moveaxis(flat, k, 0).reshape(dims[k], -1) for k in variables]) if variables \
+        else np.zeros((0, 1, 1), dtype=int)
+    return variables, idx
+
+
+def pp_intervals(cps: np.ndarray, tol, var: int | None = None):
+    """Projected-polyhedron intervals for each box, equation and variable.
+
+    cps (B, E, d_1..d_n), tol (E,) or (B, E). For every variable k with d_k > 1 (all of them of
+    the same degree), the 2-D points (i_k / m_k, w_I) are reduced to the lowest and highest w at
+    each abscissa, whose hulls give the interval of x_k where |w| <= tol is reachable. Returns
+    (variables, lo, hi) with lo, hi of shape (B, E, |variables|); lo > hi where the equation
+    excludes the box. With ``var`` given, returns (lo, hi) of shape (B, E) for that variable only.
+    """
+    bsz, ne, dims = cps.shape[0], cps.shape[1], cps.shape[2:]
+    variables, idx = _gather_index(dims)
+    flat = cps.reshape(bsz, ne, -1)
+    pts = flat[:, :, idx]                                            # (B, E, V, d, N/d)
+    low, up = pts.min(axis=-1), pts.max(axis=-1)                     # (B, E, V, d)
+    s = np.linspace(0.0, 1.0, idx.shape[1])
+    t = np.broadcast_to(np.asarray(tol, dtype=float), (bsz, ne))[:, :, None, None]
+    lo1, hi1 = _hull_level_interval(s, low - t, below=True)
+    lo2, hi2 = _hull_level_interval(s, up + t, below=False)
+    lo, hi = np.maximum(lo1, lo2), np.minimum(hi1, hi2)
+    if var is None:
+        return variables, lo, hi
+    if var not in variables:
+        raise ValueError(f"var: expected a variable of positive degree {variables}, got {var!r}")
+    j = variables.index(var)
+    return lo[..., j], hi[..., j]
+
+
+class ProjectedPolyhedron:
+    """Projected-polyhedron pruning (Sherbrooke & Patrikalakis), vectorized over boxes."""
+
+    name = "pp"
+
+    def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+        bsz, n = cps[0].shape[0], cps[0].ndim - 2
+        lo, hi = np.zeros((bsz, n)), np.ones((bsz, n))
+        for c, tol in zip(cps, tols):
+            variables, l, h = pp_intervals(c, tol)
+            if variables:
+                v = list(variables)
+                lo[:, v] = np.maximum(lo[:, v], l.max(axis=1))
+                hi[:, v] = np.minimum(hi[:, v], h.min(axis=1))
+        empty = np.any(lo > hi, axis=1)
+        lo, hi = np.maximum(lo - INTERVAL_MARGIN, 0.0), np.minimum(hi + INTERVAL_MARGIN, 1.0)
+        lo[empty], hi[empty] = 1.0, 0.0
+        return lo, hi
+
+
+class LinearProgramPruner:
+    """The Eq. (12) LPs over the intersection of all equations' convex hulls, by a named backend."""
+
+    name = "lp"
+
+    def __init__(self, shapes: Sequence[tuple[int, ...]], backend: str):
+        self.backend = make_backend(backend, shapes)
+        self.lp_count = 0
+        self.doubts = 0
+
+    def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+        bsz, n = cps[0].shape[0], cps[0].ndim - 2
+        lo, hi = np.zeros((bsz, n)), np.ones((bsz, n))
+        for b in range(bsz):
+            res = self.backend.box_bounds([c[b] for c in cps], [t if np.ndim(t) == 1 else t[b] for t in tols])
+            self.lp_count += res.lp_count
+            self.doubts += res.doubts
+            if res.empty:
+                lo[b], hi[b] = 1.0, 0.0
+            else:
+                lo[b] = np.maximum(res.lo - INTERVAL_MARGIN, 0.0)
+                hi[b] = np.minimum(res.hi + INTERVAL_MARGIN, 1.0)
+        return lo, hi
+
+
+PRUNERS = ("pp", "lp")
+
+
+def make_pruner(name: str, shapes: Sequence[tuple[int, ...]], lp_backend: str | None = None):
+    """Pruner by name; ``shapes`` are the equation blocks' coefficient shapes (E, d_1..d_n)."""
+    if name == "pp":
+        if lp_backend is not None:
+            raise ValueError("lp_backend: the 'pp' pruner solves no LP; pass lp_backend=None or pruner='lp'")
+        return ProjectedPolyhedron()
+    if name == "lp":
+        return LinearProgramPruner(shapes, lp_backend or "highs")
+    raise ValueError(f"pruner: expected one of {PRUNERS}, got {name!r} (LP backends: {sorted(LP_BACKENDS)})")
