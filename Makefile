@@ -1,5 +1,5 @@
 # Two commands set up and run everything from a fresh clone:
-#   make run   -- create .venv, install spherekin, run the paper's Gosselin example
+#   make run   -- create .venv, install spherekin, solve the paper's Gosselin example (full joint ranges)
 #   make test  -- create .venv, install spherekin with test extras, run the test suite
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 PYTHON ?= python3
@@ -20,7 +20,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 install: $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/spherekin gosselin
+	$(BIN)/spherekin solve examples/gosselin.toml --inputs 0.3,-0.2,0.5
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

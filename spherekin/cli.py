@@ -1,6 +1,7 @@
 """Command-line interface: ``spherekin <command>``.
 
 Commands:
+    solve      direct kinematics of a mechanism file: every solution inside the joint ranges
     gosselin   summary of the paper's two Gosselin closure loops in Bernstein form (Section 2.1, Eq. 10)
     verify     symbolic verification of every claim of the paper; writes verification/REPORT.md
 """
@@ -8,8 +9,11 @@ Commands:
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -52,6 +56,67 @@ def _gosselin(args) -> int:
     return 0
 
 
+def _parse_inputs(text: str, degrees: bool) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"--inputs: expected comma-separated numbers such as 0.1,-0.2,0.3, got {text!r}") from None
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"--inputs: expected finite numbers, got {text!r}")
+    return [math.radians(v) for v in values] if degrees else values
+
+
+class _Progress:
+    """One status line on stderr, redrawn at most every 0.2 s, only when stderr is a terminal."""
+
+    def __init__(self, enabled: bool):
+        self.enabled, self.last, self.t0 = enabled, 0.0, time.perf_counter()
+
+    def __call__(self, counts: dict) -> None:
+        now = time.perf_counter()
+        if self.enabled and now - self.last > 0.2:
+            self.last = now
+            print(f"\r  {now - self.t0:6.1f} s  boxes {counts['boxes_processed']:8d}  pending {counts['pending']:6d}"
+                  f"  accepted {counts['accepted']:5d}", end="", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.enabled and self.last:
+            print(file=sys.stderr)
+
+
+def _solve(args) -> int:
+    from .mechanism import load_mechanism
+    from .solver import solve
+
+    mech = load_mechanism(args.file)
+    inputs = _parse_inputs(args.inputs, args.degrees)
+    if len(inputs) != len(mech.actuated):
+        raise ValueError(f"--inputs: expected {len(mech.actuated)} values (one per actuated joint "
+                         f"{', '.join(mech.actuated)}), got {len(inputs)}")
+    unit = "deg" if args.degrees else "rad"
+    shown = [math.degrees(v) if args.degrees else v for v in inputs]
+    print(f"{mech.name or args.file}: direct kinematics at "
+          + ", ".join(f"{n} = {v:+.6g} {unit}" for n, v in zip(mech.actuated, shown)))
+    progress = _Progress(sys.stderr.isatty())
+    try:
+        report = solve(mech, inputs, formulation=args.formulation, pruner=args.pruner,
+                       lp_backend=args.lp_backend, tol=args.tol, progress=progress)
+    finally:
+        progress.close()
+    st = report.stats
+    print(f"{len(report.solutions)} solution(s); passive joint angles in {'degrees' if args.degrees else 'radians'}:")
+    print(report.table(degrees=args.degrees))
+    print(f"formulation {args.formulation}, pruner {args.pruner}"
+          + (f" ({report.settings['lp_backend']})" if args.pruner == "lp" else "")
+          + f", tol {args.tol:g} rad: {st.charts} charts, {st.boxes_processed} boxes "
+          f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted), "
+          f"{st.lps_solved} LPs, {st.time_total:.2f} s")
+    if args.json:
+        Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
+        print(f"wrote {args.json}")
+    return 0
+
+
 def _verify(args) -> int:
     from verification import main as verify_main  # sympy-heavy: imported only for this command
 
@@ -62,6 +127,24 @@ def _verify(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    from .formulations import FORMULATIONS
+    from .lp_backends import LP_BACKENDS
+    from .pruners import PRUNERS
+    from .solver import DEFAULT_TOL
+
+    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
+    so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
+    so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
+    so.add_argument("--formulation", default="transversal", choices=sorted(FORMULATIONS),
+                    help="paper: Eq. (10) only; transversal (default): simple roots")
+    so.add_argument("--pruner", default="pp", choices=PRUNERS,
+                    help="pp (default): projected polyhedron, no LP; lp: the Eq. (12) linear programs")
+    so.add_argument("--lp-backend", default=None, choices=LP_BACKENDS,
+                    help="LP backend for --pruner lp (default highs); paper-faithful: clarabel")
+    so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
+    so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
+    so.set_defaults(func=_solve)
     g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians (default: %(default)s)")

@@ -51,8 +51,9 @@ class Solution:
 
     ``angles`` (radians, one per unknown) is the centre of the cluster's hull, ``lo``/``hi`` the
     hull, ``n_boxes`` how many accepted boxes it merges. When solved from a mechanism,
-    ``platform_rotation`` is R with v_i = R v_i^0 and ``residual`` the largest loop closure
-    residual ||F_n - I|| (Frobenius) at ``angles``.
+    ``platform_rotation`` is R with v_i = R v_i^0, ``residual`` the largest loop closure
+    residual ||F_n - I|| (Frobenius) at ``angles`` and ``singularity`` the mechanism's
+    classification there ("regular", "serial", "parallel" or "serial+parallel").
     """
 
     angles: np.ndarray
@@ -61,6 +62,7 @@ class Solution:
     n_boxes: int
     platform_rotation: np.ndarray | None = None
     residual: float | None = None
+    singularity: str | None = None
 
 
 @dataclass(frozen=True)
@@ -73,10 +75,36 @@ class SolveReport:
     stats: SolverStats
     settings: dict = field(default_factory=dict)
 
-    def table(self) -> str:
-        """A readable table of the solutions (angles in radians)."""
+    def table(self, degrees: bool = False) -> str:
+        """A readable table of the solutions (angles in radians, or degrees)."""
+        scale = 180.0 / np.pi if degrees else 1.0
+        extra = any(s.residual is not None for s in self.solutions)
         head = "  #  " + " ".join(f"{name:>11s}" for name in self.unknowns) + "  boxes"
+        head += "   residual  singularity" if extra else ""
         rows = [head]
         for i, s in enumerate(self.solutions, start=1):
-            rows.append(f"{i:3d}  " + " ".join(f"{a:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}")
+            row = f"{i:3d}  " + " ".join(f"{a * scale:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}"
+            if extra:
+                row += f"  {s.residual:9.1e}  {s.singularity or '-'}"
+            rows.append(row)
         return "\n".join(rows)
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict: per solution the passive angles (radians), the platform rotation
+        (3x3, v_i = R v_i^0), residual, singularity and box; the statistics and settings."""
+        from . import __version__
+
+        def arr(a):
+            return None if a is None else np.asarray(a, dtype=float).tolist()
+
+        return {
+            "spherekin_version": __version__,
+            "settings": self.settings,
+            "unknowns": list(self.unknowns),
+            "solutions": [
+                {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
+                 "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
+                 "singularity": s.singularity, "box_lo": arr(s.lo), "box_hi": arr(s.hi), "n_boxes": s.n_boxes}
+                for s in self.solutions],
+            "statistics": self.stats.as_dict(),
+        }

@@ -30,6 +30,7 @@ from . import bernstein
 from .closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, formulate
 from .pruners import PRUNERS, make_pruner
+from .mechanism.model import SINGULARITY_TOL
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
@@ -53,6 +54,15 @@ DEFAULT_MAX_BOXES = 500_000
 #: machine epsilons of the equation's largest control point (products of ~2n factors in [0, 1]);
 #: the test w = 0 accepts |w| up to it.
 ROUNDING_SAFETY = 1e3
+#: Solutions are box centres, accurate to about ``tol``; near a singularity the Jacobian's
+#: smallest singular value is then ~tol rather than ~0, so singularities are classified with a
+#: tolerance of this many solver tolerances (until solutions are polished).
+SINGULARITY_TOLS = 100.0
+#: Accepted boxes closer than this many tolerances (Chebyshev gap, radians modulo 2 pi) are merged
+#: into one solution. Unpreconditioned pruning leaves clouds of up to ~100 tolerance-sized boxes
+#: around a root of a coupled system, with gaps of a few tolerances between them; roots closer
+#: than MERGE_GAP_TOLS * tol are therefore not separated (use a smaller tol to separate them).
+MERGE_GAP_TOLS = 20.0
 #: Joint ranges wider than this (radians) are split into equal charts of at most this width.
 CHART_MAX_WIDTH = math.pi
 
@@ -120,11 +130,10 @@ class _Charts:
         return self.shift[chart] + 2.0 * np.arctan(lo + (hi - lo) * x)
 
 
-def _box_loop(charts: _Charts, pruner, tol, max_boxes):
+def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None):
     """Section 4 steps 2-3 on every chart at once. Returns (accepted [(chart, lo, hi)], counts, timings)."""
     n = len(charts.names)
     n_charts = charts.coeffs[0].shape[0]
-    max_depth = DEPTH_PER_UNKNOWN * n
     counts = dict(boxes_processed=0, discarded=0, split=0, reduced_again=0, accepted=0, max_depth=0)
     t_restrict = t_prune = 0.0
     accepted: list[tuple[int, np.ndarray, np.ndarray]] = []
@@ -151,9 +160,11 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes):
                 "roots: try formulation='transversal' or a larger tol)", partial())
         if depth.max() > max_depth:
             raise DepthLimitError(
-                f"a box was subdivided more than {max_depth} times (cap {DEPTH_PER_UNKNOWN} per unknown); "
-                f"the tolerance {tol} may be below what double precision can resolve", partial())
+                f"a box was subdivided more than max_depth={max_depth} times; the solution set may be a "
+                f"continuum, or the tolerance {tol} too small for this formulation", partial())
         counts["max_depth"] = max(counts["max_depth"], int(depth.max()))
+        if progress is not None:
+            progress({**counts, "pending": sum(len(e[0]) for e in stack)})
         t1 = time.perf_counter()
         boxes = np.stack([lo, hi], axis=-1)[:, None]            # (B, 1, n, 2)
         cps = [bernstein.restrict(c[chart], boxes, nvars=n) for c in charts.coeffs]
@@ -192,7 +203,7 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes):
 
 
 def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
-    """Union of boxes that overlap or touch (within tol, angles modulo 2 pi) into solutions."""
+    """Union of boxes closer than MERGE_GAP_TOLS * tol (angles modulo 2 pi) into solutions."""
     if not boxes:
         return []
     lo = np.array([b.lo for b in boxes])
@@ -209,7 +220,7 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
 
     for i in range(len(boxes)):
         d = np.abs(np.mod(mid[i + 1:] - mid[i] + math.pi, 2 * math.pi) - math.pi)
-        close = np.all(d <= half[i + 1:] + half[i] + tol, axis=1)
+        close = np.all(d <= half[i + 1:] + half[i] + MERGE_GAP_TOLS * tol, axis=1)
         for j in np.flatnonzero(close) + i + 1:
             parent[find(j)] = find(i)
     groups: dict[int, list[int]] = {}
@@ -236,14 +247,17 @@ def solve_system(
     lp_backend: str | None = None,
     tol: float = DEFAULT_TOL,
     max_boxes: int = DEFAULT_MAX_BOXES,
-    progress: Callable[[int, int], None] | None = None,
+    max_depth: int | None = None,
+    progress: Callable[[dict], None] | None = None,
 ) -> SolveReport:
     """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
 
     ``build(chart_ranges)`` returns (loops, unknowns) with every unknown's range set from
     ``chart_ranges`` (name -> (lo, hi) radians, width < 2 pi); ``ranges`` gives each unknown's
-    joint range, or None for the full circle. ``tol`` is in radians. ``progress(done, total)`` is
-    called as the charts are set up. Raises :class:`SolverLimitError` subclasses when a cap is hit.
+    joint range, or None for the full circle. ``tol`` is in radians. ``progress(counts)`` is called
+    before each batch of boxes with the running counters (and "pending": boxes waiting).
+    ``max_boxes`` and ``max_depth`` (default DEPTH_PER_UNKNOWN per unknown) cap the search; reaching
+    a cap raises a :class:`SolverLimitError` subclass.
     """
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {formulation!r}")
@@ -255,14 +269,14 @@ def solve_system(
     names = list(ranges)
     combos = list(itertools.product(*(charts_for_range(ranges[name]) for name in names)))
     systems = []
-    for c, combo in enumerate(combos):
+    for combo in combos:
         systems.append(build(dict(zip(names, combo))))
-        if progress is not None:
-            progress(c + 1, len(combos))
     charts = _Charts(systems, formulation)
     pr = make_pruner(pruner, [c.shape[1:] for c in charts.coeffs], lp_backend)
     t_setup = time.perf_counter() - t0
-    found, counts, (t_restrict, t_prune) = _box_loop(charts, pr, tol, max_boxes)
+    if max_depth is None:
+        max_depth = DEPTH_PER_UNKNOWN * len(charts.names)
+    found, counts, (t_restrict, t_prune) = _box_loop(charts, pr, tol, max_boxes, max_depth, progress)
     boxes = [AcceptedBox(a, b, int(c)) for c, a, b in found]
     stats = SolverStats(charts=len(combos), **counts, lps_solved=getattr(pr, "lp_count", 0),
                         lp_doubts=getattr(pr, "doubts", 0), time_setup=t_setup, time_restrict=t_restrict,
@@ -283,7 +297,8 @@ def solve(
     lp_backend: str | None = None,
     tol: float = DEFAULT_TOL,
     max_boxes: int = DEFAULT_MAX_BOXES,
-    progress: Callable[[int, int], None] | None = None,
+    max_depth: int | None = None,
+    progress: Callable[[dict], None] | None = None,
 ) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
@@ -302,13 +317,16 @@ def solve(
         return system.loops, system.unknowns
 
     report = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                          tol=tol, max_boxes=max_boxes, progress=progress)
+                          tol=tol, max_boxes=max_boxes, max_depth=max_depth, progress=progress)
     solutions = []
     for sol in report.solutions:
         angles = dict(zip(report.unknowns, (float(a) for a in sol.angles)))
         around = mechanism.loop_system(inputs, {n: (a - 1.0, a + 1.0) for n, a in angles.items()})
         residual = float(around.residuals(around.to_unit(angles)).max())
         rotation = mechanism.pose_from_passive(inputs, angles)
-        solutions.append(dataclasses.replace(sol, platform_rotation=rotation, residual=residual))
+        joints = {**dict(zip(mechanism.actuated, (float(v) for v in inputs))), **angles}
+        kind = mechanism.singularity(joints, tol=max(SINGULARITY_TOL, SINGULARITY_TOLS * tol)).kind
+        solutions.append(dataclasses.replace(sol, platform_rotation=rotation, residual=residual,
+                                             singularity=kind))
     settings = {**report.settings, "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
     return dataclasses.replace(report, solutions=tuple(solutions), settings=settings)

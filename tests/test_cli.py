@@ -1,0 +1,59 @@
+"""Tests for the command line: spherekin solve / gosselin, readable output, JSON, clear errors."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spherekin.cli import main
+
+GOSSELIN = str(Path(__file__).resolve().parent.parent / "examples" / "gosselin.toml")
+
+
+def test_solve_prints_table_and_writes_json(tmp_path, capsys):
+    out = tmp_path / "report.json"
+    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "8 solution(s)" in text and "gamma1" in text and "serial" in text
+    data = json.loads(out.read_text())
+    assert data["unknowns"] == ["gamma1", "delta1", "gamma2", "delta2", "gamma3", "delta3"]
+    assert len(data["solutions"]) == 8
+    for sol in data["solutions"]:
+        r = np.array(sol["platform_rotation"])
+        np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
+        assert set(sol["passive_angles"]) == set(data["unknowns"])
+    assert data["statistics"]["boxes_processed"] > 0 and data["settings"]["formulation"] == "transversal"
+
+
+def test_degrees_give_the_same_solutions(tmp_path):
+    a, b = tmp_path / "rad.json", tmp_path / "deg.json"
+    main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", str(a)])
+    deg = ",".join(f"{math.degrees(v):.15g}" for v in (0.3, -0.2, 0.5))
+    main(["solve", GOSSELIN, "--inputs", deg, "--degrees", "--json", str(b)])
+    ra = [s["platform_rotation"] for s in json.loads(a.read_text())["solutions"]]
+    rb = [s["platform_rotation"] for s in json.loads(b.read_text())["solutions"]]
+    np.testing.assert_allclose(ra, rb, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["solve", GOSSELIN, "--inputs", "0.3,-0.2"], "expected 3 values"),
+        (["solve", GOSSELIN, "--inputs", "0.3,abc,0.1"], "--inputs"),
+        (["solve", GOSSELIN, "--inputs", "0.3,nan,0.1"], "finite"),
+        (["solve", "no/such/file.toml", "--inputs", "0,0,0"], "file.toml"),
+        (["gosselin", "--range", "1", "0"], "lo < hi"),
+    ],
+)
+def test_bad_input_exits_2_with_message(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("spherekin: error:") and message in err and "Traceback" not in err
+
+
+def test_gosselin_summary(capsys):
+    assert main(["gosselin", "--samples", "200"]) == 0
+    text = capsys.readouterr().out
+    assert "total control points: 162" in text

@@ -1,0 +1,186 @@
+"""Tests for spherekin.solver against independent references.
+
+* each solution's platform pose satisfies the 3-RRR leg constraints w_i(beta_i) . (R v_i^0) =
+  cos(alpha2_i), computed here from the mechanism file with our own Rodrigues formula;
+* round trip: random pose (scipy) -> inverse kinematics -> solve -> the pose is among the solutions;
+* the paper's claim for the Gosselin platform: 8 solutions, 4 of them singular;
+* every pruner and LP backend finds the same solutions.
+"""
+
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from spherekin.mechanism import gosselin, load_mechanism
+from spherekin.solver import (BoxLimitError, DepthLimitError, SolverLimitError, charts_for_range, solve,
+                              solve_system)
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+INPUTS = (0.3, -0.2, 0.5)
+
+
+def rodrigues(axis, angle):
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx
+
+
+def leg_residuals(path, inputs, rotation):
+    """|w_i(beta_i) . (R v_i^0) - cos(alpha2_i)| for the three legs, straight from the TOML file."""
+    data = tomllib.loads(Path(path).read_text())
+    out = []
+    for u, w0, v0, a2 in zip(data["base_axes"], data["elbow_axes_at_zero"], data["platform_axes"],
+                             data["distal_link_angles"]):
+        alpha2 = float(eval(a2, {"pi": math.pi})) if isinstance(a2, str) else float(a2)
+        w = rodrigues(u, inputs[len(out)]) @ np.asarray(w0, float)
+        out.append(abs(w @ (rotation @ np.asarray(v0, float)) - math.cos(alpha2)))
+    return np.array(out)
+
+
+@pytest.fixture(scope="module")
+def gosselin_report():
+    return solve(load_mechanism(EXAMPLES / "gosselin.toml"), INPUTS)
+
+
+def test_gosselin_eight_solutions_four_singular(gosselin_report):
+    sols = gosselin_report.solutions
+    assert len(sols) == 8
+    kinds = sorted(s.singularity for s in sols)
+    assert kinds == ["regular"] * 4 + ["serial"] * 4
+    for s in sols:
+        assert s.residual < 1e-5
+        assert leg_residuals(EXAMPLES / "gosselin.toml", INPUTS, s.platform_rotation).max() < 1e-5
+        np.testing.assert_allclose(s.platform_rotation @ s.platform_rotation.T, np.eye(3), atol=1e-12)
+    poses = [s.platform_rotation for s in sols]
+    assert min(np.abs(a - b).max() for i, a in enumerate(poses) for b in poses[i + 1:]) > 1e-3
+
+
+def test_gosselin_solutions_include_angles_at_pi(gosselin_report):
+    """The singular solutions have passive angles at exactly +-pi: found through the chart at pi."""
+    at_pi = [a for s in gosselin_report.solutions for a in s.angles if abs(abs(a) - math.pi) < 1e-5]
+    assert len(at_pi) >= 4
+
+
+def test_regular_solutions_reproduce_inputs_by_inverse_kinematics(gosselin_report):
+    mech = gosselin()
+    for s in gosselin_report.solutions:
+        if s.singularity != "regular":
+            continue
+        modes = mech.inverse_kinematics(s.platform_rotation)
+        d = [np.abs(np.mod(np.array(m.inputs) - INPUTS + math.pi, 2 * math.pi) - math.pi).max() for m in modes]
+        assert min(d) < 1e-5
+
+
+@pytest.mark.parametrize("preset, seed", [("gosselin.toml", 1), ("general_3rrr.toml", 2)])
+def test_round_trip_random_pose(preset, seed):
+    mech = load_mechanism(EXAMPLES / preset)
+    r0 = Rotation.random(random_state=seed).as_matrix()
+    mode = mech.inverse_kinematics(r0)[0]
+    rep = solve(mech, mode.inputs)
+    assert min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) < 1e-5
+    for s in rep.solutions:
+        assert leg_residuals(EXAMPLES / preset, mode.inputs, s.platform_rotation).max() < 1e-5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", ["gosselin.toml", "general_3rrr.toml"])
+def test_round_trip_sweep(preset):
+    mech = load_mechanism(EXAMPLES / preset)
+    misses = 0
+    for seed in range(20):
+        r0 = Rotation.random(random_state=100 + seed).as_matrix()
+        for mode in mech.inverse_kinematics(r0)[:2]:
+            rep = solve(mech, mode.inputs)
+            misses += min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) >= 1e-5
+    assert misses == 0
+
+
+# ---------------------------------------------------------------- every pruner and backend
+
+def _narrow(mech, centre, half):
+    """A build function and ranges for a box of half-width ``half`` around passive angles ``centre``."""
+    ranges = {n: (a - half, a + half) for n, a in centre.items()}
+
+    def build(chart):
+        system = mech.loop_system(INPUTS, chart)
+        return system.loops, system.unknowns
+
+    return build, ranges
+
+
+@pytest.fixture(scope="module")
+def regular_solution(gosselin_report):
+    s = next(s for s in gosselin_report.solutions if s.singularity == "regular")
+    return dict(zip(gosselin_report.unknowns, s.angles))
+
+
+@pytest.mark.parametrize("pruner, backend", [("pp", None), ("lp", "highspy"), ("lp", "highs"), ("lp", "clarabel")])
+class TestEveryPruner:
+    def test_finds_the_solution(self, pruner, backend, regular_solution):
+        build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend)
+        assert len(rep.solutions) == 1
+        np.testing.assert_allclose(rep.solutions[0].angles, list(regular_solution.values()), atol=2e-6)
+        if pruner == "lp":
+            assert rep.stats.lps_solved > 0
+
+    def test_empty_when_no_solution_in_range(self, pruner, backend, regular_solution):
+        away = {n: a + 0.5 for n, a in regular_solution.items()}
+        build, ranges = _narrow(gosselin(), away, 0.1)
+        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend)
+        assert rep.solutions == ()
+
+
+def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_solution):
+    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+    rep = solve_system(build, ranges, formulation="paper", tol=1e-3)
+    assert len(rep.solutions) == 1
+    np.testing.assert_allclose(rep.solutions[0].angles, list(regular_solution.values()), atol=2e-3)
+    assert rep.solutions[0].n_boxes > 1  # the double root leaves a cloud of boxes (measured, not assumed)
+
+
+# ---------------------------------------------------------------- charts, caps, bad input
+
+def test_charts_cover_ranges():
+    full = charts_for_range(None)
+    assert full == [(-math.pi / 2, math.pi / 2), (math.pi / 2, 3 * math.pi / 2)]
+    assert charts_for_range((-3.0, 3.5)) == full  # wider than 2 pi: every angle is reachable
+    parts = charts_for_range((-3.0, 3.0))
+    assert parts[0][0] == -3.0 and parts[-1][1] == 3.0
+    assert all(b - a <= math.pi + 1e-12 for a, b in parts)
+    assert all(parts[i][1] == parts[i + 1][0] for i in range(len(parts) - 1))
+    assert charts_for_range((0.0, 1.0)) == [(0.0, 1.0)]
+    with pytest.raises(ValueError, match="range"):
+        charts_for_range((1.0, 1.0))
+
+
+def test_caps_raise_distinct_errors(regular_solution):
+    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+    with pytest.raises(BoxLimitError, match="max_boxes") as err:
+        solve_system(build, ranges, max_boxes=5)
+    assert isinstance(err.value, SolverLimitError)
+    with pytest.raises(DepthLimitError, match="max_depth") as err:
+        solve_system(build, ranges, tol=1e-12, max_depth=3)
+    assert isinstance(err.value, SolverLimitError) and not isinstance(err.value, BoxLimitError)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(inputs=(0.1, 0.2)), "inputs"),
+        (dict(inputs=(0.1, float("nan"), 0.2)), "inputs"),
+        (dict(formulation="newton"), "formulation.*paper.*transversal"),
+        (dict(pruner="simplex"), "pruner"),
+        (dict(pruner="pp", lp_backend="highs"), "lp_backend"),
+        (dict(pruner="lp", lp_backend="cplex"), "lp_backend"),
+        (dict(tol=0.0), "tol"),
+    ],
+)
+def test_bad_input_is_a_clear_error(kwargs, match):
+    inputs = kwargs.pop("inputs", INPUTS)
+    with pytest.raises(ValueError, match=match):
+        solve(gosselin(), inputs, **kwargs)
