@@ -25,7 +25,7 @@ import numpy as np
 
 from .closure import ClosureLoop, Unknown
 
-__all__ = ["EquationBlock", "FORMULATIONS", "formulate", "embed"]
+__all__ = ["EquationBlock", "FORMULATIONS", "TRANSVERSAL_ENTRIES", "formulate", "embed"]
 
 #: Entries (row, column) of q_n F_n used by the transversal formulation (strictly lower triangle).
 TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))

@@ -46,6 +46,11 @@ INFEASIBILITY_RELAX = 100.0
 
 OPTIMAL, INFEASIBLE, OTHER = "optimal", "infeasible", "other"
 
+#: HiGHS options for the direct backend: the LPs are tiny (~650 columns, ~40 rows) and re-solved
+#: thousands of times, so presolve and parallelism cost more than they save; primal simplex
+#: (strategy 4) measured fastest on the Gosselin system (benchmarks/bench_solve.py).
+LP_OPTIONS = {"presolve": "off", "solver": "simplex", "simplex_strategy": 4, "threads": 1}
+
 
 @dataclass(frozen=True)
 class BoxBounds:
@@ -215,7 +220,11 @@ class CvxpyBackend(LPBackend):
 
 
 class HighspyBackend(LPBackend):
-    """Eq. (12) passed to HiGHS directly (highspy); the 2n objectives reuse one warm model."""
+    """Eq. (12) passed to HiGHS directly (highspy) with one reused model.
+
+    The constraint matrix is built once (CSC, every w-row entry present); per box only the w-row
+    values and slab bounds are overwritten, and the 2n objectives re-solve warm-started.
+    """
 
     name = "highspy"
 
@@ -227,46 +236,65 @@ class HighspyBackend(LPBackend):
         self.h = highspy.Highs()
         self.h.setOptionValue("output_flag", False)
         st = self.structure
-        self._offsets = np.cumsum([st.n] + [g.shape[1] for *_, g in st.equations])
-
-    def _load(self, scaled, relax):
-        hs, st = self._hs, self.structure
-        ncol = int(self._offsets[-1])
-        cols: list[list[tuple[int, float]]] = [[] for _ in range(ncol)]
-        row_lo, row_hi = [], []
-        for (b, e, variables, g), sc, off in zip(st.equations, scaled, self._offsets[:-1]):
+        offsets = np.cumsum([st.n] + [g.shape[1] for *_, g in st.equations])
+        self._offsets = offsets
+        ncol = int(offsets[-1])
+        entries = []               # (col, row, value, w-slot or -1)
+        row_lo, row_hi, self._w_rows = [], [], []
+        slot = 0
+        for (b, e, variables, g), off in zip(st.equations, offsets[:-1]):
             nl = g.shape[1]
             r = len(row_lo)
-            for i in range(nl):
-                cols[off + i].append((r, 1.0))
+            entries += [(off + i, r, 1.0, -1) for i in range(nl)]           # sum(lambda) = 1
             row_lo.append(1.0)
             row_hi.append(1.0)
-            for k, grow in zip(variables, g):
+            for k, grow in zip(variables, g):                              # G lambda - x_k = 0
                 r = len(row_lo)
-                for i in np.flatnonzero(grow):
-                    cols[off + i].append((r, float(grow[i])))
-                cols[k].append((r, -1.0))
+                entries += [(off + i, r, float(grow[i]), -1) for i in np.flatnonzero(grow)]
+                entries.append((k, r, -1.0, -1))
                 row_lo.append(0.0)
                 row_hi.append(0.0)
-            if sc is not None:
-                r = len(row_lo)
-                for i in np.flatnonzero(sc[0]):
-                    cols[off + i].append((r, float(sc[0][i])))
-                row_lo.append(-sc[1] * relax)
-                row_hi.append(sc[1] * relax)
-        lp = hs.HighsLp()
+            r = len(row_lo)                                                 # |w . lambda| <= tol
+            entries += [(off + i, r, 0.0, slot + i) for i in range(nl)]
+            self._w_rows.append(r)
+            slot += nl
+            row_lo.append(-1.0)
+            row_hi.append(1.0)
+        entries.sort(key=lambda t: (t[0], t[1]))
+        cols = np.array([t[0] for t in entries])
+        lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = ncol, len(row_lo)
         lp.col_cost_ = np.zeros(ncol)
         lp.col_lower_ = np.zeros(ncol)
-        upper = np.full(ncol, hs.kHighsInf)
+        upper = np.full(ncol, highspy.kHighsInf)
         upper[: st.n] = 1.0
         lp.col_upper_ = upper
-        lp.row_lower_, lp.row_upper_ = np.array(row_lo), np.array(row_hi)
-        lp.a_matrix_.format_ = hs.MatrixFormat.kColwise
-        lp.a_matrix_.start_ = np.concatenate([[0], np.cumsum([len(c) for c in cols])]).astype(np.int32)
-        lp.a_matrix_.index_ = np.array([r for c in cols for r, _ in c], dtype=np.int32)
-        lp.a_matrix_.value_ = np.array([v for c in cols for _, v in c], dtype=float)
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.start_ = np.searchsorted(cols, np.arange(ncol + 1)).astype(np.int32)
+        lp.a_matrix_.index_ = np.array([t[1] for t in entries], dtype=np.int32)
+        self._values = np.array([t[2] for t in entries])
+        slots = np.array([t[3] for t in entries])
+        self._w_pos = np.flatnonzero(slots >= 0)[np.argsort(slots[slots >= 0])]
+        self._row_lo, self._row_hi = np.array(row_lo), np.array(row_hi)
+        self._w_cols = cols[self._w_pos].astype(np.int32)
+        self._w_row_of = np.array([t[1] for t in entries], dtype=np.int32)[self._w_pos]
+        lp.a_matrix_.value_ = self._values
+        lp.row_lower_, lp.row_upper_ = self._row_lo, self._row_hi
         self.h.passModel(lp)
+        for k, v in LP_OPTIONS.items():
+            self.h.setOptionValue(k, v)
+
+    def _load(self, scaled, relax):
+        # update the w rows in place: the model (and the simplex basis of the previous box, a good
+        # warm start for a neighbouring box) is kept
+        h = self.h
+        ws = np.concatenate([np.zeros(g.shape[1]) if sc is None else sc[0]
+                             for (*_, g), sc in zip(self.structure.equations, scaled)])
+        for r, c, v in zip(self._w_row_of.tolist(), self._w_cols.tolist(), ws.tolist()):
+            h.changeCoeff(r, c, v)
+        widths = np.array([1.0 if sc is None else sc[1] * relax for sc in scaled])
+        rows = np.array(self._w_rows, dtype=np.int32)
+        h.changeRowsBounds(len(rows), rows, -widths, widths)
 
     def _solve(self, direction):
         st, h = self.structure, self.h

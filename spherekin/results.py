@@ -50,10 +50,11 @@ class Solution:
     """One cluster of touching accepted boxes: the candidate solution it encloses.
 
     ``angles`` (radians, one per unknown) is the centre of the cluster's hull, ``lo``/``hi`` the
-    hull, ``n_boxes`` how many accepted boxes it merges. When solved from a mechanism,
-    ``platform_rotation`` is R with v_i = R v_i^0, ``residual`` the largest loop closure
-    residual ||F_n - I|| (Frobenius) at ``angles`` and ``singularity`` the mechanism's
-    classification there ("regular", "serial", "parallel" or "serial+parallel").
+    hull, ``n_boxes`` how many accepted boxes it merges. When solved from a mechanism the angles
+    are polished (:mod:`spherekin.solutions`): ``platform_rotation`` is R with v_i = R v_i^0,
+    ``residual`` the largest entry of |F_n - I| over the loops, ``singularity`` the mechanism's
+    classification ("regular", "serial", "parallel" or "serial+parallel"), ``status`` one of
+    "certified", "singular", "unverified", and ``evidence`` what backs the status.
     """
 
     angles: np.ndarray
@@ -63,6 +64,8 @@ class Solution:
     platform_rotation: np.ndarray | None = None
     residual: float | None = None
     singularity: str | None = None
+    status: str | None = None
+    evidence: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -80,12 +83,12 @@ class SolveReport:
         scale = 180.0 / np.pi if degrees else 1.0
         extra = any(s.residual is not None for s in self.solutions)
         head = "  #  " + " ".join(f"{name:>11s}" for name in self.unknowns) + "  boxes"
-        head += "   residual  singularity" if extra else ""
+        head += "   residual  status      singularity" if extra else ""
         rows = [head]
         for i, s in enumerate(self.solutions, start=1):
             row = f"{i:3d}  " + " ".join(f"{a * scale:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}"
             if extra:
-                row += f"  {s.residual:9.1e}  {s.singularity or '-'}"
+                row += f"  {s.residual:9.1e}  {s.status or '-':10s}  {s.singularity or '-'}"
             rows.append(row)
         return "\n".join(rows)
 
@@ -97,14 +100,18 @@ class SolveReport:
         def arr(a):
             return None if a is None else np.asarray(a, dtype=float).tolist()
 
+        actuated = dict(zip(self.settings.get("actuated", ()), self.settings.get("inputs", ())))
         return {
+            "schema": "spherekin.solve/1",
             "spherekin_version": __version__,
             "settings": self.settings,
             "unknowns": list(self.unknowns),
             "solutions": [
                 {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
+                 "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
-                 "singularity": s.singularity, "box_lo": arr(s.lo), "box_hi": arr(s.hi), "n_boxes": s.n_boxes}
+                 "singularity": s.singularity, "status": s.status, "evidence": s.evidence,
+                 "box_lo": arr(s.lo), "box_hi": arr(s.hi), "n_boxes": s.n_boxes}
                 for s in self.solutions],
             "statistics": self.stats.as_dict(),
         }

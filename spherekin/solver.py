@@ -30,8 +30,8 @@ from . import bernstein
 from .closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, formulate
 from .pruners import PRUNERS, make_pruner
-from .mechanism.model import SINGULARITY_TOL
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
+from .solutions import finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
            "DEFAULT_TOL", "SPLIT_RATIO", "BATCH"]
@@ -54,15 +54,11 @@ DEFAULT_MAX_BOXES = 500_000
 #: machine epsilons of the equation's largest control point (products of ~2n factors in [0, 1]);
 #: the test w = 0 accepts |w| up to it.
 ROUNDING_SAFETY = 1e3
-#: Solutions are box centres, accurate to about ``tol``; near a singularity the Jacobian's
-#: smallest singular value is then ~tol rather than ~0, so singularities are classified with a
-#: tolerance of this many solver tolerances (until solutions are polished).
-SINGULARITY_TOLS = 100.0
-#: Accepted boxes closer than this many tolerances (Chebyshev gap, radians modulo 2 pi) are merged
-#: into one solution. Unpreconditioned pruning leaves clouds of up to ~100 tolerance-sized boxes
-#: around a root of a coupled system, with gaps of a few tolerances between them; roots closer
-#: than MERGE_GAP_TOLS * tol are therefore not separated (use a smaller tol to separate them).
-MERGE_GAP_TOLS = 20.0
+#: Accepted boxes closer than this many tolerances (Chebyshev gap, radians modulo 2 pi) form one
+#: cluster. Small on purpose: a cluster is polished from its centre, so merging two roots would
+#: lose one; the stray boxes that unpreconditioned pruning leaves near a root polish to the same
+#: point and are merged after polishing (:mod:`spherekin.solutions`).
+MERGE_GAP_TOLS = 2.0
 #: Joint ranges wider than this (radians) are split into equal charts of at most this width.
 CHART_MAX_WIDTH = math.pi
 
@@ -304,8 +300,9 @@ def solve(
 
     ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
     (radians) per actuated joint. Passive joints with unlimited or wide ranges are searched by
-    charts (see :func:`charts_for_range`). Returns a :class:`SolveReport` whose solutions carry the
-    passive angles, the platform rotation and the closure residual. Defaults: the fastest
+    charts (see :func:`charts_for_range`). Returns a :class:`SolveReport` whose solutions are
+    polished, deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles,
+    platform rotation, residual, status and its evidence. Defaults: the fastest
     configuration that finds every solution; the paper-faithful one is
     ``formulation="paper", pruner="lp", lp_backend="clarabel"``.
     """
@@ -318,15 +315,7 @@ def solve(
 
     report = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                           tol=tol, max_boxes=max_boxes, max_depth=max_depth, progress=progress)
-    solutions = []
-    for sol in report.solutions:
-        angles = dict(zip(report.unknowns, (float(a) for a in sol.angles)))
-        around = mechanism.loop_system(inputs, {n: (a - 1.0, a + 1.0) for n, a in angles.items()})
-        residual = float(around.residuals(around.to_unit(angles)).max())
-        rotation = mechanism.pose_from_passive(inputs, angles)
-        joints = {**dict(zip(mechanism.actuated, (float(v) for v in inputs))), **angles}
-        kind = mechanism.singularity(joints, tol=max(SINGULARITY_TOL, SINGULARITY_TOLS * tol)).kind
-        solutions.append(dataclasses.replace(sol, platform_rotation=rotation, residual=residual,
-                                             singularity=kind))
-    settings = {**report.settings, "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
+    solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
+    settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
+                "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
     return dataclasses.replace(report, solutions=tuple(solutions), settings=settings)

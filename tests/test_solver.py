@@ -51,8 +51,10 @@ def test_gosselin_eight_solutions_four_singular(gosselin_report):
     assert len(sols) == 8
     kinds = sorted(s.singularity for s in sols)
     assert kinds == ["regular"] * 4 + ["serial"] * 4
+    assert sorted(s.status for s in sols) == ["certified"] * 4 + ["singular"] * 4
     for s in sols:
-        assert s.residual < 1e-5
+        assert s.residual < 1e-12                     # polished
+        assert s.evidence["krawczyk_certified"]       # serial singularities are still isolated roots
         assert leg_residuals(EXAMPLES / "gosselin.toml", INPUTS, s.platform_rotation).max() < 1e-5
         np.testing.assert_allclose(s.platform_rotation @ s.platform_rotation.T, np.eye(3), atol=1e-12)
     poses = [s.platform_rotation for s in sols]
@@ -81,9 +83,11 @@ def test_round_trip_random_pose(preset, seed):
     r0 = Rotation.random(random_state=seed).as_matrix()
     mode = mech.inverse_kinematics(r0)[0]
     rep = solve(mech, mode.inputs)
-    assert min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) < 1e-5
+    assert min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) < 1e-10
     for s in rep.solutions:
-        assert leg_residuals(EXAMPLES / preset, mode.inputs, s.platform_rotation).max() < 1e-5
+        assert leg_residuals(EXAMPLES / preset, mode.inputs, s.platform_rotation).max() < 1e-12
+    poses = [s.platform_rotation for s in rep.solutions]   # duplicates merged after polishing
+    assert all(np.abs(a - b).max() > 1e-6 for i, a in enumerate(poses) for b in poses[i + 1:])
 
 
 @pytest.mark.slow
@@ -95,7 +99,7 @@ def test_round_trip_sweep(preset):
         r0 = Rotation.random(random_state=100 + seed).as_matrix()
         for mode in mech.inverse_kinematics(r0)[:2]:
             rep = solve(mech, mode.inputs)
-            misses += min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) >= 1e-5
+            misses += min(np.abs(s.platform_rotation - r0).max() for s in rep.solutions) >= 1e-10
     assert misses == 0
 
 

@@ -1,0 +1,152 @@
+"""Never lose a root: random poses -> inverse kinematics -> solve over full ranges -> is the pose found?
+
+Alternates the agile eye (the Gosselin preset) and random general 3-RRR geometries. For each trial:
+a random platform pose R0 (seeded), one of its inverse-kinematics working modes chosen at random
+gives the actuator inputs; the direct kinematics over the full joint ranges must return a solution
+whose platform rotation equals R0 (to MATCH_TOL). A *miss* is a trial where it does not; a
+*spurious* solution is one whose pose violates the leg constraints w_i(beta_i) . (R v_i^0) =
+cos(alpha2_i), computed here independently of the solver. Prints a summary table, writes JSON
+(with the seeds of every miss, for regression tests) and exits 1 if anything was missed.
+
+    python benchmarks/sweep_roots.py [--poses 1000] [--jobs 2] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from spherekin.mechanism import gosselin, three_rrr
+from spherekin.solver import SolverLimitError, solve
+
+#: A solution matches the pose when every entry of its rotation is this close to R0's: polished
+#: solutions agree with the truth to ~1e-14; 1e-8 leaves room for ill-conditioned poses.
+MATCH_TOL = 1e-8
+#: A solution is spurious when a leg constraint is violated by more than this.
+SPURIOUS_TOL = 1e-9
+
+
+def random_rotation(rng) -> np.ndarray:
+    q = rng.normal(size=4)
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def unit(rng) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def random_3rrr(rng):
+    """A random general 3-RRR assembled at beta = 0, R = I (distal angles measured there), and
+    its geometry (u, w0, v0, alpha2) for the independent leg-constraint check."""
+    while True:
+        u = [unit(rng) for _ in range(3)]
+        w0 = [unit(rng) for _ in range(3)]
+        v0 = [unit(rng) for _ in range(3)]
+        a2 = [float(np.arccos(np.clip(w @ v, -1, 1))) for w, v in zip(w0, v0)]
+        if min(a2) < 0.2 or max(a2) > math.pi - 0.2:
+            continue
+        try:
+            return three_rrr(u, w0, v0, a2, name="random 3-RRR"), (u, w0, v0, a2)
+        except ValueError:
+            continue
+
+
+def leg_residual(mech_data, inputs, rot) -> float:
+    u, w0, v0, a2 = mech_data
+    worst = 0.0
+    for i in range(3):
+        k = u[i]
+        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        rot_u = np.eye(3) + math.sin(inputs[i]) * kx + (1 - math.cos(inputs[i])) * kx @ kx
+        worst = max(worst, abs((rot_u @ w0[i]) @ (rot @ v0[i]) - math.cos(a2[i])))
+    return worst
+
+
+def trial(seed: int) -> dict:
+    rng = np.random.default_rng(seed)
+    if seed % 2 == 0:
+        mech = gosselin()
+        data = ([np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, -1.0])],
+                [np.array([0, 1.0, 0]), np.array([0, 0, -1.0]), np.array([1.0, 0, 0])],
+                [np.array([0, 0, 1.0]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0])],
+                [math.pi / 2] * 3)
+        kind = "agile eye"
+    else:
+        (mech, data), kind = random_3rrr(rng), "general"
+    while True:
+        r0 = random_rotation(rng)
+        modes = mech.inverse_kinematics(r0)
+        if modes:
+            break
+    mode = modes[int(rng.integers(len(modes)))]
+    t0 = time.perf_counter()
+    try:
+        rep = solve(mech, mode.inputs)
+    except SolverLimitError as exc:
+        return dict(seed=seed, kind=kind, miss=True, spurious=0, solutions=0, seconds=time.perf_counter() - t0,
+                    error=str(exc).split(";")[0])
+    seconds = time.perf_counter() - t0
+    miss = not any(np.abs(s.platform_rotation - r0).max() < MATCH_TOL for s in rep.solutions)
+    spurious = sum(leg_residual(data, mode.inputs, s.platform_rotation) > SPURIOUS_TOL for s in rep.solutions)
+    statuses = [s.status for s in rep.solutions]
+    return dict(seed=seed, kind=kind, miss=bool(miss), spurious=int(spurious), solutions=len(rep.solutions),
+                seconds=seconds, statuses=statuses, boxes=rep.stats.boxes_processed)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=1000)
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "sweep_roots.json")
+    args = parser.parse_args(argv)
+    seeds = range(args.seed, args.seed + args.poses)
+    t0 = time.perf_counter()
+    rows = []
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        for i, row in enumerate(pool.map(trial, seeds, chunksize=4), start=1):
+            rows.append(row)
+            if row["miss"] or row["spurious"]:
+                print(f"  seed {row['seed']} ({row['kind']}): miss={row['miss']} spurious={row['spurious']} "
+                      f"{row.get('error', '')}", flush=True)
+            if i % 50 == 0:
+                print(f"  {i}/{args.poses} poses, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    wall = time.perf_counter() - t0
+    print(f"{'kind':10s} {'poses':>6s} {'misses':>7s} {'spurious':>9s} {'median s':>9s} {'max s':>7s} "
+          f"{'solutions (median)':>19s}")
+    summary = {}
+    for kind in ("agile eye", "general"):
+        part = [r for r in rows if r["kind"] == kind]
+        if not part:
+            continue
+        s = dict(poses=len(part), misses=sum(r["miss"] for r in part), spurious=sum(r["spurious"] for r in part),
+                 median_seconds=statistics.median(r["seconds"] for r in part),
+                 max_seconds=max(r["seconds"] for r in part),
+                 median_solutions=statistics.median(r["solutions"] for r in part))
+        summary[kind] = s
+        print(f"{kind:10s} {s['poses']:6d} {s['misses']:7d} {s['spurious']:9d} {s['median_seconds']:9.2f} "
+              f"{s['max_seconds']:7.2f} {s['median_solutions']:19.1f}")
+    print(f"wall time {wall:.0f} s with {args.jobs} processes")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(dict(summary=summary, wall_seconds=wall, jobs=args.jobs,
+                                        misses=[r for r in rows if r["miss"] or r["spurious"]], rows=rows),
+                                   indent=1))
+    print(f"wrote {args.out}")
+    return 1 if any(r["miss"] for r in rows) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,392 @@
+"""Tests for spherekin.certify (Krawczyk test in outward-rounded interval arithmetic).
+
+Independent references used here:
+* exact roots from inverse kinematics (Paden-Kahan, spherekin.mechanism), not from any solver;
+* regularity and singularity from the mechanism's velocity model (mech.singularity, the passive
+  Jacobian K_p of mech.jacobians), whose singular values the transversal Jacobian must share at a
+  root (its rows are the loops' angular velocities in rotated frames);
+* a spherical five-bar whose two assembly modes are built by intersecting two circles on the
+  sphere (spherical trigonometry), so that the two roots in a box are known;
+* F from ClosureLoop.closure_matrix (numpy products of Rx(phi) Z in unit-box coordinates) and from a
+  40-digit mpmath product of the defining matrices; J from central finite differences of it.
+"""
+
+import math
+import time
+
+import numpy as np
+import pytest
+from mpmath import MPContext, mpf
+from scipy.optimize import brentq
+from scipy.spatial.transform import Rotation
+
+from spherekin.certify import (
+    ANGLE_TOLERANCE,
+    CERTIFY_RADII,
+    KrawczykResult,
+    certify,
+    interval_transversal,
+    krawczyk,
+    transversal_equations,
+    transversal_labels,
+)
+from spherekin.closure import Term
+from spherekin.mechanism import Joint, Leg, SphericalMechanism, five_bar, four_bar, general_3rrr, gosselin
+
+#: Half-width (radians) of the passive ranges of the loop systems built around IK solutions.
+RANGE_HALF_WIDTH = 1.0
+#: A configuration counts as clearly regular when the smallest singular value of K_p exceeds this.
+REGULAR_MARGIN = 1e-3
+#: Float references (numpy matrix products) carry rounding of a few ulps of O(1) entries.
+FLOAT_REF_TOL = 1e-14
+#: Central difference step (radians) and its error bound (h^2 |F'''| / 6 + eps / h with |F'''| <= ~10).
+FD_STEP = 1e-6
+FD_TOL = 1e-8
+#: The brief's bound for one certify() call on the Gosselin system (measured: ~10 ms).
+TIME_LIMIT = 0.5
+
+
+def rot(rotvec):
+    return Rotation.from_rotvec(rotvec).as_matrix()
+
+
+def system_at(mech, sol):
+    """LoopSystem at the IK solution's inputs with ranges (a - 1, a + 1) around its passive angles."""
+    ja = sol.joint_angles
+    return mech.loop_system(sol.inputs, {n: (ja[n] - RANGE_HALF_WIDTH, ja[n] + RANGE_HALF_WIDTH) for n in mech.passive})
+
+
+def theta_of(system, sol):
+    return np.array([sol.joint_angles[n] for n in system.names])
+
+
+def poses(mech_name, count, seed):
+    """Random poses: any rotation for the agile eye (it reaches all), small ones for the general 3-RRR."""
+    if mech_name == "gosselin":
+        return [Rotation.random(random_state=seed + k).as_matrix() for k in range(count)]
+    rng = np.random.default_rng(seed)
+    return [rot(rng.normal(size=3) * 0.3) for _ in range(count)]
+
+
+MECHS = {"gosselin": gosselin, "general_3rrr": general_3rrr}
+
+
+def reference_entries(system, theta):
+    """(f21, f31, f32) of every loop by ClosureLoop.closure_matrix (numpy route), shape (3 * loops,)."""
+    x = system.to_unit(dict(zip(system.names, theta)))
+    out = []
+    for loop, idx in zip(system.loops, system.loop_indices):
+        f = loop.closure_matrix(x[list(idx)])
+        out += [f[1, 0], f[2, 0], f[2, 1]]
+    return np.array(out)
+
+
+def mp_entries(system, theta, shifts=None, dps=40):
+    """(f21, f31, f32) of every loop as a dps-digit product of Rx(phi) Z (matrices from their definition).
+
+    ``shifts``: optional iterator of amounts added to each constant angle (known angle or term
+    offset), in factor order.
+    """
+    ctx = MPContext()
+    ctx.dps = dps
+    z = ctx.matrix([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    out = []
+    for loop, idx in zip(system.loops, system.loop_indices):
+        f = ctx.eye(3)
+        k = 0
+        for fac in loop.factors:
+            if isinstance(fac, Term):
+                const, var = ctx.mpf(fac.offset), fac.sign * ctx.mpf(float(theta[idx[k]]))
+                k += 1
+            else:
+                const, var = ctx.mpf(fac), 0
+            if shifts is not None:
+                const += ctx.mpf(next(shifts))
+            phi = const + var
+            c, s = ctx.cos(phi), ctx.sin(phi)
+            f = f * ctx.matrix([[1, 0, 0], [0, c, -s], [0, s, c]]) * z
+        out += [f[1, 0], f[2, 0], f[2, 1]]
+    return out
+
+
+def contains(interval, value, slack=0.0) -> bool:
+    return mpf(interval.a) - slack <= value <= mpf(interval.b) + slack
+
+
+# ----------------------------------------------------------------------------- (1) regular roots
+
+@pytest.mark.parametrize("name", sorted(MECHS))
+def test_regular_ik_solutions_are_certified(name):
+    mech = MECHS[name]()
+    checked = 0
+    for pose in poses(name, 4, seed=11):
+        for sol in mech.inverse_kinematics(pose):
+            rep = mech.singularity(sol.joint_angles)
+            system = system_at(mech, sol)
+            theta = theta_of(system, sol)
+            res = certify(system, sol.joint_angles)
+            # the transversal Jacobian at a root has the singular values of the velocity model's K_p
+            k_p = mech.jacobians(sol.joint_angles)["K_p"]
+            np.testing.assert_allclose(res.singular_values, np.linalg.svd(k_p, compute_uv=False), rtol=1e-9, atol=1e-12)
+            if rep.parallel_margin < REGULAR_MARGIN:
+                continue
+            assert res.certified, (sol.working_mode, res.reason)
+            assert res.reason == "" and res.contraction < 1 and not res.no_solution
+            assert (res.n_equations, res.n_unknowns) == (6, 6) and res.names == system.names
+            assert res.radius == CERTIFY_RADII[0] and res.radii_tried == (CERTIFY_RADII[0],)
+            np.testing.assert_array_equal(res.center, theta)
+            for (lo, hi), (klo, khi), t in zip(res.box, res.krawczyk_box, theta):
+                assert lo < klo <= t <= khi < hi  # K(X) strictly inside X and around the exact root
+            checked += 1
+    assert checked >= 24
+
+
+def test_certified_box_of_the_doubled_form():
+    """The doubled form of Eq. (2) (n = 12 factors per loop) certifies the same roots."""
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.3, -0.5, 0.2]))[5]
+    ja = sol.joint_angles
+    system = mech.loop_system(sol.inputs, {n: (ja[n] - 1, ja[n] + 1) for n in mech.passive}, form="doubled")
+    assert all(loop.n == 12 for loop in system.loops)
+    assert certify(system, ja).certified
+
+
+def test_less_accurate_point_needs_a_larger_box():
+    """A point 3e-9 rad off the root: the root lies outside the 1e-10 box, so only the 1e-8 box certifies."""
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.4, 0.1, -0.7]))[2]
+    system = system_at(mech, sol)
+    theta = theta_of(system, sol) + 3e-9 * np.array([1, -1, 1, 1, -1, 1])
+    small = krawczyk(system, theta, CERTIFY_RADII[0])
+    assert not small.certified and small.no_solution  # the root is 3e-9 away: K(X) misses X
+    res = certify(system, theta)
+    assert res.certified and res.radius == CERTIFY_RADII[1] and res.radii_tried == CERTIFY_RADII[:2]
+    for (klo, khi), t in zip(res.krawczyk_box, theta_of(system, sol)):
+        assert klo <= t <= khi  # the proven unique root is the IK root
+
+
+# ----------------------------------------------------------------------------- (2) zero or two roots
+
+def test_box_without_a_solution_is_not_certified():
+    mech = general_3rrr()
+    sol = mech.inverse_kinematics(rot([0.1, 0.2, -0.1]))[0]
+    system = system_at(mech, sol)
+    direction = np.random.default_rng(3).normal(size=6)
+    centre = theta_of(system, sol) + 1e-3 * direction / np.abs(direction).max()
+    res = krawczyk(system, centre, 1e-6)
+    assert not res.certified and res.no_solution and "holds no solution" in res.reason
+    assert not certify(system, centre).certified
+
+
+def _five_bar_roots(e_offset):
+    """The two assembly modes of the spherical five-bar at inputs (A, E) = (2.5, e_s - e_offset).
+
+    e_s puts B and D 120 deg apart (= BC + CD): there the two modes merge (a parallel
+    singularity). Each mode's C is a point 60 deg from both B and D (two circles on the sphere);
+    the pose maps (B_ref, C_ref) to (B, C) and inverse kinematics gives every joint angle.
+    """
+    mech = five_bar()
+    axes = {j.name: np.array(j.axis) for j in mech.joints}
+    a_in = 2.5
+
+    def ang(p, q):
+        return math.atan2(np.linalg.norm(np.cross(p, q)), p @ q)
+
+    def frame(p, q):
+        n = np.cross(p, q) / np.linalg.norm(np.cross(p, q))
+        return np.column_stack([p, n, np.cross(p, n)])
+
+    link = ang(axes["B"], axes["C"])
+    assert link == pytest.approx(math.pi / 3) and ang(axes["D"], axes["C"]) == pytest.approx(math.pi / 3)
+    b = rot(a_in * axes["A"]) @ axes["B"]
+    gap = lambda e: ang(b, rot(e * axes["E"]) @ axes["D"]) - 2 * link  # noqa: E731
+    e_s = brentq(gap, -2.0, -1.5, xtol=1e-15)
+    e_in = e_s - e_offset
+    d = rot(e_in * axes["E"]) @ axes["D"]
+    g = np.array([[1.0, b @ d], [b @ d, 1.0]])
+    xy = np.linalg.solve(g, [math.cos(link)] * 2)
+    n = np.cross(b, d)
+    h = math.sqrt(max(0.0, (1 - xy @ g @ xy) / (n @ n)))
+    out = []
+    for sign in (1, -1) if h > 0 else (1,):
+        c = xy[0] * b + xy[1] * d + sign * h * n
+        pose = frame(b, c) @ frame(axes["B"], axes["C"]).T
+        out += [s for s in mech.inverse_kinematics(pose)
+                if abs(math.remainder(s.joint_angles["A"] - a_in, 2 * math.pi)) < 1e-9
+                and abs(math.remainder(s.joint_angles["E"] - e_in, 2 * math.pi)) < 1e-9]
+    return mech, out
+
+
+def test_box_with_two_solutions_is_not_certified():
+    mech, sols = _five_bar_roots(1e-6)
+    assert len(sols) == 2
+    system = system_at(mech, sols[0])
+    t0, t1 = theta_of(system, sols[0]), theta_of(system, sols[1])
+    sep = np.abs(t0 - t1).max()
+    assert 1e-4 < sep < 1e-2  # two distinct roots, close together
+    for sol, t in zip(sols, (t0, t1)):
+        assert not mech.singularity(sol.joint_angles).parallel
+        alone = certify(system, t)  # each root alone is certified in a box that excludes the other
+        assert alone.certified and alone.radius < sep / 2
+    # an off-centre box holding both roots (|centre - root| <= 0.7 sep < radius)
+    centre = 0.5 * (t0 + t1) + 0.2 * (t0 - t1)
+    both = krawczyk(system, centre, 0.75 * sep)
+    assert all(lo < a < hi and lo < b < hi for (lo, hi), a, b in zip(both.box, t0, t1))
+    assert not both.certified and not both.no_solution and "not inside X" in both.reason
+    # the box centred between the modes sits on the fold: its midpoint Jacobian is singular
+    mid = krawczyk(system, 0.5 * (t0 + t1), 0.75 * sep)
+    assert not mid.certified and "singular midpoint Jacobian" in mid.reason
+
+
+# ----------------------------------------------------------------------------- (3) enclosures
+
+@pytest.mark.parametrize("name", sorted(MECHS))
+def test_interval_f_and_j_enclose_float_values_in_a_box(name):
+    mech = MECHS[name]()
+    rng = np.random.default_rng(5)
+    sol = mech.inverse_kinematics(poses(name, 1, seed=21)[0])[1]
+    system = system_at(mech, sol)
+    # a box around a root and a box around an arbitrary point
+    for centre, radius in ((theta_of(system, sol), 1e-2), (theta_of(system, sol) + rng.uniform(-0.5, 0.5, 6), 5e-2)):
+        box = np.column_stack([centre - radius, centre + radius])
+        f_box, j_box = interval_transversal(system, box)
+        for _ in range(20):
+            p = rng.uniform(box[:, 0] + FD_STEP, box[:, 1] - FD_STEP)
+            f_ref = reference_entries(system, p)
+            assert all(contains(iv_, v, FLOAT_REF_TOL) for iv_, v in zip(f_box, f_ref))
+            for k in range(len(p)):
+                step = np.zeros(len(p))
+                step[k] = FD_STEP
+                fd = (reference_entries(system, p + step) - reference_entries(system, p - step)) / (2 * FD_STEP)
+                assert all(contains(j_box[e, k], fd[e], FD_TOL) for e in range(len(fd))), (k, fd)
+        # the float routine agrees with the references too
+        f_float, j_float = transversal_equations(system, centre)
+        np.testing.assert_allclose(f_float, reference_entries(system, centre), atol=FLOAT_REF_TOL)
+        assert all(contains(j_box[e, k], j_float[e, k]) for e in range(6) for k in range(6))
+
+
+@pytest.mark.parametrize("name", sorted(MECHS))
+def test_point_enclosure_contains_40_digit_value(name):
+    """At a point (no angle tolerance) the interval is ulp-tight and contains the 40-digit value."""
+    mech = MECHS[name]()
+    rng = np.random.default_rng(8)
+    sol = mech.inverse_kinematics(poses(name, 1, seed=31)[0])[6]
+    system = system_at(mech, sol)
+    for _ in range(5):
+        theta = theta_of(system, sol) + rng.uniform(-0.3, 0.3, 6)
+        f_pt, _ = interval_transversal(system, np.column_stack([theta, theta]), angle_tolerance=0.0, jacobian=False)
+        exact = mp_entries(system, theta)
+        for iv_, v in zip(f_pt, exact):
+            assert contains(iv_, v)
+            assert mpf(iv_.b) - mpf(iv_.a) < 1e-14
+
+
+def test_angle_tolerance_encloses_perturbed_constants():
+    """With the default tolerance, F(y) encloses F of the system whose constant angles moved by < tol."""
+    mech = general_3rrr()
+    sol = mech.inverse_kinematics(rot([0.2, 0.1, 0.0]))[4]
+    system = system_at(mech, sol)
+    theta = theta_of(system, sol)
+    n_const = sum(loop.n for loop in system.loops)
+    point = np.column_stack([theta, theta])
+    wide, _ = interval_transversal(system, point, jacobian=False)
+    tight, _ = interval_transversal(system, point, angle_tolerance=0.0, jacobian=False)
+    rng = np.random.default_rng(9)
+    for shift in (np.full(n_const, 0.9 * ANGLE_TOLERANCE), rng.uniform(-0.9, 0.9, n_const) * ANGLE_TOLERANCE):
+        moved = mp_entries(system, theta, shifts=iter(shift))
+        assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
+    moved = mp_entries(system, theta, shifts=iter(np.full(n_const, 0.9 * ANGLE_TOLERANCE)))
+    assert not all(contains(iv_, v) for iv_, v in zip(tight, moved))  # the tolerance is what covers them
+
+
+# ----------------------------------------------------------------------------- (4) singular points
+
+def test_parallel_singularity_of_general_3rrr_fails_with_a_reason():
+    """Bisect det K_p (velocity model) along poses Rx(s) in working mode (1, 1, 1) to a parallel singularity."""
+    mech = general_3rrr()
+
+    def at(s):
+        (sol,) = [q for q in mech.inverse_kinematics(rot([s, 0.0, 0.0])) if q.working_mode == (1, 1, 1)]
+        return sol, np.linalg.det(mech.jacobians(sol.joint_angles)["K_p"])
+
+    lo, hi = 1.3, 1.5   # det K_p changes sign between these (it is ~ +0.005 at 1.4 and ~ -0.045 at 1.5)
+    d_lo = at(lo)[1]
+    assert d_lo * at(hi)[1] < 0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if at(mid)[1] * d_lo > 0:
+            lo = mid
+        else:
+            hi = mid
+    sol, _ = at(lo)
+    rep = mech.singularity(sol.joint_angles)
+    assert rep.kind == "parallel"
+    res = certify(mech.loop_system(sol.inputs, {n: (sol.joint_angles[n] - 1, sol.joint_angles[n] + 1)
+                                                for n in mech.passive}), sol.joint_angles)
+    assert not res.certified and "singular midpoint Jacobian" in res.reason
+    assert res.singular_values[-1] < 1e-12 and res.radii_tried == (CERTIFY_RADII[0],)
+
+
+def test_five_bar_at_its_fold_fails_with_a_reason():
+    mech, sols = _five_bar_roots(0.0)
+    assert sols
+    for sol in sols:
+        assert mech.singularity(sol.joint_angles).parallel
+        system = system_at(mech, sol)
+        res = certify(system, sol.joint_angles)
+        assert not res.certified and res.reason.startswith("not certified")
+        assert res.radii_tried in (CERTIFY_RADII, (CERTIFY_RADII[0],))
+
+
+# ----------------------------------------------------------------------------- non-square, API, input
+
+def test_non_square_system_is_reported_not_raised():
+    """A four-bar with both ground joints actuated: 3 equations, 2 unknowns (B, C)."""
+    base = four_bar()
+    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, actuated=j.name in ("A", "D")) for j in leg.joints))
+                 for leg in base.legs)
+    mech = SphericalMechanism(legs, name="4R, two inputs")
+    system = mech.loop_system((0.0, 0.0), {"B": (-1.0, 1.0), "C": (-1.0, 1.0)})
+    res = certify(system, (0.0, 0.0))  # the reference configuration closes
+    assert not res.certified and res.reason == "not certified: 3 equations, 2 unknowns"
+    assert res.krawczyk_box is None and math.isnan(res.contraction) and res.residual < 1e-12
+    assert (res.n_equations, res.n_unknowns) == (3, 2) and len(res.singular_values) == 2
+
+
+def test_labels_summary_and_timing():
+    mech = gosselin()
+    sols = mech.inverse_kinematics(rot([0.3, -0.2, 0.5]))
+    system = system_at(mech, sols[0])
+    assert transversal_labels(system) == ("loop1:f21", "loop1:f31", "loop1:f32", "loop2:f21", "loop2:f31", "loop2:f32")
+    worst = 0.0
+    for sol in sols:
+        system = system_at(mech, sol)
+        start = time.perf_counter()
+        res = certify(system, theta_of(system, sol))
+        worst = max(worst, time.perf_counter() - start)
+        assert isinstance(res, KrawczykResult) and res.certified
+    assert worst < TIME_LIMIT
+    summary = res.summary()
+    assert summary["certified"] is True and summary["radius"] == CERTIFY_RADII[0]
+    assert 0 < summary["contraction"] < 1 and summary["residual_bound"] < 1e-12
+    assert set(summary) >= {"reason", "no_solution", "min_singular_value", "radii_tried"}
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda s: certify("system", [0.0] * 6), r"system: expected a LoopSystem"),
+    (lambda s: certify(s, [0.0] * 5), r"theta: expected shape \(6,\)"),
+    (lambda s: certify(s, {"gamma1": 0.0}), r"theta: missing angle\(s\) for \['delta1'"),
+    (lambda s: certify(s, [0.0] * 5 + [float("nan")]), r"theta: expected finite"),
+    (lambda s: certify(s, "abcdef"), r"theta: expected 6 passive angles"),
+    (lambda s: krawczyk(s, [0.0] * 6, -1e-8), r"radius: expected a radius in \(0, pi\)"),
+    (lambda s: certify(s, [0.0] * 6, radii=()), r"radii: expected a non-empty sequence"),
+    (lambda s: certify(s, [0.0] * 6, radii=(1e-8, 1e-10)), r"radii: expected strictly increasing"),
+    (lambda s: certify(s, [0.0] * 6, radii=(1e-8, "x")), r"radii\[1\]: expected a positive radius"),
+    (lambda s: certify(s, [0.0] * 6, angle_tolerance=-1.0), r"angle_tolerance: expected a value in \[0, 1e-3\)"),
+    (lambda s: interval_transversal(s, np.zeros((6, 3))), r"box: expected shape \(6, 2\)"),
+    (lambda s: interval_transversal(s, np.tile([0.1, 0.0], (6, 1))), r"box: expected lo <= hi"),
+])
+def test_bad_input_raises_value_error(call, message):
+    system = gosselin().loop_system((0.0, 0.0, 0.0), {n: (-1.0, 1.0) for n in gosselin().passive})
+    with pytest.raises(ValueError, match=message):
+        call(system)
