@@ -114,6 +114,10 @@ def _solve(args) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
         print(f"wrote {args.json}")
+    if args.plot:
+        from .plot import plot_solutions  # matplotlib: imported only when a plot is asked for
+
+        print(f"wrote {plot_solutions(mech, inputs, report, args.plot, degrees=args.degrees)}")
     return 0
 
 
@@ -144,6 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="LP backend for --pruner lp (default highs); paper-faithful: clarabel")
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
+    so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)
     g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),

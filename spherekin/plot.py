@@ -1,0 +1,425 @@
+"""Plots of solved configurations: the mechanism drawn on the unit sphere, one panel per solution.
+
+Every joint axis of a spherical mechanism passes through the centre O, so it meets the unit sphere
+in a point, and every link (the rigid body between two consecutive joints) is drawn as the shorter
+great-circle arc between those points; the arc's length is the link twist. This is the picture of
+the paper's Fig. 2 (Gosselin platform), drawn here for each solution of the direct kinematics:
+
+* the base: arcs between consecutive base joint axes (the first joint of each leg), near-black;
+* each leg: arcs from its base axis through its intermediate axes to its platform axis (for a
+  3-RRR u_i -> w_i -> v_i), one colour per leg;
+* the platform: arcs between consecutive platform joint axes (the last joint of each leg), red;
+* joint axes as dots (squares for actuated joints), over a light wireframe of the sphere.
+
+Every panel is viewed from the same direction, the one (of a lattice of candidates) that shows
+most of the drawn links of all panels well inside the near hemisphere, so the mechanism faces the
+viewer; z points up. The view is orthographic, so the sphere's outline is the great circle normal
+to that direction, and whatever lies on the far hemisphere is drawn dashed and faded (matplotlib's
+3-D axes do not hide lines behind the sphere). A mechanism spread over more than a hemisphere (a
+base all around the sphere, as in a symmetric 3-RRR) always has a part on the far side.
+
+The current joint axes come from :meth:`SphericalMechanism.jacobians` (the columns of a leg's
+Jacobian are its joint axes in the current configuration, base frame), so no kinematics is
+repeated here. The figure is built on :class:`matplotlib.figure.Figure` (no pyplot, no global
+state) and written with the Agg/PDF/SVG canvases. Not in the paper: plotting is a convenience.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .mechanism.chains import perpendicular
+from .mechanism.checks import check_unit_vector, parse_angle
+from .mechanism.model import PARALLEL_TOL, SphericalMechanism
+from .results import SolveReport
+
+__all__ = [
+    "ARC_POINTS",
+    "PLOT_FORMATS",
+    "INPUTS_TOL",
+    "great_circle_arc",
+    "current_joint_axes",
+    "plot_solutions",
+]
+
+#: Points per link arc. Reason: a chord of an arc of at most pi split into 63 pieces deviates from
+#: the circle by 1 - cos(pi / 126) = 3e-4 of the radius, below a tenth of a pixel at panel size.
+ARC_POINTS = 64
+#: Points per wireframe circle (same reason, for full circles).
+WIRE_POINTS = 181
+#: File formats written (by the file name's suffix): the ones matplotlib writes without extra
+#: packages; PNG for viewing, PDF/SVG for papers.
+PLOT_FORMATS = ("png", "pdf", "svg")
+#: |input - input the report was solved at| (radians, modulo 2 pi) above which the inputs are
+#: rejected. Reason: the solver records the very floats it was given (a degree -> radian
+#: conversion repeated gives the same float); anything farther apart is another problem, whose
+#: drawing would show legs that do not close.
+INPUTS_TOL = 1e-9
+#: Panels per row of the grid (four 3.4-inch panels make a 13.6-inch, ~1630-pixel-wide figure).
+MAX_COLUMNS = 4
+#: Size of one panel, of the header (figure title) and of the footer (legend), in inches, and the
+#: resolution (dots per inch) of raster output.
+PANEL_INCHES = 3.4
+HEADER_INCHES = 0.9
+DPI = 120
+#: Legend layout (inches): one row of entries takes LEGEND_ROW_INCHES; an entry is its handle plus
+#: about LEGEND_CHAR_INCHES per character at font size 9; the entries fill at most LEGEND_FILL of
+#: the figure width; figures are at least MIN_COLUMNS panels wide so that titles and legend fit.
+LEGEND_ROW_INCHES = 0.28
+LEGEND_MARGIN_INCHES = 0.2
+LEGEND_HANDLE_INCHES = 0.6
+LEGEND_CHAR_INCHES = 0.075
+LEGEND_FILL = 0.95
+MIN_COLUMNS = 2
+#: Zoom of the 3-D box in its panel: the unit sphere then fills about 90% of the panel.
+ZOOM = 1.35
+#: Candidate viewing directions (a Fibonacci lattice; neighbours ~4 deg apart, finer than needed
+#: for a view) and the cosine above which a point counts as clearly on the near side (it is then
+#: more than 12 deg inside the outline, where arcs are not foreshortened into slivers).
+VIEW_CANDIDATES = 2000
+VISIBLE_DOT = 0.2
+
+#: Colours: legs cycle through these (distinct from the base's black and the platform's red).
+LEG_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:cyan", "tab:pink",
+               "tab:olive")
+BASE_COLOUR = "#262626"  # near-black, distinct from the black of the text
+PLATFORM_COLOUR = "tab:red"
+
+
+# --------------------------------------------------------------------------------------------
+# Geometry
+# --------------------------------------------------------------------------------------------
+
+def great_circle_arc(p, q, n_points: int = ARC_POINTS) -> np.ndarray:
+    """Points of the shorter great-circle arc from the unit vector p to the unit vector q, shape (n_points, 3).
+
+    x(t) = cos(t theta) p + sin(t theta) e, t = 0, 1/(n-1), ..., 1, where theta = angle(p, q) in
+    [0, pi] and e = n x p is the unit tangent at p towards q (n = p x q / |p x q|), so the points
+    are equally spaced in angle. Coincident endpoints give n copies of p; for antipodal endpoints
+    (|p x q| < PARALLEL_TOL, p . q < 0) every half great circle qualifies and the one with pole
+    n = perpendicular(p) is returned, the model's choice for a side of twist pi.
+    """
+    a = np.array(check_unit_vector("p", p))
+    b = np.array(check_unit_vector("q", q))
+    if isinstance(n_points, (bool, np.bool_)) or not isinstance(n_points, (int, np.integer)) or n_points < 2:
+        raise ValueError(f"n_points: expected an integer >= 2, got {n_points!r}")
+    cross = np.cross(a, b)
+    sine, cosine = float(np.linalg.norm(cross)), float(a @ b)
+    theta = math.atan2(sine, cosine)
+    pole = cross / sine if sine >= PARALLEL_TOL else perpendicular(a)
+    tangent = np.cross(pole, a)
+    t = np.linspace(0.0, theta, int(n_points))[:, None]
+    return np.cos(t) * a + np.sin(t) * tangent
+
+
+def current_joint_axes(mechanism: SphericalMechanism, inputs, passive_angles: Mapping[str, float]) -> dict:
+    """The joint axes of every leg in the configuration given by the joint readings (radians).
+
+    ``inputs``: one reading per actuated joint (order of ``mechanism.actuated``);
+    ``passive_angles``: name -> reading of every passive joint. Returns leg name -> array (k, 3),
+    row i the current axis of the leg's i-th joint (base frame): a_i(q) = Rot(a_1, d_1) ...
+    Rot(a_{i-1}, d_{i-1}) a_i with d the displacements from the reference configuration -- the
+    columns of the leg's Jacobian, taken from :meth:`SphericalMechanism.jacobians`. For a 3-RRR:
+    u_i, w_i = Rot(u_i, beta_i) w_i^0, and R v_i^0 when the loops close (each leg's last row is
+    its own chain's platform axis, so at a non-closing configuration the legs disagree by the
+    closure residual).
+    """
+    if not isinstance(mechanism, SphericalMechanism):
+        raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
+    values = mechanism._check_inputs(inputs)
+    if not isinstance(passive_angles, Mapping):
+        raise ValueError(f"passive_angles: expected a mapping joint name -> angle (radians), "
+                         f"got {type(passive_angles).__name__}")
+    actuated = [n for n in passive_angles if n in mechanism.actuated]
+    if actuated:
+        raise ValueError(f"passive_angles: {actuated} are actuated joints; give them in inputs")
+    unknown = [n for n in passive_angles if n not in mechanism.passive]
+    if unknown:
+        raise ValueError(f"passive_angles: unknown joint name(s) {unknown}; valid names: {mechanism.passive}")
+    missing = [n for n in mechanism.passive if n not in passive_angles]
+    if missing:
+        raise ValueError(f"passive_angles: missing angle(s) for {missing}")
+    readings = {n: parse_angle(f"passive_angles[{n!r}]", v) for n, v in passive_angles.items()}
+    readings.update(zip(mechanism.actuated, values))
+    legs = mechanism.jacobians(readings)["legs"]
+    return {leg.name: np.array(legs[leg.name]).T for leg in mechanism.legs}
+
+
+# --------------------------------------------------------------------------------------------
+# Checks
+# --------------------------------------------------------------------------------------------
+
+def _check_path(path) -> tuple[Path, str]:
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path: expected a file name such as out.png, got {path!r}")
+    out = Path(path)
+    fmt = out.suffix.lower().lstrip(".")
+    if out.is_dir():
+        raise ValueError(f"path: expected a file name, got the directory {str(out)!r}")
+    if not out.parent.is_dir():
+        raise ValueError(f"path: the directory {str(out.parent)!r} of {str(out)!r} does not exist")
+    if fmt not in PLOT_FORMATS:
+        raise ValueError(f"path: expected a file name ending in one of "
+                         f"{', '.join('.' + f for f in PLOT_FORMATS)}, got {out.name!r}")
+    return out, fmt
+
+
+def _check_report(mechanism: SphericalMechanism, values: tuple, report) -> list[np.ndarray]:
+    """The solutions' passive angles (radians, report.unknowns order), after consistency checks."""
+    if not isinstance(report, SolveReport):
+        raise ValueError(f"report: expected a SolveReport (from spherekin.solver.solve), got {type(report).__name__}")
+    if sorted(report.unknowns) != sorted(mechanism.passive):
+        raise ValueError(f"report: expected a solve of this mechanism, whose passive joints are {mechanism.passive}, "
+                         f"got a report whose unknowns are {tuple(report.unknowns)}")
+    name = report.settings.get("mechanism")
+    if name is not None and name != mechanism.name:
+        raise ValueError(f"report: expected a solve of this mechanism, {mechanism.name!r}, got a report of {name!r}")
+    solved = report.settings.get("inputs")
+    if solved is not None:
+        diff = np.array([math.remainder(a - b, 2 * math.pi) for a, b in zip(values, solved)])
+        if len(solved) != len(values) or np.abs(diff).max(initial=0.0) > INPUTS_TOL:
+            raise ValueError(f"inputs: expected the inputs the report was solved at, {list(solved)} (radians), "
+                             f"got {list(values)}")
+    out = []
+    for k, sol in enumerate(report.solutions):
+        angles = np.asarray(sol.angles, dtype=float)
+        if angles.shape != (len(report.unknowns),) or not np.all(np.isfinite(angles)):
+            raise ValueError(f"report.solutions[{k}].angles: expected {len(report.unknowns)} finite angles "
+                             f"(radians), got {sol.angles!r}")
+        out.append(angles)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Drawing
+# --------------------------------------------------------------------------------------------
+
+def _split_by_side(points: np.ndarray, view: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Pieces of a polyline on the unit sphere on the near (view . x >= 0) and far hemisphere.
+
+    Where consecutive points change sides, the crossing of their chord with the outline plane,
+    pushed back onto the sphere, ends one piece and starts the next.
+    """
+    side = points @ view
+    near = side >= 0.0
+    front, back = [], []
+    current = [points[0]]
+    for i in range(1, len(points)):
+        if near[i] != near[i - 1]:
+            s = side[i - 1] / (side[i - 1] - side[i])
+            x = points[i - 1] + s * (points[i] - points[i - 1])
+            x = x / np.linalg.norm(x)
+            current.append(x)
+            (front if near[i - 1] else back).append(np.array(current))
+            current = [x]
+        current.append(points[i])
+    (front if near[-1] else back).append(np.array(current))
+    return [p for p in front if len(p) > 1], [p for p in back if len(p) > 1]
+
+
+def _draw_curve(ax, points, view, colour, width, zorder, **kw) -> None:
+    """A curve on the sphere: solid on the near side, dashed and faded on the far side."""
+    front, back = _split_by_side(points, view)
+    for piece in back:
+        ax.plot(*piece.T, color=colour, lw=0.6 * width, ls=(0, (3, 2)), alpha=0.45, zorder=zorder, **kw)
+    for piece in front:
+        ax.plot(*piece.T, color=colour, lw=width, zorder=zorder + 10, solid_capstyle="round", **kw)
+
+
+def _draw_point(ax, p, view, colour, marker) -> None:
+    """A joint axis as a dot; smaller, faded and under every near-side line when on the far side."""
+    far = float(p @ view) < 0.0
+    ax.scatter(*([c] for c in p), s=22 if far else 38, color=colour, marker=marker, edgecolors="white",
+               linewidths=0.6, alpha=0.45 if far else 1.0, zorder=4 if far else 30, depthshade=False)
+
+
+def _draw_sphere(ax, view: np.ndarray) -> None:
+    """Light wireframe (meridians every 30 deg, parallels every 30 deg), outline, base frame labels."""
+    t = np.linspace(0.0, 2 * math.pi, WIRE_POINTS)
+    for lon in np.radians(np.arange(0, 180, 30)):
+        circle = np.stack([np.cos(t) * math.cos(lon), np.cos(t) * math.sin(lon), np.sin(t)], axis=1)
+        _draw_curve(ax, circle, view, "0.72", 0.6, 0)
+    for lat in np.radians(np.arange(-60, 61, 30)):
+        circle = np.stack([math.cos(lat) * np.cos(t), math.cos(lat) * np.sin(t),
+                           np.full_like(t, math.sin(lat))], axis=1)
+        _draw_curve(ax, circle, view, "0.72", 0.6, 0)
+    e1 = perpendicular(view)
+    e2 = np.cross(view, e1)
+    outline = np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2
+    ax.plot(*outline.T, color="0.45", lw=0.9, zorder=5)
+    for k, label in enumerate("xyz"):
+        e = np.eye(3)[k]
+        stub = np.outer(np.linspace(1.0, 1.12, 2), e)
+        far = float(e @ view) < 0.0
+        ax.plot(*stub.T, color="0.35", lw=0.9, alpha=0.45 if far else 1.0, zorder=6)
+        ax.text(*(1.2 * e), label, color="0.35", fontsize=8, ha="center", va="center",
+                alpha=0.45 if far else 1.0, zorder=6)
+
+
+def _polygon_arcs(points: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Consecutive pairs of a polygon's vertices: one side for two vertices, closed for three or more."""
+    if len(points) == 2:
+        return [(points[0], points[1])]
+    return [(points[i], points[(i + 1) % len(points)]) for i in range(len(points))]
+
+
+def _configuration_arcs(mechanism: SphericalMechanism, axes: Mapping[str, np.ndarray]) -> list[tuple]:
+    """The links of one configuration as (points (ARC_POINTS, 3), colour, line width, z-order), base first."""
+    arcs = [(great_circle_arc(p, q), BASE_COLOUR, 2.6, 2)
+            for p, q in _polygon_arcs([axes[leg.name][0] for leg in mechanism.legs])]
+    arcs += [(great_circle_arc(p, q), PLATFORM_COLOUR, 2.6, 2)
+             for p, q in _polygon_arcs([axes[leg.name][-1] for leg in mechanism.legs])]
+    for i, leg in enumerate(mechanism.legs):
+        pts = axes[leg.name]
+        arcs += [(great_circle_arc(p, q), LEG_COLOURS[i % len(LEG_COLOURS)], 2.2, 3)
+                 for p, q in zip(pts[:-1], pts[1:])]
+    return arcs
+
+
+def _draw_configuration(ax, mechanism: SphericalMechanism, axes: Mapping[str, np.ndarray], arcs, view) -> None:
+    for points, colour, width, zorder in arcs:
+        _draw_curve(ax, points, view, colour, width, zorder)
+    for i, leg in enumerate(mechanism.legs):
+        colour = LEG_COLOURS[i % len(LEG_COLOURS)]
+        for joint, p in zip(leg.joints, axes[leg.name]):
+            _draw_point(ax, p, view, colour, "s" if joint.actuated else "o")
+
+
+def _fibonacci_directions(n: int) -> np.ndarray:
+    """n nearly uniform unit vectors (Fibonacci lattice on the sphere), shape (n, 3); deterministic."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def _view_direction(points: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Unit viewing direction (towards the viewer) and matplotlib's (elevation, azimuth) in degrees.
+
+    ``points`` (N, 3): every drawn point of the mechanism (arc samples) in every panel. The
+    direction, among VIEW_CANDIDATES lattice directions, that shows the most of them clearly on the
+    near side (d . x >= VISIBLE_DOT), ties broken by the mean of d . x.
+    """
+    dirs = _fibonacci_directions(VIEW_CANDIDATES)
+    dots = points @ dirs.T                                    # (N, candidates)
+    score = np.sum(dots >= VISIBLE_DOT, axis=0) + dots.mean(axis=0)
+    view = dirs[int(np.argmax(score))]
+    elev = math.degrees(math.asin(max(-1.0, min(1.0, float(view[2])))))
+    azim = math.degrees(math.atan2(float(view[1]), float(view[0])))
+    return view, elev, azim
+
+
+def _title(mechanism: SphericalMechanism, values: tuple, n: int, degrees: bool) -> str:
+    unit = "deg" if degrees else "rad"
+    shown = [math.degrees(v) if degrees else v for v in values]
+    inputs = ", ".join(f"{name} = {v:+.4g}" for name, v in zip(mechanism.actuated, shown))
+    return f"{mechanism.name}: {n} solution(s)\ninputs {inputs} {unit}"
+
+
+def _panel_title(k: int, sol) -> str:
+    status = getattr(sol, "status", None)
+    head = f"solution {k}" + (f": {status}" if status else "")
+    residual = "-" if sol.residual is None else f"{sol.residual:.1e}"
+    return f"{head}\nsingularity {sol.singularity or '-'}, residual {residual}"
+
+
+def _legend_handles(mechanism: SphericalMechanism):
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], color=BASE_COLOUR, lw=2.6, label="base")]
+    handles += [Line2D([], [], color=LEG_COLOURS[i % len(LEG_COLOURS)], lw=2.2, label=leg.name)
+                for i, leg in enumerate(mechanism.legs)]
+    handles += [Line2D([], [], color=PLATFORM_COLOUR, lw=2.6, label="platform"),
+                Line2D([], [], color="0.3", ls="", marker="s", label="actuated joint"),
+                Line2D([], [], color="0.3", ls="", marker="o", label="passive joint"),
+                Line2D([], [], color="0.3", lw=1.2, ls=(0, (3, 2)), alpha=0.6, label="far side")]
+    return handles
+
+
+def _legend_layout(labels: Sequence[str], width: float) -> tuple[int, list[int]]:
+    """Legend columns and entry order so that the entries read row by row and fit ``width`` inches.
+
+    The fewest rows whose columns fit (an entry is its handle plus LEGEND_CHAR_INCHES per
+    character); matplotlib fills columns first (np.array_split of the entries), so the entries are
+    handed over column by column of the row-major grid.
+    """
+    n = len(labels)
+    entry = [LEGEND_HANDLE_INCHES + LEGEND_CHAR_INCHES * len(t) for t in labels]
+    for rows in range(1, n + 1):
+        ncol = math.ceil(n / rows)
+        columns = [[i for i in range(c, n, ncol)] for c in range(ncol)]
+        if sum(max(entry[i] for i in col) for col in columns) <= LEGEND_FILL * width:
+            return ncol, [i for col in columns for i in col]
+    return 1, list(range(n))
+
+
+def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, path, *,
+                   degrees: bool = False) -> Path:
+    """Draw the mechanism on the unit sphere in every solution of ``report``; write the figure to ``path``.
+
+    ``mechanism``: the :class:`SphericalMechanism` solved; ``inputs``: its actuator readings
+    (radians, the ones ``report`` was solved at); ``report``: the
+    :class:`~spherekin.results.SolveReport` of :func:`spherekin.solver.solve`; ``path``: the
+    output file, whose suffix (.png, .pdf or .svg) picks the format; ``degrees``: show the inputs
+    in degrees in the figure title. One panel per solution, in report order (grid of at most
+    MAX_COLUMNS columns), titled with the solution's number, status (when the report has one),
+    singularity kind and closure residual. A report without solutions gives a figure saying
+    "no solution in range". Returns the path written. Bad input raises ValueError.
+    """
+    if not isinstance(mechanism, SphericalMechanism):
+        raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
+    values = mechanism._check_inputs(inputs)
+    if not isinstance(degrees, (bool, np.bool_)):
+        raise ValueError(f"degrees: expected true or false, got {degrees!r}")
+    out, fmt = _check_path(path)
+    solutions = _check_report(mechanism, values, report)
+    configs = [current_joint_axes(mechanism, values, dict(zip(report.unknowns, a))) for a in solutions]
+
+    from matplotlib.figure import Figure
+    import mpl_toolkits.mplot3d  # noqa: F401  (registers the "3d" projection)
+
+    title = _title(mechanism, values, len(configs), bool(degrees))
+    if not configs:
+        fig = Figure(figsize=(MIN_COLUMNS * PANEL_INCHES, PANEL_INCHES), dpi=DPI)
+        fig.suptitle(title, fontsize=11)
+        fig.text(0.5, 0.45, "no solution in range", ha="center", va="center", fontsize=16, color="0.25")
+        fig.savefig(out, format=fmt, dpi=DPI)
+        return out
+
+    n = len(configs)
+    ncols = min(n, MAX_COLUMNS)
+    nrows = math.ceil(n / ncols)
+    width = max(ncols, MIN_COLUMNS) * PANEL_INCHES
+    handles = _legend_handles(mechanism)
+    legend_ncol, order = _legend_layout([h.get_label() for h in handles], width)
+    handles = [handles[i] for i in order]
+    footer = LEGEND_MARGIN_INCHES + LEGEND_ROW_INCHES * math.ceil(len(handles) / legend_ncol)
+    height = nrows * PANEL_INCHES + HEADER_INCHES + footer
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    fig.subplots_adjust(left=0.0, right=1.0, bottom=footer / height, top=1.0 - HEADER_INCHES / height,
+                        wspace=0.02, hspace=0.12)
+    fig.suptitle(title, fontsize=12, y=1.0 - 0.12 / height, va="top")
+    arcs = [_configuration_arcs(mechanism, axes) for axes in configs]
+    view, elev, azim = _view_direction(np.concatenate([a[0] for panel in arcs for a in panel]))
+    for k, (sol, axes) in enumerate(zip(report.solutions, configs)):
+        ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d", computed_zorder=False)
+        ax.set_proj_type("ortho")
+        ax.view_init(elev=elev, azim=azim)
+        ax.set_xlim(-1.0, 1.0)
+        ax.set_ylim(-1.0, 1.0)
+        ax.set_zlim(-1.0, 1.0)
+        ax.set_box_aspect((1.0, 1.0, 1.0), zoom=ZOOM)
+        ax.set_axis_off()
+        _draw_sphere(ax, view)
+        _draw_configuration(ax, mechanism, axes, arcs[k], view)
+        ax.set_title(_panel_title(k + 1, sol), fontsize=9.5, pad=-4)
+    fig.legend(handles=handles, loc="lower center", ncol=legend_ncol, fontsize=9, frameon=False,
+               bbox_to_anchor=(0.5, 0.5 * LEGEND_MARGIN_INCHES / height))
+    fig.savefig(out, format=fmt, dpi=DPI)
+    return out
