@@ -107,7 +107,7 @@ def _solve(args) -> int:
     print(f"{len(report.solutions)} solution(s); passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
     print(f"formulation {args.formulation}, pruner {args.pruner}"
-          + (f" ({report.settings['lp_backend']})" if args.pruner == "lp" else "")
+          + (f" ({report.settings['lp_backend'] or 'default backend'})" if args.pruner != "pp" else "")
           + f", tol {args.tol:g} rad: {st.charts} charts, {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted), "
           f"{st.lps_solved} LPs, {st.time_total:.2f} s")
@@ -142,10 +142,11 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
     so.add_argument("--formulation", default="transversal", choices=sorted(FORMULATIONS),
                     help="paper: Eq. (10) only; transversal (default): simple roots")
-    so.add_argument("--pruner", default="pp", choices=PRUNERS,
-                    help="pp (default): projected polyhedron, no LP; lp: the Eq. (12) linear programs")
+    so.add_argument("--pruner", default="hybrid", choices=PRUNERS,
+                    help="hybrid (default): projected polyhedron, LPs where it stalls; pp: no LP; "
+                         "lp: the Eq. (12) linear programs on every box")
     so.add_argument("--lp-backend", default=None, choices=LP_BACKENDS,
-                    help="LP backend for --pruner lp (default highs); paper-faithful: clarabel")
+                    help="LP backend (lp: default highs; hybrid: default highspy); paper-faithful: clarabel")
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")

@@ -166,7 +166,8 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None)
         cps = [bernstein.restrict(c[chart], boxes, nvars=n) for c in charts.coeffs]
         tols = [t[chart] for t in charts.tols]
         t2 = time.perf_counter()
-        rlo, rhi = pruner.reduce(cps, tols)
+        widths = np.max(charts.angles(chart, hi) - charts.angles(chart, lo), axis=1)
+        rlo, rhi = pruner.reduce(cps, tols, widths=widths)
         t_prune += time.perf_counter() - t2
         t_restrict += t2 - t1
         keep = ~np.any(rlo > rhi, axis=1)
@@ -239,7 +240,7 @@ def solve_system(
     ranges: Mapping[str, tuple[float, float] | None],
     *,
     formulation: str = "transversal",
-    pruner: str = "pp",
+    pruner: str = "hybrid",
     lp_backend: str | None = None,
     tol: float = DEFAULT_TOL,
     max_boxes: int = DEFAULT_MAX_BOXES,
@@ -289,7 +290,7 @@ def solve(
     inputs,
     *,
     formulation: str = "transversal",
-    pruner: str = "pp",
+    pruner: str = "hybrid",
     lp_backend: str | None = None,
     tol: float = DEFAULT_TOL,
     max_boxes: int = DEFAULT_MAX_BOXES,
@@ -303,7 +304,8 @@ def solve(
     charts (see :func:`charts_for_range`). Returns a :class:`SolveReport` whose solutions are
     polished, deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles,
     platform rotation, residual, status and its evidence. Defaults: the fastest
-    configuration that finds every solution; the paper-faithful one is
+    configuration that finds every solution (transversal equations, hybrid pruner); the
+    paper-faithful one is
     ``formulation="paper", pruner="lp", lp_backend="clarabel"``.
     """
     names = mechanism.loop_system(inputs, {n: (-1.0, 1.0) for n in mechanism.passive}).names

@@ -122,7 +122,8 @@ def regular_solution(gosselin_report):
     return dict(zip(gosselin_report.unknowns, s.angles))
 
 
-@pytest.mark.parametrize("pruner, backend", [("pp", None), ("lp", "highspy"), ("lp", "highs"), ("lp", "clarabel")])
+@pytest.mark.parametrize("pruner, backend", [("pp", None), ("hybrid", None), ("lp", "highspy"), ("lp", "highs"),
+                                             ("lp", "clarabel")])
 class TestEveryPruner:
     def test_finds_the_solution(self, pruner, backend, regular_solution):
         build, ranges = _narrow(gosselin(), regular_solution, 0.15)
@@ -142,9 +143,10 @@ class TestEveryPruner:
 def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_solution):
     build, ranges = _narrow(gosselin(), regular_solution, 0.15)
     rep = solve_system(build, ranges, formulation="paper", tol=1e-3)
-    assert len(rep.solutions) == 1
-    np.testing.assert_allclose(rep.solutions[0].angles, list(regular_solution.values()), atol=2e-3)
-    assert rep.solutions[0].n_boxes > 1  # the double root leaves a cloud of boxes (measured, not assumed)
+    assert len(rep.solutions) >= 1      # unpolished clusters: solve() polishes and merges them
+    for sol in rep.solutions:  # a double root: boxes survive ~sqrt(hull slack) away, beyond tol
+        np.testing.assert_allclose(sol.angles, list(regular_solution.values()), atol=2e-2)
+    assert sum(s.n_boxes for s in rep.solutions) > 10  # the double root leaves a cloud of boxes
 
 
 # ---------------------------------------------------------------- charts, caps, bad input

@@ -1,0 +1,264 @@
+"""Tests for spherekin.formulations against independent derivations.
+
+* embed: a random loop tensor evaluated at a loop's own coordinates equals the embedded tensor
+  evaluated at global points (the loop's coordinates are a permuted subset of the global ones);
+* the equation blocks evaluated with the Bernstein core equal q_n times entries of the closure
+  matrix computed by direct numeric matrix products (rotations.normalized_closure);
+* closed configurations are built from random spherical polygons measured from their vertices
+  (verification.spherical, first principles) and normalized by the corrected Eq. (2) rule;
+  there every equation vanishes; at F = diag(1, -1, -1) only the transversal entries vanish;
+* the transversal entries have a Jacobian of rank 3 at a regular closed configuration (finite
+  differences of the numeric matrix product), while the scalar equation has a double root.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from spherekin import bernstein
+from spherekin.closure import ClosureLoop, Unknown
+from spherekin.formulations import FORMULATIONS, embed, formulate
+from spherekin.rotations import normalize_polygon, normalized_closure
+from verification.spherical import exterior_angles, random_polygon, side_lengths
+
+#: Closure at a random polygon's normalized angles holds to rounding (products of ~10 rotations).
+CLOSURE_TOL = 1e-12
+#: An equation "vanishes" when its value is below this fraction of its largest control point.
+ROOT_REL_TOL = 1e-12
+#: Central finite-difference step in unit-box coordinates (error ~ h^2 ~ 1e-10 relative).
+FD_STEP = 1e-5
+#: Agreement of finite-difference Jacobians (truncation ~h^2 plus rounding ~eps/h).
+FD_TOL = 1e-7
+
+
+# ---------------------------------------------------------------- closed loops from polygons
+
+def closed_polygon_angles(rng, m):
+    """phi_1..phi_2m of a random closed spherical m-gon (Eq. 2, corrected index rule)."""
+    vertices = random_polygon(rng, m)
+    phis = normalize_polygon(side_lengths(vertices), exterior_angles(vertices))
+    assert np.abs(normalized_closure(phis) - np.eye(3)).max() < CLOSURE_TOL
+    return phis
+
+
+def wrap(angle):
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def new_unknown(rng, name, theta):
+    """An Unknown whose range contains theta strictly inside (width < 2.4 rad)."""
+    return Unknown(name, theta - rng.uniform(0.3, 1.2), theta + rng.uniform(0.3, 1.2))
+
+
+def factor_for(unknown, theta, phi, kind):
+    """A factor of angle phi when unknown = theta: theta itself, theta + offset or offset - theta."""
+    if kind == "plain":
+        assert abs(wrap(phi - theta)) < 1e-15
+        return unknown
+    if kind == "plus":
+        return unknown + (phi - theta)
+    if kind == "minus":
+        return (phi + theta) - unknown
+    raise AssertionError(kind)
+
+
+def loop_from(phis, assignments):
+    """ClosureLoop with phis as known factors except assignments {index: (unknown, theta, kind)}."""
+    return ClosureLoop([factor_for(*assignments[i][:2], phi, assignments[i][2]) if i in assignments else float(phi)
+                        for i, phi in enumerate(phis)])
+
+
+def closed_single_loop(seed):
+    """One closed loop (triangle, 6 factors) with 3 unknowns of mixed kinds, and its true angles."""
+    rng = np.random.default_rng(seed)
+    phis = closed_polygon_angles(rng, 3)
+    idx = sorted(rng.choice(6, size=3, replace=False))
+    kinds = ["plain", "plus", "minus"]
+    assignments, truth = {}, {}
+    for j, (i, kind) in enumerate(zip(idx, kinds)):
+        theta = wrap(phis[i]) if kind == "plain" else rng.uniform(-2.5, 2.5)
+        u = new_unknown(rng, f"u{j}", theta)
+        assignments[i] = (u, theta, kind)
+        truth[u] = theta
+    return phis, assignments, truth
+
+
+def closed_two_loops(seed):
+    """Two closed loops (a quadrilateral and a triangle) sharing one unknown, plus an unknown in
+    neither loop; global unknowns in an order unrelated to the loops' axis orders."""
+    rng = np.random.default_rng(seed)
+    pa, pb = closed_polygon_angles(rng, 4), closed_polygon_angles(rng, 3)
+    thetas = rng.uniform(-2.5, 2.5, 5)
+    s, a1, a2, b1, idle = (new_unknown(rng, nm, th) for nm, th in zip(("s", "a1", "a2", "b1", "idle"), thetas))
+    truth = dict(zip((s, a1, a2, b1, idle), thetas))
+    loop_a = loop_from(pa, {1: (a2, truth[a2], "minus"), 4: (s, truth[s], "plus"), 6: (a1, truth[a1], "plus")})
+    loop_b = loop_from(pb, {0: (b1, truth[b1], "minus"), 3: (s, truth[s], "minus")})
+    unknowns = (b1, idle, a1, s, a2)
+    return (loop_a, loop_b), unknowns, truth
+
+
+def unit_coords(unknowns, truth):
+    return np.array([float(u.to_unit(truth[u])) for u in unknowns])
+
+
+def q_of(loop, x_loop):
+    """q_n = prod (1 + t_k^2) over the loop's unknowns, t_k = t_lo + (t_hi - t_lo) x_k (Prop. 1)."""
+    q = np.ones(x_loop.shape[:-1])
+    for k, u in enumerate(loop.unknowns):
+        t_lo, t_hi = u.t_range
+        t = t_lo + (t_hi - t_lo) * x_loop[..., k]
+        q = q * (1 + t * t)
+    return q
+
+
+def numeric_equations(loop, x_loop, formulation):
+    """Values of the formulation's equations from the numeric closure matrix, shape (..., E)."""
+    f = loop.closure_matrix(x_loop)
+    q = q_of(loop, x_loop)
+    scalar = q * (f[..., 0, 0] + f[..., 1, 1] - 2.0)
+    if formulation == "paper":
+        return scalar[..., None]
+    return np.stack([q * f[..., 1, 0], q * f[..., 2, 0], q * f[..., 2, 1], scalar], axis=-1)
+
+
+def loop_positions(loop, unknowns):
+    return [next(i for i, g in enumerate(unknowns) if g is u) for u in loop.unknowns]
+
+
+# ---------------------------------------------------------------- embed
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_embed_matches_loop_coordinates(seed):
+    rng = np.random.default_rng(seed)
+    loops, unknowns, _ = closed_two_loops(seed)
+    x = rng.uniform(0, 1, size=(20, len(unknowns)))
+    for loop in loops:
+        k = len(loop.unknowns)
+        tensor = rng.normal(size=(2,) + (3,) * k)   # asymmetric, so a wrong axis order shows
+        out = embed(loop, tensor, unknowns)
+        pos = loop_positions(loop, unknowns)
+        assert out.shape == (2,) + tuple(3 if i in pos else 1 for i in range(len(unknowns)))
+        np.testing.assert_allclose(bernstein.evaluate(out, x, nvars=len(unknowns)),
+                                   bernstein.evaluate(tensor, x[:, pos], nvars=k), rtol=1e-12, atol=1e-12)
+
+
+def test_embed_rejects_foreign_unknown():
+    loops, unknowns, _ = closed_two_loops(0)
+    lookalike = Unknown("s", -1.0, 1.0)  # same name as the shared unknown, different object
+    others = tuple(lookalike if u.name == "s" else u for u in unknowns)
+    with pytest.raises(ValueError, match="'s'"):
+        embed(loops[0], loops[0].scalar_control_points(), others)
+
+
+# ---------------------------------------------------------------- blocks vs numeric products
+
+@pytest.mark.parametrize("formulation", sorted(FORMULATIONS))
+def test_blocks_equal_numeric_closure_entries(formulation):
+    rng = np.random.default_rng(5)
+    loops, unknowns, _ = closed_two_loops(3)
+    blocks = formulate(formulation, loops, unknowns)
+    assert [b.loop_index for b in blocks] == [0, 1]
+    x = rng.uniform(0, 1, size=(25, len(unknowns)))
+    for block, loop in zip(blocks, loops):
+        pos = loop_positions(loop, unknowns)
+        assert block.variables == tuple(sorted(pos))
+        expected = numeric_equations(loop, x[:, pos], formulation)          # (P, E)
+        got = bernstein.evaluate(block.coeffs, x, nvars=len(unknowns)).T    # (P, E)
+        assert got.shape == expected.shape == (25, len(block.labels))
+        np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-12 * block.scale.max())
+        # convex-hull property: |value| <= scale = max |control point| on the unit box
+        assert np.all(np.abs(got) <= block.scale * (1 + 1e-12))
+
+
+# ---------------------------------------------------------------- closed configurations
+
+@pytest.mark.parametrize("formulation", sorted(FORMULATIONS))
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_equation_vanishes_at_closure(formulation, seed):
+    loops, unknowns, truth = closed_two_loops(seed)
+    x = unit_coords(unknowns, truth)
+    assert np.all((x > 0) & (x < 1))
+    for block in formulate(formulation, loops, unknowns):
+        vals = bernstein.evaluate(block.coeffs, x, nvars=len(unknowns))
+        assert np.all(np.abs(vals) <= ROOT_REL_TOL * block.scale), (block.labels, vals, block.scale)
+    # control: moving one shared unknown away from closure makes some equation clearly nonzero
+    off = x.copy()
+    off[[u.name for u in unknowns].index("s")] += 0.05
+    worst = max(np.max(np.abs(bernstein.evaluate(b.coeffs, off, nvars=len(unknowns))) / b.scale)
+                for b in formulate(formulation, loops, unknowns))
+    assert worst > 1e-4
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rotation_by_pi_keeps_transversal_zero_but_not_scalar(seed):
+    """F = Rx(pi) F_closed = diag(1, -1, -1): the transversal entries vanish, f11 + f22 - 2 = -2."""
+    phis, assignments, truth = closed_single_loop(seed)
+    shifted = phis.copy()
+    shifted[0] += math.pi
+    if assignments.get(0, (None, None, ""))[2] == "plain":  # an unknown factor: pi goes into an offset
+        u, theta, _ = assignments[0]
+        assignments = {**assignments, 0: (u, theta, "plus")}
+    loop = loop_from(shifted, assignments)
+    unknowns = loop.unknowns
+    x = unit_coords(unknowns, truth)
+    np.testing.assert_allclose(loop.closure_matrix(x), np.diag([1.0, -1.0, -1.0]), atol=1e-12)
+    (block,) = formulate("transversal", [loop], unknowns)
+    vals = bernstein.evaluate(block.coeffs, x, nvars=len(unknowns))
+    assert np.all(np.abs(vals[:3]) <= ROOT_REL_TOL * block.scale[:3])
+    np.testing.assert_allclose(vals[3], -2.0 * q_of(loop, x), rtol=1e-12)
+    (paper_block,) = formulate("paper", [loop], unknowns)
+    np.testing.assert_allclose(bernstein.evaluate(paper_block.coeffs, x, nvars=len(unknowns))[0],
+                               -2.0 * q_of(loop, x), rtol=1e-12)
+
+
+def central_jacobian(fun, x, h=FD_STEP):
+    cols = []
+    for k in range(len(x)):
+        e = np.zeros(len(x))
+        e[k] = h
+        cols.append((fun(x + e) - fun(x - e)) / (2 * h))
+    return np.stack(cols, axis=-1)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_transversal_jacobian_full_rank_and_scalar_double_root(seed):
+    phis, assignments, truth = closed_single_loop(seed)
+    loop = loop_from(phis, assignments)
+    unknowns = loop.unknowns
+    x = unit_coords(unknowns, truth)
+    (block,) = formulate("transversal", [loop], unknowns)
+
+    def bern(z):
+        return bernstein.evaluate(block.coeffs, z, nvars=3)
+
+    def numeric(z):
+        return numeric_equations(loop, z, "transversal")
+
+    j_bern, j_num = central_jacobian(bern, x), central_jacobian(numeric, x)
+    scale = block.scale.max()
+    np.testing.assert_allclose(j_bern, j_num, atol=FD_TOL * scale)
+    sv = np.linalg.svd(j_num[:3], compute_uv=False)
+    assert sv[-1] > 1e-3 * sv[0], sv                       # simple root of the transversal entries
+    # the scalar equation f11 + f22 - 2 <= 0 (trace of a rotation block) has a double root there
+    assert np.abs(j_num[3]).max() < 1e-6 * scale
+    rng = np.random.default_rng(seed)
+    near = np.clip(x + rng.uniform(-0.05, 0.05, size=(50, 3)), 0, 1)
+    assert np.all(bern(near)[3] <= 1e-12 * scale)
+
+
+# ---------------------------------------------------------------- input validation
+
+def test_unknown_formulation_name_lists_valid_ones():
+    loops, unknowns, _ = closed_two_loops(0)
+    with pytest.raises(ValueError) as err:
+        formulate("bogus", loops, unknowns)
+    for name in FORMULATIONS:
+        assert repr(name) in str(err.value) or name in str(err.value)
+    assert "bogus" in str(err.value)
+
+
+def test_no_loops_is_an_error():
+    _, unknowns, _ = closed_two_loops(0)
+    with pytest.raises(ValueError, match="loops"):
+        formulate("transversal", [], unknowns)
