@@ -36,11 +36,13 @@ CHART_CENTRE = (-2.0, 1.0, -1.0, 1.0, -1.0, 2.0)
 
 # (problem, formulation, pruner, lp_backend, tol)
 CONFIGS = [
-    ("full", "transversal", "pp", None, 1e-6),      # the default: the baseline of the ratios
-    ("full", "transversal", "pp", None, 1e-9),
-    ("full", "transversal", "pp", None, 1e-3),
+    ("full", "transversal", "hybrid", None, 1e-6),  # the default: the baseline of the ratios
+    ("full", "transversal", "pp", None, 1e-6),
+    ("full", "transversal", "hybrid", None, 1e-9),
+    ("full", "transversal", "hybrid", None, 1e-3),
     ("full", "paper", "pp", None, 1e-3),
     ("full", "paper", "pp", None, 1e-6),
+    ("chart", "transversal", "hybrid", None, 1e-6),
     ("chart", "transversal", "pp", None, 1e-6),
     ("chart", "transversal", "lp", "highspy", 1e-6),
     ("chart", "transversal", "lp", "highs", 1e-6),
@@ -49,7 +51,7 @@ CONFIGS = [
     ("chart", "paper", "lp", "highspy", 1e-3),
     ("chart", "paper", "lp", "clarabel", 1e-3),        # the paper-faithful mode
 ]
-QUICK = [0, 3, 5, 6, 9]
+QUICK = [0, 4, 6, 8, 11]
 
 #: A configuration is stopped (and reported) past this many boxes: it is a measure of failure.
 MAX_BOXES = 300_000
