@@ -253,6 +253,8 @@ def variable_factor(t_lo, t_hi, cos_shift=1, sin_shift=0, sign=1) -> FactorPolyn
     Returns length-3 Bernstein arrays; exact if the inputs are Fractions.
     """
     a, w = t_lo, t_hi - t_lo
+    if not _is_exact(t_lo, t_hi, cos_shift, sin_shift):
+        return _variable_factor_float(float(a), float(w), float(cos_shift), float(sin_shift), sign)
     one_plus = np.array([1 + a * a, 2 * a * w, w * w], dtype=object)      # 1 + t^2 in powers of x
     one_minus = np.array([1 - a * a, -2 * a * w, -w * w], dtype=object)   # 1 - t^2
     two_t = np.array([2 * a, 2 * w, 0 * w], dtype=object)                 # 2 t
@@ -260,6 +262,22 @@ def variable_factor(t_lo, t_hi, cos_shift=1, sin_shift=0, sign=1) -> FactorPolyn
     s_pow = sin_shift * one_minus + sign * cos_shift * two_t
     dtype = object if _is_exact(t_lo, t_hi, cos_shift, sin_shift) else float
     return FactorPolynomials(*(bernstein.from_power(p.astype(dtype)) for p in (one_plus, c_pow, s_pow)))
+
+
+def _variable_factor_float(a: float, w: float, cd: float, sd: float, sign: int) -> FactorPolynomials:
+    """Float fast path of :func:`variable_factor` (the solver builds thousands of factors).
+
+    For p(x) = p0 + p1 x + p2 x^2 the degree-2 Bernstein coefficients are (p0, p0 + p1/2,
+    p0 + p1 + p2); with t = a + w x: 1 + t^2 -> (1 + a^2, 2aw, w^2), 1 - t^2 -> (1 - a^2, -2aw, -w^2),
+    2t -> (2a, 2w, 0). Same formulas as the exact path, evaluated in floats.
+    """
+    pw = np.array([[1 + a * a, 2 * a * w, w * w], [1 - a * a, -2 * a * w, -w * w], [2 * a, 2 * w, 0.0]])
+    one_plus, one_minus, two_t = pw
+    c_pow = cd * one_minus - sign * sd * two_t
+    s_pow = sd * one_minus + sign * cd * two_t
+    p = np.stack([one_plus, c_pow, s_pow])
+    b = np.stack([p[:, 0], p[:, 0] + 0.5 * p[:, 1], p[:, 0] + p[:, 1] + p[:, 2]], axis=1)
+    return FactorPolynomials(b[0], b[1], b[2])
 
 
 def _is_exact(*values) -> bool:

@@ -1,19 +1,28 @@
 """Formulations: which polynomial equations of each loop the solver works on (Section 2.2 and beyond).
 
-A formulation turns closure loops into *equation blocks*: for each loop, a stack of Bernstein
-tensors over the global unit box [0, 1]^n of all unknowns. An unknown that a loop does not contain
-gets a tensor axis of length 1 (degree 0), so every block has n polynomial axes and the Bernstein
+A formulation turns the loop polynomials of a parameterization (:class:`LoopPolynomials`, built by
+:mod:`spherekin.parameterizations`) into *equation blocks*: for each loop, a stack of Bernstein
+tensors over the global unit box [0, 1]^N of all variables. A variable that a loop does not contain
+gets a tensor axis of length 1 (degree 0), so every block has N polynomial axes and the Bernstein
 core can restrict all of them to a batch of boxes in one call.
 
 * ``paper``: the scalar closure equation of Eq. (10), f = f11bar + f22bar - 2 q_n, one per loop.
   f <= 0 everywhere and f = 0 exactly at closure, so every root is a double root (a maximum): the
   hull-based pruning converges only linearly there (measured in the benchmarks).
-* ``transversal``: per loop the three strictly lower-triangular entries q_n f21, q_n f31, q_n f32 of
-  q_n F_n, which vanish at F = I with a Jacobian of full rank on so(3) (F = I + [w]x gives
-  (f21, f31, f32) = (w_z, -w_y, w_x)), so roots are simple where the mechanism is regular; plus the
-  scalar equation, which removes the spurious upper-triangular rotations diag(1, -1, -1),
-  diag(-1, 1, -1), diag(-1, -1, 1). This departs from the paper (Section 5 asks for better
-  conditioned formulations).
+* ``transversal``: per loop the three strictly lower-triangular entries q f21, q f31, q f32 of
+  q F_n (q = q_n for tan-half, 1 for sin-cos), which vanish at F = I with a Jacobian of full rank
+  on so(3) (F = I + [w]x gives (f21, f31, f32) = (w_z, -w_y, w_x)), so roots are simple where the
+  mechanism is regular; plus the scalar equation, which removes the spurious upper-triangular
+  rotations diag(1, -1, -1), diag(-1, 1, -1), diag(-1, -1, 1). This departs from the paper
+  (Section 5 asks for better conditioned formulations).
+* ``halves``: per loop, the same three transversal entries (the square system of simple roots)
+  plus the nine entries of the loop closed "in the middle": with P the product of the first
+  factors of the loop (up to its floor(k/2)-th unknown) and S the product of the rest, F = P S = I
+  exactly when P = S^T, i.e. when all nine entries of q_b (q_a P) - q_a (q_b S)^T vanish (no
+  spurious roots, so Eq. (10) is not needed). Each half depends on only half of the loop's
+  unknowns, so its Bernstein enclosure over a large box is far tighter than that of the full
+  product: on the Gosselin platform this cuts the boxes processed 3x (benchmarks/README.md). An
+  addition to the paper.
 """
 
 from __future__ import annotations
@@ -25,7 +34,8 @@ import numpy as np
 
 from .closure import ClosureLoop, Unknown
 
-__all__ = ["EquationBlock", "FORMULATIONS", "TRANSVERSAL_ENTRIES", "formulate", "embed"]
+__all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "FORMULATIONS", "TRANSVERSAL_ENTRIES", "formulate",
+           "formulate_polynomials", "embed", "embed_axes"]
 
 #: Entries (row, column) of q_n F_n used by the transversal formulation (strictly lower triangle).
 TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))
@@ -33,22 +43,143 @@ TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))
 
 @dataclass(frozen=True)
 class EquationBlock:
-    """Equations of one loop, each = 0 at a solution, as Bernstein tensors on the unit box.
+    """Equations of one loop (or one side condition), each = 0 at a solution, on the unit box.
 
-    ``coeffs`` has shape (E, d_1, ..., d_n), d_k = 3 if the loop contains unknown k else 1;
-    ``labels`` names the E equations; ``scale`` (E,) is max |control point| on the whole unit box,
-    the magnitude that rounding errors of later restrictions are relative to.
+    ``coeffs`` has shape (E, d_1, ..., d_N) over the N variables of the parameterization, d_k = 1
+    where the block does not depend on variable k; ``labels`` names the E equations; ``scale`` (E,)
+    is max |control point| on the whole unit box, the magnitude that rounding errors of later
+    restrictions are relative to; ``square`` lists the equations that belong to the square system
+    of simple roots used by the Krawczyk test (:mod:`spherekin.isolation`); ``loop_index`` is -1
+    for a side condition such as the sin-cos circle equation. ``bilinear``, when present, gives
+    the same equations as sums of outer products of the loop's two halves (:class:`Bilinear`),
+    which the solver restricts far more cheaply than ``coeffs``; ``scale`` then also bounds the
+    terms of those sums, so that it bounds the rounding of either evaluation.
     """
 
     loop_index: int
     labels: tuple[str, ...]
     coeffs: np.ndarray
     scale: np.ndarray
+    square: tuple[int, ...] = ()
+    bilinear: "Bilinear | None" = None
 
     @property
     def variables(self) -> tuple[int, ...]:
-        """Global indices of the unknowns this block depends on."""
+        """Global indices of the variables this block depends on."""
         return tuple(k for k, d in enumerate(self.coeffs.shape[1:]) if d > 1)
+
+
+@dataclass(frozen=True)
+class LoopPolynomials:
+    """The polynomials of one loop in some parameterization (:mod:`spherekin.parameterizations`).
+
+    ``matrix`` (3, 3, *dims): control points of q F_n (F_n of Eq. 2); ``q`` (*dims): those of the
+    cleared denominator (q_n = prod (1 + t_k^2) for tan-half, 1 for sin-cos); ``scalar``: the
+    control points of Eq. (10) by the paper's recursion route, or None where the parameterization
+    has none (then it is read off ``matrix``). Tensor axis a is global variable ``variables[a]``.
+    ``half_a`` (10, *dims_a) and ``half_b`` (10, *dims_b): the loop cut in the middle, F_n = P S
+    with P the product of the factors up to the floor(k/2)-th unknown: rows 0..8 are the entries
+    (row-major) of q_a P and q_b S, row 9 is q_a or q_b; their axes are the first and the last
+    unknowns of ``variables``. None for a loop with one unknown.
+    """
+
+    loop_index: int
+    variables: tuple[int, ...]
+    matrix: np.ndarray
+    q: np.ndarray
+    scalar: np.ndarray | None = None
+    half_a: np.ndarray | None = None
+    half_b: np.ndarray | None = None
+
+    @property
+    def split(self) -> int:
+        """Number of the loop's unknowns (axes) in half a."""
+        return self.half_a.ndim - 1 if self.half_a is not None else 0
+
+
+@dataclass(frozen=True)
+class Bilinear:
+    """Equations E_e = sum_t coef_t a[u_t] (x) b[v_t] in the control points of a loop's halves.
+
+    ``a`` (U, *dims_a) and ``b`` (V, *dims_b) on the global variables ``a_vars``, ``b_vars``
+    (disjoint); ``terms`` (T, 4) rows (e, u, v, coef). A product of polynomials in disjoint
+    variables has the outer product of their control points as control points, so restricting
+    a and b to a box and assembling gives the equations' control points on that box.
+    """
+
+    a_vars: tuple[int, ...]
+    b_vars: tuple[int, ...]
+    a: np.ndarray
+    b: np.ndarray
+    terms: np.ndarray
+
+    @property
+    def n_equations(self) -> int:
+        return int(self.terms[:, 0].max()) + 1
+
+    def assemble(self, a: np.ndarray | None = None, b: np.ndarray | None = None) -> np.ndarray:
+        """Control points (E, *dims_a, *dims_b, *batch) from a (U, *dims_a, *batch), b (V, *dims_b, *batch).
+
+        Batch axes (if any) are last and must agree; defaults are the unit-box halves.
+        """
+        a = self.a if a is None else a
+        b = self.b if b is None else b
+        na, nb = len(self.a_vars), len(self.b_vars)
+        batch = a.shape[1 + na:]
+        da, db = a.shape[1:1 + na], b.shape[1:1 + nb]
+        e, u, v = (self.terms[:, i].astype(int) for i in range(3))
+        af = a.reshape((a.shape[0], -1) + (1,) + batch)[u]                  # (T, Ia, 1, *batch)
+        bf = b.reshape((b.shape[0], 1, -1) + batch)[v]                      # (T, 1, Jb, *batch)
+        outer = (af * bf).reshape(len(e), -1)
+        w = np.zeros((self.n_equations, len(e)))
+        w[e, np.arange(len(e))] = self.terms[:, 3]
+        return (w @ outer).reshape((self.n_equations,) + da + db + batch)
+
+    def magnitude(self) -> np.ndarray:
+        """Per equation, sum_t |coef_t| max|a[u_t]| max|b[v_t]|: bounds every term of the sums on
+        every sub-box (restricted control points are convex combinations), hence their rounding."""
+        amax = np.abs(self.a).reshape(len(self.a), -1).max(axis=1)
+        bmax = np.abs(self.b).reshape(len(self.b), -1).max(axis=1)
+        e, u, v = (self.terms[:, i].astype(int) for i in range(3))
+        out = np.zeros(self.n_equations)
+        np.add.at(out, e, np.abs(self.terms[:, 3]) * amax[u] * bmax[v])
+        return out
+
+
+#: Rows of a loop half: the entry (r, c) of q P (or q S) is row 3 r + c; the denominator is row Q.
+Q = 9
+
+
+def _entry_terms(e: int, r: int, c: int) -> list:
+    """Terms of q F_rc = sum_k (q_a P)_rk (q_b S)_kc."""
+    return [(e, 3 * r + k, 3 * k + c, 1.0) for k in range(3)]
+
+
+def _scalar_terms(e: int) -> list:
+    """Terms of Eq. (10): q F_11 + q F_22 - 2 q."""
+    return _entry_terms(e, 0, 0) + _entry_terms(e, 1, 1) + [(e, Q, Q, -2.0)]
+
+
+def _halves_terms(e: int, r: int, c: int) -> list:
+    """Terms of q_b (q_a P)_rc - q_a (q_b S)_cr (vanish for all r, c exactly when P = S^T)."""
+    return [(e, 3 * r + c, Q, 1.0), (e, Q, 3 * c + r, -1.0)]
+
+
+def embed_axes(tensor: np.ndarray, variables: Sequence[int], n_vars: int) -> np.ndarray:
+    """Place a tensor whose last len(variables) axes are the given global variables on all n_vars axes.
+
+    Axes of absent variables get length 1; axes are permuted into global order. Shape (..., n_vars).
+    """
+    k = len(variables)
+    if len(set(variables)) != k or any(not 0 <= v < n_vars for v in variables):
+        raise ValueError(f"variables: expected distinct indices in [0, {n_vars}), got {tuple(variables)}")
+    lead = tensor.ndim - k
+    order = np.argsort(variables)
+    out = np.transpose(tensor, tuple(range(lead)) + tuple(lead + int(i) for i in order))
+    shape = list(tensor.shape[:lead]) + [1] * n_vars
+    for a, v in enumerate(variables):
+        shape[lead + v] = tensor.shape[lead + a]
+    return out.reshape(shape)
 
 
 def embed(loop: ClosureLoop, tensor: np.ndarray, unknowns: Sequence[Unknown]) -> np.ndarray:
@@ -56,53 +187,102 @@ def embed(loop: ClosureLoop, tensor: np.ndarray, unknowns: Sequence[Unknown]) ->
 
     Axes of absent unknowns get length 1; axes are permuted into global order. Shape (..., n).
     """
-    k = len(loop.unknowns)
-    lead = tensor.ndim - k
     pos = []
     for u in loop.unknowns:
         try:
             pos.append(next(i for i, g in enumerate(unknowns) if g is u))
         except StopIteration:
             raise ValueError(f"unknowns: loop unknown {u.name!r} is not among the system's unknowns") from None
-    order = np.argsort(pos)
-    out = np.transpose(tensor, tuple(range(lead)) + tuple(lead + int(i) for i in order))
-    shape = list(tensor.shape[:lead]) + [1] * len(unknowns)
-    for i in sorted(pos):
-        shape[lead + i] = 3
-    return out.reshape(shape)
+    return embed_axes(tensor, pos, len(unknowns))
 
 
-def _block(index: int, loop: ClosureLoop, unknowns, labels, tensors) -> EquationBlock:
-    coeffs = embed(loop, np.stack(tensors), unknowns)
+def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, square=(), terms=None) -> EquationBlock:
+    """A block from dense tensors (loop axes), or, with ``terms``, from the bilinear form in the halves."""
+    bil = None
+    if terms is not None and lp.half_a is not None:
+        k = lp.split
+        bil = Bilinear(tuple(lp.variables[:k]), tuple(lp.variables[k:]), lp.half_a, lp.half_b,
+                       np.array(terms, dtype=float))
+        tensors = list(bil.assemble())
+    coeffs = embed_axes(np.stack(np.broadcast_arrays(*tensors)), lp.variables, n_vars)
     scale = np.abs(coeffs).reshape(len(tensors), -1).max(axis=1)
-    return EquationBlock(index, tuple(labels), coeffs, scale)
+    if bil is not None:
+        scale = np.maximum(scale, bil.magnitude())
+    return EquationBlock(lp.loop_index, tuple(labels), coeffs, scale, tuple(square), bil)
 
 
-def paper(loops: Sequence[ClosureLoop], unknowns: Sequence[Unknown]) -> list[EquationBlock]:
-    """One scalar equation per loop (Eq. 10), by the paper's recursion route."""
-    return [_block(j, lp, unknowns, [f"loop{j + 1}:f11+f22-2q"], [lp.scalar_control_points("recursion")])
-            for j, lp in enumerate(loops)]
+def _scalar(lp: LoopPolynomials) -> np.ndarray:
+    """Eq. (10): f11bar + f22bar - 2 q (the paper's recursion route when available)."""
+    if lp.scalar is not None:
+        return lp.scalar
+    return lp.matrix[0, 0] + lp.matrix[1, 1] - 2 * lp.q
 
 
-def transversal(loops: Sequence[ClosureLoop], unknowns: Sequence[Unknown]) -> list[EquationBlock]:
-    """Per loop q f21, q f31, q f32 (simple roots) plus the scalar equation (removes spurious roots)."""
+def paper(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+    """One scalar equation per loop (Eq. 10)."""
+    return [_block(lp, n_vars, [f"loop{lp.loop_index + 1}:f11+f22-2q"], [_scalar(lp)]) for lp in polys]
+
+
+def transversal(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+    """Per loop q f21, q f31, q f32 (simple roots; the square system) plus Eq. (10) (removes spurious roots)."""
     blocks = []
-    for j, lp in enumerate(loops):
-        m = lp.matrix_control_points()
-        q = lp.q_control_points()
-        tensors = [m[r, c] for r, c in TRANSVERSAL_ENTRIES] + [m[0, 0] + m[1, 1] - 2 * q]
-        labels = [f"loop{j + 1}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES] + [f"loop{j + 1}:f11+f22-2q"]
-        blocks.append(_block(j, lp, unknowns, labels, tensors))
+    for lp in polys:
+        j = lp.loop_index + 1
+        tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES] + [_scalar(lp)]
+        labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES] + [f"loop{j}:f11+f22-2q"]
+        terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
+        terms += _scalar_terms(len(TRANSVERSAL_ENTRIES))
+        blocks.append(_block(lp, n_vars, labels, tensors, square=range(len(TRANSVERSAL_ENTRIES)), terms=terms))
     return blocks
 
 
-FORMULATIONS = {"paper": paper, "transversal": transversal}
+def halves(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+    """Per loop q f21, q f31, q f32 (the square system) plus the nine entries of q_b q_a (P - S^T)."""
+    blocks = []
+    for lp in polys:
+        j = lp.loop_index + 1
+        tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES]
+        labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES]
+        terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
+        if lp.half_a is None:  # one unknown: no middle to close the loop at; Eq. (10) removes spurious roots
+            tensors.append(_scalar(lp))
+            labels.append(f"loop{j}:f11+f22-2q")
+            terms = None
+        else:
+            e0 = len(TRANSVERSAL_ENTRIES)
+            labels += [f"loop{j}:P{r + 1}{c + 1}-S{c + 1}{r + 1}" for r in range(3) for c in range(3)]
+            terms += [t for r in range(3) for c in range(3) for t in _halves_terms(e0 + 3 * r + c, r, c)]
+        blocks.append(_block(lp, n_vars, labels, tensors, square=range(len(TRANSVERSAL_ENTRIES)), terms=terms))
+    return blocks
+
+
+FORMULATIONS = {"paper": paper, "transversal": transversal, "halves": halves}
+
+
+def formulate_polynomials(name: str, polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+    """Equation blocks of the formulation called ``name`` (one of FORMULATIONS) from loop polynomials."""
+    if name not in FORMULATIONS:
+        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {name!r}")
+    if not polys:
+        raise ValueError("loops: expected at least one closure loop, got none")
+    return FORMULATIONS[name](polys, n_vars)
 
 
 def formulate(name: str, loops: Sequence[ClosureLoop], unknowns: Sequence[Unknown]) -> list[EquationBlock]:
-    """Equation blocks of the formulation called ``name`` (one of FORMULATIONS)."""
+    """Equation blocks of formulation ``name`` for tan-half loops (the paper's parameterization)."""
     if name not in FORMULATIONS:
         raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {name!r}")
     if not loops:
         raise ValueError("loops: expected at least one closure loop, got none")
-    return FORMULATIONS[name](loops, unknowns)
+    from .parameterizations import tan_half_loop
+
+    polys = []
+    for j, lp in enumerate(loops):
+        pos = []
+        for u in lp.unknowns:
+            try:
+                pos.append(next(i for i, g in enumerate(unknowns) if g is u))
+            except StopIteration:
+                raise ValueError(f"unknowns: loop unknown {u.name!r} is not among the system's unknowns") from None
+        polys.append(tan_half_loop(j, lp, pos))
+    return formulate_polynomials(name, polys, len(unknowns))

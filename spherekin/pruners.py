@@ -1,9 +1,11 @@
 """Pruners: from the control points of a box, a sub-box that contains every root in it (Section 4, step 2).
 
 One small interface, chosen by name (:func:`make_pruner`): ``reduce(cps, tols)`` takes, for each
-equation block, the control points restricted to B boxes, shape (B, E, d_1, ..., d_n), and the
-absolute tolerances of the test "w = 0", shape (E,) or per box (B, E); it returns ``(lo, hi)`` of shape (B, n) in each box's
-own unit coordinates, with ``lo > hi`` in some coordinate marking a box that holds no root.
+equation block, the control points restricted to B boxes with the BATCH AXIS LAST, shape
+(E, d_1, ..., d_n, B) (the layout of :func:`spherekin.bernstein.restrict_batch_last`), and the
+absolute tolerances of the test "w = 0", shape (E,) or per box (E, B); it returns ``(lo, hi)`` of
+shape (B, n) in each box's own unit coordinates, with ``lo > hi`` in some coordinate marking a box
+that holds no root.
 
 * ``pp`` -- projected polyhedron: per equation and per variable k, the convex hull of the 2-D
   points (i_k / m_k, w_I) meets the band |w| <= tol on an interval of x_k; intersect over
@@ -57,43 +59,38 @@ def _hull_level_interval(s: np.ndarray, vals: np.ndarray, below: bool):
     return lo, hi
 
 
-def _gather_index(dims: tuple[int, ...]) -> tuple[tuple[int, ...], np.ndarray]:
-    """Variables k with d_k > 1 and, for each, the flat indices of the control points with i_k = i.
-
-    Returns (variables, idx) with idx of shape (|variables|, d, N / d); all d_k > 1 must be equal.
-    """
-    variables = tuple(k for k, d in enumerate(dims) if d > 1)
-    flat = np.arange(int(np.prod(dims))).reshape(dims)
-    idx = np.stack([np.moveaxis(flat, k, 0).reshape(dims[k], -1) for k in variables]) if variables \
-        else np.zeros((0, 1, 1), dtype=int)
-    return variables, idx
-
-
 def pp_intervals(cps: np.ndarray, tol, var: int | None = None):
     """Projected-polyhedron intervals for each box, equation and variable.
 
-    cps (B, E, d_1..d_n), tol (E,) or (B, E). For every variable k with d_k > 1 (all of them of
-    the same degree), the 2-D points (i_k / m_k, w_I) are reduced to the lowest and highest w at
-    each abscissa, whose hulls give the interval of x_k where |w| <= tol is reachable. Returns
-    (variables, lo, hi) with lo, hi of shape (B, E, |variables|); lo > hi where the equation
-    excludes the box. With ``var`` given, returns (lo, hi) of shape (B, E) for that variable only.
+    cps (E, d_1..d_n, B) (batch last), tol (E,) or (E, B). For every variable k with d_k > 1, the
+    2-D points (i_k / m_k, w_I) are reduced to the lowest and highest w at each abscissa, whose
+    hulls give the interval of x_k where |w| <= tol is reachable. Returns (variables, lo, hi) with
+    lo, hi of shape (E, |variables|, B); lo > hi where the equation excludes the box. With ``var``
+    given, returns (lo, hi) of shape (E, B) for that variable only.
     """
-    bsz, ne, dims = cps.shape[0], cps.shape[1], cps.shape[2:]
-    variables, idx = _gather_index(dims)
-    flat = cps.reshape(bsz, ne, -1)
-    pts = flat[:, :, idx]                                            # (B, E, V, d, N/d)
-    low, up = pts.min(axis=-1), pts.max(axis=-1)                     # (B, E, V, d)
-    s = np.linspace(0.0, 1.0, idx.shape[1])
-    t = np.broadcast_to(np.asarray(tol, dtype=float), (bsz, ne))[:, :, None, None]
-    lo1, hi1 = _hull_level_interval(s, low - t, below=True)
-    lo2, hi2 = _hull_level_interval(s, up + t, below=False)
-    lo, hi = np.maximum(lo1, lo2), np.minimum(hi1, hi2)
+    ne, dims, bsz = cps.shape[0], cps.shape[1:-1], cps.shape[-1]
+    variables = tuple(k for k, d in enumerate(dims) if d > 1)
+    t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(ne, -1), (ne, bsz))[:, None, :]
+    los, his = [], []
+    for k in variables:
+        d = dims[k]
+        v = cps.reshape(ne, int(np.prod(dims[:k], dtype=int)), d, -1, bsz)
+        low = np.moveaxis(v.min(axis=(1, 3)) - t, 1, -1)              # (E, B, d)
+        up = np.moveaxis(v.max(axis=(1, 3)) + t, 1, -1)
+        s = np.linspace(0.0, 1.0, d)
+        lo1, hi1 = _hull_level_interval(s, low, below=True)
+        lo2, hi2 = _hull_level_interval(s, up, below=False)
+        los.append(np.maximum(lo1, lo2))
+        his.append(np.minimum(hi1, hi2))
+    shape = (ne, 0, bsz)
+    lo = np.stack(los, axis=1) if los else np.zeros(shape)
+    hi = np.stack(his, axis=1) if his else np.zeros(shape)
     if var is None:
         return variables, lo, hi
     if var not in variables:
         raise ValueError(f"var: expected a variable of positive degree {variables}, got {var!r}")
     j = variables.index(var)
-    return lo[..., j], hi[..., j]
+    return lo[:, j], hi[:, j]
 
 
 class ProjectedPolyhedron:
@@ -102,20 +99,21 @@ class ProjectedPolyhedron:
     name = "pp"
 
     def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], widths=None):
-        bsz, n = cps[0].shape[0], cps[0].ndim - 2
-        lo, hi = np.zeros((bsz, n)), np.ones((bsz, n))
+        bsz, n = cps[0].shape[-1], cps[0].ndim - 2
+        lo, hi = np.zeros((n, bsz)), np.ones((n, bsz))
         excluded = np.zeros(bsz, dtype=bool)
         for c, tol in zip(cps, tols):
             # range exclusion: an equation whose control points all lie beyond the slab (this also
             # covers equations that depend on no variable, which have no projection to prune with)
-            flat = c.reshape(bsz, c.shape[1], -1)
-            t = np.broadcast_to(np.asarray(tol, dtype=float), (bsz, c.shape[1]))
-            excluded |= np.any((flat.min(axis=-1) > t) | (flat.max(axis=-1) < -t), axis=1)
+            flat = c.reshape(c.shape[0], -1, bsz)
+            t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
+            excluded |= np.any((flat.min(axis=1) > t) | (flat.max(axis=1) < -t), axis=0)
             variables, l, h = pp_intervals(c, tol)
             if variables:
                 v = list(variables)
-                lo[:, v] = np.maximum(lo[:, v], l.max(axis=1))
-                hi[:, v] = np.minimum(hi[:, v], h.min(axis=1))
+                lo[v] = np.maximum(lo[v], l.max(axis=0))
+                hi[v] = np.minimum(hi[v], h.min(axis=0))
+        lo, hi = lo.T, hi.T
         empty = np.any(lo > hi, axis=1) | excluded
         lo, hi = np.maximum(lo - INTERVAL_MARGIN, 0.0), np.minimum(hi + INTERVAL_MARGIN, 1.0)
         lo[empty], hi[empty] = 1.0, 0.0
@@ -133,10 +131,10 @@ class LinearProgramPruner:
         self.doubts = 0
 
     def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], widths=None):
-        bsz, n = cps[0].shape[0], cps[0].ndim - 2
+        bsz, n = cps[0].shape[-1], cps[0].ndim - 2
         lo, hi = np.zeros((bsz, n)), np.ones((bsz, n))
         for b in range(bsz):
-            res = self.backend.box_bounds([c[b] for c in cps], [t if np.ndim(t) == 1 else t[b] for t in tols])
+            res = self.backend.box_bounds([c[..., b] for c in cps], [t if np.ndim(t) == 1 else t[:, b] for t in tols])
             self.lp_count += res.lp_count
             self.doubts += res.doubts
             if res.empty:
@@ -179,7 +177,7 @@ class HybridPruner:
             stalled &= np.asarray(widths) < HYBRID_MAX_WIDTH
         if stalled.any():
             idx = np.flatnonzero(stalled)
-            llo, lhi = self.lp.reduce([c[idx] for c in cps], [t if np.ndim(t) == 1 else t[idx] for t in tols])
+            llo, lhi = self.lp.reduce([c[..., idx] for c in cps], [t if np.ndim(t) == 1 else t[:, idx] for t in tols])
             lo[idx], hi[idx] = np.maximum(lo[idx], llo), np.minimum(hi[idx], lhi)
         return lo, hi
 

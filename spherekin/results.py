@@ -11,7 +11,13 @@ __all__ = ["SolverStats", "AcceptedBox", "Solution", "SolveReport"]
 
 @dataclass(frozen=True)
 class SolverStats:
-    """Counters and timings of the box loop (seconds)."""
+    """Counters and timings of a solve (seconds).
+
+    ``isolated``: boxes proven by the Krawczyk test to hold exactly one root of the square system
+    (:mod:`spherekin.isolation`); ``spurious``: of those, the ones whose root is not a closure;
+    ``newton_failures``: isolated boxes Newton did not converge in (then subdivided as usual).
+    ``time_finalize``: polishing, certification and classification of the solutions.
+    """
 
     charts: int = 0
     boxes_processed: int = 0
@@ -19,12 +25,17 @@ class SolverStats:
     split: int = 0
     reduced_again: int = 0
     accepted: int = 0
+    isolated: int = 0
+    spurious: int = 0
+    newton_failures: int = 0
     lps_solved: int = 0
     lp_doubts: int = 0
     max_depth: int = 0
     time_setup: float = 0.0
     time_restrict: float = 0.0
     time_prune: float = 0.0
+    time_isolate: float = 0.0
+    time_finalize: float = 0.0
     time_total: float = 0.0
 
     def __add__(self, other: "SolverStats") -> "SolverStats":

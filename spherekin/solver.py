@@ -2,24 +2,31 @@
 
 Implements the algorithm of Section 4 with Eq. (12) (or a cheaper pruner) at step 2:
 
-1. map the joint ranges to the unit box and compute the control points of every equation;
-2. reduce a box B to a sub-box B' that holds all its roots (:mod:`spherekin.pruners`);
-3. discard B' if empty, accept it when every side is below the tolerance (radians), re-reduce it
-   when the reduction shrank it well (every side ratio <= :data:`SPLIT_RATIO`), otherwise bisect
-   its widest side.
+1. map the joint ranges to the unit box of a parameterization (:mod:`spherekin.parameterizations`:
+   the paper's tan-half-angle substitution, with charts, or the sin-cos form of Section 5) and
+   compute the control points of every equation (:mod:`spherekin.formulations`);
+2. reduce a box B to a sub-box B' that holds all its roots (:mod:`spherekin.pruners`), and, on
+   small boxes, apply the Krawczyk test of :mod:`spherekin.isolation`, which contracts the box
+   further and may prove that it holds exactly one root;
+3. discard B' if empty, accept it when every side is below the tolerance (radians), set it aside
+   when it is isolated (Newton then converges to its root), re-reduce it when the reduction shrank
+   it well (every side ratio <= :data:`SPLIT_RATIO`), otherwise bisect its widest side.
 
 Boxes are processed in batches (one numpy call restricts all control points to up to
-:data:`BATCH` boxes). Joint ranges wider than pi, and full circles, are covered by several charts
-(tan((theta - shift)/2) stays within [-1, 1] on each), so a root at theta = pi is found as t = 0
-of the chart centred at pi; touching boxes, also across charts, are merged into one solution.
-Departure from the paper: the paper always splits B'; re-reducing a well-shrunk box is the
-standard projected-polyhedron strategy and is what makes simple roots converge quadratically.
+:data:`BATCH` boxes, batch axis last). Tan-half joint ranges wider than pi, and full circles, are
+covered by several charts, so a root at theta = pi is found as t = 0 of the chart centred at pi;
+touching boxes, also across charts, are merged into one solution. With ``jobs > 1`` the charts are
+spread over worker processes; every box is processed the same way whatever the batch it lands
+in, so the solutions do not depend on ``jobs``.
+
+Departures from the paper: the paper always splits B'; re-reducing a well-shrunk box is the
+standard projected-polyhedron strategy and is what makes simple roots converge quadratically. The
+Krawczyk isolation is an addition (Section 5 asks for faster convergence).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 import time
 from typing import Callable, Mapping, Sequence
@@ -28,39 +35,48 @@ import numpy as np
 
 from . import bernstein
 from .closure import ClosureLoop, Unknown
-from .formulations import FORMULATIONS, formulate
+from .formulations import FORMULATIONS
+from .isolation import SquareSystem, krawczyk_boxes, newton
+from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
+                                make_charts)
 from .pruners import PRUNERS, make_pruner
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
 from .solutions import finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_TOL", "SPLIT_RATIO", "BATCH"]
+           "DEFAULT_TOL", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
+#: Default pruner: the fastest that finds every solution (benchmarks/README.md).
+DEFAULT_PRUNER = "pp"
 #: Default tolerance (radians): a box is accepted when every joint angle is known to within it.
 DEFAULT_TOL = 1e-6
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
+#: A box is bisected at this fraction of its widest side, not at 1/2: symmetric mechanisms put
+#: roots at the exact centre of a chart (theta = 0 or pi: the Gosselin platform's singular
+#: solutions), where midpoint splits would keep them on box faces for ever, so that no box could
+#: isolate them (the Krawczyk test needs the root inside) and each would be found as a cloud of
+#: 2^k tolerance-sized boxes. Any value not near a simple fraction works.
+SPLIT_POINT = 0.4917
 #: Boxes restricted and pruned per numpy call; large enough to amortize Python overhead, small
 #: enough that the breadth of the search stays near depth-first order in memory.
 BATCH = 256
 #: Cap on the subdivision depth (reductions + bisections of one box): bisecting a 2 pi range down
-#: to 1e-12 takes ~43 steps per unknown; 60 per unknown leaves room for re-reductions.
+#: to 1e-12 takes ~43 steps per variable; 60 per variable leaves room for re-reductions.
 DEPTH_PER_UNKNOWN = 60
 #: Cap on the number of boxes processed in one solve: a finite set of roots at 1e-6 needs a few
 #: thousand; far more means a continuum of solutions (or a formulation with singular roots).
 DEFAULT_MAX_BOXES = 500_000
-#: Rounding errors of control points restricted from the unit box are at most about this many
-#: machine epsilons of the equation's largest control point (products of ~2n factors in [0, 1]);
-#: the test w = 0 accepts |w| up to it.
-ROUNDING_SAFETY = 1e3
 #: Accepted boxes closer than this many tolerances (Chebyshev gap, radians modulo 2 pi) form one
 #: cluster. Small on purpose: a cluster is polished from its centre, so merging two roots would
 #: lose one; the stray boxes that unpreconditioned pruning leaves near a root polish to the same
 #: point and are merged after polishing (:mod:`spherekin.solutions`).
 MERGE_GAP_TOLS = 2.0
-#: Joint ranges wider than this (radians) are split into equal charts of at most this width.
-CHART_MAX_WIDTH = math.pi
+#: The Krawczyk test runs on boxes whose widest side (metric units: radians, or c/s) is below this.
+#: On wider boxes the enclosure of the Jacobian is too loose for K(X) to fit inside X (measured on
+#: the Gosselin platform: no box wider than ~0.3 rad was ever isolated), so the test would only cost.
+ISOLATION_MAX_WIDTH = 0.5
 
 
 class SolverLimitError(RuntimeError):
@@ -79,66 +95,81 @@ class BoxLimitError(SolverLimitError):
     """More boxes were processed than the box cap allows."""
 
 
-def charts_for_range(rng: tuple[float, float] | None) -> list[tuple[float, float]]:
-    """Chart ranges (radians) covering a joint range; None means the full circle.
+_COUNTERS = ("boxes_processed", "discarded", "split", "reduced_again", "accepted", "isolated", "max_depth")
 
-    The full circle gets the two charts [-pi/2, pi/2] and [pi/2, 3 pi/2] (centres 0 and pi); a range
-    wider than CHART_MAX_WIDTH is cut into equal pieces no wider than it.
+
+class _Layout:
+    """Chart-last copies of the blocks (dense coefficients, or the halves of bilinear blocks)."""
+
+    def __init__(self, charts: ChartSet, dense: bool = False):
+        n = len(charts.variables)
+        self.blocks = []
+        for b, c in enumerate(charts.coeffs):
+            bil = None if dense or charts.bilinear is None else charts.bilinear[b]
+            if bil is None:
+                self.blocks.append(("dense", np.ascontiguousarray(np.moveaxis(c, 0, -1))))
+                continue
+            a_vars, b_vars, a, bb, terms = bil
+            lv = list(a_vars) + list(b_vars)
+            e, u, v = (terms[:, i].astype(int) for i in range(3))
+            w = np.zeros((c.shape[1], len(e)))
+            w[e, np.arange(len(e))] = terms[:, 3]
+            shape = [c.shape[1]] + [1] * n
+            for var in lv:
+                shape[1 + var] = c.shape[2 + var]
+            perm = (0,) + tuple(1 + int(i) for i in np.argsort(lv)) + (1 + len(lv),)
+            self.blocks.append(("bilinear", (list(a_vars), list(b_vars), np.ascontiguousarray(np.moveaxis(a, 0, -1)),
+                                             np.ascontiguousarray(np.moveaxis(bb, 0, -1)), u, v, w, perm, shape)))
+
+
+def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
+    """Control points of every block on boxes [lo, hi] of charts ``chart`` (batch last), and tolerances.
+
+    Dense blocks are restricted as they are; a bilinear block restricts its two halves and
+    assembles the products (:class:`spherekin.formulations.Bilinear`), ~20x fewer operations.
     """
-    full = [(-math.pi / 2, math.pi / 2), (math.pi / 2, 3 * math.pi / 2)]
-    if rng is None:
-        return full
-    lo, hi = float(rng[0]), float(rng[1])
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise ValueError(f"range: expected finite lo < hi (radians), got {rng!r}")
-    if hi - lo >= 2 * math.pi:  # a multi-turn range: every angle modulo 2 pi is reachable
-        return full
-    pieces = max(1, math.ceil((hi - lo) / CHART_MAX_WIDTH - 1e-12))
-    edges = np.linspace(lo, hi, pieces + 1)
-    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])]
+    cache: dict = {}
+    cps = []
+    nb = len(chart)
+    for kind, data in layout.blocks:
+        if kind == "dense":
+            cps.append(bernstein.restrict_batch_last(np.take(data, chart, axis=-1), lo, hi, cache))
+            continue
+        a_vars, b_vars, a, b, u, v, w, perm, shape = data
+        ra = bernstein.restrict_batch_last(np.take(a, chart, axis=-1), lo[:, a_vars], hi[:, a_vars], cache, a_vars)
+        rb = bernstein.restrict_batch_last(np.take(b, chart, axis=-1), lo[:, b_vars], hi[:, b_vars], cache, b_vars)
+        da, db = ra.shape[1:-1], rb.shape[1:-1]
+        af = ra.reshape(ra.shape[0], -1, 1, nb)[u]
+        bf = rb.reshape(rb.shape[0], 1, -1, nb)[v]
+        full = (w @ (af * bf).reshape(len(u), -1)).reshape((w.shape[0],) + da + db + (nb,))
+        cps.append(np.ascontiguousarray(np.transpose(full, perm)).reshape(shape + [nb]))
+    tols = [t[chart].T for t in charts.tols]
+    return cps, tols
 
 
-class _Charts:
-    """Per-chart data of the box loop, stacked along a leading chart axis.
+def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None):
+    """Section 4 steps 2-3. ``start`` = (chart, lo, hi) initial boxes (default: every chart's unit box).
 
-    ``coeffs[b]`` (C, E, d_1..d_n) and ``tols[b]`` (C, E) per equation block; ``t_lo``, ``t_hi``,
-    ``shift`` (C, n) map unit coordinates to angles, theta = shift + 2 atan(t_lo + (t_hi - t_lo) x).
+    Returns (accepted [(chart, angle lo, angle hi)], isolated [(chart, x lo, x hi)], counts, timings).
     """
-
-    def __init__(self, systems, formulation):
-        self.names = tuple(u.name for u in systems[0][1])
-        blocks = []
-        for loops, unknowns in systems:
-            if tuple(u.name for u in unknowns) != self.names:
-                raise ValueError(f"build: expected the unknowns {self.names} in every chart, "
-                                 f"got {tuple(u.name for u in unknowns)}")
-            blocks.append(formulate(formulation, loops, unknowns))
-        self.coeffs = [np.stack([bl[b].coeffs for bl in blocks]) for b in range(len(blocks[0]))]
-        eps = np.finfo(float).eps
-        self.tols = [ROUNDING_SAFETY * eps * np.stack([bl[b].scale for bl in blocks]) for b in range(len(blocks[0]))]
-        t = np.array([[u.t_range for u in unknowns] for _, unknowns in systems])      # (C, n, 2)
-        self.t_lo, self.t_hi = t[..., 0], t[..., 1]
-        self.shift = np.array([[u.shift for u in unknowns] for _, unknowns in systems])
-
-    def angles(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """Angles (radians) of unit coordinates x (B, n) in charts ``chart`` (B,); increasing in x."""
-        lo, hi = self.t_lo[chart], self.t_hi[chart]
-        return self.shift[chart] + 2.0 * np.arctan(lo + (hi - lo) * x)
-
-
-def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None):
-    """Section 4 steps 2-3 on every chart at once. Returns (accepted [(chart, lo, hi)], counts, timings)."""
-    n = len(charts.names)
-    n_charts = charts.coeffs[0].shape[0]
-    counts = dict(boxes_processed=0, discarded=0, split=0, reduced_again=0, accepted=0, max_depth=0)
-    t_restrict = t_prune = 0.0
+    n = len(charts.variables)
+    layout = _Layout(charts)
+    square = SquareSystem.from_blocks(charts.square)
+    isolate = isolate and len(square.rows) == n
+    counts = dict.fromkeys(_COUNTERS, 0)
+    t_restrict = t_prune = t_isolate = 0.0
     accepted: list[tuple[int, np.ndarray, np.ndarray]] = []
+    isolated: list[tuple[int, np.ndarray, np.ndarray]] = []
+    limit = tol * charts.accept_width
 
     def partial():
         return [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
 
-    stack = [(np.zeros((n_charts, n)), np.ones((n_charts, n)), np.zeros(n_charts, dtype=int),
-              np.arange(n_charts))]
+    if start is None:
+        nc = charts.n_charts
+        start = (np.arange(nc), np.zeros((nc, n)), np.ones((nc, n)))
+    chart0, lo0, hi0 = start
+    stack = [(lo0, hi0, np.zeros(len(lo0), dtype=int), chart0)]
     while stack:
         take, size = [], 0
         while stack and size < BATCH:            # fill one batch from the top of the stack
@@ -148,6 +179,8 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None)
         if len(lo) > BATCH:
             stack.append((lo[BATCH:], hi[BATCH:], depth[BATCH:], chart[BATCH:]))
             lo, hi, depth, chart = lo[:BATCH], hi[:BATCH], depth[:BATCH], chart[:BATCH]
+        if len(lo) == 0:
+            continue
         counts["boxes_processed"] += len(lo)
         if counts["boxes_processed"] > max_boxes:
             raise BoxLimitError(
@@ -162,23 +195,37 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None)
         if progress is not None:
             progress({**counts, "pending": sum(len(e[0]) for e in stack)})
         t1 = time.perf_counter()
-        boxes = np.stack([lo, hi], axis=-1)[:, None]            # (B, 1, n, 2)
-        cps = [bernstein.restrict(c[chart], boxes, nvars=n) for c in charts.coeffs]
-        tols = [t[chart] for t in charts.tols]
+        cps, tols = _restrict(charts, layout, chart, lo, hi)
         t2 = time.perf_counter()
-        widths = np.max(charts.angles(chart, hi) - charts.angles(chart, lo), axis=1)
+        mwidth = charts.metric(chart, hi) - charts.metric(chart, lo)
+        widths = mwidth.max(axis=1)
         rlo, rhi = pruner.reduce(cps, tols, widths=widths)
-        t_prune += time.perf_counter() - t2
+        t3 = time.perf_counter()
+        iso = np.zeros(len(lo), dtype=bool)
+        if isolate:
+            cand = np.flatnonzero(~np.any(rlo > rhi, axis=1) & (widths < ISOLATION_MAX_WIDTH))
+            if len(cand):
+                k_iso, klo, khi = krawczyk_boxes(square, [c[..., cand] for c in cps],
+                                                 [t[:, cand] for t in tols])
+                iso[cand] = k_iso
+                rlo[cand] = np.maximum(rlo[cand], klo)
+                rhi[cand] = np.minimum(rhi[cand], khi)
+        t_isolate += time.perf_counter() - t3
+        t_prune += t3 - t2
         t_restrict += t2 - t1
-        keep = ~np.any(rlo > rhi, axis=1)
-        counts["discarded"] += int(np.sum(~keep))
+        if iso.any():
+            isolated += list(zip(chart[iso], lo[iso], hi[iso]))
+            counts["isolated"] += int(iso.sum())
+        keep = ~np.any(rlo > rhi, axis=1) & ~iso
+        counts["discarded"] += int(np.sum(~keep & ~iso))
         width = hi - lo
         nlo, nhi = (lo + rlo * width)[keep], (lo + rhi * width)[keep]
         ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
-        alo, ahi = charts.angles(chart, nlo), charts.angles(chart, nhi)
-        awidth = ahi - alo
-        done = np.all(awidth <= tol, axis=1)
-        accepted += list(zip(chart[done], alo[done], ahi[done]))
+        mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
+        done = np.all(mw <= limit, axis=1)
+        if done.any():
+            alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
+            accepted += list(zip(chart[done], alo, ahi))
         counts["accepted"] += int(done.sum())
         again = ~done & np.all(ratio <= SPLIT_RATIO, axis=1)
         counts["reduced_again"] += int(again.sum())
@@ -188,15 +235,145 @@ def _box_loop(charts: _Charts, pruner, tol, max_boxes, max_depth, progress=None)
         counts["split"] += int(split.sum())
         if split.any():
             slo, shi, sd, sc = nlo[split], nhi[split], depth[split], chart[split]
-            axis = np.argmax(awidth[split], axis=1)                 # widest side in radians
+            axis = np.argmax(mw[split], axis=1)                     # widest side in metric units
             rows = np.arange(len(slo))
-            mid = 0.5 * (slo[rows, axis] + shi[rows, axis])
+            mid = slo[rows, axis] + SPLIT_POINT * (shi[rows, axis] - slo[rows, axis])
             left_hi, right_lo = shi.copy(), slo.copy()
             left_hi[rows, axis] = mid
             right_lo[rows, axis] = mid
             stack.append((np.concatenate([right_lo, slo]), np.concatenate([shi, left_hi]),
                           np.concatenate([sd, sd]), np.concatenate([sc, sc])))
-    return accepted, counts, (t_restrict, t_prune)
+    return accepted, isolated, counts, (t_restrict, t_prune, t_isolate)
+
+
+def _solve_isolated(charts: ChartSet, isolated):
+    """Newton from every isolated box: (points [(chart, angles)], spurious count, failed boxes)."""
+    if not isolated:
+        return [], 0, []
+    chart = np.array([c for c, _, _ in isolated])
+    lo = np.array([a for _, a, _ in isolated])
+    hi = np.array([b for _, _, b in isolated])
+    cps, tols = _restrict(charts, _Layout(charts), chart, lo, hi)
+    u, converged, closure = newton(SquareSystem.from_blocks(charts.square), cps, tols)
+    x = lo + u * (hi - lo)
+    angles = charts.angles(chart, x)
+    points = [(int(c), a) for c, a, ok, cl in zip(chart, angles, converged, closure) if ok and cl]
+    spurious = int(np.sum(converged & ~closure))
+    failed = [(c, a, b) for c, a, b, ok in zip(chart, lo, hi, converged) if not ok]
+    return points, spurious, failed
+
+
+def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, progress=None):
+    """The box loop on the charts of ``group`` (a worker's share), then Newton on its isolated boxes."""
+    name, shapes, backend = pruner_spec
+    pruner = make_pruner(name, shapes, backend)
+    n = len(charts.variables)
+    group = np.asarray(group, dtype=int)
+    start = (group, np.zeros((len(group), n)), np.ones((len(group), n)))
+    accepted, isolated, counts, times = _box_loop(charts, pruner, tol, max_boxes, max_depth, start, isolate, progress)
+    points, spurious, failed = _solve_isolated(charts, isolated)
+    if failed:  # Newton left an isolating box (not seen in practice): subdivide it the ordinary way
+        c, a, b = (np.array(v) for v in zip(*failed))
+        more, _, counts2, times2 = _box_loop(charts, pruner, tol, max_boxes, max_depth, (c, a, b), False)
+        accepted += more
+        counts = {k: (max(counts[k], counts2[k]) if k == "max_depth" else counts[k] + counts2[k]) for k in counts}
+        times = tuple(x + y for x, y in zip(times, times2))
+    counts.update(spurious=spurious, newton_failures=len(failed),
+                  lps_solved=getattr(pruner, "lp_count", 0), lp_doubts=getattr(pruner, "doubts", 0))
+    return accepted, points, counts, times
+
+
+def _worker(args):
+    return _run_group(*args)
+
+
+def _check_strategy(formulation, pruner, parameterization, tol, jobs):
+    if formulation not in FORMULATIONS:
+        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {formulation!r}")
+    if pruner not in PRUNERS:
+        raise ValueError(f"pruner: expected one of {PRUNERS}, got {pruner!r}")
+    if parameterization not in PARAMETERIZATIONS:
+        raise ValueError(f"parameterization: expected one of {sorted(PARAMETERIZATIONS)}, got {parameterization!r}")
+    if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol: expected a positive number of radians, got {tol!r}")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"jobs: expected a positive integer, got {jobs!r}")
+
+
+def solve_system(
+    build: Callable[[Mapping[str, tuple[float, float]]], tuple[Sequence[ClosureLoop], Sequence[Unknown]]],
+    ranges: Mapping[str, tuple[float, float] | None],
+    *,
+    formulation: str = "transversal",
+    pruner: str = DEFAULT_PRUNER,
+    lp_backend: str | None = None,
+    parameterization: str = "tan-half",
+    tol: float = DEFAULT_TOL,
+    isolate: bool = True,
+    jobs: int = 1,
+    max_boxes: int = DEFAULT_MAX_BOXES,
+    max_depth: int | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> SolveReport:
+    """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
+
+    ``build(chart_ranges)`` returns (loops, unknowns) with every unknown's range set from
+    ``chart_ranges`` (name -> (lo, hi) radians, width < 2 pi); ``ranges`` gives each unknown's
+    joint range, or None for the full circle. ``tol`` is in radians. ``isolate``: stop subdividing
+    a box once the Krawczyk test proves it holds one root (:mod:`spherekin.isolation`); only with
+    a formulation that has a square system of simple roots. ``jobs``: worker processes for the
+    charts (the solutions do not depend on it). ``progress(counts)`` is called before each batch
+    of boxes with the running counters (and "pending": boxes waiting; with ``jobs > 1`` once per
+    finished worker). ``max_boxes`` (per worker) and ``max_depth`` (default DEPTH_PER_UNKNOWN per
+    variable) cap the search; reaching a cap raises a :class:`SolverLimitError` subclass.
+    Solutions whose angles lie outside ``ranges`` (the sin-cos boxes of limited ranges hold whole
+    circles' worth of corners) are dropped.
+    """
+    _check_strategy(formulation, pruner, parameterization, tol, jobs)
+    t0 = time.perf_counter()
+    charts = make_charts(parameterization, build, ranges, formulation)
+    shapes = [c.shape[1:] for c in charts.coeffs]
+    spec = (pruner, shapes, lp_backend)
+    make_pruner(*spec)  # validate names before any work (and before forking)
+    t_setup = time.perf_counter() - t0
+    if max_depth is None:
+        max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
+    groups = [list(range(i, charts.n_charts, jobs)) for i in range(min(jobs, charts.n_charts))]
+    if len(groups) == 1:
+        results = [_run_group(charts, spec, tol, max_boxes, max_depth, isolate, groups[0], progress)]
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
+        with ProcessPoolExecutor(len(groups), mp_context=ctx) as pool:
+            args = [(charts, spec, tol, max_boxes, max_depth, isolate, g) for g in groups]
+            results = []
+            for res in pool.map(_worker, args):
+                results.append(res)
+                if progress is not None:
+                    progress({**res[2], "pending": 0})
+    accepted = sorted((a for r in results for a in r[0]), key=lambda t: (t[0], tuple(t[1])))
+    points = sorted((p for r in results for p in r[1]), key=lambda t: (t[0], tuple(t[1])))
+    counts = {k: sum(r[2][k] for r in results) for k in results[0][2]}
+    counts["max_depth"] = max(r[2]["max_depth"] for r in results)
+    t_restrict, t_prune, t_isolate = (sum(r[3][i] for r in results) for i in range(3))
+    boxes = [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
+    found = boxes + [AcceptedBox(a, a.copy(), c) for c, a in points]
+    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
+    stats = SolverStats(charts=charts.n_charts, **counts, time_setup=t_setup, time_restrict=t_restrict,
+                        time_prune=t_prune, time_isolate=t_isolate, time_total=time.perf_counter() - t0)
+    settings = dict(formulation=formulation, pruner=pruner, lp_backend=lp_backend, parameterization=parameterization,
+                    tol=tol, isolate=isolate, jobs=jobs, charts=charts.n_charts)
+    return SolveReport(charts.unknowns, tuple(solutions), tuple(boxes), stats, settings)
+
+
+def _within(angles, ranges, tol) -> bool:
+    """Every angle within ``tol`` of its range (modulo 2 pi); None = the full circle."""
+    for a, rng in zip(angles, ranges.values()):
+        if rng is not None and float(np.mod(a - rng[0] + tol, 2 * math.pi)) > rng[1] - rng[0] + 2 * tol:
+            return False
+    return True
 
 
 def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
@@ -235,64 +412,17 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
     return out
 
 
-def solve_system(
-    build: Callable[[Mapping[str, tuple[float, float]]], tuple[Sequence[ClosureLoop], Sequence[Unknown]]],
-    ranges: Mapping[str, tuple[float, float] | None],
-    *,
-    formulation: str = "transversal",
-    pruner: str = "hybrid",
-    lp_backend: str | None = None,
-    tol: float = DEFAULT_TOL,
-    max_boxes: int = DEFAULT_MAX_BOXES,
-    max_depth: int | None = None,
-    progress: Callable[[dict], None] | None = None,
-) -> SolveReport:
-    """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
-
-    ``build(chart_ranges)`` returns (loops, unknowns) with every unknown's range set from
-    ``chart_ranges`` (name -> (lo, hi) radians, width < 2 pi); ``ranges`` gives each unknown's
-    joint range, or None for the full circle. ``tol`` is in radians. ``progress(counts)`` is called
-    before each batch of boxes with the running counters (and "pending": boxes waiting).
-    ``max_boxes`` and ``max_depth`` (default DEPTH_PER_UNKNOWN per unknown) cap the search; reaching
-    a cap raises a :class:`SolverLimitError` subclass.
-    """
-    if formulation not in FORMULATIONS:
-        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {formulation!r}")
-    if pruner not in PRUNERS:
-        raise ValueError(f"pruner: expected one of {PRUNERS}, got {pruner!r}")
-    if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol: expected a positive number of radians, got {tol!r}")
-    t0 = time.perf_counter()
-    names = list(ranges)
-    combos = list(itertools.product(*(charts_for_range(ranges[name]) for name in names)))
-    systems = []
-    for combo in combos:
-        systems.append(build(dict(zip(names, combo))))
-    charts = _Charts(systems, formulation)
-    pr = make_pruner(pruner, [c.shape[1:] for c in charts.coeffs], lp_backend)
-    t_setup = time.perf_counter() - t0
-    if max_depth is None:
-        max_depth = DEPTH_PER_UNKNOWN * len(charts.names)
-    found, counts, (t_restrict, t_prune) = _box_loop(charts, pr, tol, max_boxes, max_depth, progress)
-    boxes = [AcceptedBox(a, b, int(c)) for c, a, b in found]
-    stats = SolverStats(charts=len(combos), **counts, lps_solved=getattr(pr, "lp_count", 0),
-                        lp_doubts=getattr(pr, "doubts", 0), time_setup=t_setup, time_restrict=t_restrict,
-                        time_prune=t_prune)
-    order = charts.names
-    solutions = _merge(boxes, tol)
-    stats = SolverStats(**{**stats.as_dict(), "time_total": time.perf_counter() - t0})
-    settings = dict(formulation=formulation, pruner=pruner, lp_backend=lp_backend, tol=tol, charts=len(combos))
-    return SolveReport(order, tuple(solutions), tuple(boxes), stats, settings)
-
-
 def solve(
     mechanism,
     inputs,
     *,
     formulation: str = "transversal",
-    pruner: str = "hybrid",
+    pruner: str = DEFAULT_PRUNER,
     lp_backend: str | None = None,
+    parameterization: str = "tan-half",
     tol: float = DEFAULT_TOL,
+    isolate: bool = True,
+    jobs: int = 1,
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
@@ -300,13 +430,12 @@ def solve(
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
     ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
-    (radians) per actuated joint. Passive joints with unlimited or wide ranges are searched by
-    charts (see :func:`charts_for_range`). Returns a :class:`SolveReport` whose solutions are
-    polished, deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles,
-    platform rotation, residual, status and its evidence. Defaults: the fastest
-    configuration that finds every solution (transversal equations, hybrid pruner); the
-    paper-faithful one is
-    ``formulation="paper", pruner="lp", lp_backend="clarabel"``.
+    (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
+    deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles, platform
+    rotation, residual, status and its evidence. The strategies are chosen by name (see
+    :func:`solve_system`). Defaults: the fastest configuration that finds every solution
+    (benchmarks/README.md); the paper-faithful one is
+    ``formulation="paper", pruner="lp", lp_backend="clarabel", isolate=False``.
     """
     names = mechanism.loop_system(inputs, {n: (-1.0, 1.0) for n in mechanism.passive}).names
     ranges = {n: mechanism.ranges[n] for n in names}
@@ -316,8 +445,12 @@ def solve(
         return system.loops, system.unknowns
 
     report = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                          tol=tol, max_boxes=max_boxes, max_depth=max_depth, progress=progress)
+                          parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs,
+                          max_boxes=max_boxes, max_depth=max_depth, progress=progress)
+    t0 = time.perf_counter()
     solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
     settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
                 "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
-    return dataclasses.replace(report, solutions=tuple(solutions), settings=settings)
+    t_final = time.perf_counter() - t0
+    stats = dataclasses.replace(report.stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
+    return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats)

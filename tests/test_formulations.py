@@ -8,7 +8,9 @@
   (verification.spherical, first principles) and normalized by the corrected Eq. (2) rule;
   there every equation vanishes; at F = diag(1, -1, -1) only the transversal entries vanish;
 * the transversal entries have a Jacobian of rank 3 at a regular closed configuration (finite
-  differences of the numeric matrix product), while the scalar equation has a double root.
+  differences of the numeric matrix product), while the scalar equation has a double root;
+* the halves equations q_a q_b (P - S^T) equal numeric products of the two halves of the loop;
+  their bilinear form (what the solver restricts) equals the dense block at random points.
 """
 
 import math
@@ -112,6 +114,21 @@ def q_of(loop, x_loop):
     return q
 
 
+def halves_numeric(loop, x_loop):
+    """q_a q_b (P - S^T), row-major (..., 9): P the numeric product of the factors up to the
+    loop's floor(k/2)-th unknown, S of the others, q_a, q_b over their unknowns."""
+    phis = loop.angles(x_loop)
+    unknown_factors = [i for i, f in enumerate(loop.factors) if hasattr(f, "unknown")]
+    cut = unknown_factors[len(unknown_factors) // 2 - 1] + 1
+    ka = sum(1 for i in unknown_factors if i < cut)
+    p = normalized_closure(phis[..., :cut])
+    s = normalized_closure(phis[..., cut:])
+    qa = q_of(ClosureLoop(loop.factors[:cut]), x_loop[..., :ka])
+    qb = q_of(ClosureLoop(loop.factors[cut:]), x_loop[..., ka:])
+    diff = (p - np.swapaxes(s, -1, -2)) * (qa * qb)[..., None, None]
+    return diff.reshape(diff.shape[:-2] + (9,))
+
+
 def numeric_equations(loop, x_loop, formulation):
     """Values of the formulation's equations from the numeric closure matrix, shape (..., E)."""
     f = loop.closure_matrix(x_loop)
@@ -119,7 +136,10 @@ def numeric_equations(loop, x_loop, formulation):
     scalar = q * (f[..., 0, 0] + f[..., 1, 1] - 2.0)
     if formulation == "paper":
         return scalar[..., None]
-    return np.stack([q * f[..., 1, 0], q * f[..., 2, 0], q * f[..., 2, 1], scalar], axis=-1)
+    lower = np.stack([q * f[..., 1, 0], q * f[..., 2, 0], q * f[..., 2, 1]], axis=-1)
+    if formulation == "halves":
+        return np.concatenate([lower, halves_numeric(loop, x_loop)], axis=-1)
+    return np.concatenate([lower, scalar[..., None]], axis=-1)
 
 
 def loop_positions(loop, unknowns):
@@ -210,6 +230,32 @@ def test_rotation_by_pi_keeps_transversal_zero_but_not_scalar(seed):
     (paper_block,) = formulate("paper", [loop], unknowns)
     np.testing.assert_allclose(bernstein.evaluate(paper_block.coeffs, x, nvars=len(unknowns))[0],
                                -2.0 * q_of(loop, x), rtol=1e-12)
+    # the halves formulation has no spurious root there: P - S^T = (diag(1,-1,-1) - I) S^T != 0
+    (halves_block,) = formulate("halves", [loop], unknowns)
+    vals = bernstein.evaluate(halves_block.coeffs, x, nvars=len(unknowns))
+    assert np.all(np.abs(vals[:3]) <= ROOT_REL_TOL * halves_block.scale[:3])
+    assert np.abs(vals[3:]).max() > 0.5
+
+
+@pytest.mark.parametrize("formulation", ["transversal", "halves"])
+def test_bilinear_form_equals_the_dense_blocks(formulation):
+    """The solver restricts the loop's halves and assembles their outer products; on the unit box
+    (and on any sub-box) that must be the same polynomial as the dense block."""
+    rng = np.random.default_rng(8)
+    loops, unknowns, _ = closed_two_loops(4)
+    for block in formulate(formulation, loops, unknowns):
+        bil = block.bilinear
+        assert bil is not None and set(bil.a_vars).isdisjoint(bil.b_vars)
+        assert tuple(sorted(bil.a_vars + bil.b_vars)) == block.variables
+        assert np.all(block.scale >= bil.magnitude() * (1 - 1e-15))
+        x = rng.uniform(0, 1, size=(15, len(unknowns)))
+        dense = bernstein.evaluate(block.coeffs, x, nvars=len(unknowns))
+        ta = bernstein.evaluate(bil.a, x[:, list(bil.a_vars)], nvars=len(bil.a_vars))     # (U, P)
+        tb = bernstein.evaluate(bil.b, x[:, list(bil.b_vars)], nvars=len(bil.b_vars))     # (V, P)
+        e, u, v = (bil.terms[:, i].astype(int) for i in range(3))
+        assembled = np.zeros_like(dense)
+        np.add.at(assembled, e, bil.terms[:, 3, None] * ta[u] * tb[v])
+        np.testing.assert_allclose(assembled, dense, atol=1e-12 * block.scale.max())
 
 
 def central_jacobian(fun, x, h=FD_STEP):

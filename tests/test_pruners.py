@@ -86,8 +86,9 @@ def boxes_around(rng, root, count, log_width=(-3.0, -0.3)):
 
 
 def restrict_all(blocks, boxes):
+    """Control points on the boxes in the pruners' layout (batch axis last)."""
     n = boxes.shape[-2]
-    return [bernstein.restrict(c, boxes[:, None], nvars=n) for c in blocks]
+    return [np.moveaxis(bernstein.restrict(c, boxes[:, None], nvars=n), 0, -1) for c in blocks]
 
 
 def assert_root_inside(lo, hi, boxes, root):
@@ -161,17 +162,17 @@ def test_tangential_root_on_a_box_face_survives_rounding(name):
 
 @pytest.mark.parametrize("name", PRUNERS)
 def test_per_box_tolerances_equal_one_box_at_a_time(name):
-    """tols of shape (B, E) apply row b to box b: same result as B calls with (E,) tolerances."""
+    """tols of shape (E, B) apply column b to box b: same result as B calls with (E,) tolerances."""
     blocks, root = system_with_root(6, 2)
     rng = np.random.default_rng(6)
     boxes = boxes_around(rng, root, 5, (-1.5, -0.5))
     cps = restrict_all(blocks, boxes)
-    tols = [np.abs(c).reshape(len(c), -1).max(axis=1) * rng.choice([1e-13, 0.05, 0.3], size=(5, len(c)))
+    tols = [np.abs(c).reshape(len(c), -1).max(axis=1)[:, None] * rng.choice([1e-13, 0.05, 0.3], size=(len(c), 5))
             for c in blocks]
     pruner = make_pruner(name, [c.shape for c in blocks], "highspy" if name == "lp" else None)
     lo, hi = pruner.reduce(cps, tols)
     for b in range(5):
-        lo1, hi1 = pruner.reduce([c[b:b + 1] for c in cps], [t[b] for t in tols])
+        lo1, hi1 = pruner.reduce([c[..., b:b + 1] for c in cps], [t[:, b] for t in tols])
         # (the LP may land on another optimal vertex from another warm start: rounding-level noise)
         np.testing.assert_allclose(np.r_[lo[b], hi[b]], np.r_[lo1[0], hi1[0]], rtol=0, atol=1e-9)
     assert len({tuple(np.round(np.r_[lo[b], hi[b]], 6)) for b in range(5)}) > 1
@@ -224,21 +225,21 @@ def brute_interval(w, tol, var):
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_pp_interval_matches_brute_force_hull(seed):
     rng = np.random.default_rng(seed)
-    shape = (3, 3, 3)                                     # pp_intervals needs equal degrees
+    shape = (3, 3, 3)
     cps = rng.normal(size=(40, 2) + shape) + rng.uniform(-4, 4, size=(40, 2, 1, 1, 1))
     tol = np.array([0.05, 0.2])
     seen = {"empty": 0, "cut": 0}
     for var in range(3):
-        lo, hi = pp_intervals(cps, tol, var)
-        assert lo.shape == hi.shape == (40, 2)
+        lo, hi = pp_intervals(np.moveaxis(cps, 0, -1), tol, var)
+        assert lo.shape == hi.shape == (2, 40)
         for b in range(40):
             for e in range(2):
                 ref = brute_interval(cps[b, e], tol[e], var)
                 if ref is None:
-                    assert lo[b, e] > hi[b, e]
+                    assert lo[e, b] > hi[e, b]
                     seen["empty"] += 1
                 else:
-                    np.testing.assert_allclose([lo[b, e], hi[b, e]], ref, atol=HULL_AGREEMENT)
+                    np.testing.assert_allclose([lo[e, b], hi[e, b]], ref, atol=HULL_AGREEMENT)
                     seen["cut"] += ref[0] > 1e-9 or ref[1] < 1 - 1e-9
     assert seen["empty"] > 10 and seen["cut"] > 10      # both cases are exercised
 
@@ -249,7 +250,8 @@ def test_pp_reduce_is_the_intersection_of_brute_force_intervals():
     a = rng.normal(size=(bsz, 2, 3, 3, 3)) + rng.uniform(-1, 1, size=(bsz, 2, 1, 1, 1))
     b = rng.normal(size=(bsz, 1, 3, 1, 3)) + rng.uniform(-1, 1, size=(bsz, 1, 1, 1, 1))   # no x_1
     tols = [np.array([0.05, 0.1]), np.array([0.02])]
-    lo, hi = make_pruner("pp", [a.shape[1:], b.shape[1:]]).reduce([a, b], tols)
+    lo, hi = make_pruner("pp", [a.shape[1:], b.shape[1:]]).reduce([np.moveaxis(a, 0, -1), np.moveaxis(b, 0, -1)],
+                                                                   tols)
     n_empty = 0
     for i in range(bsz):
         rlo, rhi = np.zeros(3), np.ones(3)
@@ -271,8 +273,8 @@ def test_pp_reduce_is_the_intersection_of_brute_force_intervals():
 
 
 def test_pp_constant_nonzero_equation_excludes_the_box():
-    c = np.full((1, 1, 1, 1), 0.5)                      # one equation, w = 0.5 everywhere, 2 variables
-    other = np.zeros((1, 1, 3, 3))                      # an equation that vanishes identically
+    c = np.full((1, 1, 1, 1), 0.5)                      # one equation, w = 0.5 everywhere, 2 variables, 1 box
+    other = np.zeros((1, 3, 3, 1))                      # an equation that vanishes identically
     tols = [np.array([1e-3]), np.array([1e-3])]
     lo, hi = make_pruner("pp", [(1, 1, 1), (1, 3, 3)]).reduce([c, other], tols)
     assert np.all(lo > hi)
@@ -308,7 +310,7 @@ def test_gosselin_root_survives_pp_and_lp(formulation):
     assert_root_inside(plo, phi, boxes, root)
     few = slice(0, 5)
     lp = make_pruner("lp", shapes, "highspy")
-    lo, hi = lp.reduce([c[few] for c in cps], tols)
+    lo, hi = lp.reduce([c[..., few] for c in cps], tols)
     assert_root_inside(lo, hi, boxes[few], root)
     assert np.all(lo >= plo[few] - LP_OUTSIDE_PP) and np.all(hi <= phi[few] + LP_OUTSIDE_PP)
 

@@ -1,0 +1,217 @@
+"""Isolation of simple roots inside the box loop: a Krawczyk test and Newton's method in Bernstein form.
+
+For a box X of the subdivision, the control points of every equation restricted to X are known
+(batch axis last, see :func:`spherekin.bernstein.restrict_batch_last`). On the box's own unit
+coordinates u in [0, 1]^N, for the *square system* F (N equations of simple roots: the transversal
+entries of every loop, plus the circle equations of the sin-cos parameterization):
+
+* F(y) at the centre y = (1/2, ..., 1/2) is a convex combination of control points (Bernstein
+  basis at 1/2);
+* an enclosure J(X) of the Jacobian over X: the derivative dF/du_k of a degree-m Bernstein
+  polynomial has control points m (c_{i+1} - c_i) along axis k, and lies between their min and max;
+* Krawczyk's operator (Krawczyk 1969; Moore 1977), with C = mid(J(X))^-1,
+
+      K(X) = y - C F(y) + (I - C J(X)) (X - y),
+
+  encloses every root of F in X. If K(X) lies in the interior of X, X holds exactly one root of F
+  (and J is nonsingular on X); if K(X) and X are disjoint, X holds none; in every case the roots
+  of F in X lie in K(X) n X, which contracts the box quadratically near a simple root.
+
+Every root of the closure equations is a root of F (the transversal entries vanish at F_n = I),
+so the contraction and the exclusion are safe for the solver. A box proven to hold one root of F
+is *isolated*: the subdivision stops there and :func:`newton` converges to the root; the other
+equations (Eq. 10) then tell a closure from a spurious root of F (a rotation diag(1, -1, -1), ...).
+
+Departure from the paper: the paper subdivides every box down to the tolerance; stopping at an
+isolating box saves the tail of the subdivision (the paper's Section 5 asks for faster
+convergence). Rounding: F and J are widened by the absolute tolerance of each equation (the same
+rounding model as the pruners), and K by :data:`KRAWCZYK_MARGIN`; the rigorous certificate of each
+final solution is :mod:`spherekin.certify`, in outward-rounded interval arithmetic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+__all__ = ["KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "SPURIOUS_FACTOR",
+           "SquareSystem", "krawczyk_boxes", "evaluate_at", "jacobian_at", "newton"]
+
+#: K(X) is widened by this (unit coordinates of the box) before it is compared with X: its float
+#: evaluation (a few dozen operations on O(1) numbers) errs by ~1e-15; the margin also keeps an
+#: "isolated" verdict away from roots on the box faces.
+KRAWCZYK_MARGIN = 1e-9
+#: mid(J(X)) is inverted only when its reciprocal condition number is above this; below it C would
+#: amplify rounding beyond KRAWCZYK_MARGIN and the box is left to the pruners.
+KRAWCZYK_RCOND = 1e-10
+#: Newton steps at most from the centre of an isolating box (quadratic convergence from a box whose
+#: Krawczyk image lies inside it needs ~6; the cap only stops a pathological case).
+NEWTON_MAX_STEPS = 30
+#: Newton stops when the step (unit coordinates of the box) is below this: ~ machine precision.
+NEWTON_STEP_TOL = 4e-16
+#: A root of the square system is a closure when every other equation vanishes there to within
+#: this many times its rounding tolerance; at a spurious root the scalar equation is -2 q or -4 q,
+#: some 1e12 tolerances away.
+SPURIOUS_FACTOR = 1e4
+
+
+@dataclass(frozen=True)
+class SquareSystem:
+    """Which equations of which blocks form the square system: ``rows[i] = (block, equation)``."""
+
+    rows: tuple
+
+    @classmethod
+    def from_blocks(cls, square: Sequence[Sequence[int]]) -> "SquareSystem":
+        return cls(tuple((b, e) for b, eqs in enumerate(square) for e in eqs))
+
+    def select(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+        """Per block, the (rows, control points (E', dims, B), tolerances (E', B)) of the square rows."""
+        out = []
+        for b, (c, t) in enumerate(zip(cps, tols)):
+            eqs = [e for bb, e in self.rows if bb == b]
+            if eqs:
+                tb = np.broadcast_to(np.asarray(t, dtype=float).reshape(c.shape[0], -1), (c.shape[0], c.shape[-1]))
+                out.append((eqs, c[eqs], tb[eqs]))
+        return out
+
+
+def _weights_at(m: int, u: np.ndarray) -> np.ndarray:
+    """Bernstein basis b_{i,m}(u), shape (m+1, B) for u of shape (B,)."""
+    from math import comb
+
+    return np.stack([comb(m, i) * u ** i * (1.0 - u) ** (m - i) for i in range(m + 1)])
+
+
+def evaluate_at(c: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Values (E, B) of polynomials c (E, d_1..d_N, B) at points u (B, N) of their boxes."""
+    ne, dims, bsz = c.shape[0], c.shape[1:-1], c.shape[-1]
+    v = c
+    for k in range(len(dims) - 1, -1, -1):
+        d = v.shape[-2]
+        if d > 1:
+            w = _weights_at(d - 1, u[:, k])                              # (d, B)
+            v = np.einsum("...jb,jb->...b", v, w)
+        else:
+            v = v[..., 0, :]
+    return v.reshape(ne, bsz)
+
+
+def _derivative(c: np.ndarray, k: int) -> np.ndarray | None:
+    """Control points of dc/du_k (degree m - 1 along axis k), or None when c has degree 0 there."""
+    d = c.shape[1 + k]
+    if d == 1:
+        return None
+    return (d - 1) * np.diff(c, axis=1 + k)
+
+
+def jacobian_at(c: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Jacobian (E, N, B) of polynomials c (E, d_1..d_N, B) at points u (B, N)."""
+    ne, n, bsz = c.shape[0], c.ndim - 2, c.shape[-1]
+    out = np.zeros((ne, n, bsz))
+    for k in range(n):
+        dk = _derivative(c, k)
+        if dk is not None:
+            out[:, k] = evaluate_at(dk, u)
+    return out
+
+
+def _derivative_bounds(c: np.ndarray, tol: np.ndarray):
+    """Enclosures (E, N, B) of dc/du_k over the box: min/max of the derivative control points,
+    widened by the rounding tolerance of a difference of two control points times the degree."""
+    ne, n, bsz = c.shape[0], c.ndim - 2, c.shape[-1]
+    lo, hi = np.zeros((ne, n, bsz)), np.zeros((ne, n, bsz))
+    for k in range(n):
+        dk = _derivative(c, k)
+        if dk is None:
+            continue
+        flat = dk.reshape(ne, -1, bsz)
+        widen = 2.0 * (c.shape[1 + k] - 1) * tol
+        lo[:, k] = flat.min(axis=1) - widen
+        hi[:, k] = flat.max(axis=1) + widen
+    return lo, hi
+
+
+def krawczyk_boxes(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+    """The Krawczyk test on B boxes at once (see the module docstring).
+
+    ``cps``/``tols``: every block's control points on the boxes (batch last) and tolerances.
+    Returns (isolated (B,), lo (B, N), hi (B, N)): ``isolated[b]`` when K(X_b) lies in the interior
+    of X_b (exactly one root of the square system in X_b); [lo, hi] = K(X_b) n X_b in the box's unit
+    coordinates (lo > hi somewhere when they are disjoint: no root). Boxes whose mid(J(X)) is too
+    ill-conditioned get the whole box back, not isolated.
+    """
+    parts = square.select(cps, tols)
+    bsz, n = cps[0].shape[-1], cps[0].ndim - 2
+    f = np.concatenate([evaluate_at(c, np.full((bsz, n), 0.5)) for _, c, _ in parts])       # (N, B)
+    ftol = np.concatenate([t for _, _, t in parts])                                          # (N, B)
+    jl, jh = zip(*(_derivative_bounds(c, t) for _, c, t in parts))
+    jlo, jhi = np.concatenate(jl), np.concatenate(jh)                                        # (N, N, B)
+    if f.shape[0] != n:
+        raise ValueError(f"square: expected {n} equations (one per variable), got {f.shape[0]}")
+    f, ftol = f.T, ftol.T                                                                    # (B, N)
+    jmid = np.moveaxis(0.5 * (jlo + jhi), -1, 0)                                             # (B, N, N)
+    jrad = np.moveaxis(0.5 * (jhi - jlo), -1, 0)
+    lo, hi = np.zeros((bsz, n)), np.ones((bsz, n))
+    isolated = np.zeros(bsz, dtype=bool)
+    with np.errstate(all="ignore"):
+        sv = np.linalg.svd(jmid, compute_uv=False)
+    ok = np.all(np.isfinite(sv), axis=1) & (sv[:, -1] > KRAWCZYK_RCOND * sv[:, 0])
+    if not ok.any():
+        return isolated, lo, hi
+    c_mat = np.linalg.inv(jmid[ok])                                                          # (b, N, N)
+    ac = np.abs(c_mat)
+    centre = 0.5 - np.einsum("bij,bj->bi", c_mat, f[ok])
+    m_mid = np.eye(n) - c_mat @ jmid[ok]
+    m_rad = ac @ jrad[ok]
+    radius = ac @ ftol[ok][..., None] + 0.5 * (np.abs(m_mid) + m_rad).sum(axis=2, keepdims=True)
+    radius = radius[..., 0] + KRAWCZYK_MARGIN
+    klo, khi = centre - radius, centre + radius
+    isolated[ok] = np.all((klo > 0.0) & (khi < 1.0), axis=1)
+    lo[ok] = np.maximum(klo, 0.0)
+    hi[ok] = np.minimum(khi, 1.0)
+    return isolated, lo, hi
+
+
+def newton(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+    """Newton's method on the square system from the centre of each box (batch last).
+
+    Returns (u (B, N), converged (B,), closure (B,)): the root in each box's unit coordinates,
+    whether Newton converged inside the box, and whether every non-square equation vanishes there
+    (within SPURIOUS_FACTOR tolerances), i.e. whether the root is a closure and not spurious.
+    """
+    parts = square.select(cps, tols)
+    bsz, n = cps[0].shape[-1], cps[0].ndim - 2
+    u = np.full((bsz, n), 0.5)
+    active = np.ones(bsz, dtype=bool)
+    converged = np.zeros(bsz, dtype=bool)
+    for _ in range(NEWTON_MAX_STEPS):
+        if not active.any():
+            break
+        idx = np.flatnonzero(active)
+        sub = [c[..., idx] for _, c, _ in parts]
+        f = np.concatenate([evaluate_at(c, u[idx]) for c in sub]).T                    # (b, N)
+        jac = np.moveaxis(np.concatenate([jacobian_at(c, u[idx]) for c in sub]), -1, 0)  # (b, N, N)
+        try:
+            step = np.linalg.solve(jac, f[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = np.stack([np.linalg.lstsq(j, r, rcond=None)[0] for j, r in zip(jac, f)])
+        u[idx] -= step
+        done = np.abs(step).max(axis=1) <= NEWTON_STEP_TOL
+        left = np.any((u[idx] < -KRAWCZYK_MARGIN) | (u[idx] > 1.0 + KRAWCZYK_MARGIN), axis=1) | \
+            ~np.all(np.isfinite(u[idx]), axis=1)
+        converged[idx[done & ~left]] = True
+        active[idx[done | left]] = False
+    u = np.clip(u, 0.0, 1.0)
+    closure = np.ones(bsz, dtype=bool)
+    rows = set(square.rows)
+    for b, (c, t) in enumerate(zip(cps, tols)):
+        others = [e for e in range(c.shape[0]) if (b, e) not in rows]
+        if not others:
+            continue
+        tb = np.broadcast_to(np.asarray(t, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))[others]
+        vals = evaluate_at(c[others], u)
+        closure &= np.all(np.abs(vals) <= SPURIOUS_FACTOR * tb, axis=0)
+    return u, converged, closure

@@ -1,0 +1,380 @@
+"""Parameterizations: how an unknown joint angle becomes polynomial variables (Section 2.2 and Section 5).
+
+A parameterization turns the closure loops of a mechanism (``build(chart_ranges) -> (loops,
+unknowns)``, see :func:`spherekin.solver.solve_system`) into a :class:`ChartSet`: the unit boxes
+the subdivision searches (one per chart), the Bernstein equation blocks on each of them, and the
+maps between unit-box coordinates and joint angles. Chosen by name (:data:`PARAMETERIZATIONS`):
+
+* ``tan-half`` -- the paper's substitution t = tan((theta - shift)/2) (Section 2.2): one variable
+  per unknown angle, degree 2 in each, the denominators cleared by q_n = prod (1 + t_k^2). t is
+  singular at theta = shift + pi, so a range wider than :data:`CHART_MAX_WIDTH` (a full circle in
+  particular) is covered by several charts (:func:`charts_for_range`): 2^n charts for n unknowns
+  with full ranges.
+* ``sin-cos`` -- the paper's proposal of Section 5: x = sin(theta), y = cos(theta) with
+  x^2 + y^2 = 1. Two variables (c, s) per unknown angle over the bounding box of its joint range's
+  arc in [-1, 1]^2, one circle equation c^2 + s^2 - 1 = 0 per unknown, and closure entries that
+  are multilinear (degree 1 in every variable), so their Bernstein control points are the values
+  at the box corners: products of the factor matrices Rx(phi) Z evaluated at the corners. One chart
+  covers any range, the full circle included; no singularity at pi.
+
+Both give the same equations to the formulations (:mod:`spherekin.formulations`): the control
+points of q F_n for each loop (q = q_n for tan-half, q = 1 for sin-cos).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from .closure import ClosureLoop, Term, Unknown, _cos_sin
+from .formulations import EquationBlock, LoopPolynomials, formulate_polynomials
+
+__all__ = [
+    "PARAMETERIZATIONS",
+    "CHART_MAX_WIDTH",
+    "ROUNDING_SAFETY",
+    "ARC_BOX_MARGIN",
+    "ChartSet",
+    "charts_for_range",
+    "arc_box",
+    "make_charts",
+    "tan_half_loop",
+    "sin_cos_loop",
+]
+
+#: Joint ranges wider than this (radians) are split into equal tan-half charts of at most this
+#: width: on a chart of width pi, |t| <= tan(pi/4) = 1, where the degree-2 Bernstein form is well
+#: conditioned; a wider chart pushes |t| towards the singularity at theta = shift + pi.
+CHART_MAX_WIDTH = math.pi
+#: Rounding errors of control points restricted from the unit box are at most about this many
+#: machine epsilons of the equation's largest control point (products of ~2n factors in [0, 1]);
+#: the test w = 0 accepts |w| up to it.
+ROUNDING_SAFETY = 1e3
+#: The sin-cos box of a limited joint range is the bounding box of its arc, widened by this (in
+#: c, s units) so that a root at an end of the arc cannot be cut off by the rounding of cos and sin
+#: (~1e-16); clipped to [-1, 1], which holds every point of the circle exactly.
+ARC_BOX_MARGIN = 1e-12
+
+
+def charts_for_range(rng: tuple[float, float] | None) -> list[tuple[float, float]]:
+    """Tan-half chart ranges (radians) covering a joint range; None means the full circle.
+
+    The full circle gets the two charts [-pi/2, pi/2] and [pi/2, 3 pi/2] (centres 0 and pi); a range
+    wider than CHART_MAX_WIDTH is cut into equal pieces no wider than it.
+    """
+    full = [(-math.pi / 2, math.pi / 2), (math.pi / 2, 3 * math.pi / 2)]
+    if rng is None:
+        return full
+    lo, hi = float(rng[0]), float(rng[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"range: expected finite lo < hi (radians), got {rng!r}")
+    if hi - lo >= 2 * math.pi:  # a multi-turn range: every angle modulo 2 pi is reachable
+        return full
+    pieces = max(1, math.ceil((hi - lo) / CHART_MAX_WIDTH - 1e-12))
+    edges = np.linspace(lo, hi, pieces + 1)
+    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def arc_box(rng: tuple[float, float] | None) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((c_lo, c_hi), (s_lo, s_hi)): bounding box of {(cos t, sin t) : t in [lo, hi]}; None = circle.
+
+    The extremes are at the ends of the arc and at the multiples of pi/2 inside it; the box is
+    widened by ARC_BOX_MARGIN and clipped to [-1, 1].
+    """
+    if rng is None:
+        return (-1.0, 1.0), (-1.0, 1.0)
+    lo, hi = float(rng[0]), float(rng[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"range: expected finite lo < hi (radians), got {rng!r}")
+    if hi - lo >= 2 * math.pi:
+        return (-1.0, 1.0), (-1.0, 1.0)
+    cs = [math.cos(lo), math.cos(hi)]
+    ss = [math.sin(lo), math.sin(hi)]
+    k = math.ceil(lo / (math.pi / 2))
+    while k * math.pi / 2 <= hi:
+        cs.append(math.cos(k * math.pi / 2) if k % 2 == 0 else 0.0)
+        ss.append(math.sin(k * math.pi / 2) if k % 2 else 0.0)
+        k += 1
+
+    def clip(v):
+        return (max(-1.0, min(v) - ARC_BOX_MARGIN), min(1.0, max(v) + ARC_BOX_MARGIN))
+
+    return clip(cs), clip(ss)
+
+
+# --------------------------------------------------------------------------------------------
+# Loop polynomials in each parameterization
+# --------------------------------------------------------------------------------------------
+
+def _split_point(loop: ClosureLoop) -> int | None:
+    """Factor index s such that factors[:s] hold the first floor(k/2) of the loop's k unknowns."""
+    var_idx = [i for i, f in enumerate(loop.factors) if isinstance(f, Term)]
+    if len(var_idx) < 2:
+        return None
+    return var_idx[len(var_idx) // 2 - 1] + 1
+
+
+def _half(matrix: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rows 0..8 the entries of the (q-scaled) half product, row 9 its q: shape (10, *dims)."""
+    return np.concatenate([matrix.reshape((9,) + q.shape), np.broadcast_to(q, q.shape)[None]])
+
+
+def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int]) -> LoopPolynomials:
+    """q_n F_n of a loop in t = tan((theta - shift)/2) on each unknown's range (Sections 2.2, 3).
+
+    ``variables``: the global variable index of each of the loop's unknowns (in loop order). The
+    matrix comes from the product route, the scalar equation of Eq. (10) from the paper's
+    recursion route (Cor. 2); both are exact reparameterizations of the same polynomials.
+    """
+    from .closure import matrix_control_points, q_control_points, scalar_control_points
+
+    fps = loop.factor_polynomials()
+    split = _split_point(loop)
+    ha = hb = None
+    if split is not None:
+        ha = _half(matrix_control_points(fps[:split]), q_control_points(fps[:split]))
+        hb = _half(matrix_control_points(fps[split:]), q_control_points(fps[split:]))
+    return LoopPolynomials(index, tuple(variables), matrix_control_points(fps), q_control_points(fps),
+                           scalar_control_points(fps, "recursion"), ha, hb)
+
+
+def _sin_cos_factor(term: Term, cbox, sbox) -> np.ndarray:
+    """Control matrices (2, 2, 3, 3) of Rx(phi) Z over (c, s) in cbox x sbox, phi = offset + sign theta.
+
+    cos(phi) = cos(o) c - sign sin(o) s and sin(phi) = sin(o) c + sign cos(o) s are affine in
+    (c, s), so Rx(phi) Z is multilinear and its degree-(1, 1) control points are its corner values.
+    """
+    co, so = _cos_sin(term.offset)
+    c = np.array(cbox, dtype=float)[:, None]
+    s = np.array(sbox, dtype=float)[None, :]
+    cp = co * c - term.sign * so * s
+    sp = so * c + term.sign * co * s
+    out = np.zeros((2, 2, 3, 3))
+    out[..., 0, 1] = -1.0
+    out[..., 1, 0] = cp
+    out[..., 1, 2] = -sp
+    out[..., 2, 0] = sp
+    out[..., 2, 2] = cp
+    return out
+
+
+def _sin_cos_product(factors, names, boxes):
+    """Control points (3, 3, *dims) of prod Rx(phi_i) Z over the (c, s) of its unknowns, and their variables."""
+    prod = np.eye(3)
+    variables = []
+    for f in factors:
+        if isinstance(f, Term):
+            k = list(names).index(f.unknown.name)
+            variables += [2 * k, 2 * k + 1]
+            prod = prod[..., None, None, :, :] @ _sin_cos_factor(f, *boxes[f.unknown.name])
+        else:
+            c, s = _cos_sin(f)
+            prod = prod @ np.array([[0.0, -1.0, 0.0], [c, 0.0, -s], [s, 0.0, c]])
+    return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0), variables
+
+
+def sin_cos_loop(index: int, loop: ClosureLoop, names: Sequence[str],
+                 boxes: Mapping[str, tuple]) -> LoopPolynomials:
+    """F_n of a loop in the variables (c_k, s_k) = (cos theta_k, sin theta_k) (Section 5).
+
+    ``names``: the unknowns' names (variable 2k is c_k, 2k+1 is s_k); ``boxes[name]``: its
+    ((c_lo, c_hi), (s_lo, s_hi)). The control points of the product are the products of the
+    factors' control matrices (tensor product over distinct variables), q = 1.
+    """
+    matrix, variables = _sin_cos_product(loop.factors, names, boxes)
+    split = _split_point(loop)
+    ha = hb = None
+    if split is not None:
+        pm, _ = _sin_cos_product(loop.factors[:split], names, boxes)
+        sm, _ = _sin_cos_product(loop.factors[split:], names, boxes)
+        ha, hb = _half(pm, np.ones(pm.shape[2:])), _half(sm, np.ones(sm.shape[2:]))
+    return LoopPolynomials(index, tuple(variables), matrix, np.ones(matrix.shape[2:]), None, ha, hb)
+
+
+def _circle_block(k: int, n_vars: int, cbox, sbox) -> EquationBlock:
+    """c_k^2 + s_k^2 - 1 on the box: with c = a + (b - a) x, c^2 has control points (a^2, ab, b^2)."""
+    (a, b), (p, q) = cbox, sbox
+    cc = np.array([a * a, a * b, b * b])
+    ss = np.array([p * p, p * q, q * q])
+    tensor = cc[:, None] + ss[None, :] - 1.0
+    shape = [1] * (n_vars + 1)
+    shape[1 + 2 * k] = shape[2 + 2 * k] = 3
+    coeffs = tensor.reshape(shape)
+    return EquationBlock(-1, (f"circle{k + 1}",), coeffs, np.abs(coeffs).reshape(1, -1).max(axis=1), (0,))
+
+
+# --------------------------------------------------------------------------------------------
+# Chart sets
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class ChartSet:
+    """Everything the box loop needs, stacked along a leading chart axis (C charts).
+
+    * ``unknowns``: the unknown angles' names (n); ``variables``: the polynomial variables (N);
+    * ``coeffs[b]`` (C, E_b, d_1..d_N) and ``tols[b]`` (C, E_b): equation block b on each chart's
+      unit box and the absolute tolerance of its test w = 0; ``labels[b]``; ``square[b]``: the
+      equations of block b that belong to the square system of simple roots (for the Krawczyk
+      test), empty when the formulation has none;
+    * ``map_lo``, ``map_hi`` (C, N): each variable's metric coordinate (radians for tan-half, c or s
+      for sin-cos) is a monotone function of its unit coordinate x between these values;
+    * ``accept_width``: a box is accepted when every metric side is below ``tol * accept_width``;
+    * ``bilinear[b]``: None, or (a_vars, b_vars, a (C, U, *dims_a), b (C, V, *dims_b), terms) when
+      block b is the bilinear form of a loop's halves on every chart
+      (:class:`spherekin.formulations.Bilinear`): the solver then restricts the halves, not ``coeffs``.
+    """
+
+    parameterization: str
+    unknowns: tuple
+    variables: tuple
+    coeffs: list
+    tols: list
+    labels: list
+    square: list
+    map_lo: np.ndarray
+    map_hi: np.ndarray
+    shift: np.ndarray
+    accept_width: float
+    bilinear: list = None
+
+    @property
+    def n_charts(self) -> int:
+        return self.coeffs[0].shape[0]
+
+    @property
+    def square_size(self) -> int:
+        return sum(len(s) for s in self.square)
+
+    def metric(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Metric coordinates (B, N) of unit coordinates x (B, N) in charts ``chart`` (B,)."""
+        lo, hi = self.map_lo[chart], self.map_hi[chart]
+        v = lo + (hi - lo) * x
+        if self.parameterization == "tan-half":
+            return self.shift[chart] + 2.0 * np.arctan(v)
+        return v
+
+    def angles(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Unknown angles (B, n), radians, at unit coordinates x (B, N)."""
+        v = self.metric(chart, x)
+        if self.parameterization == "tan-half":
+            return v
+        return np.arctan2(v[:, 1::2], v[:, 0::2])
+
+    def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians.
+
+        tan-half: the metric is the angle itself (increasing in x). sin-cos: the angles of the four
+        corners of each (c, s) rectangle, unwrapped next to the angle of its centre (the rectangles
+        of accepted boxes are tiny and away from the origin).
+        """
+        if self.parameterization == "tan-half":
+            return self.metric(chart, lo), self.metric(chart, hi)
+        mlo, mhi = self.metric(chart, lo), self.metric(chart, hi)
+        centre = np.arctan2(0.5 * (mlo[:, 1::2] + mhi[:, 1::2]), 0.5 * (mlo[:, 0::2] + mhi[:, 0::2]))
+        corners = [np.arctan2(s[:, 1::2], c[:, 0::2]) for c in (mlo, mhi) for s in (mlo, mhi)]
+        corners = [centre + np.mod(a - centre + math.pi, 2 * math.pi) - math.pi for a in corners]
+        return np.minimum.reduce(corners), np.maximum.reduce(corners)
+
+
+def _stack_blocks(per_chart: list[list[EquationBlock]]):
+    nb = len(per_chart[0])
+    coeffs = [np.stack([bl[b].coeffs for bl in per_chart]) for b in range(nb)]
+    eps = np.finfo(float).eps
+    tols = [ROUNDING_SAFETY * eps * np.stack([bl[b].scale for bl in per_chart]) for b in range(nb)]
+    labels = [bl.labels for bl in per_chart[0]]
+    square = [bl.square for bl in per_chart[0]]
+    bilinear = []
+    for b in range(nb):
+        forms = [bl[b].bilinear for bl in per_chart]
+        if any(f is None for f in forms):
+            bilinear.append(None)
+            continue
+        f0 = forms[0]
+        bilinear.append((f0.a_vars, f0.b_vars, np.stack([f.a for f in forms]), np.stack([f.b for f in forms]),
+                         f0.terms))
+    return coeffs, tols, labels, square, bilinear
+
+
+def _rechart(loop: ClosureLoop, unknowns: Mapping[str, Unknown]) -> ClosureLoop:
+    """The same loop with its unknowns replaced by ``unknowns[name]`` (another chart's ranges)."""
+    return ClosureLoop([Term(unknowns[f.unknown.name], f.offset, f.sign) if isinstance(f, Term) else f
+                        for f in loop.factors])
+
+
+def _tan_half(build, ranges, formulation) -> ChartSet:
+    """2^n-ish charts (:func:`charts_for_range` per unknown). ``build`` is called once: the loops'
+    factors (known angles, offsets, signs) must not depend on the chart ranges, only the unknowns'
+    ranges do; each loop's polynomials are computed once per combination of its own unknowns'
+    charts (16 per Gosselin loop instead of 64) and shared by the charts that agree on them."""
+    names = list(ranges)
+    per_name = [charts_for_range(ranges[name]) for name in names]
+    combos = list(itertools.product(*(range(len(p)) for p in per_name)))
+    loops, unknowns = build({name: per_name[k][0] for k, name in enumerate(names)})
+    if tuple(u.name for u in unknowns) != tuple(names):
+        raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
+    chart_unknowns = [[Unknown(name, *rng) for rng in per_name[k]] for k, name in enumerate(names)]
+    cache: dict = {}
+    per_chart, t_lo, t_hi, shift = [], [], [], []
+    for combo in combos:
+        polys = []
+        for j, lp in enumerate(loops):
+            idx = tuple(names.index(n) for n in lp.names)
+            key = (j, tuple(combo[i] for i in idx))
+            if key not in cache:
+                local = {names[i]: chart_unknowns[i][combo[i]] for i in idx}
+                cache[key] = tan_half_loop(j, _rechart(lp, local), idx)
+            polys.append(cache[key])
+        per_chart.append(formulate_polynomials(formulation, polys, len(names)))
+        chosen = [chart_unknowns[i][c] for i, c in enumerate(combo)]
+        t = np.array([u.t_range for u in chosen])
+        t_lo.append(t[:, 0])
+        t_hi.append(t[:, 1])
+        shift.append([u.shift for u in chosen])
+    coeffs, tols, labels, square, bilinear = _stack_blocks(per_chart)
+    return ChartSet("tan-half", tuple(names), tuple(names), coeffs, tols, labels, square,
+                    np.array(t_lo), np.array(t_hi), np.array(shift), 1.0, bilinear)
+
+
+#: sin-cos boxes are accepted when every c and s side is below tol times this: points of the unit
+#: circle in a square of side w are at most 2 asin(w / sqrt 2) ~ 1.41 w apart in angle, so w <= tol / 2
+#: bounds the angle uncertainty by ~0.71 tol < tol.
+SIN_COS_ACCEPT = 0.5
+
+
+def _sin_cos(build, ranges, formulation) -> ChartSet:
+    names = list(ranges)
+    loops, unknowns = build({name: (-1.0, 1.0) for name in names})
+    if tuple(u.name for u in unknowns) != tuple(names):
+        raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
+    boxes = {name: arc_box(ranges[name]) for name in names}
+    n_vars = 2 * len(names)
+    polys = [sin_cos_loop(j, lp, names, boxes) for j, lp in enumerate(loops)]
+    blocks = formulate_polynomials(formulation, polys, n_vars)
+    blocks += [_circle_block(k, n_vars, *boxes[name]) for k, name in enumerate(names)]
+    coeffs, tols, labels, square, bilinear = _stack_blocks([blocks])
+    lo = np.array([[v for name in names for v in (boxes[name][0][0], boxes[name][1][0])]])
+    hi = np.array([[v for name in names for v in (boxes[name][0][1], boxes[name][1][1])]])
+    variables = tuple(f"{v}({name})" for name in names for v in ("cos", "sin"))
+    return ChartSet("sin-cos", tuple(names), variables, coeffs, tols, labels, square,
+                    lo, hi, np.zeros_like(lo), SIN_COS_ACCEPT, bilinear)
+
+
+PARAMETERIZATIONS: dict[str, Callable] = {"tan-half": _tan_half, "sin-cos": _sin_cos}
+
+
+def make_charts(name: str, build, ranges: Mapping[str, tuple[float, float] | None], formulation: str) -> ChartSet:
+    """The :class:`ChartSet` of parameterization ``name`` (one of PARAMETERIZATIONS).
+
+    ``build(chart_ranges)`` returns (loops, unknowns) with each unknown's range set from
+    ``chart_ranges`` (name -> (lo, hi), width < 2 pi); ``ranges`` gives each unknown's joint range
+    (radians) or None for the full circle.
+    """
+    if name not in PARAMETERIZATIONS:
+        raise ValueError(f"parameterization: expected one of {sorted(PARAMETERIZATIONS)}, got {name!r}")
+    if not ranges:
+        raise ValueError("ranges: expected at least one unknown, got none")
+    return PARAMETERIZATIONS[name](build, dict(ranges), formulation)
