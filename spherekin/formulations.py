@@ -79,8 +79,8 @@ class LoopPolynomials:
     has none (then it is read off ``matrix``). Tensor axis a is global variable ``variables[a]``.
     ``half_a`` (10, *dims_a) and ``half_b`` (10, *dims_b): the loop cut in the middle, F_n = P S
     with P the product of the factors up to the floor(k/2)-th unknown: rows 0..8 are the entries
-    (row-major) of q_a P and q_b S, row 9 is q_a or q_b; their axes are the first and the last
-    unknowns of ``variables``. None for a loop with one unknown.
+    (row-major) of q_a P and q_b S, row 9 is q_a or q_b; their axes are the first ``split`` and
+    the remaining axes of ``variables``. None for a loop with one unknown.
     """
 
     loop_index: int
@@ -93,7 +93,7 @@ class LoopPolynomials:
 
     @property
     def split(self) -> int:
-        """Number of the loop's unknowns (axes) in half a."""
+        """Number of tensor axes (variables) in half a: its unknowns for tan-half, twice that for sin-cos."""
         return self.half_a.ndim - 1 if self.half_a is not None else 0
 
 

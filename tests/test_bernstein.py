@@ -285,3 +285,35 @@ C3 = np.zeros((3, 2, 4))
 def test_bad_input_raises_value_error_naming_argument(call, name):
     with pytest.raises(ValueError, match=rf"^{name}: expected"):
         call()
+
+
+# ---------------------------------------------------------------- the solver's batch-last kernels
+
+def test_restriction_matrices_equal_the_blossom():
+    rng = np.random.default_rng(12)
+    a, b = rng.uniform(0, 1, 7), rng.uniform(0, 1, 7)
+    for m in (0, 1, 2, 3):
+        np.testing.assert_allclose(bz.restriction_matrices(m, a, b), bz.restriction_matrix(m, a, b),
+                                   atol=1e-15)
+
+
+def test_restrict_batch_last_exact_on_dyadic_data():
+    """Dyadic control points and box ends keep every product and sum exact in binary floating
+    point, so the fast kernel must reproduce the exact (Fraction) reference bit for bit."""
+    rnd = random.Random(13)
+    dims, nb = (3, 1, 2, 3), 6
+    c = np.array([[rnd.randint(-64, 64) / 8 for _ in range(nb)] for _ in range(2 * int(np.prod(dims)))])
+    c = c.reshape((2,) + dims + (nb,))
+    lo = np.array([[rnd.randint(0, 8) / 16 for _ in dims] for _ in range(nb)])
+    hi = lo + np.array([[rnd.randint(0, 8) / 16 for _ in dims] for _ in range(nb)])
+    got = bz.restrict_batch_last(c, lo, hi)
+    for b in range(nb):
+        exact = np.vectorize(Fraction, otypes=[object])(c[..., b])
+        box = np.array([[Fraction(x), Fraction(y)] for x, y in zip(lo[b], hi[b])], dtype=object)
+        ref = bz.restrict(exact, box, nvars=len(dims))
+        assert np.array_equal(got[..., b], ref.astype(float)), b
+
+
+def test_restrict_batch_last_rejects_mismatched_shapes():
+    with pytest.raises(ValueError, match="lo, hi"):
+        bz.restrict_batch_last(np.zeros((2, 3, 3, 4)), np.zeros((5, 2)), np.ones((5, 2)))

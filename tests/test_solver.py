@@ -122,22 +122,70 @@ def regular_solution(gosselin_report):
     return dict(zip(gosselin_report.unknowns, s.angles))
 
 
+@pytest.mark.parametrize("parameterization", ["tan-half", "sin-cos"])
 @pytest.mark.parametrize("pruner, backend", [("pp", None), ("hybrid", None), ("lp", "highspy"), ("lp", "highs"),
                                              ("lp", "clarabel")])
 class TestEveryPruner:
-    def test_finds_the_solution(self, pruner, backend, regular_solution):
+    def test_finds_the_solution(self, pruner, backend, parameterization, regular_solution):
         build, ranges = _narrow(gosselin(), regular_solution, 0.15)
-        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend)
+        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization,
+                           formulation="halves")
         assert len(rep.solutions) == 1
         np.testing.assert_allclose(rep.solutions[0].angles, list(regular_solution.values()), atol=2e-6)
         if pruner == "lp":
             assert rep.stats.lps_solved > 0
 
-    def test_empty_when_no_solution_in_range(self, pruner, backend, regular_solution):
+    def test_empty_when_no_solution_in_range(self, pruner, backend, parameterization, regular_solution):
         away = {n: a + 0.5 for n, a in regular_solution.items()}
         build, ranges = _narrow(gosselin(), away, 0.1)
-        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend)
+        rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization)
         assert rep.solutions == ()
+
+
+def _poses(report):
+    return sorted((s.platform_rotation for s in report.solutions), key=lambda r: tuple(np.round(r.ravel(), 6)))
+
+
+@pytest.mark.parametrize("parameterization", ["tan-half", "sin-cos"])
+@pytest.mark.parametrize("formulation", ["transversal", "halves"])
+def test_every_parameterization_and_formulation_finds_the_eight_solutions(parameterization, formulation,
+                                                                           gosselin_report):
+    rep = solve(gosselin(), INPUTS, parameterization=parameterization, formulation=formulation)
+    assert sorted(s.status for s in rep.solutions) == ["certified"] * 4 + ["singular"] * 4
+    for a, b in zip(_poses(rep), _poses(gosselin_report)):
+        np.testing.assert_allclose(a, b, atol=1e-12)
+    assert rep.settings["parameterization"] == parameterization
+    assert rep.stats.charts == (64 if parameterization == "tan-half" else 1)
+
+
+def test_jobs_do_not_change_the_result(gosselin_report):
+    rep2 = solve(gosselin(), INPUTS, jobs=2)
+    assert [s.angles.tolist() for s in rep2.solutions] == [s.angles.tolist() for s in gosselin_report.solutions]
+    counts = ("boxes_processed", "discarded", "split", "reduced_again", "accepted", "isolated")
+    assert [getattr(rep2.stats, c) for c in counts] == [getattr(gosselin_report.stats, c) for c in counts]
+    with pytest.raises(ValueError, match="jobs"):
+        solve(gosselin(), INPUTS, jobs=0)
+
+
+def test_isolation_saves_boxes_but_not_solutions(gosselin_report):
+    plain = solve(gosselin(), INPUTS, isolate=False)
+    for a, b in zip(_poses(plain), _poses(gosselin_report)):
+        np.testing.assert_allclose(a, b, atol=1e-12)
+    assert gosselin_report.stats.isolated >= 4 and plain.stats.isolated == 0
+    assert plain.stats.boxes_processed > gosselin_report.stats.boxes_processed
+
+
+def test_sin_cos_drops_solutions_outside_limited_ranges(regular_solution):
+    """The sin-cos box of an arc is its bounding box, which holds circle points beyond the arc."""
+    mech = gosselin()
+    centre = {n: a + 0.12 for n, a in regular_solution.items()}   # the root near one end of each range
+    build, ranges = _narrow(mech, centre, 0.125)
+    for par in ("tan-half", "sin-cos"):
+        rep = solve_system(build, ranges, parameterization=par)
+        assert len(rep.solutions) == 1
+    build, ranges = _narrow(mech, {n: a + 0.13 for n, a in regular_solution.items()}, 0.125)
+    for par in ("tan-half", "sin-cos"):
+        assert solve_system(build, ranges, parameterization=par).solutions == ()
 
 
 def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_solution):
@@ -184,6 +232,7 @@ def test_caps_raise_distinct_errors(regular_solution):
         (dict(pruner="pp", lp_backend="highs"), "lp_backend"),
         (dict(pruner="lp", lp_backend="cplex"), "lp_backend"),
         (dict(tol=0.0), "tol"),
+        (dict(parameterization="quaternion"), "parameterization.*sin-cos.*tan-half"),
     ],
 )
 def test_bad_input_is_a_clear_error(kwargs, match):

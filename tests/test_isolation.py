@@ -1,0 +1,182 @@
+"""Tests for spherekin.isolation against independent references.
+
+* square polynomial systems with KNOWN roots, built in the power basis:
+  F_i(x) = sum_k (x_k - r_k) g_ik(x) has the simple root r (random g); a system with two roots a
+  known distance apart; a box that holds no root;
+* the Krawczyk contraction never loses the root; an isolated box holds the root (existence) and
+  no box holding two roots is isolated (uniqueness); small boxes around a simple root are isolated;
+* the Jacobian enclosure contains central finite differences at random points of the box;
+* evaluate_at / jacobian_at against bernstein.evaluate and finite differences;
+* Newton converges to the known root, and a root where another equation does not vanish is
+  reported as spurious.
+"""
+
+import numpy as np
+import pytest
+
+from spherekin import bernstein
+from spherekin.isolation import (SquareSystem, _derivative_bounds, evaluate_at, jacobian_at, krawczyk_boxes,
+                                 newton)
+
+EPS = np.finfo(float).eps
+
+
+def times_linear(g, k, r):
+    """Power coefficients of (x_k - r) g(x); g has degree <= 1 in x_k."""
+    return np.roll(g, 1, axis=k) - r * g
+
+
+def square_system(seed, n):
+    """Bernstein control points (n, 3, ..., 3) on [0, 1]^n of n equations with the simple root r."""
+    rng = np.random.default_rng(seed)
+    r = rng.uniform(0.2, 0.8, n)
+    eqs = []
+    for i in range(n):
+        total = np.zeros((3,) * n)
+        for k in range(n):
+            g = rng.normal(size=(3,) * n) * 0.3
+            g[(slice(None),) * k + (-1,)] = 0.0
+            g[(0,) * n] += 2.0 if k == i else 0.0          # diagonal dominance: G(r) well conditioned
+            total = total + times_linear(g, k, r[k])
+        eqs.append(total)
+    c = bernstein.from_power(np.stack(eqs), nvars=n)
+    assert np.abs(bernstein.evaluate(c, r, nvars=n)).max() < 1e-13
+    return c, r
+
+
+def two_root_system(n, r1, r2, rest):
+    """(x_0 - r1)(x_0 - r2) = 0 and x_k = rest_k: roots (r1, rest) and (r2, rest)."""
+    eqs = []
+    first = np.zeros((3,) * n)
+    first[(0,) * n] = r1 * r2
+    first[(1,) + (0,) * (n - 1)] = -(r1 + r2)
+    first[(2,) + (0,) * (n - 1)] = 1.0
+    eqs.append(first)
+    for k in range(1, n):
+        e = np.zeros((3,) * n)
+        e[(0,) * n] = -rest[k - 1]
+        e[(0,) * k + (1,) + (0,) * (n - 1 - k)] = 1.0
+        eqs.append(e)
+    return bernstein.from_power(np.stack(eqs), nvars=n)
+
+
+def on_boxes(c, boxes):
+    """Control points restricted to boxes (B, n, 2), batch last, and the solver's tolerances."""
+    cps = np.moveaxis(bernstein.restrict(c, boxes[:, None], nvars=boxes.shape[1]), 0, -1)
+    tol = 1e3 * EPS * np.abs(c).reshape(len(c), -1).max(axis=1)
+    return [cps], [np.repeat(tol[:, None], len(boxes), axis=1)]
+
+
+def boxes_around(rng, point, count, log_width):
+    n = len(point)
+    w = 10 ** rng.uniform(*log_width, size=(count, n))
+    a = np.clip(point - w * rng.uniform(0.05, 0.95, size=(count, n)), 0, 1)
+    return np.stack([a, np.clip(a + w, 0, 1)], axis=-1)
+
+
+def square(n):
+    return SquareSystem(tuple((0, e) for e in range(n)))
+
+
+@pytest.mark.parametrize("n, seed", [(2, 0), (3, 1), (4, 2)])
+def test_contraction_keeps_the_root_and_small_boxes_are_isolated(n, seed):
+    c, r = square_system(seed, n)
+    rng = np.random.default_rng(seed)
+    for log_w, must_isolate in (((-1.5, -0.7), False), ((-4.0, -2.5), True)):
+        boxes = boxes_around(rng, r, 60, log_w)
+        cps, tols = on_boxes(c, boxes)
+        iso, lo, hi = krawczyk_boxes(square(n), cps, tols)
+        u = (r - boxes[..., 0]) / (boxes[..., 1] - boxes[..., 0])
+        assert np.all((lo <= u + 1e-12) & (u <= hi + 1e-12)), "the contraction lost the root"
+        if must_isolate:
+            assert iso.mean() > 0.9
+            assert np.max(hi - lo) < 0.5                    # quadratic contraction of small boxes
+
+
+def test_a_box_without_root_is_never_isolated_and_far_ones_are_discarded():
+    c, r = square_system(3, 3)
+    rng = np.random.default_rng(3)
+    centres = np.clip(r + rng.choice([-1, 1], (80, 3)) * rng.uniform(0.02, 0.15, (80, 3)), 0.05, 0.95)
+    boxes = np.stack([centres - 5e-3, centres + 5e-3], axis=-1)
+    holds = np.all((boxes[..., 0] <= r) & (r <= boxes[..., 1]), axis=1)
+    assert not holds.any()
+    iso, lo, hi = krawczyk_boxes(square(3), *on_boxes(c, boxes))
+    assert not iso.any()
+    assert np.any(lo > hi, axis=1).mean() > 0.5             # most are proven empty
+
+
+@pytest.mark.parametrize("gap", [1e-2, 1e-4])
+def test_a_box_holding_two_roots_is_not_isolated(gap):
+    n = 3
+    c = two_root_system(n, 0.5, 0.5 + gap, [0.3, 0.6])
+    rng = np.random.default_rng(4)
+    lo0 = np.array([0.5 - gap, 0.29, 0.59]) - rng.uniform(0, gap, (40, 3))
+    hi0 = np.array([0.5 + 2 * gap, 0.31, 0.61]) + rng.uniform(0, gap, (40, 3))
+    boxes = np.stack([lo0, hi0], axis=-1)
+    iso, lo, hi = krawczyk_boxes(square(n), *on_boxes(c, boxes))
+    assert not iso.any()
+    for root in ([0.5, 0.3, 0.6], [0.5 + gap, 0.3, 0.6]):
+        u = (np.array(root) - boxes[..., 0]) / (boxes[..., 1] - boxes[..., 0])
+        assert np.all((lo <= u + 1e-12) & (u <= hi + 1e-12))
+    # each root alone in a small box is isolated
+    single = np.stack([np.array([0.5, 0.3, 0.6]) - gap / 4, np.array([0.5, 0.3, 0.6]) + gap / 3], axis=-1)[None]
+    iso1, _, _ = krawczyk_boxes(square(n), *on_boxes(c, single))
+    assert iso1.all()
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_jacobian_enclosure_contains_finite_differences(seed):
+    c, r = square_system(seed, 3)
+    rng = np.random.default_rng(seed)
+    boxes = boxes_around(rng, r, 10, (-1.0, -0.3))
+    (cps,), (tols,) = on_boxes(c, boxes)
+    jlo, jhi = _derivative_bounds(cps, tols)                 # (E, N, B), d/du on the box
+    h = 1e-6
+    for _ in range(30):
+        u = rng.uniform(h, 1 - h, (10, 3))
+        for k in range(3):
+            e = np.zeros(3)
+            e[k] = h
+            fd = (evaluate_at(cps, u + e) - evaluate_at(cps, u - e)) / (2 * h)      # (E, B)
+            assert np.all(fd >= jlo[:, k] - 1e-6) and np.all(fd <= jhi[:, k] + 1e-6)
+        np.testing.assert_allclose(jacobian_at(cps, u)[:, 0], (evaluate_at(cps, u + [h, 0, 0]) -
+                                                              evaluate_at(cps, u - [h, 0, 0])) / (2 * h), atol=1e-6)
+
+
+def test_evaluate_at_matches_bernstein_evaluate():
+    rng = np.random.default_rng(7)
+    c = rng.normal(size=(2, 3, 1, 2, 5))                    # batch last, mixed degrees
+    u = rng.uniform(0, 1, (5, 3))
+    ref = np.stack([bernstein.evaluate(c[..., b], u[b], nvars=3) for b in range(5)], axis=-1)
+    np.testing.assert_allclose(evaluate_at(c, u), ref, atol=1e-14)
+
+
+@pytest.mark.parametrize("n, seed", [(2, 8), (3, 9)])
+def test_newton_converges_to_the_root_and_tells_spurious_roots(n, seed):
+    c, r = square_system(seed, n)
+    rng = np.random.default_rng(seed)
+    boxes = boxes_around(rng, r, 12, (-3.0, -2.0))
+    cps, tols = on_boxes(c, boxes)
+    iso, _, _ = krawczyk_boxes(square(n), cps, tols)
+    assert iso.all()
+    # an extra equation that vanishes at r (a closure) and one that does not (a spurious root)
+    x0 = np.zeros((3,) * n)
+    x0[(0,) * n] = -r[0]
+    x0[(1,) + (0,) * (n - 1)] = 1.0
+    vanishing = bernstein.from_power(x0[None], nvars=n)
+    offset = vanishing + 0.1
+    for extra, expect in ((vanishing, True), (offset, False)):
+        full = np.concatenate([c, extra])
+        cps, tols = on_boxes(full, boxes)
+        u, converged, closure = newton(square(n), cps, tols)
+        assert converged.all()
+        x = boxes[..., 0] + u * (boxes[..., 1] - boxes[..., 0])
+        np.testing.assert_allclose(x, np.broadcast_to(r, x.shape), atol=1e-14)
+        assert np.all(closure == expect)
+
+
+def test_square_system_size_mismatch_is_an_error():
+    c, r = square_system(0, 3)
+    cps, tols = on_boxes(c[:2], np.stack([r - 0.01, r + 0.01], axis=-1)[None])
+    with pytest.raises(ValueError, match="square"):
+        krawczyk_boxes(square(2), cps, tols)
