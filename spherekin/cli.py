@@ -99,18 +99,19 @@ def _solve(args) -> int:
           + ", ".join(f"{n} = {v:+.6g} {unit}" for n, v in zip(mech.actuated, shown)))
     progress = _Progress(sys.stderr.isatty())
     try:
-        report = solve(mech, inputs, formulation=args.formulation, pruner=args.pruner,
-                       lp_backend=args.lp_backend, tol=args.tol, progress=progress)
+        report = solve(mech, inputs, formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
+                       parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate,
+                       jobs=args.jobs, progress=progress)
     finally:
         progress.close()
     st = report.stats
     print(f"{len(report.solutions)} solution(s); passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
-    print(f"formulation {args.formulation}, pruner {args.pruner}"
+    print(f"{args.parameterization}, formulation {args.formulation}, pruner {args.pruner}"
           + (f" ({report.settings['lp_backend'] or 'default backend'})" if args.pruner != "pp" else "")
-          + f", tol {args.tol:g} rad: {st.charts} charts, {st.boxes_processed} boxes "
-          f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted), "
-          f"{st.lps_solved} LPs, {st.time_total:.2f} s")
+          + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
+          f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
+          f"{st.lps_solved} LPs, {st.time_total:.3f} s")
     if args.json:
         Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
         print(f"wrote {args.json}")
@@ -133,21 +134,29 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     from .formulations import FORMULATIONS
     from .lp_backends import LP_BACKENDS
+    from .parameterizations import PARAMETERIZATIONS
     from .pruners import PRUNERS
-    from .solver import DEFAULT_TOL
+    from .solver import DEFAULT_FORMULATION, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
     so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
-    so.add_argument("--formulation", default="transversal", choices=sorted(FORMULATIONS),
-                    help="paper: Eq. (10) only; transversal (default): simple roots")
-    so.add_argument("--pruner", default="hybrid", choices=PRUNERS,
-                    help="hybrid (default): projected polyhedron, LPs where it stalls; pp: no LP; "
-                         "lp: the Eq. (12) linear programs on every box")
+    so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=sorted(PARAMETERIZATIONS),
+                    help="tan-half: t = tan(theta/2), the paper's (charts for full ranges); sin-cos: "
+                         "c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). Default %(default)s")
+    so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=sorted(FORMULATIONS),
+                    help="paper: Eq. (10) only; transversal: three entries of F (simple roots) + Eq. (10); "
+                         "halves: three entries of F + the loop closed in the middle, P = S^T. Default %(default)s")
+    so.add_argument("--pruner", default=DEFAULT_PRUNER, choices=PRUNERS,
+                    help="pp: projected polyhedron, no LP; hybrid: pp, LPs where it stalls; "
+                         "lp: the Eq. (12) linear programs on every box. Default %(default)s")
     so.add_argument("--lp-backend", default=None, choices=LP_BACKENDS,
                     help="LP backend (lp: default highs; hybrid: default highspy); paper-faithful: clarabel")
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
+    so.add_argument("--no-isolate", action="store_true",
+                    help="subdivide every box down to the tolerance (no Krawczyk isolation; the paper's behaviour)")
+    so.add_argument("--jobs", type=int, default=1, help="worker processes for the charts (default %(default)s)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)

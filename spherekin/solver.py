@@ -44,10 +44,12 @@ from .results import AcceptedBox, Solution, SolveReport, SolverStats
 from .solutions import finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_TOL", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
+           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
-#: Default pruner: the fastest that finds every solution (benchmarks/README.md).
+#: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
+DEFAULT_FORMULATION = "halves"
 DEFAULT_PRUNER = "pp"
+DEFAULT_PARAMETERIZATION = "tan-half"
 #: Default tolerance (radians): a box is accepted when every joint angle is known to within it.
 DEFAULT_TOL = 1e-6
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
@@ -112,14 +114,16 @@ class _Layout:
             a_vars, b_vars, a, bb, terms = bil
             lv = list(a_vars) + list(b_vars)
             e, u, v = (terms[:, i].astype(int) for i in range(3))
-            w = np.zeros((c.shape[1], len(e)))
-            w[e, np.arange(len(e))] = terms[:, 3]
+            # per equation, its terms (u, v, coef): a sparse sum, not a dense matrix product (a BLAS
+            # call of this size costs more in threading than the ~3 terms per equation need)
+            sums = [[(int(u[t]), int(v[t]), float(terms[t, 3])) for t in np.flatnonzero(e == k)]
+                    for k in range(c.shape[1])]
             shape = [c.shape[1]] + [1] * n
             for var in lv:
                 shape[1 + var] = c.shape[2 + var]
             perm = (0,) + tuple(1 + int(i) for i in np.argsort(lv)) + (1 + len(lv),)
             self.blocks.append(("bilinear", (list(a_vars), list(b_vars), np.ascontiguousarray(np.moveaxis(a, 0, -1)),
-                                             np.ascontiguousarray(np.moveaxis(bb, 0, -1)), u, v, w, perm, shape)))
+                                             np.ascontiguousarray(np.moveaxis(bb, 0, -1)), sums, perm, shape)))
 
 
 def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
@@ -135,13 +139,27 @@ def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
         if kind == "dense":
             cps.append(bernstein.restrict_batch_last(np.take(data, chart, axis=-1), lo, hi, cache))
             continue
-        a_vars, b_vars, a, b, u, v, w, perm, shape = data
+        a_vars, b_vars, a, b, sums, perm, shape = data
         ra = bernstein.restrict_batch_last(np.take(a, chart, axis=-1), lo[:, a_vars], hi[:, a_vars], cache, a_vars)
         rb = bernstein.restrict_batch_last(np.take(b, chart, axis=-1), lo[:, b_vars], hi[:, b_vars], cache, b_vars)
         da, db = ra.shape[1:-1], rb.shape[1:-1]
-        af = ra.reshape(ra.shape[0], -1, 1, nb)[u]
-        bf = rb.reshape(rb.shape[0], 1, -1, nb)[v]
-        full = (w @ (af * bf).reshape(len(u), -1)).reshape((w.shape[0],) + da + db + (nb,))
+        af = ra.reshape(ra.shape[0], -1, 1, nb)
+        bf = rb.reshape(rb.shape[0], 1, -1, nb)
+        full = np.empty((len(sums), af.shape[1], bf.shape[2], nb))
+        for k, terms in enumerate(sums):
+            out = full[k]
+            (u0, v0, c0), rest = terms[0], terms[1:]
+            np.multiply(af[u0], bf[v0], out=out)
+            if c0 != 1.0:
+                out *= c0
+            for u1, v1, c1 in rest:
+                if c1 == 1.0:
+                    out += af[u1] * bf[v1]
+                elif c1 == -1.0:
+                    out -= af[u1] * bf[v1]
+                else:
+                    out += c1 * (af[u1] * bf[v1])
+        full = full.reshape((len(sums),) + da + db + (nb,))
         cps.append(np.ascontiguousarray(np.transpose(full, perm)).reshape(shape + [nb]))
     tols = [t[chart].T for t in charts.tols]
     return cps, tols
@@ -304,10 +322,10 @@ def solve_system(
     build: Callable[[Mapping[str, tuple[float, float]]], tuple[Sequence[ClosureLoop], Sequence[Unknown]]],
     ranges: Mapping[str, tuple[float, float] | None],
     *,
-    formulation: str = "transversal",
+    formulation: str = DEFAULT_FORMULATION,
     pruner: str = DEFAULT_PRUNER,
     lp_backend: str | None = None,
-    parameterization: str = "tan-half",
+    parameterization: str = DEFAULT_PARAMETERIZATION,
     tol: float = DEFAULT_TOL,
     isolate: bool = True,
     jobs: int = 1,
@@ -416,10 +434,10 @@ def solve(
     mechanism,
     inputs,
     *,
-    formulation: str = "transversal",
+    formulation: str = DEFAULT_FORMULATION,
     pruner: str = DEFAULT_PRUNER,
     lp_backend: str | None = None,
-    parameterization: str = "tan-half",
+    parameterization: str = DEFAULT_PARAMETERIZATION,
     tol: float = DEFAULT_TOL,
     isolate: bool = True,
     jobs: int = 1,

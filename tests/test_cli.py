@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from spherekin.cli import main
+from spherekin.solver import DEFAULT_FORMULATION
 
 GOSSELIN = str(Path(__file__).resolve().parent.parent / "examples" / "gosselin.toml")
 
@@ -24,7 +25,26 @@ def test_solve_prints_table_and_writes_json(tmp_path, capsys):
         r = np.array(sol["platform_rotation"])
         np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
         assert set(sol["passive_angles"]) == set(data["unknowns"])
-    assert data["statistics"]["boxes_processed"] > 0 and data["settings"]["formulation"] == "transversal"
+    assert data["statistics"]["boxes_processed"] > 0
+    assert data["settings"]["formulation"] == DEFAULT_FORMULATION and data["settings"]["jobs"] == 1
+
+
+def test_strategy_options_reach_the_solver(tmp_path, capsys):
+    out = tmp_path / "sc.json"
+    argv = ["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--parameterization", "sin-cos", "--formulation",
+            "transversal", "--no-isolate", "--jobs", "2", "--json", str(out)]
+    assert main(argv) == 0
+    assert "sin-cos, formulation transversal" in capsys.readouterr().out
+    settings = json.loads(out.read_text())["settings"]
+    assert (settings["parameterization"], settings["formulation"], settings["isolate"], settings["jobs"]) == \
+        ("sin-cos", "transversal", False, 2)
+    assert len(json.loads(out.read_text())["solutions"]) == 8
+
+
+def test_unknown_strategy_name_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as err:
+        main(["solve", GOSSELIN, "--inputs", "0,0,0", "--parameterization", "quaternion"])
+    assert err.value.code == 2 and "tan-half" in capsys.readouterr().err
 
 
 def test_degrees_give_the_same_solutions(tmp_path):
@@ -44,6 +64,7 @@ def test_degrees_give_the_same_solutions(tmp_path):
         (["solve", GOSSELIN, "--inputs", "0.3,abc,0.1"], "--inputs"),
         (["solve", GOSSELIN, "--inputs", "0.3,nan,0.1"], "finite"),
         (["solve", "no/such/file.toml", "--inputs", "0,0,0"], "file.toml"),
+        (["solve", GOSSELIN, "--inputs", "0,0,0", "--jobs", "0"], "jobs"),
         (["gosselin", "--range", "1", "0"], "lo < hi"),
     ],
 )
