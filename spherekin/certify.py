@@ -16,15 +16,34 @@ matrix C and an enclosure J(X) of the Jacobian over X,
 
 Every zero of F in X lies in K(X); if K(X) lies in the interior of X (and C is nonsingular) then X
 holds exactly one zero and J is nonsingular on X. All of K is evaluated in outward-rounded
-interval arithmetic (mpmath's ``iv`` context: rounding of every +, *, sin and cos is enclosed),
-F(y) as an interval at the point y. C = J(y)^-1 is an ordinary float inverse (any C is valid; a
+interval arithmetic (the rounding of every +, *, sin and cos is enclosed), F(y) as an interval at
+the point y. C = J(y)^-1 is an ordinary float inverse (any C is valid; a
 good one makes K small).
 
-Evaluation: F = P_n with prefix products P_i = P_{i-1} Rx(phi_i) Z, and, since an unknown appears
-at most once per loop, dF/dtheta = sign * P_{i-1} (dRx(phi_i)/dphi Z) S_{i+1} with suffix
-products S_i = Rx(phi_i) Z S_{i+1}, using Rx(phi) Z = [[0,-1,0],[c,0,-s],[s,0,c]] and
-d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]]. One routine does this in floats and in
-intervals.
+Two implementations, with the same inputs and results:
+
+* fast (:func:`krawczyk`, :func:`certify`, :func:`certify_many`, :func:`interval_transversal`,
+  :func:`enclose_transversal`): interval arithmetic on float64 arrays, every operation rounded to
+  nearest then widened one ulp outward (:mod:`spherekin.intervals`), vectorized over points,
+  radii, loops and factors. A factor angle is phi = c + sign * theta, so
+  cos phi = cos c cos theta - sign sin c sin theta and sin phi = sin c cos theta + sign cos c sin theta,
+  with cos/sin of each constant c over c +- angle_tolerance and of each unknown over its box from
+  :func:`spherekin.intervals.cos_sin_table` (mpmath at the float point, then a rigorous
+  expansion). With P_i the product of the factors before factor i (P_0 = I), F = P_n by
+  P_{i+1} = P_i Rx(phi_i) Z, and dF/dphi_i = [u_i]x F with u_i = P_i e1, because
+  d/dphi Rx(phi) = [e1]x Rx(phi) and P [e1]x P^T = [P e1]x for a rotation P -- an identity of
+  the exact matrices at every point of the box, so enclosures of u_i and F enclose the Jacobian.
+  K uses (I - C J(X)) (X - y) in [-s, s], s = |I - C J(X)| rho with X - y in [-rho, rho] (a
+  superset of the usual evaluation: both conclusions of the test stay valid). Outside the IEEE
+  default floating-point environment (:func:`spherekin.intervals.rounding_environment_ok`) the
+  fast functions use the reference.
+* reference (:func:`krawczyk_reference`, :func:`certify_reference`,
+  :func:`interval_transversal_reference`): mpmath's ``iv`` context for every operation (slow,
+  obviously correct). F = P_n with prefix products as above and, since an unknown appears at most
+  once per loop, dF/dtheta = sign * P_{i-1} (dRx(phi_i)/dphi Z) S_{i+1} with suffix products
+  S_i = Rx(phi_i) Z S_{i+1}, using Rx(phi) Z = [[0,-1,0],[c,0,-s],[s,0,c]] and
+  d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]]; one routine does this in floats
+  (:func:`transversal_equations`) and in intervals.
 
 Departures from the paper: the paper does not certify its solutions (subdivision returns small
 boxes, not proofs); this module is an addition. Known factor angles and term offsets are floats
@@ -44,6 +63,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from mpmath import iv, mpf
 
+from . import intervals as iv_ops
 from .closure import KNOWN_ANGLE_SNAP, Term
 from .formulations import TRANSVERSAL_ENTRIES
 from .mechanism import LoopSystem
@@ -55,9 +75,14 @@ __all__ = [
     "KrawczykResult",
     "transversal_labels",
     "transversal_equations",
+    "enclose_transversal",
     "interval_transversal",
+    "interval_transversal_reference",
     "krawczyk",
+    "krawczyk_reference",
     "certify",
+    "certify_many",
+    "certify_reference",
 ]
 
 #: Half-width (radians) of the interval that stands for each constant angle (known factor angle,
@@ -138,7 +163,7 @@ class KrawczykResult:
 
 
 # --------------------------------------------------------------------------------------------
-# Evaluation of the transversal system (floats or intervals, one routine)
+# The transversal system: labels and float values
 # --------------------------------------------------------------------------------------------
 
 def transversal_labels(system: LoopSystem) -> tuple[str, ...]:
@@ -146,6 +171,239 @@ def transversal_labels(system: LoopSystem) -> tuple[str, ...]:
     _check_system(system)
     return tuple(f"loop{k + 1}:f{r + 1}{c + 1}" for k in range(len(system.loops)) for r, c in TRANSVERSAL_ENTRIES)
 
+
+def transversal_equations(system: LoopSystem, theta) -> tuple[np.ndarray, np.ndarray]:
+    """Float values F (E,) and Jacobian J (E, M) = dF/dtheta of the transversal system at ``theta``.
+
+    ``theta``: passive angles (radians), a sequence in ``system.unknowns`` order or a mapping
+    name -> angle. E = 3 * number of loops, M = number of unknowns. (The float twin of the
+    reference evaluation.)
+    """
+    _check_system(system)
+    y = _check_theta(system, theta)
+    f, j = _evaluate(system, list(y), float, math.cos, math.sin)
+    return np.array(f, dtype=float), np.array(j, dtype=float).reshape(len(f), len(y))
+
+
+# --------------------------------------------------------------------------------------------
+# Fast enclosures of F and J (vectorized interval arithmetic on float arrays)
+# --------------------------------------------------------------------------------------------
+
+#: (row, column) index arrays of the transversal entries of F_n.
+_ENTRY_ROWS = np.array([r for r, _ in TRANSVERSAL_ENTRIES])
+_ENTRY_COLS = np.array([c for _, c in TRANSVERSAL_ENTRIES])
+#: For J = [u]x F: entry (r, c) is u[(r+1)%3] F[(r+2)%3, c] - u[(r+2)%3] F[(r+1)%3, c]; the
+#: u indices and the (column, row) of F of the two products of every entry, interleaved.
+_JAC_U = np.array([i for r, _ in TRANSVERSAL_ENTRIES for i in ((r + 1) % 3, (r + 2) % 3)])
+_JAC_F_ROW = np.array([i for r, _ in TRANSVERSAL_ENTRIES for i in ((r + 2) % 3, (r + 1) % 3)])
+_JAC_F_COL = np.array([c for _, c in TRANSVERSAL_ENTRIES for _ in range(2)])
+#: Rows (0: cos, 1: sin) of the (cos, sin) table for (cos t, sin t, cos t, sin t) (shaped to
+#: index (4, B, L, n)) and for (cos c, sin c, sin c, cos c) (see _enclose).
+_QUAD_THETA = np.array([0, 1, 0, 1])[:, None, None, None]
+_QUAD_CONST = np.array([0, 1, 1, 0])
+#: Columns of P gathered by one prefix step (see _enclose): (P1, P2, P2, P1) times (c, s, c, -s).
+_STEP_COLS = np.array([1, 2, 2, 1])
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """The factors of a LoopSystem as index arrays (L loops padded to n factors, M unknowns, T terms).
+
+    * ``const`` (L, n): constant angle of each factor (a known angle, or a term's offset; 0 for
+      padding); ``negative`` (L, n): a term of sign -1; ``padding`` (L, n), or None without any;
+    * ``slot`` (n, 1, L): the index of the factor's unknown, or M for a known angle or padding;
+    * per term (T rows): ``term_loop``, ``term_pos``, ``term_var`` (T, 1): its loop, position,
+      unknown; ``term_rows`` (T, 3): its rows of J; ``jac_u``, ``jac_f_col``, ``jac_f_row``
+      (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose).
+    """
+
+    n_loops: int
+    n_factors: int
+    const: np.ndarray
+    negative: np.ndarray
+    padding: np.ndarray | None
+    slot: np.ndarray
+    term_loop: np.ndarray
+    term_pos: np.ndarray
+    term_var: np.ndarray
+    term_rows: np.ndarray
+    jac_u: np.ndarray
+    jac_f_col: np.ndarray
+    jac_f_row: np.ndarray
+
+
+def _plan(system: LoopSystem) -> _Plan:
+    m = len(system.unknowns)
+    n_loops = len(system.loops)
+    n = max((len(loop.factors) for loop in system.loops), default=0)
+    const = np.zeros((n_loops, n))
+    slot = np.full((n_loops, n), m, dtype=np.intp)
+    padding = np.zeros((n_loops, n), dtype=bool)
+    negative = np.zeros((n_loops, n), dtype=bool)
+    terms = []
+    for k, (loop, indices) in enumerate(zip(system.loops, system.loop_indices)):
+        if len(set(indices)) != len(indices):
+            raise ValueError(f"system: loop {k + 1} has an unknown more than once ({[system.names[g] for g in indices]}); "
+                             "the transversal Jacobian assumes each appears at most once per loop")
+        padding[k, len(loop.factors):] = True
+        n_terms = 0
+        for pos, fac in enumerate(loop.factors):
+            if isinstance(fac, Term):
+                g = indices[n_terms]                  # loop_indices follow the order of the loop's terms
+                n_terms += 1
+                const[k, pos] = fac.offset
+                slot[k, pos] = g
+                negative[k, pos] = fac.sign == -1
+                terms.append((k, pos, g, fac.sign == -1))
+            else:
+                const[k, pos] = float(fac)
+    t = np.array(terms, dtype=np.intp).reshape(-1, 4)
+    n_t = len(t)
+    # sign -1: swap the two products of every entry, which negates it (u_a F_b - u_b F_a)
+    swap = t[:, 3].astype(bool)
+    jac_u, jac_f_row = np.tile(_JAC_U, (n_t, 1)), np.tile(_JAC_F_ROW, (n_t, 1))
+    jac_u[swap] = _JAC_U.reshape(-1, 2)[:, ::-1].ravel()
+    jac_f_row[swap] = _JAC_F_ROW.reshape(-1, 2)[:, ::-1].ravel()
+    return _Plan(n_loops=n_loops, n_factors=n, const=const, negative=negative,
+                 padding=padding if padding.any() else None, slot=slot.T[:, None, :].copy(),
+                 term_loop=t[:, :1], term_pos=t[:, 1:2], term_var=t[:, 2:3],
+                 term_rows=3 * t[:, :1] + np.arange(3), jac_u=jac_u, jac_f_col=np.tile(_JAC_F_COL, (n_t, 1)),
+                 jac_f_row=jac_f_row)
+
+
+def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, tol: float,
+             jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Interval arrays F (2, B, E) and J (2, B, E, M) over B boxes [lo, hi] (B, M) of unknowns.
+
+    ``center`` (B, M): a point of each box (the expansion point of cos/sin); every constant angle
+    c stands for [c - tol, c + tol]. Every F(theta), dF/dtheta(theta) for theta in box b and
+    constants in their intervals lies in F[:, b], J[:, b]. See the module docstring for the math.
+    """
+    b, m = center.shape
+    n_loops, n = plan.n_loops, plan.n_factors
+    # (cos, sin) of the unknowns over their boxes, of (1, 0) (a dummy for known angles: phi = c + 0)
+    # and of the constants over c +- tol, in one batch: (2, 2, B M + 1 + L n)
+    radius = np.maximum(np.nextafter(center - lo, math.inf), np.nextafter(hi - center, math.inf))
+    radius[lo == hi] = 0.0                                   # a point: x - x = 0 exactly
+    cs = iv_ops.cos_sin_table(np.concatenate((center.ravel(), (0.0,), plan.const.ravel())),
+                              np.concatenate((radius.ravel(), (0.0,), np.full(plan.const.size, tol))))
+    # phi = c + sign t: cos phi = cos c cos t - sign sin c sin t, sin phi = sin c cos t + sign cos c sin t,
+    # i.e. (cos c, sign sin c, sin c, sign cos c) * (cos t, sin t, cos t, sin t), summed in pairs
+    const_q = cs[:, _QUAD_CONST, b * m + 1:].reshape(2, 4, n_loops, n)
+    if plan.negative.any():
+        flip = const_q[:, 1::2, plan.negative]
+        const_q[:, 1::2, plan.negative] = -flip[::-1]
+    theta_index = np.where(plan.slot < m, plan.slot + m * np.arange(b)[:, None], b * m)        # (n, B, L)
+    theta_q = cs[:, _QUAD_THETA, theta_index]                                                 # (2, 4, n, B, L)
+    prods = iv_ops.mul(const_q.transpose(0, 1, 3, 2)[:, :, :, None, :], theta_q)              # (2, 4, n, B, L)
+    cos_phi = iv_ops.outward(prods[:, 0] - prods[::-1, 1])[..., None]                         # (2, n, B, L, 1)
+    sin_phi = iv_ops.outward(prods[:, 2] + prods[:, 3])[..., None]
+    # coefficients of the prefix steps, (2, n, 4, B, L, 3): (c, s, c, -s), repeated over the 3 rows
+    coef = np.empty((2, n, 4, b, n_loops, 3))
+    coef[:, :, 0] = coef[:, :, 2] = cos_phi
+    coef[:, :, 1] = sin_phi
+    np.negative(sin_phi[::-1], out=coef[:, :, 3])
+    # prefix products P_i (product of the factors before factor i); pt[:, j, ..., :] is column j
+    # of P_i. P_1 = Rx(phi_0) Z has columns (0, c, s), (-1, 0, 0), (0, -s, c) (exact copies);
+    # P_{i+1} = P_i Rx(phi_i) Z has columns (c P1 + s P2, -P0, c P2 - s P1).
+    # u[:, i] = P_i e1 (column 0 of P_i), the axis of the joint of factor i.
+    u = np.empty((2, n, b, n_loops, 3))
+    u[:, 0] = 0.0
+    u[:, 0, ..., 0] = 1.0
+    pt = np.zeros((2, 3, b, n_loops, 3))
+    pt[:, 0, ..., 1] = pt[:, 2, ..., 2] = coef[:, 0, 0, ..., 0]
+    pt[:, 0, ..., 2] = coef[:, 0, 1, ..., 0]
+    pt[:, 2, ..., 1] = coef[:, 0, 3, ..., 0]
+    pt[:, 1, ..., 0] = -1.0
+    pair_dirs = iv_ops._directions((2, 2, b, n_loops, 3))
+    for i in range(1, n):
+        u[:, i] = pt[:, 0]
+        x = iv_ops.mul(coef[:, i], pt[:, _STEP_COLS])                   # (2, 4, B, L, 3)
+        new = np.empty_like(pt)
+        pair = np.add(x[:, 0::2], x[:, 1::2], out=new[:, 0::2])
+        np.nextafter(pair, pair_dirs, out=pair)
+        np.negative(pt[::-1, 0], out=new[:, 1])
+        if plan.padding is not None and plan.padding[:, i].any():
+            new[..., plan.padding[:, i], :] = pt[..., plan.padding[:, i], :]
+        pt = new
+    f = pt[:, _ENTRY_COLS, :, :, _ENTRY_ROWS]                            # (3, 2, B, L): advanced axes first
+    f = np.moveaxis(f, 0, -1).reshape(2, b, 3 * n_loops)
+    if not jacobian:
+        return f, None
+    # dF/dtheta at term t = sign * [u_t]x F: entry (r, c) = sign (u[r+1] F[r+2, c] - u[r+2] F[r+1, c])
+    # (indices mod 3); the plan's gather indices put the two products in the order of the sign.
+    jac = np.zeros((2, b, 3 * n_loops, m))
+    if len(plan.term_loop):
+        ut = u[:, plan.term_pos, :, plan.term_loop, plan.jac_u]                             # (T, 6, 2, B)
+        ft = pt[:, plan.jac_f_col, :, plan.term_loop, plan.jac_f_row]                       # (T, 6, 2, B)
+        p = iv_ops.mul(np.moveaxis(ut, 2, 0), np.moveaxis(ft, 2, 0))                       # (2, T, 6, B)
+        vals = iv_ops.sub(p[:, :, 0::2], p[:, :, 1::2])                                     # (2, T, 3, B)
+        jac[:, :, plan.term_rows, plan.term_var] = np.moveaxis(vals, -1, 1)
+    return f, jac
+
+
+def enclose_transversal(system: LoopSystem, boxes, angle_tolerance: float = ANGLE_TOLERANCE,
+                        jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Outward-rounded enclosures of F and J over boxes, as float interval arrays (fast, batched).
+
+    ``boxes``: shape (M, 2) or (B, M, 2), one (lo, hi) per unknown (radians, lo <= hi). Returns
+    F of shape (2, E) or (2, B, E) and J of shape (2, E, M) or (2, B, E, M) (index 0: lower
+    bounds, 1: upper bounds; J is None unless ``jacobian``). Every F(theta), dF/dtheta(theta) for
+    theta in a box and constant angles within ``angle_tolerance`` of their floats lies in them.
+    """
+    _check_system(system)
+    tol = _check_tolerance(angle_tolerance)
+    m = len(system.unknowns)
+    arr = np.asarray(boxes, dtype=float) if _is_numeric(boxes) else None
+    if arr is None or arr.ndim not in (2, 3):
+        raise ValueError(f"boxes: expected shape ({m}, 2) or (B, {m}, 2) of (lo, hi) angles in radians, got {boxes!r}")
+    single = arr.ndim == 2
+    arr = arr[None] if single else arr
+    for k in range(arr.shape[0]):
+        _check_box(system, arr[k], key="boxes" if single else f"boxes[{k}]")
+    lo, hi = arr[..., 0], arr[..., 1]
+    if not iv_ops.rounding_environment_ok():
+        raise RuntimeError("the floating-point environment is not IEEE round-to-nearest with gradual underflow "
+                           "(flush-to-zero?): fast enclosures would not be rigorous; use interval_transversal_reference")
+    center = np.clip(lo * 0.5 + hi * 0.5, lo, hi)
+    f, j = _enclose(_plan(system), lo, hi, center, tol, jacobian)
+    if single:
+        return f[:, 0], (j[:, 0] if j is not None else None)
+    return f, j
+
+
+def interval_transversal(system: LoopSystem, box, angle_tolerance: float = ANGLE_TOLERANCE,
+                         jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Outward-rounded enclosures of F (E,) and J (E, M) over a box of passive angles.
+
+    ``box``: shape (M, 2), one (lo, hi) per unknown in ``system.unknowns`` order (radians; lo <= hi;
+    lo == hi evaluates at a point). Every constant angle c is taken as [c - angle_tolerance,
+    c + angle_tolerance]. Returns object arrays of ``mpmath.iv.mpf`` intervals (J is None unless
+    ``jacobian``). Every value F(theta), dF/dtheta(theta) for theta in the box lies in them.
+    Computed by the fast arithmetic (:func:`enclose_transversal`); the reference is
+    :func:`interval_transversal_reference`.
+    """
+    _check_system(system)
+    tol = _check_tolerance(angle_tolerance)
+    lo, hi = _check_box(system, box)
+    if not iv_ops.rounding_environment_ok():
+        return interval_transversal_reference(system, box, angle_tolerance, jacobian)
+    f, j = _enclose(_plan(system), lo[None], hi[None], np.clip(lo * 0.5 + hi * 0.5, lo, hi)[None], tol, jacobian)
+    f_arr = _to_iv(f[:, 0])
+    return f_arr, (_to_iv(j[:, 0]) if j is not None else None)
+
+
+def _to_iv(a: np.ndarray) -> np.ndarray:
+    """Object array of iv.mpf from a float interval array (2, ...) (exact: floats are 53-bit)."""
+    out = np.empty(a.shape[1:], dtype=object)
+    for idx in np.ndindex(out.shape):
+        out[idx] = iv.mpf([float(a[(0,) + idx]), float(a[(1,) + idx])])
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Reference enclosures (mpmath iv, one scalar at a time)
+# --------------------------------------------------------------------------------------------
 
 def _times_factor(p, c, s):
     """P Rx(phi) Z for a 3x3 nested list P: columns (c P1 + s P2, -P0, c P2 - s P1)."""
@@ -165,7 +423,7 @@ def _evaluate(system: LoopSystem, theta: Sequence, constant, cos, sin, jacobian:
 
     ``theta``: one value per unknown (float or interval); ``constant(a)`` turns a float constant
     angle into the arithmetic's number; ``cos``/``sin`` of that arithmetic. Implements Eq. (2),
-    F_n = prod Rx(phi_i) Z, with the derivative rule of the module docstring.
+    F_n = prod Rx(phi_i) Z, with the derivative rule of the module docstring (reference).
     """
     n_unk = len(system.unknowns)
     f_out, j_out = [], []
@@ -206,27 +464,9 @@ def _evaluate(system: LoopSystem, theta: Sequence, constant, cos, sin, jacobian:
     return f_out, j_out
 
 
-def transversal_equations(system: LoopSystem, theta) -> tuple[np.ndarray, np.ndarray]:
-    """Float values F (E,) and Jacobian J (E, M) = dF/dtheta of the transversal system at ``theta``.
-
-    ``theta``: passive angles (radians), a sequence in ``system.unknowns`` order or a mapping
-    name -> angle. E = 3 * number of loops, M = number of unknowns.
-    """
-    _check_system(system)
-    y = _check_theta(system, theta)
-    f, j = _evaluate(system, list(y), float, math.cos, math.sin)
-    return np.array(f, dtype=float), np.array(j, dtype=float).reshape(len(f), len(y))
-
-
-def interval_transversal(system: LoopSystem, box, angle_tolerance: float = ANGLE_TOLERANCE,
-                         jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Outward-rounded enclosures of F (E,) and J (E, M) over a box of passive angles.
-
-    ``box``: shape (M, 2), one (lo, hi) per unknown in ``system.unknowns`` order (radians; lo <= hi;
-    lo == hi evaluates at a point). Every constant angle c is taken as [c - angle_tolerance,
-    c + angle_tolerance]. Returns object arrays of ``mpmath.iv.mpf`` intervals (J is None unless
-    ``jacobian``). Every value F(theta), dF/dtheta(theta) for theta in the box lies in them.
-    """
+def interval_transversal_reference(system: LoopSystem, box, angle_tolerance: float = ANGLE_TOLERANCE,
+                                   jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`interval_transversal` in mpmath's ``iv`` context (the slow, obviously correct reference)."""
     _check_system(system)
     tol = _check_tolerance(angle_tolerance)
     lo, hi = _check_box(system, box)
@@ -252,7 +492,7 @@ def _interval_eval(system: LoopSystem, xs: list, tol: float, jacobian: bool):
 
 
 # --------------------------------------------------------------------------------------------
-# Krawczyk test
+# Krawczyk test (fast)
 # --------------------------------------------------------------------------------------------
 
 def krawczyk(system: LoopSystem, theta, radius: float, angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
@@ -260,35 +500,195 @@ def krawczyk(system: LoopSystem, theta, radius: float, angle_tolerance: float = 
 
     K(X) = y - C F(y) + (I - C J(X)) (X - y), y = theta (the midpoint of X, up to the rounding of
     its float endpoints; any y in X is valid), C = J(y)^-1 (float), all in outward-rounded interval
-    arithmetic; ``theta`` is a sequence in ``system.unknowns`` order or a mapping name -> angle. Certified iff K(X) lies in the interior of X: then X holds exactly one
-    solution (Krawczyk/Moore). Not certified, with a reason, when the system is not square, the
-    midpoint Jacobian is singular (sigma_min / sigma_max < MIDPOINT_RCOND_MIN) or K(X) is not
-    inside X (then ``no_solution`` tells whether K(X) misses X, proving X holds no solution).
+    arithmetic; ``theta`` is a sequence in ``system.unknowns`` order or a mapping name -> angle.
+    Certified iff K(X) lies in the interior of X: then X holds exactly one solution
+    (Krawczyk/Moore). Not certified, with a reason, when the system is not square, the midpoint
+    Jacobian is singular (sigma_min / sigma_max < MIDPOINT_RCOND_MIN) or K(X) is not inside X
+    (then ``no_solution`` tells whether K(X) misses X, proving X holds no solution).
+    Fast arithmetic; :func:`krawczyk_reference` is the mpmath reference.
     """
     _check_system(system)
     y = _check_theta(system, theta)
     r = _check_radius("radius", radius)
     tol = _check_tolerance(angle_tolerance)
-    names = system.names
-    n_unk, n_eq = len(y), 3 * len(system.loops)
-    lo, hi = y - r, y + r
-    box = tuple((float(a), float(b)) for a, b in zip(lo, hi))
-    f_y, _ = _interval_eval(system, [iv.mpf(v) for v in y], tol, jacobian=False)
-    residual = max((_magnitude(v) for v in f_y), default=0.0)
-    _, j_float = transversal_equations(system, y)
-    sv = tuple(float(v) for v in np.linalg.svd(j_float, compute_uv=False)) if j_float.size else ()
-    base = dict(names=names, center=tuple(float(v) for v in y), radius=r, box=box, krawczyk_box=None,
-                contraction=math.nan, no_solution=False, residual=residual, singular_values=sv,
-                n_equations=n_eq, n_unknowns=n_unk, radii_tried=(r,))
-    if n_eq != n_unk:
-        return KrawczykResult(certified=False, reason=f"not certified: {n_eq} equations, {n_unk} unknowns", **base)
-    if not sv or sv[-1] <= MIDPOINT_RCOND_MIN * sv[0]:
+    if not iv_ops.rounding_environment_ok():
+        return krawczyk_reference(system, y, r, tol)
+    (res,) = _krawczyk_batch(system, y[None], (r,), tol, first_success=False)
+    return res[0]
+
+
+def certify(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
+            angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
+    """Krawczyk tests at increasing radii (default CERTIFY_RADII); the first success or the last failure.
+
+    A non-square system or a singular midpoint Jacobian fails the same way at every radius, so it
+    is reported after the first try. ``radii_tried`` of the result lists the radii tested (all
+    radii are evaluated in one vectorized pass; the result is as if tried in order). Fast
+    arithmetic; :func:`certify_reference` is the mpmath reference.
+    """
+    _check_system(system)
+    y = _check_theta(system, theta)
+    rs = _check_radii(radii)
+    tol = _check_tolerance(angle_tolerance)
+    return _certify_points(system, y[None], rs, tol)[0]
+
+
+def certify_many(system: LoopSystem, thetas, radii: Sequence[float] = CERTIFY_RADII,
+                 angle_tolerance: float = ANGLE_TOLERANCE) -> list[KrawczykResult]:
+    """:func:`certify` for several candidate points of one LoopSystem, in one vectorized pass.
+
+    ``thetas``: a sequence of points (each a sequence in ``system.unknowns`` order or a mapping
+    name -> angle) or an array of shape (P, M). Returns one KrawczykResult per point, in order,
+    each equal to ``certify(system, thetas[i], radii, angle_tolerance)``.
+    """
+    _check_system(system)
+    if isinstance(thetas, (str, bytes, Mapping)) or not isinstance(thetas, (Sequence, np.ndarray)):
+        raise ValueError(f"thetas: expected a sequence of points (one angle per unknown {system.names}), got {thetas!r}")
+    ys = np.array([_check_theta(system, t, key=f"thetas[{i}]") for i, t in enumerate(thetas)], dtype=float)
+    rs = _check_radii(radii)
+    tol = _check_tolerance(angle_tolerance)
+    if len(ys) == 0:
+        return []
+    return _certify_points(system, ys.reshape(len(ys), len(system.unknowns)), rs, tol)
+
+
+def _certify_points(system: LoopSystem, ys: np.ndarray, rs: list[float], tol: float) -> list[KrawczykResult]:
+    if not iv_ops.rounding_environment_ok():
+        return [certify_reference(system, y, rs, tol) for y in ys]
+    return _krawczyk_batch(system, ys, rs, tol, first_success=True)
+
+
+def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol: float,
+                    first_success: bool) -> list:
+    """Krawczyk tests of every point ys[p] (P, M) at every radius rs[k] in one vectorized pass.
+
+    ``first_success``: return, per point, the result of certify (first success, or the first
+    non-square/singular failure, or the last failure; radii_tried set); else a list of results per
+    radius per point.
+    """
+    plan = _plan(system)
+    n_pts, m = ys.shape
+    n_rad, n_eq = len(rs), 3 * len(system.loops)
+    radii = np.asarray(rs, dtype=float)
+    x_lo = ys[:, None, :] - radii[None, :, None]                     # (P, R, M), the floats of X
+    x_hi = ys[:, None, :] + radii[None, :, None]
+    # one evaluation: the P points (F(y), J(y)) then the P * R boxes (J(X))
+    lo = np.concatenate((ys, x_lo.reshape(-1, m)))
+    hi = np.concatenate((ys, x_hi.reshape(-1, m)))
+    center = np.concatenate((ys, np.repeat(ys, n_rad, axis=0)))
+    f_all, j_all = _enclose(plan, lo, hi, center, tol, jacobian=True)
+    f_y = f_all[:, :n_pts]                                           # (2, P, E)
+    residual = iv_ops.magnitude(f_y).max(axis=-1, initial=0.0)
+    j_mid = 0.5 * (j_all[0, :n_pts] + j_all[1, :n_pts])              # a float J(y) (any C is valid)
+    square = n_eq == m
+    if square and m:
+        svd_u, sv, svd_vt = np.linalg.svd(j_mid)
+    else:
+        sv = np.linalg.svd(j_mid, compute_uv=False) if j_mid.size else np.zeros((n_pts, 0))
+    regular = (sv[:, -1] > MIDPOINT_RCOND_MIN * sv[:, 0]) if square and m else np.zeros(n_pts, bool)
+    k_lo = k_hi = None
+    if regular.any():
+        ok = np.flatnonzero(regular)
+        j_x = j_all[:, n_pts:].reshape(2, n_pts, n_rad, n_eq, m)[:, ok]                # (2, P', R, M, M)
+        k_lo = np.full((n_pts, n_rad, m), np.nan)
+        k_hi = np.full((n_pts, n_rad, m), np.nan)
+        k_lo[ok], k_hi[ok] = _krawczyk_operator(ys[ok], x_lo[ok], x_hi[ok], f_y[:, ok], j_x,
+                                                svd_u[ok], sv[ok], svd_vt[ok])
+    out = []
+    for p in range(n_pts):
+        base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(residual[p]),
+                    singular_values=tuple(float(v) for v in sv[p]), n_equations=n_eq, n_unknowns=m)
+        results = []
+        for ri, r in enumerate(rs):
+            results.append(_outcome(base, r, x_lo[p, ri], x_hi[p, ri], square, bool(regular[p]),
+                                    None if k_lo is None or not regular[p] else (k_lo[p, ri], k_hi[p, ri])))
+            if first_success and (results[-1].certified or results[-1].krawczyk_box is None):
+                break
+        out.append(replace(results[-1], radii_tried=tuple(rs[:len(results)])) if first_success else results)
+    return out
+
+
+def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, svd_u, sv, svd_vt) -> tuple[np.ndarray, np.ndarray]:
+    """Floats (lo, hi), each (P, R, M), enclosing K(X) = y - C F(y) + (I - C J(X)) (X - y).
+
+    ``y`` (P, M); X = [x_lo, x_hi] (P, R, M); ``f_y`` (2, P, M) encloses F(y); ``j_x``
+    (2, P, R, M, M) encloses J over X; C = V S^-1 U^T from the SVD of a float J(y). X - y is
+    enclosed by [-rho, rho] (rho = max(x_hi - y, y - x_lo) rounded up), so the last term lies in
+    [-s, s] with s = |I - C J(X)| rho (magnitudes, summed rounding up): a superset of the usual
+    interval evaluation, which keeps both conclusions of the test valid.
+    """
+    c = np.matmul(np.swapaxes(svd_vt, -1, -2) / sv[:, None, :], np.swapaxes(svd_u, -1, -2))
+    cf = iv_ops.fmatmul(c, f_y[..., None])[..., 0]                                 # C F(y)
+    base = iv_ops.outward(y - cf[::-1])                                            # y - C F(y)
+    cj = iv_ops.fmatmul(c[:, None], j_x)                                           # C J(X)
+    a = iv_ops.outward(np.eye(y.shape[-1]) - cj[::-1])                             # I - C J(X)
+    rho = np.maximum(np.nextafter(x_hi - y[:, None], math.inf), np.nextafter(y[:, None] - x_lo, math.inf))
+    spread = iv_ops.sum_up(np.nextafter(iv_ops.magnitude(a) * rho[:, :, None, :], math.inf), axis=-1)
+    return np.nextafter(base[0][:, None] - spread, -math.inf), np.nextafter(base[1][:, None] + spread, math.inf)
+
+
+def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k) -> KrawczykResult:
+    """The KrawczykResult of one box X = [x_lo, x_hi] from K(X) = (k_lo, k_hi) (floats enclosing it)."""
+    names = base["names"]
+    sv = base["singular_values"]
+    common = dict(base, radius=r, box=tuple((float(a), float(b)) for a, b in zip(x_lo, x_hi)),
+                  krawczyk_box=None, contraction=math.nan, no_solution=False, radii_tried=(r,))
+    if not square:
+        return KrawczykResult(certified=False, reason=f"not certified: {base['n_equations']} equations, "
+                                                      f"{base['n_unknowns']} unknowns", **common)
+    if not regular:
         smin = sv[-1] if sv else 0.0
         return KrawczykResult(
             certified=False,
             reason=(f"not certified: singular midpoint Jacobian (smallest singular value {smin:.3g}, "
                     f"{smin / sv[0] if sv and sv[0] else 0.0:.3g} of the largest, below {MIDPOINT_RCOND_MIN:g})"),
-            **base)
+            **common)
+    k_lo, k_hi = np.asarray(k[0], dtype=float), np.asarray(k[1], dtype=float)
+    x_lo, x_hi = np.asarray(x_lo, dtype=float), np.asarray(x_hi, dtype=float)
+    finite = bool(np.all(np.isfinite(k_lo)) and np.all(np.isfinite(k_hi)))
+    inside = finite and bool(np.all((k_lo > x_lo) & (k_hi < x_hi)))
+    disjoint = finite and bool(np.any((k_hi < x_lo) | (k_lo > x_hi)))
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        ratio = float(np.max((k_hi - k_lo) / (x_hi - x_lo)))
+    common.update(krawczyk_box=tuple((float(a), float(b)) for a, b in zip(k_lo, k_hi)), contraction=ratio,
+                  no_solution=disjoint)
+    if inside:
+        return KrawczykResult(certified=True, reason="", **common)
+    if not finite:
+        why = "K(X) is not finite"
+    elif disjoint:
+        why = "K(X) does not meet X, so X holds no solution"
+    else:
+        excess = np.maximum(x_lo - k_lo, k_hi - x_hi)
+        worst = int(np.argmax(excess))
+        why = (f"K(X) is not inside X (contraction {ratio:.3g}; {names[worst]!r} leaves X by "
+               f"{float(excess[worst]):.3g} rad)")
+    return KrawczykResult(certified=False, reason=f"not certified at radius {r:g}: {why}", **common)
+
+
+# --------------------------------------------------------------------------------------------
+# Krawczyk test (reference, mpmath iv)
+# --------------------------------------------------------------------------------------------
+
+def krawczyk_reference(system: LoopSystem, theta, radius: float,
+                       angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
+    """:func:`krawczyk` in mpmath's ``iv`` context, one scalar at a time (the slow, obviously correct reference)."""
+    _check_system(system)
+    y = _check_theta(system, theta)
+    r = _check_radius("radius", radius)
+    tol = _check_tolerance(angle_tolerance)
+    n_unk, n_eq = len(y), 3 * len(system.loops)
+    lo, hi = y - r, y + r
+    f_y, _ = _interval_eval(system, [iv.mpf(v) for v in y], tol, jacobian=False)
+    residual = max((_magnitude(v) for v in f_y), default=0.0)
+    _, j_float = transversal_equations(system, y)
+    sv = tuple(float(v) for v in np.linalg.svd(j_float, compute_uv=False)) if j_float.size else ()
+    base = dict(names=system.names, center=tuple(float(v) for v in y), residual=residual, singular_values=sv,
+                n_equations=n_eq, n_unknowns=n_unk)
+    square = n_eq == n_unk
+    regular = bool(sv) and sv[-1] > MIDPOINT_RCOND_MIN * sv[0]
+    if not (square and regular):
+        return _outcome(base, r, lo, hi, square, regular, None)
     c_float = np.linalg.inv(j_float)
     xs = [iv.mpf([a, b]) for a, b in zip(lo, hi)]
     _, j_box = _interval_eval(system, xs, tol, jacobian=True)
@@ -303,37 +703,17 @@ def krawczyk(system: LoopSystem, theta, radius: float, angle_tolerance: float = 
             a_ij = (1 - cj) if i == j else -cj       # (I - C J(X))_ij
             acc = acc + a_ij * dx[j]
         k_box.append(acc)
-    k_float = tuple(_outward(k) for k in k_box)
-    inside = all(k.a > x.a and k.b < x.b for k, x in zip(k_box, xs))
-    disjoint = any(k.b < x.a or k.a > x.b for k, x in zip(k_box, xs))
-    ratio = max(float(mpf((k.b - k.a).b)) / float(mpf((x.b - x.a).a)) for k, x in zip(k_box, xs))
-    base.update(krawczyk_box=k_float, contraction=ratio, no_solution=disjoint)
-    if inside:
-        return KrawczykResult(certified=True, reason="", **base)
-    if disjoint:
-        why = "K(X) does not meet X, so X holds no solution"
-    else:
-        worst = max(range(n_unk), key=lambda k: _excess(k_box[k], xs[k]))
-        why = (f"K(X) is not inside X (contraction {ratio:.3g}; {names[worst]!r} leaves X by "
-               f"{_excess(k_box[worst], xs[worst]):.3g} rad)")
-    return KrawczykResult(certified=False, reason=f"not certified at radius {r:g}: {why}", **base)
+    k_float = [_outward(k) for k in k_box]           # floats enclosing K(X) (exact at iv's 53 bits)
+    return _outcome(base, r, lo, hi, True, True, ([a for a, _ in k_float], [b for _, b in k_float]))
 
 
-def certify(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
-            angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
-    """Krawczyk tests at increasing radii (default CERTIFY_RADII); the first success or the last failure.
-
-    A non-square system or a singular midpoint Jacobian fails the same way at every radius, so it
-    is reported after the first try. ``radii_tried`` of the result lists the radii tested.
-    """
-    if isinstance(radii, (str, bytes)) or not isinstance(radii, (Sequence, np.ndarray)) or len(radii) == 0:
-        raise ValueError(f"radii: expected a non-empty sequence of positive radii (radians), got {radii!r}")
-    rs = [_check_radius(f"radii[{i}]", v) for i, v in enumerate(radii)]
-    if any(b <= a for a, b in zip(rs, rs[1:])):
-        raise ValueError(f"radii: expected strictly increasing radii, got {list(radii)!r}")
+def certify_reference(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
+                      angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
+    """:func:`certify` with :func:`krawczyk_reference`: radii tried one by one, in order."""
+    rs = _check_radii(radii)
     tried = []
     for r in rs:
-        res = krawczyk(system, theta, r, angle_tolerance)
+        res = krawczyk_reference(system, theta, r, angle_tolerance)
         tried.append(r)
         if res.certified or res.krawczyk_box is None:
             break
@@ -369,9 +749,12 @@ def _outward(v) -> tuple[float, float]:
     return lo, hi
 
 
-def _excess(k, x) -> float:
-    """How far (radians, float) the interval k reaches beyond x on either side (<= 0: inside)."""
-    return float(max(mpf(x.a) - mpf(k.a), mpf(k.b) - mpf(x.b)))
+def _is_numeric(value) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 def _check_system(system) -> None:
@@ -379,26 +762,35 @@ def _check_system(system) -> None:
         raise ValueError(f"system: expected a LoopSystem (mechanism.loop_system(...)), got {type(system).__name__}")
 
 
-def _check_theta(system: LoopSystem, theta) -> np.ndarray:
+def _check_theta(system: LoopSystem, theta, key: str = "theta") -> np.ndarray:
     names = system.names
     if isinstance(theta, Mapping):
         missing = [n for n in names if n not in theta]
         if missing:
-            raise ValueError(f"theta: missing angle(s) for {missing}; expected one per unknown {names}")
+            raise ValueError(f"{key}: missing angle(s) for {missing}; expected one per unknown {names}")
         values = [theta[n] for n in names]
     elif isinstance(theta, (str, bytes)):
-        raise ValueError(f"theta: expected {len(names)} passive angles (radians) {names}, got {theta!r}")
+        raise ValueError(f"{key}: expected {len(names)} passive angles (radians) {names}, got {theta!r}")
     else:
         values = theta
     try:
         y = np.asarray(values, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"theta: expected {len(names)} real angles (radians) {names}, got {theta!r}") from None
+        raise ValueError(f"{key}: expected {len(names)} real angles (radians) {names}, got {theta!r}") from None
     if y.shape != (len(names),):
-        raise ValueError(f"theta: expected shape ({len(names)},) (one angle per unknown {names}), got {y.shape}")
+        raise ValueError(f"{key}: expected shape ({len(names)},) (one angle per unknown {names}), got {y.shape}")
     if not np.all(np.isfinite(y)):
-        raise ValueError(f"theta: expected finite angles (radians), got {theta!r}")
+        raise ValueError(f"{key}: expected finite angles (radians), got {theta!r}")
     return y
+
+
+def _check_radii(radii) -> list[float]:
+    if isinstance(radii, (str, bytes)) or not isinstance(radii, (Sequence, np.ndarray)) or len(radii) == 0:
+        raise ValueError(f"radii: expected a non-empty sequence of positive radii (radians), got {radii!r}")
+    rs = [_check_radius(f"radii[{i}]", v) for i, v in enumerate(radii)]
+    if any(b <= a for a, b in zip(rs, rs[1:])):
+        raise ValueError(f"radii: expected strictly increasing radii, got {list(radii)!r}")
+    return rs
 
 
 def _check_radius(key: str, value) -> float:
@@ -425,17 +817,17 @@ def _check_tolerance(value) -> float:
     return t
 
 
-def _check_box(system: LoopSystem, box) -> tuple[np.ndarray, np.ndarray]:
+def _check_box(system: LoopSystem, box, key: str = "box") -> tuple[np.ndarray, np.ndarray]:
     m = len(system.unknowns)
     try:
         arr = np.asarray(box, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"box: expected shape ({m}, 2) of (lo, hi) angles in radians, got {box!r}") from None
+        raise ValueError(f"{key}: expected shape ({m}, 2) of (lo, hi) angles in radians, got {box!r}") from None
     if arr.shape != (m, 2):
-        raise ValueError(f"box: expected shape ({m}, 2) (one (lo, hi) per unknown {system.names}), got {arr.shape}")
+        raise ValueError(f"{key}: expected shape ({m}, 2) (one (lo, hi) per unknown {system.names}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("box: expected finite bounds (radians)")
+        raise ValueError(f"{key}: expected finite bounds (radians)")
     if np.any(arr[:, 0] > arr[:, 1]):
         bad = [system.names[k] for k in np.flatnonzero(arr[:, 0] > arr[:, 1])]
-        raise ValueError(f"box: expected lo <= hi, got lo > hi for {bad}")
+        raise ValueError(f"{key}: expected lo <= hi, got lo > hi for {bad}")
     return arr[:, 0], arr[:, 1]

@@ -8,7 +8,13 @@ Independent references used here:
 * a spherical five-bar whose two assembly modes are built by intersecting two circles on the
   sphere (spherical trigonometry), so that the two roots in a box are known;
 * F from ClosureLoop.closure_matrix (numpy products of Rx(phi) Z in unit-box coordinates) and from a
-  40-digit mpmath product of the defining matrices; J from central finite differences of it.
+  40-digit mpmath product of the defining matrices; J from central finite differences of it;
+* the eight direct-kinematics roots of the Gosselin platform at the paper's inputs, found here by
+  least squares on the full closure residual F - I from many starts (no solver involved).
+
+Two implementations are tested (``IMPLS``): the fast float-interval one and the mpmath reference.
+They must agree on every verdict; each must contain the exact values (never one checked against
+the other for containment).
 """
 
 import math
@@ -16,22 +22,31 @@ import time
 
 import numpy as np
 import pytest
+import statistics
+
 from mpmath import MPContext, mpf
-from scipy.optimize import brentq
+from scipy.optimize import brentq, least_squares
 from scipy.spatial.transform import Rotation
 
+from spherekin import intervals
 from spherekin.certify import (
     ANGLE_TOLERANCE,
     CERTIFY_RADII,
     KrawczykResult,
     certify,
+    certify_many,
+    certify_reference,
+    enclose_transversal,
     interval_transversal,
+    interval_transversal_reference,
     krawczyk,
+    krawczyk_reference,
     transversal_equations,
     transversal_labels,
 )
 from spherekin.closure import Term
-from spherekin.mechanism import Joint, Leg, SphericalMechanism, five_bar, four_bar, general_3rrr, gosselin
+from spherekin.mechanism import (Joint, Leg, LoopSystem, SphericalMechanism, five_bar, four_bar, general_3rrr,
+                                 gosselin)
 
 #: Half-width (radians) of the passive ranges of the loop systems built around IK solutions.
 RANGE_HALF_WIDTH = 1.0
@@ -42,8 +57,35 @@ FLOAT_REF_TOL = 1e-14
 #: Central difference step (radians) and its error bound (h^2 |F'''| / 6 + eps / h with |F'''| <= ~10).
 FD_STEP = 1e-6
 FD_TOL = 1e-8
-#: The brief's bound for one certify() call on the Gosselin system (measured: ~10 ms).
-TIME_LIMIT = 0.5
+#: Bound (s) for the slowest fast certify() call on a Gosselin solution: ~100x the measured
+#: ~0.3-1 ms, so that a loaded 2-core machine does not fail the test while a return to the
+#: mpmath cost (~10-30 ms) does.
+TIME_LIMIT = 0.05
+#: The fast certify() must beat the reference by at least this factor in the same process
+#: (measured ~15-30x per call; the benchmark has the exact figures).
+SPEEDUP_MIN = 4.0
+#: Widest point enclosure (tol = 0) of F allowed: ulp-level. The fast arithmetic rounds to
+#: nearest then widens one ulp (up to 1.5 ulp per operation, vs <= 1 for mpmath's directed
+#: rounding) and builds cos phi from cos/sin of the constant and of the unknown (3 more
+#: operations), so its enclosures are ~3x wider after the 12 factors of a general 3-RRR loop.
+POINT_WIDTH = {"fast": 5e-14, "reference": 1e-14}
+#: Inputs of the paper's Gosselin example and the number of its direct-kinematics solutions.
+GOSSELIN_INPUTS = (0.3, -0.2, 0.5)
+GOSSELIN_ROOTS = 8
+#: Least-squares starts tried to find the Gosselin roots (8 are found after ~30 with this seed).
+ROOT_STARTS = 200
+#: A least-squares end point is a root when every entry of F - I is below this (ulps of O(1) entries).
+ROOT_RESIDUAL = 1e-13
+#: Two roots are the same when their angles agree to this (radians, modulo 2 pi).
+ROOT_SEPARATION = 1e-7
+#: Step (at 50 digits) of the central differences giving the exact Jacobian: error ~h^2 ~1e-40.
+MP_FD_STEP = mpf("1e-20")
+
+IMPLS = {
+    "fast": dict(certify=certify, krawczyk=krawczyk, interval_transversal=interval_transversal),
+    "reference": dict(certify=certify_reference, krawczyk=krawczyk_reference,
+                      interval_transversal=interval_transversal_reference),
+}
 
 
 def rot(rotvec):
@@ -96,7 +138,7 @@ def mp_entries(system, theta, shifts=None, dps=40):
         k = 0
         for fac in loop.factors:
             if isinstance(fac, Term):
-                const, var = ctx.mpf(fac.offset), fac.sign * ctx.mpf(float(theta[idx[k]]))
+                const, var = ctx.mpf(fac.offset), fac.sign * ctx.mpf(theta[idx[k]])
                 k += 1
             else:
                 const, var = ctx.mpf(fac), 0
@@ -109,14 +151,69 @@ def mp_entries(system, theta, shifts=None, dps=40):
     return out
 
 
+def mp_jacobian(system, theta, dps=50):
+    """Exact-to-~1e-40 Jacobian of the transversal entries: central differences of the dps-digit product."""
+    ctx = MPContext()
+    ctx.dps = dps
+    base = [ctx.mpf(float(v)) for v in theta]
+    cols = []
+    for k in range(len(base)):
+        plus, minus = list(base), list(base)
+        plus[k] += MP_FD_STEP
+        minus[k] -= MP_FD_STEP
+        fp, fm = mp_entries(system, plus, dps=dps), mp_entries(system, minus, dps=dps)
+        cols.append([(a - b) / (2 * MP_FD_STEP) for a, b in zip(fp, fm)])
+    return [[cols[k][e] for k in range(len(base))] for e in range(len(cols[0]))]
+
+
+def full_closure(system, theta):
+    """All entries of F_n - I of every loop (floats, straight from the definition of Eq. 2)."""
+    z = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    out = []
+    for loop, idx in zip(system.loops, system.loop_indices):
+        f, k = np.eye(3), 0
+        for fac in loop.factors:
+            if isinstance(fac, Term):
+                phi = fac.offset + fac.sign * theta[idx[k]]
+                k += 1
+            else:
+                phi = fac
+            c, s = math.cos(phi), math.sin(phi)
+            f = f @ np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]) @ z
+        out.append((f - np.eye(3)).ravel())
+    return np.concatenate(out)
+
+
+@pytest.fixture(scope="module")
+def gosselin_roots():
+    """(system, roots): the direct-kinematics roots at GOSSELIN_INPUTS by least squares on F - I."""
+    mech = gosselin()
+    system = mech.loop_system(GOSSELIN_INPUTS, {n: (-1.0, 1.0) for n in mech.passive})
+    rng = np.random.default_rng(0)
+    roots = []
+    for _ in range(ROOT_STARTS):
+        fit = least_squares(lambda th: full_closure(system, th), rng.uniform(-math.pi, math.pi, 6),
+                            xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        x = np.mod(fit.x + math.pi, 2 * math.pi) - math.pi
+        if np.abs(full_closure(system, x)).max() > ROOT_RESIDUAL:
+            continue
+        if not any(np.abs(np.mod(x - r + math.pi, 2 * math.pi) - math.pi).max() < ROOT_SEPARATION for r in roots):
+            roots.append(x)
+        if len(roots) == GOSSELIN_ROOTS:
+            break
+    return system, roots
+
+
 def contains(interval, value, slack=0.0) -> bool:
     return mpf(interval.a) - slack <= value <= mpf(interval.b) + slack
 
 
 # ----------------------------------------------------------------------------- (1) regular roots
 
+@pytest.mark.parametrize("impl", sorted(IMPLS))
 @pytest.mark.parametrize("name", sorted(MECHS))
-def test_regular_ik_solutions_are_certified(name):
+def test_regular_ik_solutions_are_certified(name, impl):
+    certify = IMPLS[impl]["certify"]
     mech = MECHS[name]()
     checked = 0
     for pose in poses(name, 4, seed=11):
@@ -240,8 +337,10 @@ def test_box_with_two_solutions_is_not_certified():
 
 # ----------------------------------------------------------------------------- (3) enclosures
 
+@pytest.mark.parametrize("impl", sorted(IMPLS))
 @pytest.mark.parametrize("name", sorted(MECHS))
-def test_interval_f_and_j_enclose_float_values_in_a_box(name):
+def test_interval_f_and_j_enclose_float_values_in_a_box(name, impl):
+    enclose = IMPLS[impl]["interval_transversal"]
     mech = MECHS[name]()
     rng = np.random.default_rng(5)
     sol = mech.inverse_kinematics(poses(name, 1, seed=21)[0])[1]
@@ -249,7 +348,7 @@ def test_interval_f_and_j_enclose_float_values_in_a_box(name):
     # a box around a root and a box around an arbitrary point
     for centre, radius in ((theta_of(system, sol), 1e-2), (theta_of(system, sol) + rng.uniform(-0.5, 0.5, 6), 5e-2)):
         box = np.column_stack([centre - radius, centre + radius])
-        f_box, j_box = interval_transversal(system, box)
+        f_box, j_box = enclose(system, box)
         for _ in range(20):
             p = rng.uniform(box[:, 0] + FD_STEP, box[:, 1] - FD_STEP)
             f_ref = reference_entries(system, p)
@@ -266,37 +365,83 @@ def test_interval_f_and_j_enclose_float_values_in_a_box(name):
 
 
 @pytest.mark.parametrize("name", sorted(MECHS))
-def test_point_enclosure_contains_40_digit_value(name):
+def test_fast_box_enclosures_contain_exact_values(name):
+    """Exact (40-50 digit) F and J at points of a box lie in the fast enclosures over the box, no slack."""
+    mech = MECHS[name]()
+    rng = np.random.default_rng(15)
+    sol = mech.inverse_kinematics(poses(name, 1, seed=22)[0])[3]
+    system = system_at(mech, sol)
+    centre, radius = theta_of(system, sol) + rng.uniform(-0.2, 0.2, 6), 1e-3
+    box = np.column_stack([centre - radius, centre + radius])
+    f_box, j_box = enclose_transversal(system, box)
+    for p in [box[:, 0], box[:, 1], centre] + [rng.uniform(box[:, 0], box[:, 1]) for _ in range(4)]:
+        for e, v in enumerate(mp_entries(system, p)):
+            assert mpf(f_box[0, e]) <= v <= mpf(f_box[1, e])
+        for e, row in enumerate(mp_jacobian(system, p)):
+            for k, v in enumerate(row):
+                assert mpf(j_box[0, e, k]) <= v <= mpf(j_box[1, e, k]), (e, k)
+
+
+@pytest.mark.parametrize("impl", sorted(IMPLS))
+@pytest.mark.parametrize("name", sorted(MECHS))
+def test_point_enclosure_contains_40_digit_value(name, impl):
     """At a point (no angle tolerance) the interval is ulp-tight and contains the 40-digit value."""
+    enclose = IMPLS[impl]["interval_transversal"]
     mech = MECHS[name]()
     rng = np.random.default_rng(8)
     sol = mech.inverse_kinematics(poses(name, 1, seed=31)[0])[6]
     system = system_at(mech, sol)
     for _ in range(5):
         theta = theta_of(system, sol) + rng.uniform(-0.3, 0.3, 6)
-        f_pt, _ = interval_transversal(system, np.column_stack([theta, theta]), angle_tolerance=0.0, jacobian=False)
+        f_pt, j_pt = enclose(system, np.column_stack([theta, theta]), angle_tolerance=0.0)
         exact = mp_entries(system, theta)
         for iv_, v in zip(f_pt, exact):
             assert contains(iv_, v)
-            assert mpf(iv_.b) - mpf(iv_.a) < 1e-14
+            assert mpf(iv_.b) - mpf(iv_.a) < POINT_WIDTH[impl]
+        for row_iv, row in zip(j_pt, mp_jacobian(system, theta)):
+            assert all(contains(iv_, v) for iv_, v in zip(row_iv, row))
 
 
-def test_angle_tolerance_encloses_perturbed_constants():
+@pytest.mark.parametrize("impl", sorted(IMPLS))
+def test_angle_tolerance_encloses_perturbed_constants(impl):
     """With the default tolerance, F(y) encloses F of the system whose constant angles moved by < tol."""
+    enclose = IMPLS[impl]["interval_transversal"]
     mech = general_3rrr()
     sol = mech.inverse_kinematics(rot([0.2, 0.1, 0.0]))[4]
     system = system_at(mech, sol)
     theta = theta_of(system, sol)
     n_const = sum(loop.n for loop in system.loops)
     point = np.column_stack([theta, theta])
-    wide, _ = interval_transversal(system, point, jacobian=False)
-    tight, _ = interval_transversal(system, point, angle_tolerance=0.0, jacobian=False)
+    wide, _ = enclose(system, point, jacobian=False)
+    tight, _ = enclose(system, point, angle_tolerance=0.0, jacobian=False)
     rng = np.random.default_rng(9)
     for shift in (np.full(n_const, 0.9 * ANGLE_TOLERANCE), rng.uniform(-0.9, 0.9, n_const) * ANGLE_TOLERANCE):
         moved = mp_entries(system, theta, shifts=iter(shift))
         assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
     moved = mp_entries(system, theta, shifts=iter(np.full(n_const, 0.9 * ANGLE_TOLERANCE)))
     assert not all(contains(iv_, v) for iv_, v in zip(tight, moved))  # the tolerance is what covers them
+
+
+def test_enclose_transversal_batches_boxes_like_interval_transversal():
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.1, 0.4, -0.3]))[2]
+    system = system_at(mech, sol)
+    theta = theta_of(system, sol)
+    boxes = np.stack([np.column_stack([theta - r, theta + r]) for r in (0.0, 1e-8, 1e-3, 0.3)])
+    f_all, j_all = enclose_transversal(system, boxes)
+    assert f_all.shape == (2, 4, 6) and j_all.shape == (2, 4, 6, 6)
+    assert np.all(f_all[0] <= f_all[1]) and np.all(j_all[0] <= j_all[1])
+    for k, box in enumerate(boxes):
+        f_iv, j_iv = interval_transversal(system, box)
+        f_one, j_one = enclose_transversal(system, box)
+        np.testing.assert_array_equal(f_one, f_all[:, k])
+        np.testing.assert_array_equal(j_one, j_all[:, k])
+        assert all(float(mpf(v.a)) == f_one[0, e] and float(mpf(v.b)) == f_one[1, e] for e, v in enumerate(f_iv))
+        assert all(float(mpf(j_iv[e, c].a)) == j_one[0, e, c] for e in range(6) for c in range(6))
+    f_only, j_none = enclose_transversal(system, boxes[1], jacobian=False)
+    assert j_none is None and f_only.shape == (2, 6)
+    widths = f_all[1] - f_all[0]
+    assert np.all(np.diff(widths.max(axis=-1)) > 0)  # larger boxes, wider enclosures
 
 
 # ----------------------------------------------------------------------------- (4) singular points
@@ -353,19 +498,123 @@ def test_non_square_system_is_reported_not_raised():
     assert (res.n_equations, res.n_unknowns) == (3, 2) and len(res.singular_values) == 2
 
 
+# ----------------------------------------------------------------------------- fast vs reference
+
+def _same_verdict(a: KrawczykResult, b: KrawczykResult) -> None:
+    assert (a.certified, a.no_solution, a.radius, a.radii_tried) == (b.certified, b.no_solution, b.radius, b.radii_tried)
+    assert a.reason.split(":")[0] == b.reason.split(":")[0] and (a.krawczyk_box is None) == (b.krawczyk_box is None)
+    assert (a.names, a.center, a.box, a.n_equations, a.n_unknowns) == (b.names, b.center, b.box, b.n_equations, b.n_unknowns)
+    np.testing.assert_allclose(a.singular_values, b.singular_values, rtol=1e-9, atol=1e-14)
+
+
+def test_gosselin_roots_certified_alike_by_fast_and_reference(gosselin_roots):
+    """The 8 roots of the paper's example (found without the solver): both certify each, in the same box."""
+    system, roots = gosselin_roots
+    assert len(roots) == GOSSELIN_ROOTS
+    fast = certify_many(system, roots)
+    for theta, res in zip(roots, fast):
+        ref = certify_reference(system, theta)
+        _same_verdict(res, ref)
+        assert res.certified and res.radius == CERTIFY_RADII[0]
+        for (lo, hi), (klo, khi), (rlo, rhi) in zip(res.box, res.krawczyk_box, ref.krawczyk_box):
+            assert lo < klo <= khi < hi and klo <= rhi and rlo <= khi   # both inside X, and they meet
+        assert res.contraction == pytest.approx(ref.contraction, rel=0.1)
+        assert res.residual == pytest.approx(ref.residual, rel=0.2)
+
+
+def test_random_general_3rrr_points_get_the_same_verdicts():
+    """Exact IK roots, points 3e-9 off (a larger radius certifies), 1e-3 off (no solution) and a far point."""
+    mech = general_3rrr()
+    rng = np.random.default_rng(17)
+    counts = {"certified": 0, "no_solution": 0, "other": 0}
+    for pose in poses("general_3rrr", 2, seed=41):
+        for sol in mech.inverse_kinematics(pose):
+            system = system_at(mech, sol)
+            root = theta_of(system, sol)
+            if mech.singularity(sol.joint_angles).parallel_margin < REGULAR_MARGIN:
+                continue
+            direction = rng.choice([-1.0, 1.0], size=6)
+            for theta in (root, root + 3e-9 * direction, root + 1e-3 * direction, root + rng.uniform(-0.5, 0.5, 6)):
+                res, ref = certify(system, theta), certify_reference(system, theta)
+                _same_verdict(res, ref)
+                if res.certified:
+                    if np.abs(theta - root).max() < 1e-6:
+                        assert all(klo <= t <= khi for (klo, khi), t in zip(res.krawczyk_box, root))
+                    counts["certified"] += 1
+                else:
+                    counts["no_solution" if res.no_solution else "other"] += 1
+    assert counts["certified"] >= 20 and counts["no_solution"] >= 10
+
+
+def test_certify_many_equals_certify_one_by_one(gosselin_roots):
+    system, roots = gosselin_roots
+    points = list(roots) + [roots[0] + 1e-3, roots[1] + 3e-9, dict(zip(system.names, roots[2]))]
+    many = certify_many(system, points)
+    assert len(many) == len(points)
+    for theta, res in zip(points, many):
+        assert res == certify(system, theta)
+    assert certify_many(system, []) == []
+    assert certify_many(system, np.array(roots[:2]), radii=(1e-8,))[0].radii_tried == (1e-8,)
+
+
+def test_unequal_loop_lengths_are_padded():
+    """Loop 1 in the 6-factor form and loop 2 in the 12-factor doubled form: still a closure system of the
+    same mechanism, so the IK root certifies, and fast and reference enclosures both hold the exact F."""
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.2, -0.4, 0.3]))[1]
+    ja = sol.joint_angles
+    ranges = {n: (ja[n] - 1.0, ja[n] + 1.0) for n in mech.passive}
+    auto, doubled = mech.loop_system(sol.inputs, ranges), mech.loop_system(sol.inputs, ranges, form="doubled")
+    assert auto.names == doubled.names and len(auto.loops[0].factors) < len(doubled.loops[1].factors)
+    mixed = LoopSystem(loops=(auto.loops[0], doubled.loops[1]), unknowns=auto.unknowns,
+                       loop_indices=(auto.loop_indices[0], doubled.loop_indices[1]), shared=auto.shared,
+                       inputs=auto.inputs, input_names=auto.input_names, loop_legs=auto.loop_legs, form="mixed")
+    theta = theta_of(mixed, sol)
+    res = certify(mixed, theta)
+    _same_verdict(res, certify_reference(mixed, theta))
+    assert res.certified
+    p = theta + 0.1
+    f_iv, _ = interval_transversal(mixed, np.column_stack([p, p]))
+    assert all(contains(iv_, v) for iv_, v in zip(f_iv, mp_entries(mixed, p)))
+
+
+def test_fast_functions_fall_back_to_the_reference_outside_the_ieee_default(monkeypatch):
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.3, 0.3, 0.3]))[0]
+    system = system_at(mech, sol)
+    theta = theta_of(system, sol)
+    monkeypatch.setattr(intervals, "rounding_environment_ok", lambda: False)
+    assert certify(system, theta) == certify_reference(system, theta)
+    assert certify_many(system, [theta]) == [certify_reference(system, theta)]
+    assert krawczyk(system, theta, 1e-8) == krawczyk_reference(system, theta, 1e-8)
+    box = np.column_stack([theta - 1e-3, theta + 1e-3])
+    f_iv, _ = interval_transversal(system, box)
+    f_ref, _ = interval_transversal_reference(system, box)
+    assert all(mpf(a.a) == mpf(b.a) and mpf(a.b) == mpf(b.b) for a, b in zip(f_iv, f_ref))
+    with pytest.raises(RuntimeError, match="floating-point environment"):
+        enclose_transversal(system, box)
+
+
+# ----------------------------------------------------------------------------- API, timing, input
+
 def test_labels_summary_and_timing():
     mech = gosselin()
     sols = mech.inverse_kinematics(rot([0.3, -0.2, 0.5]))
     system = system_at(mech, sols[0])
     assert transversal_labels(system) == ("loop1:f21", "loop1:f31", "loop1:f32", "loop2:f21", "loop2:f31", "loop2:f32")
-    worst = 0.0
+    worst, fast_times, ref_times = 0.0, [], []
     for sol in sols:
         system = system_at(mech, sol)
+        theta = theta_of(system, sol)
         start = time.perf_counter()
-        res = certify(system, theta_of(system, sol))
-        worst = max(worst, time.perf_counter() - start)
+        res = certify(system, theta)
+        fast_times.append(time.perf_counter() - start)
         assert isinstance(res, KrawczykResult) and res.certified
-    assert worst < TIME_LIMIT
+        start = time.perf_counter()
+        certify_reference(system, theta)
+        ref_times.append(time.perf_counter() - start)
+    assert max(fast_times) < TIME_LIMIT
+    assert statistics.median(ref_times) > SPEEDUP_MIN * statistics.median(fast_times)
     summary = res.summary()
     assert summary["certified"] is True and summary["radius"] == CERTIFY_RADII[0]
     assert 0 < summary["contraction"] < 1 and summary["residual_bound"] < 1e-12
@@ -385,6 +634,17 @@ def test_labels_summary_and_timing():
     (lambda s: certify(s, [0.0] * 6, angle_tolerance=-1.0), r"angle_tolerance: expected a value in \[0, 1e-3\)"),
     (lambda s: interval_transversal(s, np.zeros((6, 3))), r"box: expected shape \(6, 2\)"),
     (lambda s: interval_transversal(s, np.tile([0.1, 0.0], (6, 1))), r"box: expected lo <= hi"),
+    (lambda s: certify_reference(s, [0.0] * 5), r"theta: expected shape \(6,\)"),
+    (lambda s: krawczyk_reference(s, [0.0] * 6, 0.0), r"radius: expected a radius in \(0, pi\)"),
+    (lambda s: interval_transversal_reference(s, np.zeros((5, 2))), r"box: expected shape \(6, 2\)"),
+    (lambda s: certify_many(s, [0.0] * 6), r"thetas\[0\]: expected shape \(6,\)"),
+    (lambda s: certify_many(s, [[0.0] * 6, [0.0] * 5]), r"thetas\[1\]: expected shape \(6,\)"),
+    (lambda s: certify_many(s, {"gamma1": 0.0}), r"thetas: expected a sequence of points"),
+    (lambda s: certify_many(s, [[0.0] * 6], radii=[]), r"radii: expected a non-empty sequence"),
+    (lambda s: enclose_transversal(s, np.zeros((6,))), r"boxes: expected shape \(6, 2\) or \(B, 6, 2\)"),
+    (lambda s: enclose_transversal(s, np.zeros((2, 5, 2))), r"boxes\[0\]: expected shape \(6, 2\)"),
+    (lambda s: enclose_transversal(s, [[0.1, 0.0]] * 6), r"boxes: expected lo <= hi"),
+    (lambda s: enclose_transversal(s, "box"), r"boxes: expected shape"),
 ])
 def test_bad_input_raises_value_error(call, message):
     system = gosselin().loop_system((0.0, 0.0, 0.0), {n: (-1.0, 1.0) for n in gosselin().passive})
