@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .chains import angle_about, axis_rotation, least_aligned_basis
 from .checks import check_range, check_unit_vector, parse_angle
@@ -186,6 +185,8 @@ def find_reference_pose(geom: ThreeRRRGeometry) -> np.ndarray | None:
     for rot in starts:
         if feasible(rot):
             return rot
+    from scipy.optimize import least_squares  # rarely reached; scipy.optimize costs ~0.3 s to import
+
     for rot0 in starts:
         fit = least_squares(lambda rv: _leg_angles(geom, _rotvec(rv) @ rot0) - centre, np.zeros(3))
         rot = _rotvec(fit.x) @ rot0
