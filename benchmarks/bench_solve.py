@@ -1,14 +1,17 @@
-"""Benchmark of the solver on the Gosselin platform: formulation x pruner x LP backend x tolerance.
+"""Benchmark of the solver on the Gosselin platform: parameterization x formulation x pruner x backend x tol.
 
 Two problems, actuator inputs (0.3, -0.2, 0.5) rad:
-  * "full": every passive joint over the full circle (64 charts), all 8 solutions;
-  * "chart": one chart of width pi per joint (the width of the charts of a full circle), centred
-    near a regular solution, where the slow configurations (LP backends, the paper's scalar
-    formulation) are measured.
+  * "full": every passive joint over the full circle, all 8 solutions (tan-half: 64 charts);
+  * "chart": one chart of width pi per joint (the width of the tan-half charts of a full circle),
+    centred near a regular solution, where the slow configurations (LP backends on every box, the
+    paper's scalar formulation) are measured.
 Each configuration runs ``--repeats`` times (3 when one run takes over ``--slow`` seconds, 1 when
-it takes over a minute; the table says how many); the table gives the median wall time, the ratio against the default
-configuration measured in the same process, boxes, LPs and the solutions found. A configuration
-that hits a cap is reported as such. JSON goes to benchmarks/results/solve.json.
+it takes over a minute; the table says how many); the table gives the median wall time of the
+library call ``solve`` / ``solve_system`` (polishing and classification included for "full"), the
+ratio against the default configuration measured in the same process, where the time goes
+(setup, restriction, pruning, isolation, finishing), boxes, LPs and the solutions found. A
+configuration that hits a cap is reported as such. The default's whole ``spherekin solve``
+process is timed too (``--process-runs``). JSON goes to benchmarks/results/solve.json.
 
     python benchmarks/bench_solve.py [--repeats 5] [--quick]
 """
@@ -21,6 +24,8 @@ import math
 import os
 import platform
 import statistics
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -33,36 +38,51 @@ INPUTS = (0.3, -0.2, 0.5)
 #: Centre of the "chart" problem (radians, passive joints in the mechanism's order): rounded from
 #: a regular solution at INPUTS, so the chart [c - pi/2, c + pi/2] holds a root away from its faces.
 CHART_CENTRE = (-2.0, 1.0, -1.0, 1.0, -1.0, 2.0)
+ROOT = Path(__file__).resolve().parent.parent
 
-# (problem, formulation, pruner, lp_backend, tol)
+
+def config(name, problem="full", parameterization="tan-half", formulation="halves", pruner="pp", lp_backend=None,
+           tol=1e-6, isolate=True, jobs=1):
+    return dict(name=name, problem=problem, parameterization=parameterization, formulation=formulation,
+                pruner=pruner, lp_backend=lp_backend, tol=tol, isolate=isolate, jobs=jobs)
+
+
 CONFIGS = [
-    ("full", "transversal", "hybrid", None, 1e-6),  # the default: the baseline of the ratios
-    ("full", "transversal", "pp", None, 1e-6),
-    ("full", "transversal", "hybrid", None, 1e-9),
-    ("full", "transversal", "hybrid", None, 1e-3),
-    ("full", "paper", "pp", None, 1e-3),
-    ("full", "paper", "pp", None, 1e-6),
-    ("chart", "transversal", "hybrid", None, 1e-6),
-    ("chart", "transversal", "pp", None, 1e-6),
-    ("chart", "transversal", "lp", "highspy", 1e-6),
-    ("chart", "transversal", "lp", "highs", 1e-6),
-    ("chart", "transversal", "lp", "clarabel", 1e-6),
-    ("chart", "paper", "pp", None, 1e-3),
-    ("chart", "paper", "lp", "highspy", 1e-3),
-    ("chart", "paper", "lp", "clarabel", 1e-3),        # the paper-faithful mode
+    config("default"),                                                   # the baseline of the ratios
+    config("jobs 2", jobs=2),
+    config("no isolation", isolate=False),
+    config("transversal", formulation="transversal"),
+    config("hybrid", pruner="hybrid"),
+    config("tol 1e-9", tol=1e-9),
+    config("tol 1e-3", tol=1e-3),
+    config("sin-cos", parameterization="sin-cos"),
+    config("sin-cos transversal", parameterization="sin-cos", formulation="transversal"),
+    config("issue-5 default", formulation="transversal", pruner="hybrid", isolate=False),
+    config("paper pp 1e-3", formulation="paper", tol=1e-3, isolate=False),
+    config("paper pp 1e-6", formulation="paper", tol=1e-6, isolate=False),
+    config("chart default", problem="chart"),
+    config("chart lp highspy", problem="chart", pruner="lp", lp_backend="highspy"),
+    config("chart lp highs", problem="chart", pruner="lp", lp_backend="highs"),
+    config("chart lp clarabel", problem="chart", pruner="lp", lp_backend="clarabel"),
+    config("chart sin-cos lp highspy", problem="chart", parameterization="sin-cos", pruner="lp",
+           lp_backend="highspy"),
+    config("chart paper lp highspy", problem="chart", formulation="paper", pruner="lp", lp_backend="highspy",
+           tol=1e-3, isolate=False),
+    config("chart paper-faithful", problem="chart", formulation="paper", pruner="lp", lp_backend="clarabel",
+           tol=1e-3, isolate=False),
 ]
-QUICK = [0, 4, 6, 8, 11]
+QUICK = ["default", "no isolation", "sin-cos", "chart default", "chart lp highspy"]
 
 #: A configuration is stopped (and reported) past this many boxes: it is a measure of failure.
 MAX_BOXES = 300_000
 
 
-def run_once(problem, formulation, pruner, backend, tol):
+def run_once(cfg):
     mech = gosselin()
+    kwargs = {k: cfg[k] for k in ("parameterization", "formulation", "pruner", "lp_backend", "tol", "isolate", "jobs")}
     t0 = time.perf_counter()
-    if problem == "full":
-        rep = solve(mech, INPUTS, formulation=formulation, pruner=pruner, lp_backend=backend, tol=tol,
-                    max_boxes=MAX_BOXES)
+    if cfg["problem"] == "full":
+        rep = solve(mech, INPUTS, max_boxes=MAX_BOXES, **kwargs)
     else:
         ranges = {n: (c - math.pi / 2, c + math.pi / 2) for n, c in zip(mech.passive, CHART_CENTRE)}
 
@@ -70,65 +90,79 @@ def run_once(problem, formulation, pruner, backend, tol):
             system = mech.loop_system(INPUTS, chart)
             return system.loops, system.unknowns
 
-        rep = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=backend, tol=tol,
-                           max_boxes=MAX_BOXES)
+        rep = solve_system(build, ranges, max_boxes=MAX_BOXES, **kwargs)
     return time.perf_counter() - t0, rep
+
+
+def process_times(runs: int) -> list[float]:
+    """Wall time of the whole ``spherekin solve`` process on the example file (imports included)."""
+    exe = Path(sys.executable).with_name("spherekin")
+    cmd = [str(exe), "solve", str(ROOT / "examples" / "gosselin.toml"), "--inputs", ",".join(map(str, INPUTS))]
+    out = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True)
+        out.append(time.perf_counter() - t0)
+    return out
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--slow", type=float, default=20.0, help="seconds above which a config runs 3 times")
+    parser.add_argument("--process-runs", type=int, default=7, help="runs of the whole spherekin solve process")
     parser.add_argument("--quick", action="store_true", help="a few configurations, for a smoke test")
+    parser.add_argument("--only", nargs="*", help="names of configurations to run")
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "solve.json")
     args = parser.parse_args(argv)
-    configs = [CONFIGS[i] for i in QUICK] if args.quick else CONFIGS
+    names = args.only or (QUICK if args.quick else [c["name"] for c in CONFIGS])
+    configs = [c for c in CONFIGS if c["name"] in names]
     rows = []
-    print(f"Gosselin platform, inputs {INPUTS} rad; medians of {args.repeats} runs "
-          f"(3 when a run takes over {args.slow:.0f} s, 1 over 60 s); {os.cpu_count()} cores, Python {platform.python_version()}")
-    header = f"{'problem':7s} {'formulation':12s} {'pruner':6s} {'backend':9s} {'tol':>6s} {'median s':>9s} " \
-             f"{'ratio':>7s} {'runs':>4s} {'boxes':>8s} {'LPs':>8s} {'sols':>5s} {'per root':>8s}"
+    print(f"Gosselin platform, inputs {INPUTS} rad; medians of {args.repeats} runs (3 when a run takes over "
+          f"{args.slow:.0f} s, 1 over 60 s); {os.cpu_count()} cores, Python {platform.python_version()}")
+    header = (f"{'configuration':26s} {'median s':>9s} {'ratio':>6s} {'runs':>4s} {'setup':>6s} {'restr':>6s} "
+              f"{'prune':>6s} {'isol':>6s} {'final':>6s} {'boxes':>7s} {'LPs':>6s} {'sols':>4s} {'cert':>4s}")
     print(header)
     print("-" * len(header))
     baseline = None
-    for problem, form, pruner, backend, tol in configs:
+    for cfg in configs:
         times, rep, failure = [], None, None
         repeats = args.repeats
-        i = 0
-        while i < repeats:
+        while len(times) < repeats:
             try:
-                t, rep = run_once(problem, form, pruner, backend, tol)
+                t, rep = run_once(cfg)
             except SolverLimitError as exc:
                 failure = str(exc).split(";")[0]
-                t = None
-            if t is None:
                 break
             times.append(t)
             if t > args.slow:
                 repeats = min(repeats, 3 if t < 60 else 1)
-            i += 1
-        row = dict(problem=problem, formulation=form, pruner=pruner, lp_backend=backend, tol=tol)
+        row = dict(cfg)
         if failure:
             row.update(failed=failure)
-            print(f"{problem:7s} {form:12s} {pruner:6s} {str(backend):9s} {tol:6.0e}  cap hit: {failure}")
-        else:
-            med = statistics.median(times)
-            if baseline is None:
-                baseline = med
-            st = rep.stats
-            per_root = st.accepted / max(1, len(rep.solutions))
-            row.update(median_seconds=med, runs=len(times), times=times, ratio_vs_default=med / baseline,
-                       boxes=st.boxes_processed, lps=st.lps_solved, lp_doubts=st.lp_doubts,
-                       solutions=len(rep.solutions), accepted_boxes_per_solution=per_root,
-                       solution_angles=[np.asarray(s.angles).tolist() for s in rep.solutions])
-            print(f"{problem:7s} {form:12s} {pruner:6s} {str(backend):9s} {tol:6.0e} {med:9.3f} "
-                  f"{med / baseline:7.2f} {len(times):4d} {st.boxes_processed:8d} {st.lps_solved:8d} "
-                  f"{len(rep.solutions):5d} {per_root:8.1f}", flush=True)
+            print(f"{cfg['name']:26s}  cap hit: {failure}")
+            rows.append(row)
+            continue
+        med = statistics.median(times)
+        if baseline is None:
+            baseline = med
+        st = rep.stats
+        certified = sum(s.status in ("certified", "singular") for s in rep.solutions)
+        row.update(median_seconds=med, runs=len(times), times=times, ratio_vs_default=med / baseline,
+                   stats=st.as_dict(), solutions=len(rep.solutions), classified=certified,
+                   solution_angles=[np.asarray(s.angles).tolist() for s in rep.solutions])
+        print(f"{cfg['name']:26s} {med:9.3f} {med / baseline:6.2f} {len(times):4d} {st.time_setup:6.3f} "
+              f"{st.time_restrict:6.3f} {st.time_prune:6.3f} {st.time_isolate:6.3f} {st.time_finalize:6.3f} "
+              f"{st.boxes_processed:7d} {st.lps_solved:6d} {len(rep.solutions):4d} {certified:4d}", flush=True)
         rows.append(row)
+    proc = process_times(args.process_runs) if args.process_runs else []
+    if proc:
+        print(f"whole 'spherekin solve examples/gosselin.toml' process (default configuration): median "
+              f"{statistics.median(proc):.3f} s over {len(proc)} runs")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"benchmark": "solve", "inputs": INPUTS, "cores": os.cpu_count(),
                                     "python": platform.python_version(), "machine": platform.machine(),
-                                    "rows": rows}, indent=2))
+                                    "process_seconds": proc, "rows": rows}, indent=2))
     print(f"wrote {args.out}")
 
 
