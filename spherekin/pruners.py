@@ -40,22 +40,31 @@ __all__ = ["PRUNERS", "make_pruner", "ProjectedPolyhedron", "LinearProgramPruner
 INTERVAL_MARGIN = 1e-12
 
 
-def _hull_level_interval(s: np.ndarray, vals: np.ndarray, below: bool):
-    """Interval of x where the lower (below=True: hull <= 0) or upper (hull >= 0) hull admits 0.
+def _hull_level_interval(s: np.ndarray, vals: np.ndarray):
+    """Interval of x where the lower hull of the points (s_i, vals_i) is <= 0.
 
-    ``s`` (m+1,) abscissae, ``vals`` (..., m+1) ordinates (already shifted by the tolerance).
-    Returns (lo, hi) of shape (...), lo = +inf when empty. The set is the convex hull of the
-    abscissae on the admissible side and of the crossings of the segments that cross level 0.
+    ``s`` (m+1,) increasing abscissae, ``vals`` (m+1, ...) ordinates (already shifted by the
+    tolerance), the abscissa axis FIRST so that every step is an elementwise operation over whole
+    arrays (numpy reductions over tiny trailing axes are an order of magnitude slower). Returns
+    (lo, hi) of shape (...), lo = +inf when empty. The set is the convex hull of the admissible
+    abscissae (vals <= 0) and of the crossings of level 0 by the segments joining an admissible
+    and an excluded point; its left end is the first admissible abscissa or a crossing of a
+    segment whose LEFT end is excluded, its right end symmetrically, so each segment i < j is
+    computed once.
     """
-    ok = vals <= 0 if below else vals >= 0
-    cand_lo = np.where(ok, s, np.inf).min(axis=-1)
-    cand_hi = np.where(ok, s, -np.inf).max(axis=-1)
-    vi, vj = vals[..., :, None], vals[..., None, :]
-    cross = ok[..., :, None] & ~ok[..., None, :]   # segment from an admissible to an excluded point
+    ok = vals <= 0
+    lo = np.full(vals.shape[1:], np.inf)
+    hi = np.full(vals.shape[1:], -np.inf)
+    for i in range(len(s) - 1, -1, -1):
+        lo = np.where(ok[i], s[i], lo)
+    for i in range(len(s)):
+        hi = np.where(ok[i], s[i], hi)
     with np.errstate(divide="ignore", invalid="ignore"):
-        x = s[:, None] + (s[None, :] - s[:, None]) * (vi / (vi - vj))
-    lo = np.minimum(cand_lo, np.where(cross, x, np.inf).min(axis=(-2, -1)))
-    hi = np.maximum(cand_hi, np.where(cross, x, -np.inf).max(axis=(-2, -1)))
+        for i in range(len(s)):
+            for j in range(i + 1, len(s)):
+                x = s[i] + (s[j] - s[i]) * (vals[i] / (vals[i] - vals[j]))
+                lo = np.where(ok[j] & ~ok[i], np.minimum(lo, x), lo)
+                hi = np.where(ok[i] & ~ok[j], np.maximum(hi, x), hi)
     return lo, hi
 
 
@@ -70,21 +79,24 @@ def pp_intervals(cps: np.ndarray, tol, var: int | None = None):
     """
     ne, dims, bsz = cps.shape[0], cps.shape[1:-1], cps.shape[-1]
     variables = tuple(k for k, d in enumerate(dims) if d > 1)
-    t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(ne, -1), (ne, bsz))[:, None, :]
-    los, his = [], []
-    for k in variables:
-        d = dims[k]
-        v = cps.reshape(ne, int(np.prod(dims[:k], dtype=int)), d, -1, bsz)
-        low = np.moveaxis(v.min(axis=(1, 3)) - t, 1, -1)              # (E, B, d)
-        up = np.moveaxis(v.max(axis=(1, 3)) + t, 1, -1)
-        s = np.linspace(0.0, 1.0, d)
-        lo1, hi1 = _hull_level_interval(s, low, below=True)
-        lo2, hi2 = _hull_level_interval(s, up, below=False)
-        los.append(np.maximum(lo1, lo2))
-        his.append(np.minimum(hi1, hi2))
-    shape = (ne, 0, bsz)
-    lo = np.stack(los, axis=1) if los else np.zeros(shape)
-    hi = np.stack(his, axis=1) if his else np.zeros(shape)
+    t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(ne, -1), (ne, bsz))
+    lo = np.zeros((ne, len(variables), bsz))
+    hi = np.zeros((ne, len(variables), bsz))
+    if variables:
+        vd = [dims[k] for k in variables]
+        mins, maxs = {}, {}
+        for j, d in enumerate(vd):                 # the lowest and highest w at each abscissa of x_k
+            v = cps.reshape(ne, int(np.prod(vd[:j], dtype=int)), d, -1, bsz)
+            mins[j], maxs[j] = np.moveaxis(v.min(axis=(1, 3)), 1, 0), np.moveaxis(v.max(axis=(1, 3)), 1, 0)
+        for d in sorted(set(vd)):
+            group = [j for j, dj in enumerate(vd) if dj == d]
+            low = np.stack([mins[j] for j in group], axis=2) - t[None, :, None, :]     # (d, E, V_d, B)
+            up = np.stack([maxs[j] for j in group], axis=2) + t[None, :, None, :]
+            s = np.linspace(0.0, 1.0, d)
+            # the upper hull admits 0 where the lower hull of the mirrored points -up does
+            lo1, hi1 = _hull_level_interval(s, low)                                    # (E, V_d, B)
+            lo2, hi2 = _hull_level_interval(s, -up)
+            lo[:, group], hi[:, group] = np.maximum(lo1, lo2), np.minimum(hi1, hi2)
     if var is None:
         return variables, lo, hi
     if var not in variables:
@@ -103,16 +115,17 @@ class ProjectedPolyhedron:
         lo, hi = np.zeros((n, bsz)), np.ones((n, bsz))
         excluded = np.zeros(bsz, dtype=bool)
         for c, tol in zip(cps, tols):
-            # range exclusion: an equation whose control points all lie beyond the slab (this also
-            # covers equations that depend on no variable, which have no projection to prune with)
-            flat = c.reshape(c.shape[0], -1, bsz)
-            t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
-            excluded |= np.any((flat.min(axis=1) > t) | (flat.max(axis=1) < -t), axis=0)
             variables, l, h = pp_intervals(c, tol)
             if variables:
                 v = list(variables)
                 lo[v] = np.maximum(lo[v], l.max(axis=0))
                 hi[v] = np.minimum(hi[v], h.min(axis=0))
+            else:
+                # an equation that depends on no variable has no projection to prune with: it
+                # excludes the box when its (constant) value lies beyond the slab
+                flat = c.reshape(c.shape[0], bsz)
+                t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
+                excluded |= np.any(np.abs(flat) > t, axis=0)
         lo, hi = lo.T, hi.T
         empty = np.any(lo > hi, axis=1) | excluded
         lo, hi = np.maximum(lo - INTERVAL_MARGIN, 0.0), np.minimum(hi + INTERVAL_MARGIN, 1.0)
