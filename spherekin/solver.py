@@ -44,7 +44,7 @@ from .results import AcceptedBox, Solution, SolveReport, SolverStats
 from .solutions import finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
+           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
 #: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
 DEFAULT_FORMULATION = "halves"
@@ -165,7 +165,12 @@ def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
     return cps, tols
 
 
-def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None):
+#: Outcome codes of a processed box in a trace (see :func:`solve_system`).
+TRACE_OUTCOMES = ("discarded", "accepted", "isolated", "reduced_again", "split")
+
+
+def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None,
+              trace=None):
     """Section 4 steps 2-3. ``start`` = (chart, lo, hi) initial boxes (default: every chart's unit box).
 
     Returns (accepted [(chart, angle lo, angle hi)], isolated [(chart, x lo, x hi)], counts, timings).
@@ -237,10 +242,20 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         keep = ~np.any(rlo > rhi, axis=1) & ~iso
         counts["discarded"] += int(np.sum(~keep & ~iso))
         width = hi - lo
+        if trace is not None:
+            outcome = np.where(iso, 2, np.where(keep, 3, 0))   # refined below for kept boxes
+            record = dict(chart=chart.copy(), depth=depth.copy(), lo=lo.copy(), hi=hi.copy(),
+                          metric_width=mwidth.copy(), reduced_lo=lo + rlo * width, reduced_hi=lo + rhi * width)
         nlo, nhi = (lo + rlo * width)[keep], (lo + rhi * width)[keep]
         ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
         mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
         done = np.all(mw <= limit, axis=1)
+        if trace is not None:
+            kept = np.flatnonzero(keep)
+            outcome[kept[done]] = 1
+            outcome[kept[~done & ~np.all(ratio <= SPLIT_RATIO, axis=1)]] = 4
+            record["outcome"] = outcome
+            trace(record)
         if done.any():
             alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
             accepted += list(zip(chart[done], alo, ahi))
@@ -281,14 +296,15 @@ def _solve_isolated(charts: ChartSet, isolated):
     return points, spurious, failed
 
 
-def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, progress=None):
+def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, progress=None, trace=None):
     """The box loop on the charts of ``group`` (a worker's share), then Newton on its isolated boxes."""
     name, shapes, backend = pruner_spec
     pruner = make_pruner(name, shapes, backend)
     n = len(charts.variables)
     group = np.asarray(group, dtype=int)
     start = (group, np.zeros((len(group), n)), np.ones((len(group), n)))
-    accepted, isolated, counts, times = _box_loop(charts, pruner, tol, max_boxes, max_depth, start, isolate, progress)
+    accepted, isolated, counts, times = _box_loop(charts, pruner, tol, max_boxes, max_depth, start, isolate, progress,
+                                                  trace)
     points, spurious, failed = _solve_isolated(charts, isolated)
     if failed:  # Newton left an isolating box (not seen in practice): subdivide it the ordinary way
         c, a, b = (np.array(v) for v in zip(*failed))
@@ -332,6 +348,7 @@ def solve_system(
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
+    trace: Callable[[dict], None] | None = None,
 ) -> SolveReport:
     """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
 
@@ -346,8 +363,16 @@ def solve_system(
     variable) cap the search; reaching a cap raises a :class:`SolverLimitError` subclass.
     Solutions whose angles lie outside ``ranges`` (the sin-cos boxes of limited ranges hold whole
     circles' worth of corners) are dropped.
+
+    ``trace(record)``, for experiments (only with ``jobs=1``), is called once per batch of boxes
+    with arrays over the batch: ``chart`` (B,), ``depth`` (B,), the box ``lo``, ``hi`` and its
+    reduction ``reduced_lo``, ``reduced_hi`` (B, N) in the chart's unit coordinates, its sides in
+    metric units ``metric_width`` (B, N; radians for tan-half) and ``outcome`` (B,): an index
+    into :data:`TRACE_OUTCOMES`.
     """
     _check_strategy(formulation, pruner, parameterization, tol, jobs)
+    if trace is not None and jobs != 1:
+        raise ValueError(f"trace: only available with jobs=1, got jobs={jobs}")
     t0 = time.perf_counter()
     charts = make_charts(parameterization, build, ranges, formulation)
     shapes = [c.shape[1:] for c in charts.coeffs]
@@ -358,7 +383,7 @@ def solve_system(
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
     groups = [list(range(i, charts.n_charts, jobs)) for i in range(min(jobs, charts.n_charts))]
     if len(groups) == 1:
-        results = [_run_group(charts, spec, tol, max_boxes, max_depth, isolate, groups[0], progress)]
+        results = [_run_group(charts, spec, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
@@ -444,6 +469,7 @@ def solve(
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
+    trace: Callable[[dict], None] | None = None,
 ) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
@@ -464,7 +490,7 @@ def solve(
 
     report = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                           parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs,
-                          max_boxes=max_boxes, max_depth=max_depth, progress=progress)
+                          max_boxes=max_boxes, max_depth=max_depth, progress=progress, trace=trace)
     t0 = time.perf_counter()
     solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
     settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),

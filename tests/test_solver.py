@@ -167,6 +167,24 @@ def test_jobs_do_not_change_the_result(gosselin_report):
         solve(gosselin(), INPUTS, jobs=0)
 
 
+def test_trace_accounts_for_every_box(regular_solution):
+    from spherekin.solver import TRACE_OUTCOMES
+
+    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+    records = []
+    rep = solve_system(build, ranges, trace=records.append)
+    outcome = np.concatenate([r["outcome"] for r in records])
+    assert len(outcome) == rep.stats.boxes_processed
+    for k, name in enumerate(TRACE_OUTCOMES):
+        assert np.sum(outcome == k) == getattr(rep.stats, name)
+    for r in records:        # every reduction lies inside its box
+        assert np.all(r["lo"] <= r["hi"])
+        ok = r["outcome"] != 0
+        assert np.all(r["reduced_lo"][ok] >= r["lo"][ok] - 1e-15) and np.all(r["reduced_hi"][ok] <= r["hi"][ok] + 1e-15)
+    with pytest.raises(ValueError, match="trace"):
+        solve_system(build, ranges, trace=records.append, jobs=2)
+
+
 def test_isolation_saves_boxes_but_not_solutions(gosselin_report):
     plain = solve(gosselin(), INPUTS, isolate=False)
     for a, b in zip(_poses(plain), _poses(gosselin_report)):
