@@ -2,12 +2,17 @@
 #   make run   -- create .venv, install spherekin, solve the paper's Gosselin example (full joint ranges)
 #   make test  -- create .venv, install spherekin with test extras, run the test suite
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
+#   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
+#   make figures -- the paper figures (paper_figures/*.png, *.pdf)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test verify install clean
+EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
+QUICK_FLAG := $(if $(FULL),,--quick)
+
+.PHONY: run test verify install clean experiments figures
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +32,19 @@ test: $(STAMP)
 
 verify: $(STAMP)
 	$(BIN)/python -m verification
+
+experiments: $(STAMP)
+	@for e in $(EXPERIMENTS); do \
+		test -f experiments/$$e.py || { echo "experiments/$$e.py: missing"; exit 1; }; \
+		echo "== experiments/$$e.py $(QUICK_FLAG)"; \
+		MPLBACKEND=Agg $(BIN)/python experiments/$$e.py $(QUICK_FLAG) || exit 1; \
+	done
+
+figures: $(STAMP)
+	@for f in paper_figures/fig*.py; do \
+		echo "== $$f"; \
+		MPLBACKEND=Agg $(BIN)/python $$f || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info
