@@ -296,8 +296,8 @@ def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, to
     theta_index = np.where(plan.slot < m, plan.slot + m * np.arange(b)[:, None], b * m)        # (n, B, L)
     theta_q = cs[:, _QUAD_THETA, theta_index]                                                 # (2, 4, n, B, L)
     prods = iv_ops.mul(const_q.transpose(0, 1, 3, 2)[:, :, :, None, :], theta_q)              # (2, 4, n, B, L)
-    cos_phi = iv_ops.outward(prods[:, 0] - prods[::-1, 1])[..., None]                         # (2, n, B, L, 1)
-    sin_phi = iv_ops.outward(prods[:, 2] + prods[:, 3])[..., None]
+    cos_phi = iv_ops.sub(prods[:, 0], prods[:, 1])[..., None]                                 # (2, n, B, L, 1)
+    sin_phi = iv_ops.add(prods[:, 2], prods[:, 3])[..., None]
     # coefficients of the prefix steps, (2, n, 4, B, L, 3): (c, s, c, -s), repeated over the 3 rows
     coef = np.empty((2, n, 4, b, n_loops, 3))
     coef[:, :, 0] = coef[:, :, 2] = cos_phi
@@ -315,14 +315,12 @@ def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, to
     pt[:, 0, ..., 2] = coef[:, 0, 1, ..., 0]
     pt[:, 2, ..., 1] = coef[:, 0, 3, ..., 0]
     pt[:, 1, ..., 0] = -1.0
-    pair_dirs = iv_ops._directions((2, 2, b, n_loops, 3))
     for i in range(1, n):
         u[:, i] = pt[:, 0]
         x = iv_ops.mul(coef[:, i], pt[:, _STEP_COLS])                   # (2, 4, B, L, 3)
         new = np.empty_like(pt)
-        pair = np.add(x[:, 0::2], x[:, 1::2], out=new[:, 0::2])
-        np.nextafter(pair, pair_dirs, out=pair)
-        np.negative(pt[::-1, 0], out=new[:, 1])
+        new[:, 0::2] = iv_ops.add(x[:, 0::2], x[:, 1::2])               # c P1 + s P2, c P2 - s P1
+        new[:, 1] = iv_ops.neg(pt[:, 0])                                # -P0
         if plan.padding is not None and plan.padding[:, i].any():
             new[..., plan.padding[:, i], :] = pt[..., plan.padding[:, i], :]
         pt = new
@@ -592,8 +590,9 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
         j_x = j_all[:, n_pts:].reshape(2, n_pts, n_rad, n_eq, m)[:, ok]                # (2, P', R, M, M)
         k_lo = np.full((n_pts, n_rad, m), np.nan)
         k_hi = np.full((n_pts, n_rad, m), np.nan)
-        k_lo[ok], k_hi[ok] = _krawczyk_operator(ys[ok], x_lo[ok], x_hi[ok], f_y[:, ok], j_x,
-                                                svd_u[ok], sv[ok], svd_vt[ok])
+        # C = J(y)^-1 = V S^-1 U^T (floats; any C is valid, a good one makes K small)
+        c = np.matmul(np.swapaxes(svd_vt[ok], -1, -2) / sv[ok, None, :], np.swapaxes(svd_u[ok], -1, -2))
+        k_lo[ok], k_hi[ok] = _krawczyk_operator(ys[ok], x_lo[ok], x_hi[ok], f_y[:, ok], j_x, c)
     out = []
     for p in range(n_pts):
         base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(residual[p]),
@@ -608,23 +607,23 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
     return out
 
 
-def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, svd_u, sv, svd_vt) -> tuple[np.ndarray, np.ndarray]:
+def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, c) -> tuple[np.ndarray, np.ndarray]:
     """Floats (lo, hi), each (P, R, M), enclosing K(X) = y - C F(y) + (I - C J(X)) (X - y).
 
     ``y`` (P, M); X = [x_lo, x_hi] (P, R, M); ``f_y`` (2, P, M) encloses F(y); ``j_x``
-    (2, P, R, M, M) encloses J over X; C = V S^-1 U^T from the SVD of a float J(y). X - y is
-    enclosed by [-rho, rho] (rho = max(x_hi - y, y - x_lo) rounded up), so the last term lies in
-    [-s, s] with s = |I - C J(X)| rho (magnitudes, summed rounding up): a superset of the usual
-    interval evaluation, which keeps both conclusions of the test valid.
+    (2, P, R, M, M) encloses J over X; ``c`` (P, M, M): any float matrices. X - y is enclosed by
+    [-rho, rho] (rho = max(x_hi - y, y - x_lo) rounded up), so the last term lies in [-s, s] with
+    s = |I - C J(X)| rho (magnitudes, summed rounding up): the result contains the exact interval
+    evaluation of the expression, which keeps both conclusions of the test valid.
     """
-    c = np.matmul(np.swapaxes(svd_vt, -1, -2) / sv[:, None, :], np.swapaxes(svd_u, -1, -2))
     cf = iv_ops.fmatmul(c, f_y[..., None])[..., 0]                                 # C F(y)
-    base = iv_ops.outward(y - cf[::-1])                                            # y - C F(y)
+    base = iv_ops.sub(iv_ops.point(y), cf)                                         # y - C F(y)
     cj = iv_ops.fmatmul(c[:, None], j_x)                                           # C J(X)
-    a = iv_ops.outward(np.eye(y.shape[-1]) - cj[::-1])                             # I - C J(X)
+    a = iv_ops.sub(iv_ops.point(np.eye(y.shape[-1])), cj)                          # I - C J(X)
     rho = np.maximum(np.nextafter(x_hi - y[:, None], math.inf), np.nextafter(y[:, None] - x_lo, math.inf))
     spread = iv_ops.sum_up(np.nextafter(iv_ops.magnitude(a) * rho[:, :, None, :], math.inf), axis=-1)
-    return np.nextafter(base[0][:, None] - spread, -math.inf), np.nextafter(base[1][:, None] + spread, math.inf)
+    k = iv_ops.add(base[:, :, None], np.stack((-spread, spread)))                  # (2, P, R, M)
+    return k[0], k[1]
 
 
 def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k) -> KrawczykResult:

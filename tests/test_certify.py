@@ -19,6 +19,7 @@ the other for containment).
 
 import math
 import time
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from scipy.optimize import brentq, least_squares
 from scipy.spatial.transform import Rotation
 
 from spherekin import intervals
+from spherekin.certify import _krawczyk_operator
 from spherekin.certify import (
     ANGLE_TOLERANCE,
     CERTIFY_RADII,
@@ -314,6 +316,29 @@ def _five_bar_roots(e_offset):
     return mech, out
 
 
+@pytest.mark.parametrize("impl", sorted(IMPLS))
+def test_krawczyk_box_holds_every_root_of_x(impl):
+    """Whatever the verdict, every zero in X lies in K(X): roots off-centre in boxes large enough
+    for the (I - C J(X)) (X - y) term to matter (the linearization error is ~ r^2 |F''| |C|)."""
+    krawczyk_ = IMPLS[impl]["krawczyk"]
+    rng = np.random.default_rng(23)
+    checked = 0
+    for name in sorted(MECHS):
+        mech = MECHS[name]()
+        for sol in mech.inverse_kinematics(poses(name, 1, seed=51)[0])[:3]:
+            if mech.singularity(sol.joint_angles).parallel_margin < REGULAR_MARGIN:
+                continue
+            system = system_at(mech, sol)
+            root = theta_of(system, sol)
+            for radius in (1e-3, 1e-2, 5e-2):
+                centre = root + rng.uniform(-0.9, 0.9, 6) * radius
+                res = krawczyk_(system, centre, radius)
+                assert res.krawczyk_box is not None and not res.no_solution
+                assert all(klo <= t <= khi for (klo, khi), t in zip(res.krawczyk_box, root)), (name, radius)
+                checked += 1
+    assert checked >= 12
+
+
 def test_box_with_two_solutions_is_not_certified():
     mech, sols = _five_bar_roots(1e-6)
     assert len(sols) == 2
@@ -330,6 +355,7 @@ def test_box_with_two_solutions_is_not_certified():
     both = krawczyk(system, centre, 0.75 * sep)
     assert all(lo < a < hi and lo < b < hi for (lo, hi), a, b in zip(both.box, t0, t1))
     assert not both.certified and not both.no_solution and "not inside X" in both.reason
+    assert all(klo <= a <= khi and klo <= b <= khi for (klo, khi), a, b in zip(both.krawczyk_box, t0, t1))
     # the box centred between the modes sits on the fold: its midpoint Jacobian is singular
     mid = krawczyk(system, 0.5 * (t0 + t1), 0.75 * sep)
     assert not mid.certified and "singular midpoint Jacobian" in mid.reason
@@ -420,6 +446,50 @@ def test_angle_tolerance_encloses_perturbed_constants(impl):
         assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
     moved = mp_entries(system, theta, shifts=iter(np.full(n_const, 0.9 * ANGLE_TOLERANCE)))
     assert not all(contains(iv_, v) for iv_, v in zip(tight, moved))  # the tolerance is what covers them
+
+
+def _exact_interval_krawczyk(y, x_lo, x_hi, f_y, j_x, c):
+    """K(X) = y - C F(y) + (I - C J(X)) (X - y) in exact rational interval arithmetic (Fraction
+    endpoints), one box: y, x_lo, x_hi (M,), f_y (2, M), j_x (2, M, M), c (M, M)."""
+    def imul(a, b):
+        p = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]]
+        return min(p), max(p)
+
+    m = len(y)
+    fr = lambda v: Fraction(float(v))  # noqa: E731
+    out = []
+    for i in range(m):
+        lo = hi = fr(y[i])
+        for j in range(m):
+            t = imul((fr(c[i, j]), fr(c[i, j])), (fr(f_y[0, j]), fr(f_y[1, j])))
+            lo, hi = lo - t[1], hi - t[0]
+            a_lo, a_hi = Fraction(int(i == j)), Fraction(int(i == j))
+            for k in range(m):
+                t = imul((fr(c[i, k]), fr(c[i, k])), (fr(j_x[0, k, j]), fr(j_x[1, k, j])))
+                a_lo, a_hi = a_lo - t[1], a_hi - t[0]
+            t = imul((a_lo, a_hi), (fr(x_lo[j]) - fr(y[j]), fr(x_hi[j]) - fr(y[j])))
+            lo, hi = lo + t[0], hi + t[1]
+        out.append((lo, hi))
+    return out
+
+
+def test_fast_krawczyk_operator_contains_the_exact_interval_evaluation():
+    """With any C, the fast K(X) contains K evaluated in exact rational interval arithmetic from the same
+    enclosures: the rounding of every step and the symmetric bound of (I - C J(X))(X - y) are sound."""
+    rng = np.random.default_rng(29)
+    mech = general_3rrr()
+    sol = mech.inverse_kinematics(rot([0.2, -0.1, 0.3]))[0]
+    system = system_at(mech, sol)
+    y = theta_of(system, sol) + rng.uniform(-1e-3, 1e-3, 6)
+    for radius in (1e-8, 1e-3, 5e-2):
+        x_lo, x_hi = y - radius, y + radius
+        f_y, _ = enclose_transversal(system, np.column_stack([y, y]))
+        _, j_x = enclose_transversal(system, np.column_stack([x_lo, x_hi]))
+        for c in (np.linalg.inv(transversal_equations(system, y)[1]), rng.normal(size=(6, 6))):
+            k_lo, k_hi = _krawczyk_operator(y[None], x_lo[None, None], x_hi[None, None], f_y[:, None],
+                                            j_x[:, None, None], c[None])
+            for (lo, hi), a, b in zip(_exact_interval_krawczyk(y, x_lo, x_hi, f_y, j_x, c), k_lo[0, 0], k_hi[0, 0]):
+                assert Fraction(a) <= lo and hi <= Fraction(b)
 
 
 def test_enclose_transversal_batches_boxes_like_interval_transversal():

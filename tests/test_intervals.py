@@ -265,6 +265,27 @@ def test_cos_sin_ball_encloses_60_digit_values(radius):
         assert np.all(cos[1] - cos[0] <= 1e-15) and np.all(sin[1] - sin[0] <= 1e-15)
 
 
+def test_cos_sin_table_contains_the_exact_value_of_its_formula():
+    """From the same point enclosures, cos d in [k, 1] and |sin d| <= rho evaluated exactly (Fractions)
+    lie inside the float result: every rounding of the formula is outward."""
+    rng = np.random.default_rng(12)
+    centers = rng.uniform(-4, 4, 60)
+    radii = np.concatenate((np.zeros(5), 10.0 ** rng.uniform(-15, 0.3, 55)))
+    table = I.cos_sin_table(centers, radii)
+    for n, (a, r) in enumerate(zip(centers, radii)):
+        c_lo, c_hi, s_lo, s_hi = (Fraction(v) for v in I.point_cos_sin(float(a)))
+        rf = Fraction(float(r))
+        k = max(1 - rf * rf / 2, Fraction(-1))
+        rho = min(rf, Fraction(1))
+        cos_cd = [v * w for v in (c_lo, c_hi) for w in (k, Fraction(1))]
+        sin_cd = [v * w for v in (s_lo, s_hi) for w in (k, Fraction(1))]
+        spread_cos, spread_sin = rho * max(abs(s_lo), abs(s_hi)), rho * max(abs(c_lo), abs(c_hi))
+        exact = [(min(cos_cd) - spread_cos, max(cos_cd) + spread_cos), (min(sin_cd) - spread_sin, max(sin_cd) + spread_sin)]
+        for f, (lo, hi) in enumerate(exact):
+            lo, hi = max(lo, Fraction(-1)), min(hi, Fraction(1))
+            assert Fraction(table[0, f, n]) <= lo and hi <= Fraction(table[1, f, n]), (a, r, f)
+
+
 def test_cos_sin_of_intervals_and_center_choice():
     rng = np.random.default_rng(8)
     lo = rng.uniform(-5, 5, 30)
