@@ -72,7 +72,7 @@ class SquareSystem:
         out = []
         for b, (c, t) in enumerate(zip(cps, tols)):
             eqs = [e for bb, e in self.rows if bb == b]
-            if eqs:
+            if eqs:                 # blocks without square rows may be None (not evaluated)
                 tb = np.broadcast_to(np.asarray(t, dtype=float).reshape(c.shape[0], -1), (c.shape[0], c.shape[-1]))
                 out.append((eqs, c[eqs], tb[eqs]))
         return out

@@ -123,12 +123,13 @@ def _half(matrix: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.concatenate([matrix.reshape((9,) + q.shape), np.broadcast_to(q, q.shape)[None]])
 
 
-def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int]) -> LoopPolynomials:
+def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int], scalar: bool = True) -> LoopPolynomials:
     """q_n F_n of a loop in t = tan((theta - shift)/2) on each unknown's range (Sections 2.2, 3).
 
     ``variables``: the global variable index of each of the loop's unknowns (in loop order). The
     matrix comes from the product route, the scalar equation of Eq. (10) from the paper's
-    recursion route (Cor. 2); both are exact reparameterizations of the same polynomials.
+    recursion route (Cor. 2; skipped with ``scalar=False``, then read off the matrix when needed);
+    both are exact reparameterizations of the same polynomials.
     """
     from .closure import matrix_control_points, q_control_points, scalar_control_points
 
@@ -139,7 +140,7 @@ def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int]) -> Lo
         ha = _half(matrix_control_points(fps[:split]), q_control_points(fps[:split]))
         hb = _half(matrix_control_points(fps[split:]), q_control_points(fps[split:]))
     return LoopPolynomials(index, tuple(variables), matrix_control_points(fps), q_control_points(fps),
-                           scalar_control_points(fps, "recursion"), ha, hb)
+                           scalar_control_points(fps, "recursion") if scalar else None, ha, hb)
 
 
 def _sin_cos_factor(term: Term, cbox, sbox) -> np.ndarray:
@@ -225,7 +226,8 @@ class ChartSet:
     * ``accept_width``: a box is accepted when every metric side is below ``tol * accept_width``;
     * ``bilinear[b]``: None, or (a_vars, b_vars, a (C, U, *dims_a), b (C, V, *dims_b), terms) when
       block b is the bilinear form of a loop's halves on every chart
-      (:class:`spherekin.formulations.Bilinear`): the solver then restricts the halves, not ``coeffs``.
+      (:class:`spherekin.formulations.Bilinear`): the solver then restricts the halves, not ``coeffs``;
+    * ``prune[b]``: whether the pruners use block b (else only the Krawczyk test does).
     """
 
     parameterization: str
@@ -240,6 +242,7 @@ class ChartSet:
     shift: np.ndarray
     accept_width: float
     bilinear: list = None
+    prune: list = None
 
     @property
     def n_charts(self) -> int:
@@ -296,7 +299,8 @@ def _stack_blocks(per_chart: list[list[EquationBlock]]):
         f0 = forms[0]
         bilinear.append((f0.a_vars, f0.b_vars, np.stack([f.a for f in forms]), np.stack([f.b for f in forms]),
                          f0.terms))
-    return coeffs, tols, labels, square, bilinear
+    prune = [bl.prune for bl in per_chart[0]]
+    return coeffs, tols, labels, square, bilinear, prune
 
 
 def _rechart(loop: ClosureLoop, unknowns: Mapping[str, Unknown]) -> ClosureLoop:
@@ -318,25 +322,27 @@ def _tan_half(build, ranges, formulation) -> ChartSet:
         raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
     chart_unknowns = [[Unknown(name, *rng) for rng in per_name[k]] for k, name in enumerate(names)]
     cache: dict = {}
+    scalar = formulation != "halves"      # the paper's recursion route, only where Eq. (10) is used
     per_chart, t_lo, t_hi, shift = [], [], [], []
     for combo in combos:
-        polys = []
+        blocks = []
         for j, lp in enumerate(loops):
             idx = tuple(names.index(n) for n in lp.names)
             key = (j, tuple(combo[i] for i in idx))
-            if key not in cache:
+            if key not in cache:     # every formulation makes one block per loop, from that loop alone
                 local = {names[i]: chart_unknowns[i][combo[i]] for i in idx}
-                cache[key] = tan_half_loop(j, _rechart(lp, local), idx)
-            polys.append(cache[key])
-        per_chart.append(formulate_polynomials(formulation, polys, len(names)))
+                poly = tan_half_loop(j, _rechart(lp, local), idx, scalar=scalar)
+                cache[key] = formulate_polynomials(formulation, [poly], len(names))
+            blocks += cache[key]
+        per_chart.append(blocks)
         chosen = [chart_unknowns[i][c] for i, c in enumerate(combo)]
         t = np.array([u.t_range for u in chosen])
         t_lo.append(t[:, 0])
         t_hi.append(t[:, 1])
         shift.append([u.shift for u in chosen])
-    coeffs, tols, labels, square, bilinear = _stack_blocks(per_chart)
+    coeffs, tols, labels, square, bilinear, prune = _stack_blocks(per_chart)
     return ChartSet("tan-half", tuple(names), tuple(names), coeffs, tols, labels, square,
-                    np.array(t_lo), np.array(t_hi), np.array(shift), 1.0, bilinear)
+                    np.array(t_lo), np.array(t_hi), np.array(shift), 1.0, bilinear, prune)
 
 
 #: sin-cos boxes are accepted when every c and s side is below tol times this: points of the unit
@@ -355,12 +361,12 @@ def _sin_cos(build, ranges, formulation) -> ChartSet:
     polys = [sin_cos_loop(j, lp, names, boxes) for j, lp in enumerate(loops)]
     blocks = formulate_polynomials(formulation, polys, n_vars)
     blocks += [_circle_block(k, n_vars, *boxes[name]) for k, name in enumerate(names)]
-    coeffs, tols, labels, square, bilinear = _stack_blocks([blocks])
+    coeffs, tols, labels, square, bilinear, prune = _stack_blocks([blocks])
     lo = np.array([[v for name in names for v in (boxes[name][0][0], boxes[name][1][0])]])
     hi = np.array([[v for name in names for v in (boxes[name][0][1], boxes[name][1][1])]])
     variables = tuple(f"{v}({name})" for name in names for v in ("cos", "sin"))
     return ChartSet("sin-cos", tuple(names), variables, coeffs, tols, labels, square,
-                    lo, hi, np.zeros_like(lo), SIN_COS_ACCEPT, bilinear)
+                    lo, hi, np.zeros_like(lo), SIN_COS_ACCEPT, bilinear, prune)
 
 
 PARAMETERIZATIONS: dict[str, Callable] = {"tan-half": _tan_half, "sin-cos": _sin_cos}

@@ -126,16 +126,21 @@ class _Layout:
                                              np.ascontiguousarray(np.moveaxis(bb, 0, -1)), sums, perm, shape)))
 
 
-def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
-    """Control points of every block on boxes [lo, hi] of charts ``chart`` (batch last), and tolerances.
+def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi, which=None, cache=None):
+    """Control points of the blocks ``which`` (default all) on boxes [lo, hi] of charts ``chart``
+    (batch last), and their tolerances; None for the blocks not asked for.
 
     Dense blocks are restricted as they are; a bilinear block restricts its two halves and
     assembles the products (:class:`spherekin.formulations.Bilinear`), ~20x fewer operations.
+    ``cache`` shares restriction matrices between calls on the same boxes.
     """
-    cache: dict = {}
+    cache = {} if cache is None else cache
     cps = []
     nb = len(chart)
-    for kind, data in layout.blocks:
+    for b, (kind, data) in enumerate(layout.blocks):
+        if which is not None and b not in which:
+            cps.append(None)
+            continue
         if kind == "dense":
             cps.append(bernstein.restrict_batch_last(np.take(data, chart, axis=-1), lo, hi, cache))
             continue
@@ -161,7 +166,7 @@ def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi):
                     out += c1 * (af[u1] * bf[v1])
         full = full.reshape((len(sums),) + da + db + (nb,))
         cps.append(np.ascontiguousarray(np.transpose(full, perm)).reshape(shape + [nb]))
-    tols = [t[chart].T for t in charts.tols]
+    tols = [None if c is None else t[chart].T for c, t in zip(cps, charts.tols)]
     return cps, tols
 
 
@@ -179,6 +184,8 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
     layout = _Layout(charts)
     square = SquareSystem.from_blocks(charts.square)
     isolate = isolate and len(square.rows) == n
+    pruned = [b for b, p in enumerate(charts.prune) if p]
+    square_only = [b for b, rows in enumerate(charts.square) if rows and not charts.prune[b]]
     counts = dict.fromkeys(_COUNTERS, 0)
     t_restrict = t_prune = t_isolate = 0.0
     accepted: list[tuple[int, np.ndarray, np.ndarray]] = []
@@ -218,18 +225,21 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         if progress is not None:
             progress({**counts, "pending": sum(len(e[0]) for e in stack)})
         t1 = time.perf_counter()
-        cps, tols = _restrict(charts, layout, chart, lo, hi)
+        cache: dict = {}
+        cps, tols = _restrict(charts, layout, chart, lo, hi, pruned, cache)
         t2 = time.perf_counter()
         mwidth = charts.metric(chart, hi) - charts.metric(chart, lo)
         widths = mwidth.max(axis=1)
-        rlo, rhi = pruner.reduce(cps, tols, widths=widths)
+        rlo, rhi = pruner.reduce([cps[b] for b in pruned], [tols[b] for b in pruned], widths=widths)
         t3 = time.perf_counter()
         iso = np.zeros(len(lo), dtype=bool)
         if isolate:
             cand = np.flatnonzero(~np.any(rlo > rhi, axis=1) & (widths < ISOLATION_MAX_WIDTH))
             if len(cand):
-                k_iso, klo, khi = krawczyk_boxes(square, [c[..., cand] for c in cps],
-                                                 [t[:, cand] for t in tols])
+                extra, extra_t = _restrict(charts, layout, chart[cand], lo[cand], hi[cand], square_only)
+                k_iso, klo, khi = krawczyk_boxes(
+                    square, [c[..., cand] if c is not None else e for c, e in zip(cps, extra)],
+                    [t[:, cand] if t is not None else e for t, e in zip(tols, extra_t)])
                 iso[cand] = k_iso
                 rlo[cand] = np.maximum(rlo[cand], klo)
                 rhi[cand] = np.minimum(rhi[cand], khi)
@@ -299,7 +309,7 @@ def _solve_isolated(charts: ChartSet, isolated):
 def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, progress=None, trace=None):
     """The box loop on the charts of ``group`` (a worker's share), then Newton on its isolated boxes."""
     name, shapes, backend = pruner_spec
-    pruner = make_pruner(name, shapes, backend)
+    pruner = make_pruner(name, [sh for sh, p in zip(shapes, charts.prune) if p], backend)
     n = len(charts.variables)
     group = np.asarray(group, dtype=int)
     start = (group, np.zeros((len(group), n)), np.ones((len(group), n)))
@@ -377,7 +387,7 @@ def solve_system(
     charts = make_charts(parameterization, build, ranges, formulation)
     shapes = [c.shape[1:] for c in charts.coeffs]
     spec = (pruner, shapes, lp_backend)
-    make_pruner(*spec)  # validate names before any work (and before forking)
+    make_pruner(pruner, [sh for sh, p in zip(shapes, charts.prune) if p], lp_backend)  # validate names early
     t_setup = time.perf_counter() - t0
     if max_depth is None:
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)

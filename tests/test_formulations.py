@@ -137,8 +137,8 @@ def numeric_equations(loop, x_loop, formulation):
     if formulation == "paper":
         return scalar[..., None]
     lower = np.stack([q * f[..., 1, 0], q * f[..., 2, 0], q * f[..., 2, 1]], axis=-1)
-    if formulation == "halves":
-        return np.concatenate([lower, halves_numeric(loop, x_loop)], axis=-1)
+    if formulation == "halves":   # the pruned block (P - S^T), then the square block (transversal)
+        return np.concatenate([halves_numeric(loop, x_loop), lower], axis=-1)
     return np.concatenate([lower, scalar[..., None]], axis=-1)
 
 
@@ -178,17 +178,21 @@ def test_blocks_equal_numeric_closure_entries(formulation):
     rng = np.random.default_rng(5)
     loops, unknowns, _ = closed_two_loops(3)
     blocks = formulate(formulation, loops, unknowns)
-    assert [b.loop_index for b in blocks] == [0, 1]
+    per_loop = 2 if formulation == "halves" else 1        # halves: a pruned and a square-only block
+    assert [b.loop_index for b in blocks] == [0] * per_loop + [1] * per_loop
+    assert [b.prune for b in blocks] == [True, False][:per_loop] * 2
     x = rng.uniform(0, 1, size=(25, len(unknowns)))
-    for block, loop in zip(blocks, loops):
+    for j, loop in enumerate(loops):
+        mine = [b for b in blocks if b.loop_index == j]
         pos = loop_positions(loop, unknowns)
-        assert block.variables == tuple(sorted(pos))
-        expected = numeric_equations(loop, x[:, pos], formulation)          # (P, E)
-        got = bernstein.evaluate(block.coeffs, x, nvars=len(unknowns)).T    # (P, E)
-        assert got.shape == expected.shape == (25, len(block.labels))
-        np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-12 * block.scale.max())
-        # convex-hull property: |value| <= scale = max |control point| on the unit box
-        assert np.all(np.abs(got) <= block.scale * (1 + 1e-12))
+        assert all(b.variables == tuple(sorted(pos)) for b in mine)
+        expected = numeric_equations(loop, x[:, pos], formulation)                           # (P, E)
+        got = np.concatenate([bernstein.evaluate(b.coeffs, x, nvars=len(unknowns)) for b in mine]).T
+        scale = np.concatenate([b.scale for b in mine])
+        assert got.shape == expected.shape == (25, sum(len(b.labels) for b in mine))
+        np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-12 * scale.max())
+        # convex-hull property: |value| <= scale >= max |control point| on the unit box
+        assert np.all(np.abs(got) <= scale * (1 + 1e-12))
 
 
 # ---------------------------------------------------------------- closed configurations
@@ -231,10 +235,10 @@ def test_rotation_by_pi_keeps_transversal_zero_but_not_scalar(seed):
     np.testing.assert_allclose(bernstein.evaluate(paper_block.coeffs, x, nvars=len(unknowns))[0],
                                -2.0 * q_of(loop, x), rtol=1e-12)
     # the halves formulation has no spurious root there: P - S^T = (diag(1,-1,-1) - I) S^T != 0
-    (halves_block,) = formulate("halves", [loop], unknowns)
-    vals = bernstein.evaluate(halves_block.coeffs, x, nvars=len(unknowns))
-    assert np.all(np.abs(vals[:3]) <= ROOT_REL_TOL * halves_block.scale[:3])
-    assert np.abs(vals[3:]).max() > 0.5
+    halves_block, square_block = formulate("halves", [loop], unknowns)
+    vals = bernstein.evaluate(square_block.coeffs, x, nvars=len(unknowns))
+    assert np.all(np.abs(vals) <= ROOT_REL_TOL * square_block.scale)
+    assert np.abs(bernstein.evaluate(halves_block.coeffs, x, nvars=len(unknowns))).max() > 0.5
 
 
 @pytest.mark.parametrize("formulation", ["transversal", "halves"])
