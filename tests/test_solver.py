@@ -257,3 +257,12 @@ def test_bad_input_is_a_clear_error(kwargs, match):
     inputs = kwargs.pop("inputs", INPUTS)
     with pytest.raises(ValueError, match=match):
         solve(gosselin(), inputs, **kwargs)
+
+
+def test_package_level_entry_points():
+    import spherekin
+
+    rep = spherekin.solve(spherekin.load_mechanism(EXAMPLES / "four_bar.toml"), (0.4,))
+    assert rep.solutions and all(s.residual < 1e-12 for s in rep.solutions)
+    with pytest.raises(AttributeError, match="nothing"):
+        spherekin.nothing  # noqa: B018
