@@ -64,6 +64,7 @@ import numpy as np
 from mpmath import iv, mpf
 
 from . import intervals as iv_ops
+from .intervals import _add, _cos_sin_table, _isum, _mul, _scale, _sub
 from .closure import KNOWN_ANGLE_SNAP, Term
 from .formulations import TRANSVERSAL_ENTRIES
 from .mechanism import LoopSystem
@@ -197,10 +198,9 @@ _ENTRY_COLS = np.array([c for _, c in TRANSVERSAL_ENTRIES])
 _JAC_U = np.array([i for r, _ in TRANSVERSAL_ENTRIES for i in ((r + 1) % 3, (r + 2) % 3)])
 _JAC_F_ROW = np.array([i for r, _ in TRANSVERSAL_ENTRIES for i in ((r + 2) % 3, (r + 1) % 3)])
 _JAC_F_COL = np.array([c for _, c in TRANSVERSAL_ENTRIES for _ in range(2)])
-#: Rows (0: cos, 1: sin) of the (cos, sin) table for (cos t, sin t, cos t, sin t) (shaped to
-#: index (4, B, L, n)) and for (cos c, sin c, sin c, cos c) (see _enclose).
-_QUAD_THETA = np.array([0, 1, 0, 1])[:, None, None, None]
-_QUAD_CONST = np.array([0, 1, 1, 0])
+#: Rows (0: cos, 1: sin) of the (cos, sin) table for (cos c, sin c, sin c, cos c), shaped to
+#: index (4, n, 1, L) (see _enclose).
+_QUAD_CONST = np.array([0, 1, 1, 0])[:, None, None, None]
 #: Columns of P gathered by one prefix step (see _enclose): (P1, P2, P2, P1) times (c, s, c, -s).
 _STEP_COLS = np.array([1, 2, 2, 1])
 
@@ -210,8 +210,11 @@ class _Plan:
     """The factors of a LoopSystem as index arrays (L loops padded to n factors, M unknowns, T terms).
 
     * ``const`` (L, n): constant angle of each factor (a known angle, or a term's offset; 0 for
-      padding); ``negative`` (L, n): a term of sign -1; ``padding`` (L, n), or None without any;
-    * ``slot`` (n, 1, L): the index of the factor's unknown, or M for a known angle or padding;
+      padding); ``padding`` (L, n), or None without any;
+    * ``theta_slot`` (n, 1, L): 1 + the index of the factor's unknown, or 0 for a known angle or
+      padding (the dummy angle 0: cos = 1, sin = 0); ``theta_rows`` (4, n, 1, L): rows of
+      (cos t, sign sin t, cos t, sign sin t) in the table (cos, sin, -sin) of _enclose;
+      ``const_cols`` (n, 1, L): column of each constant among the constants;
     * per term (T rows): ``term_loop``, ``term_pos``, ``term_var`` (T, 1): its loop, position,
       unknown; ``term_rows`` (T, 3): its rows of J; ``jac_u``, ``jac_f_col``, ``jac_f_row``
       (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose).
@@ -220,9 +223,10 @@ class _Plan:
     n_loops: int
     n_factors: int
     const: np.ndarray
-    negative: np.ndarray
     padding: np.ndarray | None
-    slot: np.ndarray
+    theta_slot: np.ndarray
+    theta_rows: np.ndarray
+    const_cols: np.ndarray
     term_loop: np.ndarray
     term_pos: np.ndarray
     term_var: np.ndarray
@@ -233,11 +237,10 @@ class _Plan:
 
 
 def _plan(system: LoopSystem) -> _Plan:
-    m = len(system.unknowns)
     n_loops = len(system.loops)
     n = max((len(loop.factors) for loop in system.loops), default=0)
     const = np.zeros((n_loops, n))
-    slot = np.full((n_loops, n), m, dtype=np.intp)
+    slot = np.zeros((n_loops, n), dtype=np.intp)
     padding = np.zeros((n_loops, n), dtype=bool)
     negative = np.zeros((n_loops, n), dtype=bool)
     terms = []
@@ -252,7 +255,7 @@ def _plan(system: LoopSystem) -> _Plan:
                 g = indices[n_terms]                  # loop_indices follow the order of the loop's terms
                 n_terms += 1
                 const[k, pos] = fac.offset
-                slot[k, pos] = g
+                slot[k, pos] = g + 1
                 negative[k, pos] = fac.sign == -1
                 terms.append((k, pos, g, fac.sign == -1))
             else:
@@ -264,8 +267,11 @@ def _plan(system: LoopSystem) -> _Plan:
     jac_u, jac_f_row = np.tile(_JAC_U, (n_t, 1)), np.tile(_JAC_F_ROW, (n_t, 1))
     jac_u[swap] = _JAC_U.reshape(-1, 2)[:, ::-1].ravel()
     jac_f_row[swap] = _JAC_F_ROW.reshape(-1, 2)[:, ::-1].ravel()
-    return _Plan(n_loops=n_loops, n_factors=n, const=const, negative=negative,
-                 padding=padding if padding.any() else None, slot=slot.T[:, None, :].copy(),
+    sin_row = 1 + negative.T[:, None, :]                                    # (n, 1, L): 1 sin, 2 -sin
+    theta_rows = np.stack((np.zeros_like(sin_row), sin_row, np.zeros_like(sin_row), sin_row))
+    return _Plan(n_loops=n_loops, n_factors=n, const=const, padding=padding if padding.any() else None,
+                 theta_slot=slot.T[:, None, :].copy(), theta_rows=theta_rows,
+                 const_cols=np.arange(n_loops * n).reshape(n_loops, n).T[:, None, :].copy(),
                  term_loop=t[:, :1], term_pos=t[:, 1:2], term_var=t[:, 2:3],
                  term_rows=3 * t[:, :1] + np.arange(3), jac_u=jac_u, jac_f_col=np.tile(_JAC_F_COL, (n_t, 1)),
                  jac_f_row=jac_f_row)
@@ -281,23 +287,23 @@ def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, to
     """
     b, m = center.shape
     n_loops, n = plan.n_loops, plan.n_factors
-    # (cos, sin) of the unknowns over their boxes, of (1, 0) (a dummy for known angles: phi = c + 0)
-    # and of the constants over c +- tol, in one batch: (2, 2, B M + 1 + L n)
-    radius = np.maximum(np.nextafter(center - lo, math.inf), np.nextafter(hi - center, math.inf))
-    radius[lo == hi] = 0.0                                   # a point: x - x = 0 exactly
-    cs = iv_ops.cos_sin_table(np.concatenate((center.ravel(), (0.0,), plan.const.ravel())),
-                              np.concatenate((radius.ravel(), (0.0,), np.full(plan.const.size, tol))))
-    # phi = c + sign t: cos phi = cos c cos t - sign sin c sin t, sin phi = sin c cos t + sign cos c sin t,
-    # i.e. (cos c, sign sin c, sin c, sign cos c) * (cos t, sin t, cos t, sin t), summed in pairs
-    const_q = cs[:, _QUAD_CONST, b * m + 1:].reshape(2, 4, n_loops, n)
-    if plan.negative.any():
-        flip = const_q[:, 1::2, plan.negative]
-        const_q[:, 1::2, plan.negative] = -flip[::-1]
-    theta_index = np.where(plan.slot < m, plan.slot + m * np.arange(b)[:, None], b * m)        # (n, B, L)
-    theta_q = cs[:, _QUAD_THETA, theta_index]                                                 # (2, 4, n, B, L)
-    prods = iv_ops.mul(const_q.transpose(0, 1, 3, 2)[:, :, :, None, :], theta_q)              # (2, 4, n, B, L)
-    cos_phi = iv_ops.sub(prods[:, 0], prods[:, 1])[..., None]                                 # (2, n, B, L, 1)
-    sin_phi = iv_ops.add(prods[:, 2], prods[:, 3])[..., None]
+    n_th = 1 + b * m
+    # (cos, sin) of the dummy angle 0, of the unknowns over their boxes (radius: the larger
+    # distance from the centre, rounded up; 0 exactly for a point) and of the constants over
+    # c +- tol, in one batch: (2, 2, 1 + B M + L n)
+    radius = np.maximum(center - lo, hi - center)
+    np.nextafter(radius, math.inf, out=radius, where=radius != 0)
+    cs = _cos_sin_table(np.concatenate(((0.0,), center.ravel(), plan.const.ravel())),
+                        np.concatenate(((0.0,), radius.ravel(), np.full(plan.const.size, tol))))
+    # phi = c + sign t: cos phi = cos c cos t - sin c (sign sin t), sin phi = sin c cos t + cos c (sign sin t)
+    table = np.empty((2, 3, n_th))                                                    # cos t, sin t, -sin t
+    table[:, :2] = cs[:, :, :n_th]
+    np.negative(cs[::-1, 1, :n_th], out=table[:, 2])
+    theta_q = table[:, plan.theta_rows, plan.theta_slot + m * np.arange(b)[:, None] * (plan.theta_slot > 0)]
+    const_q = cs[:, _QUAD_CONST, plan.const_cols + n_th]                              # (2, 4, n, 1, L)
+    prods = _mul(const_q, theta_q)                                                    # (2, 4, n, B, L)
+    cos_phi = _sub(prods[:, 0], prods[:, 1])[..., None]                               # (2, n, B, L, 1)
+    sin_phi = _add(prods[:, 2], prods[:, 3])[..., None]
     # coefficients of the prefix steps, (2, n, 4, B, L, 3): (c, s, c, -s), repeated over the 3 rows
     coef = np.empty((2, n, 4, b, n_loops, 3))
     coef[:, :, 0] = coef[:, :, 2] = cos_phi
@@ -307,25 +313,24 @@ def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, to
     # of P_i. P_1 = Rx(phi_0) Z has columns (0, c, s), (-1, 0, 0), (0, -s, c) (exact copies);
     # P_{i+1} = P_i Rx(phi_i) Z has columns (c P1 + s P2, -P0, c P2 - s P1).
     # u[:, i] = P_i e1 (column 0 of P_i), the axis of the joint of factor i.
-    u = np.empty((2, n, b, n_loops, 3))
-    u[:, 0] = 0.0
+    u = np.zeros((2, n, b, n_loops, 3))
     u[:, 0, ..., 0] = 1.0
     pt = np.zeros((2, 3, b, n_loops, 3))
-    pt[:, 0, ..., 1] = pt[:, 2, ..., 2] = coef[:, 0, 0, ..., 0]
-    pt[:, 0, ..., 2] = coef[:, 0, 1, ..., 0]
+    pt[:, 0, ..., 1:] = coef[:, 0, :2, ..., 0].transpose(0, 2, 3, 1)
     pt[:, 2, ..., 1] = coef[:, 0, 3, ..., 0]
+    pt[:, 2, ..., 2] = coef[:, 0, 0, ..., 0]
     pt[:, 1, ..., 0] = -1.0
     for i in range(1, n):
         u[:, i] = pt[:, 0]
-        x = iv_ops.mul(coef[:, i], pt[:, _STEP_COLS])                   # (2, 4, B, L, 3)
+        x = _mul(coef[:, i], pt[:, _STEP_COLS])                         # (2, 4, B, L, 3)
         new = np.empty_like(pt)
-        new[:, 0::2] = iv_ops.add(x[:, 0::2], x[:, 1::2])               # c P1 + s P2, c P2 - s P1
-        new[:, 1] = iv_ops.neg(pt[:, 0])                                # -P0
+        new[:, 0::2] = _add(x[:, 0::2], x[:, 1::2])                     # c P1 + s P2, c P2 - s P1
+        np.negative(pt[::-1, 0], out=new[:, 1])                         # -P0 (exact)
         if plan.padding is not None and plan.padding[:, i].any():
             new[..., plan.padding[:, i], :] = pt[..., plan.padding[:, i], :]
         pt = new
     f = pt[:, _ENTRY_COLS, :, :, _ENTRY_ROWS]                            # (3, 2, B, L): advanced axes first
-    f = np.moveaxis(f, 0, -1).reshape(2, b, 3 * n_loops)
+    f = f.transpose(1, 2, 3, 0).reshape(2, b, 3 * n_loops)
     if not jacobian:
         return f, None
     # dF/dtheta at term t = sign * [u_t]x F: entry (r, c) = sign (u[r+1] F[r+2, c] - u[r+2] F[r+1, c])
@@ -334,9 +339,9 @@ def _enclose(plan: _Plan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, to
     if len(plan.term_loop):
         ut = u[:, plan.term_pos, :, plan.term_loop, plan.jac_u]                             # (T, 6, 2, B)
         ft = pt[:, plan.jac_f_col, :, plan.term_loop, plan.jac_f_row]                       # (T, 6, 2, B)
-        p = iv_ops.mul(np.moveaxis(ut, 2, 0), np.moveaxis(ft, 2, 0))                       # (2, T, 6, B)
-        vals = iv_ops.sub(p[:, :, 0::2], p[:, :, 1::2])                                     # (2, T, 3, B)
-        jac[:, :, plan.term_rows, plan.term_var] = np.moveaxis(vals, -1, 1)
+        p = _mul(ut.transpose(2, 0, 1, 3), ft.transpose(2, 0, 1, 3))                       # (2, T, 6, B)
+        vals = _sub(p[:, :, 0::2], p[:, :, 1::2])                                           # (2, T, 3, B)
+        jac[:, :, plan.term_rows, plan.term_var] = vals.transpose(0, 3, 1, 2)
     return f, jac
 
 

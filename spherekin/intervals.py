@@ -15,9 +15,9 @@ gives infinite endpoints (still an enclosure); callers reject non-finite results
 switch on flush-to-zero, which breaks it); callers must use a different method when it fails.
 
 The only transcendental functions are cos and sin (:func:`cos_sin`, :func:`cos_sin_ball`): at
-a float point a they come from mpmath's interval routine (``libmpi.mpi_cos_sin``, the code behind
-``iv.cos``/``iv.sin``: multiprecision integer arithmetic, outward-rounded, independent of the
-FPU), then over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
+a float point a they come from mpmath's interval routine (the point case of
+``libmpi.mpi_cos_sin``, the code behind ``iv.cos``/``iv.sin``: multiprecision integer
+arithmetic, outward-rounded, independent of the FPU), then over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
 sin(a + d) = sin a cos d + cos a sin d with cos d in [1 - r^2/2, 1] and |sin d| <= min(r, 1),
 both true for every real d with |d| <= r, evaluated in this arithmetic.
 """
@@ -28,7 +28,8 @@ import functools
 import math
 
 import numpy as np
-from mpmath.libmp import from_float, libmpi, mpf_cmp, round_ceiling, round_floor, to_float
+from mpmath.libmp import (fnone, fone, from_float, from_man_exp, fzero, mpf_cmp, mpf_cos_sin, mpf_mul, round_ceiling,
+                          round_floor, to_float)
 
 __all__ = [
     "POINT_CACHE_SIZE",
@@ -57,9 +58,14 @@ __all__ = [
 #: certification of one solve and across radii; 2**14 entries (~2 MB) hold thousands of systems.
 POINT_CACHE_SIZE = 1 << 14
 
-#: Working precision (bits) of the mpmath point evaluations: the endpoints are then float64
-#: numbers (53-bit mantissas), so converting them to floats is exact outside the subnormal range.
+#: Precision (bits) of the mpmath point enclosures: the endpoints are then float64 numbers (53-bit
+#: mantissas), so converting them to floats is exact outside the subnormal range.
 _MP_PREC = 53
+#: mpmath's interval cos/sin (libmpi.mpi_cos_sin) evaluates at prec + 20 bits and trusts that
+#: result to a relative 2^(10 - wp): it multiplies by 1 -+ 2^(10 - wp) while rounding outward.
+_MP_WP = _MP_PREC + 20
+_MP_MORE = from_man_exp((1 << _MP_WP) + (1 << 10), -_MP_WP)
+_MP_LESS = from_man_exp((1 << _MP_WP) - (1 << 10), -_MP_WP)
 
 _INF = math.inf
 _DIRECTIONS: dict[tuple, np.ndarray] = {}
@@ -128,32 +134,22 @@ def outward(v: np.ndarray) -> np.ndarray:
 
 def neg(a) -> np.ndarray:
     """-a = [-hi, -lo] (exact)."""
-    a = _as_interval("a", a)
-    return -a[::-1]
+    return _neg(_as_interval("a", a))
 
 
 def add(a, b) -> np.ndarray:
     """a + b = [lo_a + lo_b, hi_a + hi_b], outward-rounded."""
-    a, b = _align(_as_interval("a", a), _as_interval("b", b))
-    return outward(a + b)
+    return _add(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def sub(a, b) -> np.ndarray:
     """a - b = [lo_a - hi_b, hi_a - lo_b], outward-rounded."""
-    a, b = _align(_as_interval("a", a), _as_interval("b", b))
-    return outward(a - b[::-1])
+    return _sub(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def mul(a, b) -> np.ndarray:
     """a * b = [min, max] of the four endpoint products, outward-rounded."""
-    a, b = _align(_as_interval("a", a), _as_interval("b", b))
-    a0, a1 = a
-    b0, b1 = b
-    p, q, r, s = a0 * b0, a0 * b1, a1 * b0, a1 * b1
-    out = np.empty((2,) + p.shape)
-    np.minimum(np.minimum(p, q), np.minimum(r, s), out=out[0])
-    np.maximum(np.maximum(p, q, out=p), np.maximum(r, s, out=r), out=out[1])
-    return np.nextafter(out, _directions(out.shape), out=out)
+    return _mul(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def scale(c, a) -> np.ndarray:
@@ -162,11 +158,7 @@ def scale(c, a) -> np.ndarray:
     a = _as_interval("a", a)
     if c.ndim > a.ndim - 1:
         a = a.reshape((2,) + (1,) * (c.ndim - a.ndim + 1) + a.shape[1:])
-    p, q = c * a[0], c * a[1]
-    out = np.empty((2,) + p.shape)
-    np.minimum(p, q, out=out[0])
-    np.maximum(p, q, out=out[1])
-    return np.nextafter(out, _directions(out.shape), out=out)
+    return _scale(c, a)
 
 
 def isum(a, axis: int = -1) -> np.ndarray:
@@ -174,18 +166,7 @@ def isum(a, axis: int = -1) -> np.ndarray:
     a = _as_interval("a", a)
     if not -(a.ndim - 1) <= axis < a.ndim - 1:
         raise ValueError(f"axis: expected an element axis in [{-(a.ndim - 1)}, {a.ndim - 1}), got {axis}")
-    ax = axis + 1 if axis >= 0 else a.ndim + axis
-    head = (slice(None),) * ax
-    n = a.shape[ax]
-    if n == 0:
-        return np.zeros(a.shape[:ax] + a.shape[ax + 1:])
-    x = a
-    while n > 1:
-        h = n // 2
-        s = outward(x[head + (slice(0, h),)] + x[head + (slice(h, 2 * h),)])
-        x = s if n % 2 == 0 else np.concatenate((s, x[head + (slice(2 * h, n),)]), axis=ax)
-        n = x.shape[ax]
-    return x[head + (0,)]
+    return _isum(a, axis + 1 if axis >= 0 else a.ndim + axis)
 
 
 def sum_up(x, axis: int = -1) -> np.ndarray:
@@ -209,12 +190,61 @@ def sum_up(x, axis: int = -1) -> np.ndarray:
     return x[head + (0,)]
 
 
+# Kernels: the same operations without argument checks, on float64 interval arrays whose shapes
+# broadcast with the endpoint axis first (callers align them). Used by spherekin.certify.
+
+def _neg(a: np.ndarray) -> np.ndarray:
+    return -a[::-1]
+
+
+def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return outward(a + b)
+
+
+def _sub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return outward(a - b[::-1])
+
+
+def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    a0, a1 = a[0], a[1]
+    b0, b1 = b[0], b[1]
+    p, q, r, s = a0 * b0, a0 * b1, a1 * b0, a1 * b1
+    out = np.empty((2,) + p.shape)
+    np.minimum(np.minimum(p, q), np.minimum(r, s), out=out[0])
+    np.maximum(np.maximum(p, q, out=p), np.maximum(r, s, out=r), out=out[1])
+    return np.nextafter(out, _directions(out.shape), out=out)
+
+
+def _scale(c: np.ndarray, a: np.ndarray) -> np.ndarray:
+    p, q = c * a[0], c * a[1]
+    out = np.empty((2,) + p.shape)
+    np.minimum(p, q, out=out[0])
+    np.maximum(p, q, out=out[1])
+    return np.nextafter(out, _directions(out.shape), out=out)
+
+
+def _isum(a: np.ndarray, ax: int) -> np.ndarray:
+    """Sum over array axis ``ax`` (>= 1) of the interval array a."""
+    head = (slice(None),) * ax
+    n = a.shape[ax]
+    if n == 0:
+        return np.zeros(a.shape[:ax] + a.shape[ax + 1:])
+    x = a
+    while n > 1:
+        h = n // 2
+        s = outward(x[head + (slice(0, h),)] + x[head + (slice(h, 2 * h),)])
+        x = s if n % 2 == 0 else np.concatenate((s, x[head + (slice(2 * h, n),)]), axis=ax)
+        n = x.shape[ax]
+    return x[head + (0,)]
+
+
 def matmul(a, b) -> np.ndarray:
     """Interval matrix product: a (..., m, k) @ b (..., k, n), each entry an outward-rounded dot product."""
     a, b = _as_interval("a", a), _as_interval("b", b)
     if a.ndim < 3 or b.ndim < 3 or a.shape[-1] != b.shape[-2]:
         raise ValueError(f"a, b: expected interval matrices (2, ..., m, k) and (2, ..., k, n), got {a.shape} and {b.shape}")
-    return isum(mul(a[..., :, :, None], b[..., None, :, :]), axis=-2)
+    a, b = _align(a[..., :, :, None], b[..., None, :, :])
+    return _isum(_mul(a, b), a.ndim - 2)
 
 
 def fmatmul(c, a) -> np.ndarray:
@@ -222,7 +252,8 @@ def fmatmul(c, a) -> np.ndarray:
     c, a = np.asarray(c, dtype=float), _as_interval("a", a)
     if c.ndim < 2 or a.ndim < 3 or c.shape[-1] != a.shape[-2]:
         raise ValueError(f"c, a: expected a float matrix (..., m, k) and an interval matrix (2, ..., k, n), got {c.shape} and {a.shape}")
-    return isum(scale(c[..., :, :, None], a[..., None, :, :]), axis=-2)
+    p = scale(c[..., :, :, None], a[..., None, :, :])
+    return _isum(p, p.ndim - 2)
 
 
 def magnitude(a) -> np.ndarray:
@@ -235,8 +266,15 @@ def magnitude(a) -> np.ndarray:
 # cos and sin
 # --------------------------------------------------------------------------------------------
 
+#: Smallest binary exponent (of the leading bit + 1) of a normal float64: 2^-1022 = 2^(exp + bc - 1).
+_NORMAL_MIN_EXP = -1021
+
+
 def _float_below(v) -> float:
     """The largest float <= the raw mpf v (v has at most 53 mantissa bits)."""
+    sign, man, exp, bc = v
+    if bc <= 53 and _NORMAL_MIN_EXP <= exp + bc <= 1024:   # a float64 number: the conversion is exact
+        return math.ldexp(-man if sign else man, exp)
     f = to_float(v, rnd=round_floor)
     if mpf_cmp(from_float(f), v) > 0:   # to_float may round to nearest in the subnormal range
         f = math.nextafter(f, -_INF)
@@ -244,31 +282,47 @@ def _float_below(v) -> float:
 
 
 def _float_above(v) -> float:
+    """The smallest float >= the raw mpf v (v has at most 53 mantissa bits)."""
+    sign, man, exp, bc = v
+    if bc <= 53 and _NORMAL_MIN_EXP <= exp + bc <= 1024:
+        return math.ldexp(-man if sign else man, exp)
     f = to_float(v, rnd=round_ceiling)
     if mpf_cmp(from_float(f), v) < 0:
         f = math.nextafter(f, _INF)
     return f
 
 
+def _mp_outward(v, rounding):
+    """libmpi.mpi_cos_sin's finalize: v times 1 -+ 2^(10 - wp), rounded outward to 53 bits, clamped to [-1, 1]."""
+    v = mpf_mul(v, _MP_MORE if bool(v[0]) == (rounding == round_floor) else _MP_LESS, _MP_PREC, rounding)
+    if v[2] + v[3] >= 1:
+        return fnone if v[0] else fone
+    return v
+
+
 @functools.lru_cache(maxsize=POINT_CACHE_SIZE)
 def point_cos_sin(a: float) -> tuple[float, float, float, float]:
     """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a``.
 
-    mpmath's interval cos/sin (the routine of ``iv.cos``/``iv.sin``) at 53 bits on the exact
-    point a, endpoints converted to floats outward. Cached (a pure function of a).
+    The point case of mpmath's interval cos/sin (``libmpi.mpi_cos_sin``, behind ``iv.cos`` and
+    ``iv.sin``) at 53 bits, with its error model: one ``mpf_cos_sin`` at 73 bits (mpi_cos_sin
+    evaluates each endpoint of an interval, twice for a point), widened by a relative 2^-63 and
+    rounded outward; endpoints converted to floats outward. Cached (a pure function of a).
     """
     if not math.isfinite(a):
         raise ValueError(f"a: expected a finite angle (radians), got {a!r}")
     x = from_float(a)
-    (c_lo, c_hi), (s_lo, s_hi) = libmpi.mpi_cos_sin((x, x), _MP_PREC)
-    return _float_below(c_lo), _float_above(c_hi), _float_below(s_lo), _float_above(s_hi)
+    if x == fzero:
+        return 1.0, 1.0, 0.0, 0.0
+    c, s = mpf_cos_sin(x, _MP_WP)
+    return (_float_below(_mp_outward(c, round_floor)), _float_above(_mp_outward(c, round_ceiling)),
+            _float_below(_mp_outward(s, round_floor)), _float_above(_mp_outward(s, round_ceiling)))
 
 
 def cos_sin_table(center, radius) -> np.ndarray:
     """One interval array (2, 2, *shape) enclosing (cos, sin) over [center - radius, center + radius].
 
-    Index [:, 0] is cos and [:, 1] sin (see :func:`cos_sin_ball`).
-
+    Index [:, 0] is cos and [:, 1] sin; see :func:`cos_sin_ball` for the math.
     """
     center = np.asarray(center, dtype=float)
     radius = np.asarray(radius, dtype=float)
@@ -278,6 +332,11 @@ def cos_sin_table(center, radius) -> np.ndarray:
         raise ValueError("center, radius: expected finite angles and radii (radians)")
     if not (radius >= 0).all():
         raise ValueError("radius: expected radii >= 0 (radians)")
+    return _cos_sin_table(center, radius)
+
+
+def _cos_sin_table(center: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """cos_sin_table without argument checks (center, radius: finite float arrays of one shape, radius >= 0)."""
     shape = center.shape
     # (2 endpoints, 2 functions (cos, sin), *shape): cos(a), sin(a) at the points
     table = np.array([point_cos_sin(a) for a in center.ravel().tolist()], dtype=float).reshape((-1, 2, 2))
@@ -299,7 +358,7 @@ def cos_sin_table(center, radius) -> np.ndarray:
         main = mul(point_cs, cos_d)
     # |sin a sin d| <= rho |sin a|max (for cos), |cos a sin d| <= rho |cos a|max (for sin); 0 when r = 0
     rho = np.minimum(radius, 1.0)
-    spread = np.nextafter(rho * magnitude(point_cs)[::-1], _INF)
+    spread = np.nextafter(rho * np.maximum(np.abs(point_cs[0]), np.abs(point_cs[1]))[::-1], _INF)
     spread[:, rho == 0] = 0.0
     out = np.empty_like(main)
     np.subtract(main[0], spread, out=out[0])

@@ -1,0 +1,118 @@
+"""Benchmark of certification: the Krawczyk test per Gosselin solution, fast float intervals vs mpmath.
+
+The solutions are those of ``spherekin.solver.solve`` on the Gosselin platform at inputs
+(0.3, -0.2, 0.5) rad (8 solutions), each certified on the loop system that
+``spherekin.solutions.finalize`` builds for it (a chart of half-width LOCAL_CHART around it).
+All in one process, ``--repeats`` runs (>= 5) of each configuration:
+
+  * reference: ``certify_reference`` (mpmath ``iv`` for every operation), one call per solution;
+  * fast: ``certify``, one call per solution, the cache of mpmath point cos/sin cleared before
+    each run's 8 calls (what one solve pays: the constant angles are shared by its solutions);
+  * fast, warm: the same calls again with the cache kept (every point value already known);
+  * fast, batched: ``certify_many`` on the 8 points in one call (one loop system), cache cleared.
+
+The table gives, per configuration, the median over runs of the time per solution (run time / 8),
+the fastest run, and the ratio reference / configuration. Verdicts must agree. JSON goes to
+benchmarks/results/certify.json.
+
+    python benchmarks/bench_certify.py [--repeats 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import mpmath
+import numpy as np
+
+from spherekin import intervals
+from spherekin.certify import certify, certify_many, certify_reference
+from spherekin.mechanism import gosselin
+from spherekin.solutions import LOCAL_CHART
+from spherekin.solver import solve
+
+INPUTS = (0.3, -0.2, 0.5)
+#: Fewest runs per configuration (the brief asks for >= 5 in one process).
+MIN_REPEATS = 5
+
+
+def problems():
+    """(system, theta) per solution of the Gosselin example, as finalize() certifies them."""
+    mech = gosselin()
+    report = solve(mech, INPUTS)
+    names = report.unknowns
+    out = []
+    for sol in report.solutions:
+        theta = np.asarray(sol.angles, dtype=float)
+        system = mech.loop_system(INPUTS, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in zip(names, theta)})
+        out.append((system, theta))
+    return mech, out
+
+
+def run(config: str, items) -> tuple[float, list]:
+    """Seconds for certifying every item once under ``config``, and the results."""
+    if config in ("fast", "batched"):
+        intervals.point_cos_sin.cache_clear()
+    t0 = time.perf_counter()
+    if config == "reference":
+        res = [certify_reference(s, t) for s, t in items]
+    elif config in ("fast", "fast_warm"):
+        res = [certify(s, t) for s, t in items]
+    else:
+        res = certify_many(items[0][0], [t for _, t in items])
+    return time.perf_counter() - t0, res
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "certify.json")
+    args = parser.parse_args(argv)
+    if args.repeats < MIN_REPEATS:
+        parser.error(f"--repeats: expected at least {MIN_REPEATS}, got {args.repeats}")
+    mech, items = problems()
+    n = len(items)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    print(f"{mech.name}, inputs {INPUTS} rad: {n} solutions; {args.repeats} runs per configuration; "
+          f"{os.cpu_count()} cores, load {load:.2f}; Python {platform.python_version()}, numpy {np.__version__}, "
+          f"mpmath {mpmath.__version__}")
+    configs = ["reference", "fast", "fast_warm", "batched"]
+    times = {c: [] for c in configs}
+    verdicts = {}
+    run("fast", items)                                   # imports and first-call costs out of the way
+    for _ in range(args.repeats):                        # interleaved, so load changes hit all alike
+        for c in configs:
+            t, res = run(c, items)
+            times[c].append(t / n)
+            verdicts[c] = [(r.certified, r.radius) for r in res]
+    if len({tuple(v) for v in verdicts.values()}) != 1:
+        raise SystemExit(f"verdicts differ between configurations: {verdicts}")
+    ref = statistics.median(times["reference"])
+    header = f"{'configuration':14s} {'median ms/sol':>13s} {'min ms/sol':>10s} {'ratio':>7s}"
+    print(header)
+    print("-" * len(header))
+    rows = []
+    for c in configs:
+        med = statistics.median(times[c])
+        rows.append(dict(configuration=c, median_seconds_per_solution=med, min_seconds_per_solution=min(times[c]),
+                         ratio_reference_over_this=ref / med, seconds_per_solution=times[c]))
+        print(f"{c:14s} {med * 1e3:13.3f} {min(times[c]) * 1e3:10.3f} {ref / med:7.1f}")
+    certified = sum(v for v, _ in verdicts["fast"])
+    print(f"verdicts agree: {certified}/{n} certified (radius {sorted({r for _, r in verdicts['fast']})})")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({
+        "benchmark": "certify", "mechanism": mech.name, "inputs": INPUTS, "solutions": n, "repeats": args.repeats,
+        "certified": certified, "cores": os.cpu_count(), "load_average_1min": load,
+        "python": platform.python_version(), "numpy": np.__version__, "mpmath": mpmath.__version__,
+        "machine": platform.machine(), "rows": rows}, indent=2))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
