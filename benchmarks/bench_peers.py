@@ -33,7 +33,6 @@ import json
 import math
 import os
 import platform
-import re
 import resource
 import statistics
 import subprocess
@@ -70,7 +69,7 @@ SEED = 2024
 RANDOM_GEOMETRIES = 2
 #: Cheap methods (a run under this many seconds) are timed over at least CHEAP_RUNS runs: the
 #: median of a millisecond call over 5 runs is noisy, and more runs cost nothing.
-CHEAP_SECONDS, CHEAP_RUNS = 0.05, 25
+CHEAP_SECONDS, CHEAP_RUNS = 0.2, 25
 #: Minimum spacing (seconds) of the progress lines of a capped child (boxes processed so far).
 PROGRESS_EVERY = 1.0
 
@@ -424,7 +423,12 @@ def machine_info() -> dict:
         head = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         dirty = subprocess.run([*git, "status", "--porcelain", "--", "spherekin"], capture_output=True,
                                text=True).stdout.strip()
-        info["spherekin"] = dict(path=str(root), commit=head or None, uncommitted_changes=bool(dirty))
+        import hashlib
+        digest = hashlib.sha256()
+        for f in sorted(root.rglob("*.py")):
+            digest.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
+        info["spherekin"] = dict(path=str(root), commit=head or None, uncommitted_changes=bool(dirty) if head else None,
+                                 sources_sha256=digest.hexdigest()[:16])
     except OSError:
         info["spherekin"] = dict(path=None, commit=None, uncommitted_changes=None)
     if pphc.phc_available():
@@ -459,9 +463,12 @@ def main(argv=None) -> int:
     parser.add_argument("--paper-cap", type=float, default=120.0, help="wall-time cap (s) of one paper-mode run")
     parser.add_argument("--with-slow-phc", action="store_true",
                         help="run phc -b on the sin/cos system (a) for every problem (default: the first only)")
+    parser.add_argument("--skip-slow-phc", action="store_true", help="never run phc -b on the sin/cos system (a)")
     parser.add_argument("--slow-phc-cap", type=float, default=1800.0, help="wall-time cap (s) of one phc (a) run")
     parser.add_argument("--problems", type=str, default=None, help="comma-separated problem names (default: all)")
     parser.add_argument("--out", type=Path, default=None, help="JSON output (default results/peers.json)")
+    parser.add_argument("--note", type=str, default=None,
+                        help="free text stored with the results (e.g. which spherekin snapshot was measured)")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats: expected at least 1")
@@ -480,13 +487,16 @@ def main(argv=None) -> int:
         problems = [p for p in problems if p["name"] in wanted]
 
     machine = machine_info()
+    if args.note:
+        print(f"note: {args.note}")
     has_param, param_default = solve_accepts_parameterization()
     has_phc = machine["phc"] is not None
     print(f"machine: {machine['cores']} cores, {machine['cpu_model']}, Python {machine['python']}, "
           f"phc: {machine['phc'] or 'absent'}; load average at start {machine['load_average_start']}")
     sk = machine["spherekin"]
-    print(f"spherekin: {sk['path']} at commit {sk['commit']}"
-          + (" WITH UNCOMMITTED CHANGES in spherekin/" if sk["uncommitted_changes"] else ""))
+    print(f"spherekin: {sk['path']} (git commit {sk['commit']}"
+          + (", WITH UNCOMMITTED CHANGES in spherekin/" if sk["uncommitted_changes"] else "")
+          + f"; sources sha256 {sk.get('sources_sha256')})")
     if not has_phc:
         print("phc not found on PATH: the PHCpack columns are skipped (install: apt-get install -y phcpack, "
               "or make bench-peers)")
@@ -495,7 +505,8 @@ def main(argv=None) -> int:
     else:
         print("solve() has no parameterization= argument yet: one spherekin default row (its built-in "
               "parameterization, tan-half)")
-    slow_phc_left = (len(problems) if args.with_slow_phc else 1) if (has_phc and not args.quick) else 0
+    slow_phc_left = 0 if (args.quick or args.skip_slow_phc or not has_phc) else \
+        (len(problems) if args.with_slow_phc else 1)
 
     rows, checks = [], {}
     for spec in problems:
@@ -610,7 +621,8 @@ def main(argv=None) -> int:
                           f"paths, {extra['real_roots']} real roots ({extra['real_spurious']} spurious) -> "
                           f"{found['in_range']} poses", flush=True)
             else:
-                why = "--quick" if args.quick else "run once in total (first problem); --with-slow-phc for all"
+                why = ("--quick" if args.quick else "--skip-slow-phc" if args.skip_slow_phc else
+                       "run once in total, on the first problem; --with-slow-phc for all")
                 add("phc -b sin/cos (a)", status=f"not run ({why})")
 
         # 4. degree-8 closed form
@@ -638,7 +650,7 @@ def main(argv=None) -> int:
     print_table(rows, machine)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(dict(
-        benchmark="peers", machine=machine, problems=problems, match_tol=MATCH_TOL, leg_tol=LEG_TOL,
+        benchmark="peers", note=args.note, machine=machine, problems=problems, match_tol=MATCH_TOL, leg_tol=LEG_TOL,
         imag_tol=pphc.IMAG_TOL, closure_tol=pphc.CLOSURE_TOL, eigen_real_tol=pcf.REAL_TOL, paper_tol=PAPER_TOL,
         phc_seed=pphc.PHC_SEED, solve_parameterization=dict(accepted=has_param, default=param_default),
         args={k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
@@ -678,6 +690,9 @@ def print_table(rows, machine) -> None:
             notes.append(f"{ex['real_spurious']} real spurious (loop at diag(+-1))")
         if ex.get("boxes_at_cap") is not None:
             notes.append(f"{ex['boxes_at_cap']} boxes, {ex['accepted_at_cap']} accepted at the cap")
+        last = wp.get("last_run", {})
+        if last.get("failed") and r["status"] == "ok":
+            notes.append(f"whole-process run failed: {last.get('error', '?')[:90]}")
         if sol and sol.get("spurious"):
             notes.append(f"{sol['spurious']} poses fail the leg check")
         if "statuses" in ex:
