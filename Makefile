@@ -4,6 +4,7 @@
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 #   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
+#   make bench / bench-peers / sweep -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root sweep)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -12,7 +13,7 @@ STAMP := $(VENV)/.installed
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -45,6 +46,19 @@ figures: $(STAMP)
 		echo "== $$f"; \
 		MPLBACKEND=Agg $(BIN)/python $$f || exit 1; \
 	done
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_solve.py
+	$(BIN)/python benchmarks/bench_certify.py
+
+bench-peers: $(STAMP)
+	@command -v phc >/dev/null || { echo "phc not found: installing PHCpack (Debian package phcpack)"; \
+		apt-get install -y -qq phcpack >/dev/null || sudo apt-get install -y -qq phcpack >/dev/null || \
+		echo "could not install phcpack: the PHCpack rows are skipped"; }
+	$(BIN)/python benchmarks/bench_peers.py
+
+sweep: $(STAMP)
+	$(BIN)/python benchmarks/sweep_roots.py --poses 1000 --jobs 2
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info
