@@ -61,7 +61,6 @@ from dataclasses import dataclass, replace
 from typing import Mapping, Sequence
 
 import numpy as np
-from mpmath import iv, mpf
 
 from . import intervals as iv_ops
 from .intervals import _add, _cos_sin_table, _isum, _mul, _scale, _sub
@@ -398,6 +397,7 @@ def interval_transversal(system: LoopSystem, box, angle_tolerance: float = ANGLE
 
 def _to_iv(a: np.ndarray) -> np.ndarray:
     """Object array of iv.mpf from a float interval array (2, ...) (exact: floats are 53-bit)."""
+    from mpmath import iv   # the references only: mpmath's iv context costs ~20 ms to import
     out = np.empty(a.shape[1:], dtype=object)
     for idx in np.ndindex(out.shape):
         out[idx] = iv.mpf([float(a[(0,) + idx]), float(a[(1,) + idx])])
@@ -470,6 +470,7 @@ def _evaluate(system: LoopSystem, theta: Sequence, constant, cos, sin, jacobian:
 def interval_transversal_reference(system: LoopSystem, box, angle_tolerance: float = ANGLE_TOLERANCE,
                                    jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`interval_transversal` in mpmath's ``iv`` context (the slow, obviously correct reference)."""
+    from mpmath import iv
     _check_system(system)
     tol = _check_tolerance(angle_tolerance)
     lo, hi = _check_box(system, box)
@@ -478,6 +479,7 @@ def interval_transversal_reference(system: LoopSystem, box, angle_tolerance: flo
 
 
 def _interval_eval(system: LoopSystem, xs: list, tol: float, jacobian: bool):
+    from mpmath import iv
     spread = iv.mpf([-tol, tol])
 
     def constant(a: float):
@@ -677,6 +679,7 @@ def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k) -
 def krawczyk_reference(system: LoopSystem, theta, radius: float,
                        angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
     """:func:`krawczyk` in mpmath's ``iv`` context, one scalar at a time (the slow, obviously correct reference)."""
+    from mpmath import iv
     _check_system(system)
     y = _check_theta(system, theta)
     r = _check_radius("radius", radius)
@@ -729,6 +732,7 @@ def certify_reference(system: LoopSystem, theta, radii: Sequence[float] = CERTIF
 # --------------------------------------------------------------------------------------------
 
 def _dot(row, col):
+    from mpmath import iv
     acc = iv.mpf(0)
     for a, b in zip(row, col):
         acc = acc + a * b
@@ -737,6 +741,7 @@ def _dot(row, col):
 
 def _magnitude(v) -> float:
     """An upper bound (float) on |v| for an interval v."""
+    from mpmath import mpf
     m = max(abs(mpf(v.a)), abs(mpf(v.b)))
     out = float(m)
     return out if mpf(out) >= m else math.nextafter(out, math.inf)
@@ -744,6 +749,7 @@ def _magnitude(v) -> float:
 
 def _outward(v) -> tuple[float, float]:
     """Float (lo, hi) enclosing the interval v (exact at iv's default 53-bit precision)."""
+    from mpmath import mpf
     a, b = mpf(v.a), mpf(v.b)
     lo, hi = float(a), float(b)
     if mpf(lo) > a:
