@@ -1,0 +1,102 @@
+"""Shared plumbing of the paper figures: arguments, saving, and 3-D axes showing the unit sphere.
+
+Not a figure itself (``make figures`` runs ``paper_figures/fig*.py`` only). The sphere drawing
+reuses the helpers of :mod:`spherekin.plot` (great-circle arcs, near/far splitting of curves,
+joint dots, wireframe, view direction), so the figures look like ``spherekin solve --plot``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+if str(ROOT / "experiments") not in sys.path:
+    sys.path.insert(0, str(ROOT / "experiments"))
+
+import _common  # noqa: E402  (experiments/_common.py: the shared argument parser)
+
+from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
+                            _view_direction, great_circle_arc)
+
+__all__ = ["HERE", "DPI", "parser", "save", "sphere_axes", "draw_arc", "draw_point", "label_at",
+           "view_for", "great_circle_arc"]
+
+#: Resolution of the PNG files: 150 dpi keeps 9-point labels sharp on screen and in the README.
+DPI = 150
+#: Labels are pushed this far outside the sphere (radial factor) so they do not sit on the arcs.
+LABEL_RADIUS = 1.13
+
+
+def parser(description: str):
+    """experiments/_common.parser (--quick, --seed, --out-dir) with --out-dir defaulting to paper_figures/."""
+    p = _common.parser(description)
+    p.set_defaults(out_dir=HERE)
+    return p
+
+
+def save(fig, out_dir, name: str) -> list[Path]:
+    """Write ``<out_dir>/<name>.png`` and ``.pdf``; return both paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for fmt in ("png", "pdf"):
+        path = out / f"{name}.{fmt}"
+        fig.savefig(path, format=fmt, dpi=DPI)
+        paths.append(path)
+    print(f"wrote {paths[0]} and {paths[1]}")
+    return paths
+
+
+def view_for(points) -> tuple[np.ndarray, float, float]:
+    """Viewing direction (towards the viewer) showing most of ``points`` (N, 3) on the near side."""
+    return _view_direction(np.asarray(points, dtype=float).reshape(-1, 3))
+
+
+def sphere_axes(fig, spec, view_elev_azim, title: str | None = None):
+    """3-D axes on ``spec`` showing the unit sphere (wireframe, outline, x/y/z stubs), orthographic."""
+    view, elev, azim = view_elev_azim
+    ax = fig.add_subplot(spec, projection="3d", computed_zorder=False)
+    ax.set_proj_type("ortho")
+    ax.view_init(elev=elev, azim=azim)
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(-1.0, 1.0)
+    ax.set_box_aspect((1.0, 1.0, 1.0), zoom=ZOOM)
+    ax.set_axis_off()
+    _draw_sphere(ax, view)
+    if title:
+        ax.set_title(title, fontsize=10.5, pad=2)
+    return ax
+
+
+def draw_arc(ax, p, q, view, colour, width=2.2, zorder=3):
+    """The shorter great-circle arc p -> q: solid on the near side, dashed and faded on the far side."""
+    pts = great_circle_arc(p, q)
+    _draw_curve(ax, pts, view, colour, width, zorder)
+    return pts
+
+
+def draw_curve(ax, points, view, colour, width=1.2, zorder=3):
+    _draw_curve(ax, np.asarray(points, dtype=float), view, colour, width, zorder)
+
+
+def draw_point(ax, p, view, colour, marker="o"):
+    _draw_point(ax, np.asarray(p, dtype=float), view, colour, marker)
+
+
+def label_at(ax, p, text, view, colour="black", radius=LABEL_RADIUS, fontsize=9, **kw):
+    """Text at the radial projection of p to ``radius`` (faded when p is on the far hemisphere)."""
+    p = np.asarray(p, dtype=float)
+    p = p / np.linalg.norm(p)
+    far = float(p @ view) < 0.0
+    ax.text(*(radius * p), text, color=colour, fontsize=fontsize, ha="center", va="center",
+            alpha=0.55 if far else 1.0, zorder=40, **kw)
+
+
+def angle_between(a, b) -> float:
+    """Unsigned angle (radians) between two vectors."""
+    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(np.dot(a, b)))
