@@ -382,6 +382,10 @@ class CvxpyBackend(LPBackend):
         self.name = name
         self._cp = cp
         self._solver, self._options = self.SOLVERS[name]
+        if self._solver == cp.HIGHS:
+            import highspy
+
+            _quiet_highs(highspy)   # HiGHS prints its banner once per process: spend it here, silently
         st = self.structure
         self.x = cp.Variable(st.n)
         self.c = cp.Parameter(st.n)
@@ -428,6 +432,13 @@ class CvxpyBackend(LPBackend):
             self.problem.solve(solver=self._solver, **self._options)
         except self._cp.error.SolverError:
             return OTHER, None, None
+        except ValueError as exc:
+            # cvxpy raises a bare ValueError ("Cannot unpack invalid solution") when the solver
+            # ends in a status it does not map (HiGHS: UNKNOWN); a doubt like any other: the box
+            # is kept unshrunk
+            if "invalid solution" not in str(exc):
+                raise
+            return OTHER, None, None
         status = self._status.get(self.problem.status, OTHER)
         if status != OPTIMAL:
             return status, None, None
@@ -441,6 +452,33 @@ class CvxpyBackend(LPBackend):
         # after an infeasible solve cvxpy stores the solver's certificate of infeasibility as the
         # dual values (None if the solver gave none); the base class checks it
         return self._duals(), 0
+
+
+def _quiet_highs(highspy):
+    """A highspy.Highs with output off, created without its banner on standard output.
+
+    HiGHS prints "Running HiGHS ..." from its C++ constructor, before any option can be set
+    (ERGO-Code/HiGHS#2749), straight to file descriptor 1: redirect that descriptor to /dev/null
+    while the object is built, so `spherekin solve` output (and JSON written to stdout) stays clean.
+    """
+    import os
+    import sys
+
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError):        # no usable descriptor 1 (embedded interpreters): build it as is
+        h = highspy.Highs()
+    else:
+        try:
+            with open(os.devnull, "w") as null:
+                os.dup2(null.fileno(), 1)
+                h = highspy.Highs()
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+    h.setOptionValue("output_flag", False)
+    return h
 
 
 class HighspyBackend(LPBackend):
@@ -458,8 +496,7 @@ class HighspyBackend(LPBackend):
         import highspy
 
         self._hs = highspy
-        self.h = highspy.Highs()
-        self.h.setOptionValue("output_flag", False)
+        self.h = _quiet_highs(highspy)
         st = self.structure
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = st.ncol, st.nrow

@@ -551,3 +551,44 @@ def test_box_bounds_rejects_bad_input():
 def test_rejected_backends_explain_why(name):
     with pytest.raises(ValueError, match=f"{name}.*not supported.*doubts"):
         make_backend(name, SMALL_SHAPES[2])
+
+
+def test_cvxpy_invalid_solution_is_a_doubt_not_a_crash(monkeypatch):
+    """cvxpy raises ValueError('Cannot unpack invalid solution ...') when HiGHS ends in kUnknown
+    (seen on the Gosselin transversal system): the box must be kept, with a doubt, not crash the run."""
+    backend, cps, tols, ref = protocol_case("highs")
+
+    def fails(*args, **kwargs):
+        raise ValueError("Cannot unpack invalid solution: Solution(status=UNKNOWN, ...)")
+
+    monkeypatch.setattr(backend.problem, "solve", fails)
+    res = backend.box_bounds(cps, tols)
+    assert not res.empty and res.doubts == 4
+    np.testing.assert_array_equal(res.lo, 0.0)
+    np.testing.assert_array_equal(res.hi, 1.0)
+
+
+def test_other_value_errors_of_cvxpy_are_not_swallowed(monkeypatch):
+    backend, cps, tols, ref = protocol_case("highs")
+
+    def fails(*args, **kwargs):
+        raise ValueError("some programming error")
+
+    monkeypatch.setattr(backend.problem, "solve", fails)
+    with pytest.raises(ValueError, match="programming error"):
+        backend.box_bounds(cps, tols)
+
+
+def test_highs_backends_print_nothing_on_stdout():
+    """HiGHS prints its banner from its C++ constructor to fd 1, once per process: run in a fresh
+    process so the first construction is spherekin's; its output must stay clean."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np\n"
+            "from spherekin.lp_backends import make_backend\n"
+            "for name in ('highspy', 'highs'):\n"
+            "    b = make_backend(name, [(3, 3), (3, 3)])\n"
+            "print('done')\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out == "done\n"
