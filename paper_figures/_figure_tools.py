@@ -23,8 +23,8 @@ import _common  # noqa: E402  (experiments/_common.py: the shared argument parse
 from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
                             _view_direction, great_circle_arc)
 
-__all__ = ["HERE", "DPI", "parser", "save", "sphere_axes", "draw_arc", "draw_point", "label_at",
-           "view_for", "great_circle_arc"]
+__all__ = ["HERE", "DPI", "parser", "save", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
+           "view_for", "great_circle_arc", "polygon", "along", "away"]
 
 #: Resolution of the PNG files: 150 dpi keeps 9-point labels sharp on screen and in the README.
 DPI = 150
@@ -57,7 +57,7 @@ def view_for(points) -> tuple[np.ndarray, float, float]:
     return _view_direction(np.asarray(points, dtype=float).reshape(-1, 3))
 
 
-def sphere_axes(fig, spec, view_elev_azim, title: str | None = None):
+def sphere_axes(fig, spec, view_elev_azim, title: str | None = None, pad: float = 2.0):
     """3-D axes on ``spec`` showing the unit sphere (wireframe, outline, x/y/z stubs), orthographic."""
     view, elev, azim = view_elev_azim
     ax = fig.add_subplot(spec, projection="3d", computed_zorder=False)
@@ -69,7 +69,7 @@ def sphere_axes(fig, spec, view_elev_azim, title: str | None = None):
     ax.set_axis_off()
     _draw_sphere(ax, view)
     if title:
-        ax.set_title(title, fontsize=10.5, pad=2)
+        ax.set_title(title, fontsize=10.5, pad=pad)
     return ax
 
 
@@ -100,3 +100,33 @@ def label_at(ax, p, text, view, colour="black", radius=LABEL_RADIUS, fontsize=9,
 def angle_between(a, b) -> float:
     """Unsigned angle (radians) between two vectors."""
     return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(np.dot(a, b)))
+
+
+def polygon(vertices) -> dict:
+    """Sides, poles and exterior angles (radians) of the spherical polygon with vertices p_1..p_m.
+
+    Side k is the shorter arc p_k -> p_k+1 (p_m+1 = p_1), its pole n_k = p_k x p_k+1 / |.|; the
+    exterior angle at p_k is the signed angle about p_k (right-hand rule) from n_k-1 to n_k: the turn
+    from the prolongation of the incoming side to the outgoing side, the convention of Eq. (1).
+    """
+    p = np.array(vertices, dtype=float)
+    nxt = np.roll(p, -1, axis=0)
+    cross = np.cross(p, nxt)
+    sides = np.arctan2(np.linalg.norm(cross, axis=1), np.sum(p * nxt, axis=1))
+    poles = cross / np.linalg.norm(cross, axis=1)[:, None]
+    prev = np.roll(poles, 1, axis=0)                      # pole of the incoming side at p_k
+    exterior = np.arctan2(np.sum(p * np.cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
+    return dict(vertices=p, sides=sides, poles=poles, exterior=exterior, m=len(p))
+
+
+def along(p, t, dist) -> np.ndarray:
+    """The point reached from the unit vector p along the unit tangent t after ``dist`` radians."""
+    return math.cos(dist) * np.asarray(p) + math.sin(dist) * np.asarray(t)
+
+
+def away(p, centre, dist) -> np.ndarray:
+    """The point ``dist`` radians from p along the tangent pointing away from ``centre`` (towards it if dist < 0)."""
+    p = np.asarray(p, dtype=float)
+    d = p - np.asarray(centre, dtype=float)
+    d = d - (d @ p) * p
+    return along(p, d / np.linalg.norm(d), dist)

@@ -59,19 +59,6 @@ def unit(polar_deg: float, azimuth_deg: float) -> np.ndarray:
     return np.array([math.sin(p) * math.cos(a), math.sin(p) * math.sin(a), math.cos(p)])
 
 
-def polygon(vertices) -> dict:
-    """Sides, poles and exterior angles (radians) of the spherical polygon with vertices p_1..p_m."""
-    p = np.array(vertices, dtype=float)
-    m = len(p)
-    nxt = np.roll(p, -1, axis=0)
-    cross = np.cross(p, nxt)
-    sides = np.arctan2(np.linalg.norm(cross, axis=1), np.sum(p * nxt, axis=1))
-    poles = cross / np.linalg.norm(cross, axis=1)[:, None]
-    prev = np.roll(poles, 1, axis=0)                      # pole of the incoming side at p_k
-    exterior = np.arctan2(np.sum(p * np.cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
-    return dict(vertices=p, sides=sides, poles=poles, exterior=exterior, m=m)
-
-
 def normalized_vertices(poly: dict, phis: np.ndarray) -> np.ndarray:
     """Vertices (n + 1, 3) of the normalized polygon walked from its frames (the last one = the first).
 
@@ -88,7 +75,7 @@ def normalized_vertices(poly: dict, phis: np.ndarray) -> np.ndarray:
 
 
 def compute(vertices_deg=VERTICES_DEG) -> dict:
-    poly = polygon([unit(*v) for v in vertices_deg])
+    poly = ft.polygon([unit(*v) for v in vertices_deg])
     eq1 = polygon_closure(poly["sides"], poly["exterior"])
     phis = normalize_polygon(poly["sides"], poly["exterior"])
     eq2 = normalized_closure(phis)
@@ -123,20 +110,8 @@ def _small_circle_arc(p, t0, angle, radius, n=40) -> np.ndarray:
     return math.cos(radius) * p + math.sin(radius) * d
 
 
-def _along(p, t, dist) -> np.ndarray:
-    """The point reached from p along the tangent t after ``dist`` radians."""
-    return math.cos(dist) * p + math.sin(dist) * t
-
-
 def _deg(a: float) -> str:
     return f"{math.degrees(a):.1f}°"
-
-
-def _away(p, centre, dist) -> np.ndarray:
-    """The point ``dist`` radians from p along the tangent pointing away from ``centre``."""
-    d = p - centre
-    d = d - (d @ p) * p
-    return _along(p, d / np.linalg.norm(d), dist)
 
 
 LABEL_BOX = dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85)
@@ -161,19 +136,19 @@ def draw(data: dict):
         a, b = p[k], p[(k + 1) % m]
         ft.draw_arc(ax, a, b, v, POLYGON_COLOUR, 2.6)
         mid = (a + b) / np.linalg.norm(a + b)
-        ft.label_at(ax, _away(mid, centre, 0.15), f"α{k + 1} = {_deg(poly['sides'][k])}", v, POLYGON_COLOUR,
+        ft.label_at(ax, ft.away(mid, centre, 0.15), f"α{k + 1} = {_deg(poly['sides'][k])}", v, POLYGON_COLOUR,
                     radius=1.0, fontsize=10, bbox=LABEL_BOX)
     for k in range(m):
         a, prev_pt, next_pt = p[k], p[k - 1], p[(k + 1) % m]
         t_in = -_tangent(a, prev_pt)                     # direction of travel arriving at p_k
-        ft.draw_curve(ax, np.array([_along(a, t_in, s) for s in np.linspace(0, PROLONGATION, 20)]), v, "0.3", 1.0)
+        ft.draw_curve(ax, np.array([ft.along(a, t_in, s) for s in np.linspace(0, PROLONGATION, 20)]), v, "0.3", 1.0)
         turn = poly["exterior"][k]
         ft.draw_curve(ax, _small_circle_arc(a, t_in, turn, ANGLE_MARK), v, "tab:green", 2.0, 6)
         bis = math.cos(turn / 2) * t_in + math.sin(turn / 2) * np.cross(a, t_in)
-        ft.label_at(ax, _along(a, bis, 0.3), f"θ{k + 1} = {_deg(turn)}", v, "tab:green", radius=1.0,
+        ft.label_at(ax, ft.along(a, bis, 0.3), f"θ{k + 1} = {_deg(turn)}", v, "tab:green", radius=1.0,
                     fontsize=10, bbox=LABEL_BOX)
         ft.draw_point(ax, a, v, "black")
-        ft.label_at(ax, _away(a, centre, 0.1) - 0.12 * bis, f"p{k + 1}", v, "black", radius=1.0, fontsize=12,
+        ft.label_at(ax, ft.away(a, centre, 0.1) - 0.12 * bis, f"p{k + 1}", v, "black", radius=1.0, fontsize=12,
                     fontweight="bold")
     ax.text2D(0.5, 0.0, f"|Π Rx(θk) Rz(αk) − I| = {data['residual_eq1']:.1e}", transform=ax.transAxes,
               ha="center", va="top", fontsize=11)
@@ -189,7 +164,7 @@ def draw(data: dict):
         odd = i % 2 == 0                                   # q_1, q_3, ... (1-based odd)
         ft.draw_point(ax, q[i], v, "black" if odd else NORMALIZED_COLOUR, "o" if odd else "D")
         # odd vertices (the p_k) labelled inside the quadrilateral, the poles outside it
-        ft.label_at(ax, _away(q[i], centre, 0.1 if not odd else -0.1), f"q{i + 1}", v,
+        ft.label_at(ax, ft.away(q[i], centre, 0.1 if not odd else -0.1), f"q{i + 1}", v,
                     "black" if odd else NORMALIZED_COLOUR, radius=1.0, fontsize=11, fontweight="bold",
                     bbox=LABEL_BOX)
     ax.text2D(0.5, 0.0, f"|Π Rx(φi) Z − I| = {data['residual_eq2']:.1e}", transform=ax.transAxes,
