@@ -77,7 +77,11 @@ OPTIMAL, INFEASIBLE, OTHER = "optimal", "infeasible", "other"
 #: HiGHS options for the direct backend: the LPs are tiny (~650 columns, ~40 rows) and re-solved
 #: thousands of times, so presolve and parallelism cost more than they save; primal simplex
 #: (strategy 4) measured fastest on the Gosselin system (benchmarks/bench_solve.py).
-LP_OPTIONS = {"presolve": "off", "solver": "simplex", "simplex_strategy": 4, "threads": 1}
+#: No "threads" option: HiGHS has one thread scheduler per process, created by the first run with
+#: the then-current "threads"; a later run asking for another count fails (model status kNotset).
+#: cvxpy's HIGHS runs with the default, so "threads": 1 here made every direct solve fail once a
+#: cvxpy HIGHS solve had happened in the process (the simplex strategy used is serial anyway).
+LP_OPTIONS = {"presolve": "off", "solver": "simplex", "simplex_strategy": 4}
 #: Clarabel's gap and feasibility tolerances. At its defaults (1e-8) its duals, multiplied by slab
 #: multipliers up to ~1e2, left certified bounds up to 1.1e-6 looser than the true optimum
 #: (random boxes of tests/test_lp_backends.py); at 1e-9 at most 1.1e-8, at no measurable cost

@@ -592,3 +592,14 @@ def test_highs_backends_print_nothing_on_stdout():
             "print('done')\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out == "done\n"
+
+
+def test_highspy_after_cvxpy_highs_in_one_process():
+    """HiGHS's per-process thread scheduler: the direct backend must still solve (no doubt) after
+    cvxpy's HIGHS backend has run (a 'threads' option mismatch made every direct run fail)."""
+    b0, cps, tols, _ = protocol_case("highs")
+    b0.box_bounds(cps, tols)
+    backend, cps, tols, ref = protocol_case("highspy")
+    res = backend.box_bounds(cps, tols)
+    assert res.doubts == 0
+    assert_matches_reference(res, ref)
