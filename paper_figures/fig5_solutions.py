@@ -23,7 +23,9 @@ if str(Path(__file__).resolve().parent) not in sys.path:
 import _figure_tools as ft  # noqa: E402
 
 from spherekin.mechanism import presets  # noqa: E402
-from spherekin.plot import plot_solutions  # noqa: E402
+import numpy as np  # noqa: E402
+
+from spherekin.plot import current_joint_axes, plot_solutions  # noqa: E402
 from spherekin.solver import solve  # noqa: E402
 
 NAME = "fig5_solutions"
@@ -47,8 +49,12 @@ def main(argv=None) -> dict:
     counts = Counter(s.status for s in report.solutions)
     print(f"{len(report.solutions)} solutions at inputs {data['inputs']} rad: {dict(counts)}; "
           f"max residual {max(s.residual for s in report.solutions):.1e}; solve {report.stats.time_total:.2f} s")
+    print("  k: status     singularity      passive angles (rad)                      det[u w v] per leg")
     for k, s in enumerate(report.solutions, 1):
-        print(f"  {k}: {s.status:10s} {s.singularity:16s} " + " ".join(f"{a:+.4f}" for a in s.angles))
+        axes = current_joint_axes(data["mechanism"], data["inputs"], dict(zip(report.unknowns, s.angles)))
+        dets = [float(np.linalg.det(a)) for a in axes.values()]   # 0: the leg's three axes are coplanar
+        print(f"  {k}: {s.status:10s} {s.singularity:16s} " + " ".join(f"{a:+.4f}" for a in s.angles)
+              + "   " + " ".join(f"{d:+.3f}" for d in dets))
     print(f"wrote {paths[0]} and {paths[1]}")
     data["paths"] = paths
     return data
