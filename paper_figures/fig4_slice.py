@@ -65,7 +65,8 @@ GRID = 401
 #: keep the norm, so within a box of side tol around a root |F - I| <= sqrt(2) * 2 tol < 3 tol; 10
 #: leaves a margin, and a false acceptance (residual O(1)) is far above it.
 ROOT_RESIDUAL_TOLS = 10.0
-#: Timing repeats (median) for the solve times quoted in the panels.
+#: Timing repeats (median) for the solve times printed (not drawn: the PNG is committed and must
+#: not change from run to run).
 REPEATS = 3
 #: Colour (edge, fill) of each trace outcome.
 OUTCOME_STYLE = {
@@ -272,7 +273,7 @@ def _roots(ax, data, r, window) -> None:
         if not (b0 <= b <= b1 and c0 <= c <= c1):
             continue
         if s["is_root"]:
-            ax.plot(b, c, marker="o", ms=8, mfc="none", mec="black", mew=1.3, ls="", zorder=7)
+            ax.plot(b, c, marker="o", ms=21, mfc="none", mec="black", mew=1.4, ls="", zorder=7)
         else:
             ax.plot(b, c, marker="X", ms=11, color="black", mec="white", mew=0.8, ls="", zorder=7)
             text = f"reported, not a root: |F - I| = {s['residual']:.2g}"
@@ -292,13 +293,12 @@ def _title(r, label: str) -> str:
     cnt = _counts(r["boxes"])
     n_roots = sum(x["is_root"] for x in r["solutions"])
     n_false = len(r["solutions"]) - n_roots
-    iso = "off" if not s["isolate"] else ("on (never applies: 3 equations, 2 unknowns)" if not cnt["isolated"]
+    iso = "off" if not s["isolate"] else ("on (never applies here: 3 equations, 2 unknowns)" if not cnt["isolated"]
                                           else "on")
-    head = f"{label}: formulation {s['formulation']}, pruner {s['pruner']}, isolation {iso}"
+    head = f"{label}: formulation {s['formulation']}, pruner {s['pruner']},\nisolation {iso}"
     line2 = (f"{len(r['boxes']['outcome'])} boxes ({cnt['discarded']} discarded, {cnt['split']} split, "
              f"{cnt['reduced_again']} reduced again, {cnt['accepted']} accepted, {cnt['isolated']} isolated)")
-    line3 = (f"{len(r['solutions'])} reported: {n_roots} root(s)" + (f", {n_false} false" if n_false else "")
-             + f"; median solve {1e3 * r['seconds']:.0f} ms")
+    line3 = f"{len(r['solutions'])} reported: {n_roots} root(s)" + (f", {n_false} false" if n_false else "")
     return "\n".join([head, line2, line3])
 
 
@@ -308,7 +308,7 @@ def draw(data: dict):
     from matplotlib.patches import Patch
 
     fig = Figure(figsize=(13.0, 13.4))
-    grid = fig.add_gridspec(2, 2, left=0.06, right=0.985, top=0.86, bottom=0.1, wspace=0.17, hspace=0.3)
+    grid = fig.add_gridspec(2, 2, left=0.06, right=0.985, top=0.875, bottom=0.1, wspace=0.17, hspace=0.3)
     root = np.array([data["root"][n] for n in UNKNOWNS])
     for col, (kind, label) in enumerate((("paper", "paper"), ("default", "default"))):
         r = data["runs"][kind]
@@ -332,7 +332,7 @@ def draw(data: dict):
                     ax.axhline(v, color="0.3", lw=0.8, ls=":", zorder=1.5)
                 ax.set_title(_title(r, label), fontsize=9.5)
             else:
-                ax.set_title(f"{label}: zoom +-{ZOOM_DEG:g} deg around the root", fontsize=9.5)
+                ax.set_title(f"{label}: zoom ±{ZOOM_DEG:g}° around the root", fontsize=9.5)
             ax.grid(False)
     root_deg = {n: math.degrees(v) for n, v in data["root"].items()}
     fig.suptitle(
@@ -346,7 +346,7 @@ def draw(data: dict):
     handles += [Patch(facecolor="none", edgecolor=OUTCOME_STYLE[k][0], lw=1.1, label=f"box {k.replace('_', ' ')}")
                 for k in ("split", "reduced_again", "accepted", "isolated")]
     handles += [Line2D([], [], marker="*", ms=13, color="gold", mec="black", ls="", label="root of the slice"),
-                Line2D([], [], marker="o", ms=8, mfc="none", mec="black", ls="", label="reported solution (a root)"),
+                Line2D([], [], marker="o", ms=12, mfc="none", mec="black", ls="", label="reported solution (a root)"),
                 Line2D([], [], marker="X", ms=10, color="black", ls="", label="reported solution, not a root"),
                 Line2D([], [], color="0.35", lw=0.8, label="left: Eq. (10) / q = F11 + F22 - 2 (levels)"),
                 Line2D([], [], color="C0", lw=0.9, alpha=0.7, label="right: zero curves of the nine P - S^T")]
@@ -363,7 +363,7 @@ def main(argv=None) -> dict:
     for kind, r in data["runs"].items():
         cnt = _counts(r["boxes"])
         print(f"{kind}: {r['report'].settings['formulation']}/{r['report'].settings['pruner']}: "
-              f"{len(r['boxes']['outcome'])} boxes {cnt}; solutions "
+              f"{len(r['boxes']['outcome'])} boxes {cnt}; median solve {1e3 * r['seconds']:.1f} ms; solutions "
               + ", ".join(f"({math.degrees(s['angles'][0]):.4f}, {math.degrees(s['angles'][1]):.4f}) deg "
                           f"|F-I|={s['residual']:.1e}" for s in r["solutions"]))
     ft.save(draw(data), args.out_dir, NAME)
