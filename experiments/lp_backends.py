@@ -1,0 +1,179 @@
+"""LP backends for the Eq. (12) pruner: does the choice of LP solver change the cost or the result?
+
+Question (paper Section 4, Eq. 12): the paper reduces every box by linear programs over the convex
+hulls of the equations' control points and solves them with a general LP code. spherekin offers
+several backends (spherekin.lp_backends.LP_BACKENDS: Clarabel and HiGHS through cvxpy, HiGHS
+directly through highspy), every bound certified by spherekin from the solver's duals. How fast is
+each per LP and in total, and do they give the same boxes and the same solutions?
+
+How: with ``pruner="lp"`` (every box reduced by the 2n LPs of Eq. 12) and the ``halves``
+formulation (the default: its nine P = S^T entries per loop have simple roots, so the LP bounds
+contract; the paper's scalar Eq. (10) has only double roots, where the LP cannot cut), each backend
+solves the same problems: the Gosselin platform with every passive range cut to +-GOSSELIN_HALF_WIDTH
+around a ground-truth configuration (random pose + inverse kinematics, experiments/_compare.py), and
+in the full run also the four-bar and the five-bar over full circles, the transversal formulation,
+and wider Gosselin ranges. Each backend runs in its own fresh Python process (see below), one after
+the other; times are medians of several solves in that process (the cvxpy model is built anew in
+every solve, as spherekin does). Per-LP time = pruning time / LPs solved.
+
+A bug found while writing this experiment (fixed meanwhile in spherekin commit 54c62ed): HiGHS
+keeps one global thread scheduler per process. After a solve through cvxpy's HIGHS (default thread
+count), a highspy model created with ``threads=1`` refused to run ("Option 'threads' is set to 1 but
+the scheduler has already been initialized to use 2 threads"): ``run()`` returned kError with model
+status kNotset, every LP became a doubt, nothing was pruned, and the four-bar needed 16000 boxes
+instead of 76. ``bug_demo`` runs cvxpy's HIGHS and then highspy in ONE process as a regression
+check; the comparison itself still gives every backend a fresh process, so that no backend's
+state (or import cost) leaks into another's timings.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import median_time, parser, write_results  # noqa: E402
+from _compare import MECHANISMS, angle_distance, contains, random_cases  # noqa: E402
+
+#: Half-width (radians) of the Gosselin passive ranges around the start configuration: one chart,
+#: ~8 boxes and ~85 LPs, small enough for --quick with the slowest backend (~4 s per solve).
+GOSSELIN_HALF_WIDTH = 0.3
+#: The wider Gosselin ranges of the full run (~120 boxes, ~850 LPs; Clarabel ~25 s per solve).
+GOSSELIN_WIDE_HALF_WIDTH = 1.0
+QUICK_REPEATS, FULL_REPEATS = 3, 3
+#: Box cap of the bug demonstration: without the bug the four-bar needs ~80 boxes; with it, every
+#: LP is a doubt and the search would run to spherekin's 500000-box cap (minutes).
+BUG_DEMO_MAX_BOXES = 1000
+TOL = 1e-6
+
+
+def problems(quick: bool) -> list[dict]:
+    """The problems every backend solves: name, mechanism, formulation, range half-width (None: full)."""
+    out = [dict(problem=f"gosselin +-{GOSSELIN_HALF_WIDTH} rad", mechanism="gosselin", formulation="halves",
+                half_width=GOSSELIN_HALF_WIDTH)]
+    if not quick:
+        out += [dict(problem=f"gosselin +-{GOSSELIN_HALF_WIDTH} rad", mechanism="gosselin", formulation="transversal",
+                     half_width=GOSSELIN_HALF_WIDTH),
+                dict(problem=f"gosselin +-{GOSSELIN_WIDE_HALF_WIDTH} rad", mechanism="gosselin", formulation="halves",
+                     half_width=GOSSELIN_WIDE_HALF_WIDTH)]
+        for name in ("four_bar", "five_bar"):
+            for form in ("halves", "transversal"):
+                out.append(dict(problem=f"{name.replace('_', '-')} (full circles)", mechanism=name, formulation=form,
+                                half_width=None))
+    return out
+
+
+def _system(problem: dict, seed: int):
+    """(build, ranges, start configuration's passive angles) of a problem; the start from the seed."""
+    make, max_angle = MECHANISMS[problem["mechanism"]]
+    mech = make()
+    case = random_cases(mech, np.random.default_rng(seed), 1, max_angle)[0]
+    names = mech.loop_system(case.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    w = problem["half_width"]
+    ranges = {n: (mech.ranges[n] if w is None else (case.joints[n] - w, case.joints[n] + w)) for n in names}
+
+    def build(chart):
+        s = mech.loop_system(case.inputs, chart)
+        return s.loops, s.unknowns
+
+    return build, ranges, case.passive(names)
+
+
+def measure(backend: str, probs: list[dict], seed: int, repeats: int) -> list[dict]:
+    """Solve every problem with one backend (call it in a fresh process): counts, times, solutions."""
+    from spherekin.solver import solve_system
+
+    rows = []
+    for prob in probs:
+        build, ranges, truth = _system(prob, seed)
+        med, times, rep = median_time(lambda: solve_system(build, ranges, formulation=prob["formulation"], pruner="lp",
+                                                           lp_backend=backend, tol=TOL), repeats)
+        st = rep.stats
+        sols = [np.asarray(s.angles, float).tolist() for s in rep.solutions]
+        rows.append(dict(prob, backend=backend, time=med, times=times, boxes=st.boxes_processed, lps=st.lps_solved,
+                         doubts=st.lp_doubts, isolated=st.isolated, accepted=st.accepted, time_prune=st.time_prune,
+                         ms_per_lp=1e3 * st.time_prune / max(st.lps_solved, 1), n_solutions=len(sols),
+                         solutions=sols, truth_found=contains(sols, truth)))
+    return rows
+
+
+def bug_demo(seed: int) -> list[dict]:
+    """In ONE process: the four-bar with cvxpy's HIGHS, then with highspy (the HiGHS scheduler bug)."""
+    from spherekin.solver import SolverLimitError, solve_system
+
+    build, ranges, _ = _system(dict(mechanism="four_bar", half_width=None), seed)
+    rows = []
+    for backend in ("highs", "highspy"):
+        row = dict(order=len(rows) + 1, backend=backend)
+        try:
+            rep = solve_system(build, ranges, pruner="lp", lp_backend=backend, tol=TOL, max_boxes=BUG_DEMO_MAX_BOXES)
+            row.update(boxes=rep.stats.boxes_processed, lps=rep.stats.lps_solved, doubts=rep.stats.lp_doubts,
+                       n_solutions=len(rep.solutions), outcome="finished")
+        except SolverLimitError as exc:
+            row.update(outcome=f"{type(exc).__name__}: {str(exc).split(';')[0]}")
+        rows.append(row)
+    return rows
+
+
+def _in_fresh_process(fn, *args):
+    """Run fn(*args) in a new interpreter (spawn): no HiGHS state shared with other backends."""
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result()
+
+
+def compare(rows: list[dict], reference: str = "highspy") -> None:
+    """Add to each row whether its boxes and solutions are those of the reference backend."""
+    for r in rows:
+        ref = next(x for x in rows if x["problem"] == r["problem"] and x["formulation"] == r["formulation"]
+                   and x["backend"] == reference)
+        r["same_counts"] = (r["boxes"], r["accepted"], r["isolated"]) == (ref["boxes"], ref["accepted"], ref["isolated"])
+        same_n = len(r["solutions"]) == len(ref["solutions"])
+        r["max_solution_diff"] = (max((min(angle_distance(s, t) for t in ref["solutions"]) for s in r["solutions"]),
+                                      default=0.0) if same_n and ref["solutions"] else None)
+        r["time_ratio"] = r["time"] / ref["time"]
+
+
+def run(quick: bool = True, seed: int = 0, backends=None, repeats: int | None = None, probs=None,
+        with_bug_demo: bool = True) -> dict:
+    from spherekin.lp_backends import LP_BACKENDS
+
+    backends = tuple(backends or LP_BACKENDS)
+    probs = probs or problems(quick)
+    repeats = repeats or (QUICK_REPEATS if quick else FULL_REPEATS)
+    rows = []
+    for b in backends:
+        rows += _in_fresh_process(measure, b, probs, seed, repeats)
+    compare(rows, "highspy" if "highspy" in backends else backends[0])
+    data = dict(settings=dict(pruner="lp", tol=TOL, repeats=repeats, backends=list(backends)), runs=rows)
+    if with_bug_demo:
+        data["bug_demo"] = _in_fresh_process(bug_demo, seed)
+    return data
+
+
+def main(argv=None):
+    args = parser(__doc__.splitlines()[0]).parse_args(argv)
+    data = run(args.quick, args.seed)
+    tables = [("Backends on the same problems (pruner lp, tol 1e-6; ratios and differences against highspy)",
+               data["runs"],
+               [("problem", "problem", ""), ("formulation", "formulation", ""), ("backend", "backend", ""),
+                ("boxes", "boxes", "d"), ("lps", "LPs", "d"), ("doubts", "doubts", "d"),
+                ("ms_per_lp", "ms / LP", ".2f"), ("time", "total (s)", ".2f"), ("time_ratio", "time ratio", ".1f"),
+                ("n_solutions", "solutions", "d"), ("same_counts", "same boxes", ""),
+                ("max_solution_diff", "max solution diff (rad)", ".1e"), ("truth_found", "start found", "")])]
+    if "bug_demo" in data:
+        tables.append(("Regression check of the HiGHS scheduler bug: cvxpy's HIGHS, then highspy, in one process (four-bar, halves)",
+                       data["bug_demo"],
+                       [("order", "order", "d"), ("backend", "backend", ""), ("boxes", "boxes", "d"),
+                        ("lps", "LPs", "d"), ("doubts", "doubts", "d"), ("outcome", "outcome", "")]))
+    notes = ("Each backend ran in a fresh process. 'doubts': LPs whose answer spherekin could not certify (the "
+             "bound stayed at the box face). 'same boxes': the same numbers of boxes processed, accepted and "
+             "isolated as highspy. Solutions are the raw Newton roots of the solver (no polishing).")
+    write_results("lp_backends", args, data, tables, notes)
+
+
+if __name__ == "__main__":
+    main()
