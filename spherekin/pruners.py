@@ -105,6 +105,22 @@ def pp_intervals(cps: np.ndarray, tol, var: int | None = None):
     return lo[:, j], hi[:, j]
 
 
+def excludes_zero(cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]) -> np.ndarray:
+    """(B,) True where some equation's control points all lie beyond its slab |w| <= tol.
+
+    ``cps``: per block, control points (E, d..., B) (batch last); ``tols``: (E,) or (E, B). By the
+    convex hull property the equation then has no zero on the box (the range enclosure of a
+    Bernstein polynomial is [min, max] of its control points).
+    """
+    bsz = cps[0].shape[-1]
+    out = np.zeros(bsz, dtype=bool)
+    for c, tol in zip(cps, tols):
+        flat = c.reshape(c.shape[0], -1, bsz)
+        t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
+        out |= np.any((flat.min(axis=1) > t) | (flat.max(axis=1) < -t), axis=0)
+    return out
+
+
 class ProjectedPolyhedron:
     """Projected-polyhedron pruning (Sherbrooke & Patrikalakis), vectorized over boxes."""
 
@@ -123,9 +139,7 @@ class ProjectedPolyhedron:
             else:
                 # an equation that depends on no variable has no projection to prune with: it
                 # excludes the box when its (constant) value lies beyond the slab
-                flat = c.reshape(c.shape[0], bsz)
-                t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
-                excluded |= np.any(np.abs(flat) > t, axis=0)
+                excluded |= excludes_zero([c], [tol])
         lo, hi = lo.T, hi.T
         empty = np.any(lo > hi, axis=1) | excluded
         lo, hi = np.maximum(lo - INTERVAL_MARGIN, 0.0), np.minimum(hi + INTERVAL_MARGIN, 1.0)

@@ -39,7 +39,7 @@ from .formulations import FORMULATIONS
 from .isolation import SquareSystem, krawczyk_boxes, newton
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
-from .pruners import PRUNERS, make_pruner
+from .pruners import PRUNERS, excludes_zero, make_pruner
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
 from .solutions import finalize
 
@@ -260,21 +260,37 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
         mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
         done = np.all(mw <= limit, axis=1)
+        alive = np.ones(len(nlo), dtype=bool)
+        if done.any():
+            # Departure from the paper (Section 4, step 3 accepts a box once it is small): the
+            # pruners bound the box through the hull of control points on the *unreduced* box, and
+            # a hull can touch w = 0 at one abscissa where the equation does not vanish (a whole
+            # chart can shrink to one such point). Restricted to the reduced box, the control
+            # points must still admit 0, or the box holds no root.
+            idx = np.flatnonzero(done)
+            t4 = time.perf_counter()
+            rc, rt = _restrict(charts, layout, chart[idx], nlo[idx], nhi[idx], pruned)
+            empty = excludes_zero([rc[b] for b in pruned], [rt[b] for b in pruned])
+            t_restrict += time.perf_counter() - t4
+            alive[idx[empty]] = False
+            done &= alive
+            counts["discarded"] += int(empty.sum())
         if trace is not None:
             kept = np.flatnonzero(keep)
             outcome[kept[done]] = 1
-            outcome[kept[~done & ~np.all(ratio <= SPLIT_RATIO, axis=1)]] = 4
+            outcome[kept[~done & alive & ~np.all(ratio <= SPLIT_RATIO, axis=1)]] = 4
+            outcome[kept[~alive]] = 0
             record["outcome"] = outcome
             trace(record)
         if done.any():
             alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
             accepted += list(zip(chart[done], alo, ahi))
         counts["accepted"] += int(done.sum())
-        again = ~done & np.all(ratio <= SPLIT_RATIO, axis=1)
+        again = ~done & alive & np.all(ratio <= SPLIT_RATIO, axis=1)
         counts["reduced_again"] += int(again.sum())
         if again.any():
             stack.append((nlo[again], nhi[again], depth[again], chart[again]))
-        split = ~done & ~again
+        split = ~done & ~again & alive
         counts["split"] += int(split.sum())
         if split.any():
             slo, shi, sd, sc = nlo[split], nhi[split], depth[split], chart[split]
