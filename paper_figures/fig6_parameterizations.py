@@ -1,0 +1,96 @@
+"""Figure 6: tan-half-angle vs sin/cos -- what each parameterization costs on the same mechanisms.
+
+Question: the paper's tan(theta/2) (Section 2.2) or the sin/cos variables it proposes in Section 5?
+Reads experiments/results/parameterizations.json (made by experiments/parameterizations.py; the
+quick experiment is run first if the file is missing) and draws, per mechanism and
+parameterization: (a) the Bernstein control points of one loop equation on one chart and of all
+equations over all charts, (b) the median number of boxes processed and (c) the median solve time
+over the random ground-truth inputs. Log scales: the quantities span several decades.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+if str(Path(__file__).resolve().parent) not in sys.path:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _figure_tools as ft  # noqa: E402
+
+NAME = "fig6_parameterizations"
+RESULTS = ft.ROOT / "experiments" / "results" / "parameterizations.json"
+COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
+LABELS = {"four_bar": "four-bar", "five_bar": "five-bar", "gosselin": "Gosselin", "general_3rrr": "general 3-RRR"}
+
+
+def load(path: Path = RESULTS) -> dict:
+    """The experiment's JSON, or the quick experiment's data when the file is missing."""
+    if path.exists():
+        return json.loads(path.read_text())
+    import parameterizations
+
+    return parameterizations.run(quick=True, seed=0)
+
+
+def _bars(ax, mechs, values, ylabel, title, fmt="{:.0f}", hatch_values=None, headroom=3.0):
+    x = np.arange(len(mechs))
+    width = 0.38
+    for k, p in enumerate(("tan-half", "sin-cos")):
+        v = np.array([values[(m, p)] for m in mechs], float)
+        bars = ax.bar(x + (k - 0.5) * width, v, width, color=COLOURS[p], label=p)
+        for b, val in zip(bars, v):
+            ax.annotate(fmt.format(val), (b.get_x() + b.get_width() / 2, val), ha="center", va="bottom",
+                        fontsize=7.5, xytext=(0, 1), textcoords="offset points")
+        if hatch_values is not None:
+            h = np.array([hatch_values[(m, p)] for m in mechs], float)
+            hb = ax.bar(x + (k - 0.5) * width, h, width * 0.45, color="white", edgecolor=COLOURS[p], hatch="////",
+                        label=f"{p}: one loop equation, one chart")
+            for b, val in zip(hb, h):
+                ax.annotate(f"{val:.0f}", (b.get_x() + b.get_width() / 2, val), ha="center", va="bottom",
+                            fontsize=7.5, xytext=(0, 1), textcoords="offset points", color="white", fontweight="bold")
+    ax.set_xticks(x, [LABELS.get(m, m) for m in mechs])
+    ax.set_yscale("log")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10.5)
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi * headroom)   # room for the value labels and the legend above the bars
+    ax.grid(axis="y", which="major", alpha=0.3)
+
+
+def draw(data: dict):
+    import matplotlib.pyplot as plt
+
+    mechs = list(dict.fromkeys(r["mechanism"] for r in data["summary"]))
+    summ = {(r["mechanism"], r["parameterization"]): r for r in data["summary"]}
+    charts = {(r["mechanism"], r["parameterization"]): r for r in data["charts"]}
+    fig, axes = plt.subplots(1, 3, figsize=(15.5, 4.8), constrained_layout=True)
+    _bars(axes[0], mechs, {k: v["total_control_points"] for k, v in charts.items()},
+          "control points (count)", "(a) Bernstein control points: all equations, all charts\n"
+          "(hatched: one loop equation on one chart)",
+          hatch_values={k: max(v["loop_control_points"]) for k, v in charts.items()}, headroom=40.0)
+    _bars(axes[1], mechs, {k: v["median_boxes"] for k, v in summ.items()}, "boxes processed (median over inputs)",
+          "(b) subdivision boxes")
+    _bars(axes[2], mechs, {k: v["median_time_ms"] for k, v in summ.items()}, "solve time (ms, median)",
+          "(c) wall time per solve")
+    for ax in axes:
+        ax.legend(fontsize=8, loc="upper left")
+    n = data["summary"][0]["inputs"]
+    agree = all(r["same_solutions"] and r["truth_found"] for r in data["summary"])
+    fig.suptitle(f"Tangent half-angle vs sin/cos parameterization ({n} random inputs per mechanism; "
+                 f"{'same solutions, start pose found in every case' if agree else 'SOLUTION SETS DIFFER: see table'})",
+                 fontsize=12)
+    return fig
+
+
+def main(argv=None):
+    args = ft.parser(__doc__.splitlines()[0]).parse_args(argv)
+    fig = draw(load())
+    ft.save(fig, args.out_dir, NAME)
+
+
+if __name__ == "__main__":
+    main()
