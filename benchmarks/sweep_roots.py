@@ -8,12 +8,13 @@ whose platform rotation equals R0 (to MATCH_TOL). A *miss* is a trial where it d
 cos(alpha2_i), computed here independently of the solver. Prints a summary table, writes JSON
 (with the seeds of every miss, for regression tests) and exits 1 if anything was missed.
 
-    python benchmarks/sweep_roots.py [--poses 1000] [--jobs 2] [--seed 0]
+    python benchmarks/sweep_roots.py [--poses 1000] [--jobs 2] [--seed 0] [--parameterization sin-cos]
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.mechanism import gosselin, three_rrr
-from spherekin.solver import SolverLimitError, solve
+from spherekin.solver import DEFAULT_PARAMETERIZATION, SolverLimitError, solve
 
 #: A solution matches the pose when every entry of its rotation is this close to R0's: polished
 #: solutions agree with the truth to ~1e-14; 1e-8 leaves room for ill-conditioned poses.
@@ -75,7 +76,7 @@ def leg_residual(mech_data, inputs, rot) -> float:
     return worst
 
 
-def trial(seed: int) -> dict:
+def trial(seed: int, parameterization: str = DEFAULT_PARAMETERIZATION) -> dict:
     rng = np.random.default_rng(seed)
     if seed % 2 == 0:
         mech = gosselin()
@@ -94,7 +95,7 @@ def trial(seed: int) -> dict:
     mode = modes[int(rng.integers(len(modes)))]
     t0 = time.perf_counter()
     try:
-        rep = solve(mech, mode.inputs)
+        rep = solve(mech, mode.inputs, parameterization=parameterization)
     except SolverLimitError as exc:
         return dict(seed=seed, kind=kind, miss=True, spurious=0, solutions=0, seconds=time.perf_counter() - t0,
                     error=str(exc).split(";")[0])
@@ -111,13 +112,19 @@ def main(argv=None) -> int:
     parser.add_argument("--poses", type=int, default=1000)
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "sweep_roots.json")
+    parser.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION,
+                        help="tan-half or sin-cos (default %(default)s)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="JSON output (default results/sweep_roots.json, sweep_roots_sin-cos.json for sin-cos)")
     args = parser.parse_args(argv)
+    if args.out is None:
+        suffix = "" if args.parameterization == DEFAULT_PARAMETERIZATION else f"_{args.parameterization}"
+        args.out = Path(__file__).parent / "results" / f"sweep_roots{suffix}.json"
     seeds = range(args.seed, args.seed + args.poses)
     t0 = time.perf_counter()
     rows = []
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        for i, row in enumerate(pool.map(trial, seeds, chunksize=4), start=1):
+        for i, row in enumerate(pool.map(functools.partial(trial, parameterization=args.parameterization), seeds, chunksize=4), start=1):
             rows.append(row)
             if row["miss"] or row["spurious"]:
                 print(f"  seed {row['seed']} ({row['kind']}): miss={row['miss']} spurious={row['spurious']} "
@@ -125,8 +132,9 @@ def main(argv=None) -> int:
             if i % 50 == 0:
                 print(f"  {i}/{args.poses} poses, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     wall = time.perf_counter() - t0
+    print(f"parameterization {args.parameterization}")
     print(f"{'kind':10s} {'poses':>6s} {'misses':>7s} {'spurious':>9s} {'median s':>9s} {'max s':>7s} "
-          f"{'solutions (median)':>19s}")
+          f"{'solutions (median)':>19s}  statuses of all solutions")
     summary = {}
     for kind in ("agile eye", "general"):
         part = [r for r in rows if r["kind"] == kind]
@@ -135,13 +143,17 @@ def main(argv=None) -> int:
         s = dict(poses=len(part), misses=sum(r["miss"] for r in part), spurious=sum(r["spurious"] for r in part),
                  median_seconds=statistics.median(r["seconds"] for r in part),
                  max_seconds=max(r["seconds"] for r in part),
-                 median_solutions=statistics.median(r["solutions"] for r in part))
+                 median_solutions=statistics.median(r["solutions"] for r in part),
+                 statuses={k: sum(st == k for r in part for st in r.get("statuses", ()))
+                           for k in ("certified", "singular", "unverified")})
         summary[kind] = s
         print(f"{kind:10s} {s['poses']:6d} {s['misses']:7d} {s['spurious']:9d} {s['median_seconds']:9.2f} "
-              f"{s['max_seconds']:7.2f} {s['median_solutions']:19.1f}")
+              f"{s['max_seconds']:7.2f} {s['median_solutions']:19.1f}  "
+              + ", ".join(f"{v} {k}" for k, v in s["statuses"].items()))
     print(f"wall time {wall:.0f} s with {args.jobs} processes")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(dict(summary=summary, wall_seconds=wall, jobs=args.jobs,
+                                        parameterization=args.parameterization,
                                         misses=[r for r in rows if r["miss"] or r["spurious"]], rows=rows),
                                    indent=1))
     print(f"wrote {args.out}")
