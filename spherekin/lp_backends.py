@@ -530,8 +530,14 @@ class HighspyBackend(LPBackend):
     def _solve(self, direction):
         st, h = self.structure, self.h
         h.changeColsCost(st.n, self._cols, np.asarray(direction, dtype=float))
-        h.run()
+        ran = h.run()
         status = h.getModelStatus()
+        if ran == self._hs.HighsStatus.kError and status == self._hs.HighsModelStatus.kNotset:
+            # HiGHS refused to start (an option it rejects, or its per-process thread scheduler set
+            # up differently by another HiGHS user): every LP would fail the same way, so this is a
+            # configuration error, not a doubt about one box
+            raise RuntimeError("highspy: HiGHS refused to run the Eq. (12) LP (model status kNotset); "
+                               f"options {LP_OPTIONS}; rerun with output_flag on to see HiGHS's reason")
         if status == self._hs.HighsModelStatus.kInfeasible:
             return INFEASIBLE, None, None
         sol = h.getSolution()

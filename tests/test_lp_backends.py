@@ -603,3 +603,14 @@ def test_highspy_after_cvxpy_highs_in_one_process():
     res = backend.box_bounds(cps, tols)
     assert res.doubts == 0
     assert_matches_reference(res, ref)
+
+
+def test_highspy_that_refuses_to_run_is_an_error_not_a_doubt():
+    """A HiGHS configuration error makes every run fail before it starts (here: a thread count other
+    than the one HiGHS's per-process scheduler was set up with by the first solve); the direct
+    backend must say so instead of keeping every box as a 'doubt'."""
+    backend, cps, tols, _ = protocol_case("highspy")
+    backend.box_bounds(cps, tols)                      # the scheduler exists from here on
+    backend.h.setOptionValue("threads", 3)
+    with pytest.raises(RuntimeError, match="refused to run"):
+        backend.box_bounds(cps, tols)
