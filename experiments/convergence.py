@@ -6,8 +6,8 @@ s4-quadratic-convergence) shows why this cannot hold for the paper's own equatio
 minus a sum of squares, f <= 0 touching 0 at every root, so every root is a double root and a hull
 step cannot cut a side around it by more than half. This script measures it.
 
-(i) Width against iteration. For each root of the Gosselin platform at the inputs of
-    ``make run`` (found and polished by the default solver), the solver searches a local box of
+(i) Width against iteration. For two regular and two serial-singular roots of the Gosselin
+    platform at the inputs of ``make run`` (found and polished by the default solver), the solver searches a local box of
     side 2 * HALF_WIDTH around it (its centre shifted from the root by a seeded random offset, so
     the root is not at a symmetric spot) with Krawczyk isolation OFF, so only the pruner works,
     and with ``trace=`` recording every box it processes. We follow the chain of boxes that
@@ -19,11 +19,13 @@ step cannot cut a side around it by more than half. This script measures it.
     paper's scalar formulation vs the transversal one (three entries of F per loop: simple
     roots), each with LP pruning (Eq. 12, HiGHS) and with projected-polyhedron (pp) pruning.
     A box that holds a root must never be discarded: the script counts such events (should be 0).
+    The transversal runs go down to 1e-10 rad; the paper's to 1e-5 rad (its box count explodes
+    below, see (ii)); every run is capped (MAX_BOXES), and a capped chain ends early.
 (ii) Boxes against tolerance: total boxes processed over the same local problems for tolerances
     1e-2 ... 1e-10 (radians), per configuration.
 
---quick: two roots (one regular, one serial-singular), fewer tolerances, the LP runs only at the
-cheaper tolerances. JSON and markdown go to experiments/results/convergence.{json,md}; the figure
+--quick: two roots (one regular, one serial-singular), looser trace tolerances, fewer tolerances,
+the LP runs only at the loosest, smaller caps. JSON and markdown go to experiments/results/convergence.{json,md}; the figure
 is drawn by paper_figures/fig3_convergence.py.
 
     python experiments/convergence.py [--quick] [--seed 0] [--out-dir experiments/results]

@@ -36,6 +36,11 @@ STYLE = {"paper + lp": ("#b2182b", "o"), "paper + pp": ("#ef8a62", "s"),
 FALLBACK = ("#444444", "x")
 
 
+def line_style(name: str) -> str:
+    """LP pruning solid, projected polyhedron dashed (the paper's two curves nearly coincide)."""
+    return "--" if name.endswith("pp") else "-"
+
+
 def load(path: Path, quick_seed: int = 0) -> dict:
     """The experiment's JSON; runs the quick experiment when the file is missing."""
     if not path.exists():
@@ -58,10 +63,11 @@ def draw(data: dict):
             depth = [c["depth"] for c in ch["chain"]] + [ch["chain"][-1]["depth"] + 1]
             width = [c["w_in"] for c in ch["chain"]] + [ch["chain"][-1].get("w_out", ch["chain"][-1]["w_in"])]
             if ch["root"] == bold:
-                ax1.semilogy(depth, width, color=colour, marker=marker, ms=3.5, lw=1.8,
+                ax1.semilogy(depth, width, color=colour, marker=marker, ms=3.5, lw=1.6, ls=line_style(name),
+                             zorder=4 if name.endswith("lp") else 3,
                              label=f"{name} (root {bold})")
             else:
-                ax1.semilogy(depth, width, color=colour, lw=0.7, alpha=0.35)
+                ax1.semilogy(depth, width, color=colour, lw=0.8, alpha=0.4, ls=line_style(name))
     for form, tol in data["trace_tol"].items():
         ax1.axhline(tol, color="k", ls=":", lw=1)
         ax1.annotate(f"tol {tol:.0e} rad ({form})", (0.02, tol), xycoords=("axes fraction", "data"),
@@ -74,15 +80,20 @@ def draw(data: dict):
 
     for name in names:
         colour, marker = STYLE.get(name, FALLBACK)
-        pts = [(r["tol"], r["boxes"]) for r in data["sweep"] if r["config"] == name and r["boxes"] is not None]
+        rows = [r for r in data["sweep"] if r["config"] == name]
+        pts = [(r["tol"], r["boxes"]) for r in rows if r["boxes"] is not None]
         if pts:
             t, b = zip(*pts)
-            ax2.loglog(t, b, color=colour, marker=marker, lw=1.5, label=name)
+            ax2.loglog(t, b, color=colour, marker=marker, ms=5, lw=1.5, ls=line_style(name), label=name)
+            capped = [r["tol"] for r in rows if r["boxes"] is None]
+            if capped:   # the next tolerance hit the box cap: say so at the last point
+                ax2.annotate(f"tol {capped[0]:.0e}: box cap", (t[-1], b[-1]), textcoords="offset points",
+                             xytext=(6, 4), fontsize=8, color=colour)
     ax2.invert_xaxis()
     ax2.set_xlabel("tolerance (rad)  [smaller to the right]")
     ax2.set_ylabel(f"boxes processed (sum over {len(data['problems'])} local problems)")
     ax2.set_title("(b) Cost against tolerance")
-    ax2.grid(True, which="both", alpha=0.3)
+    ax2.grid(True, which="major", alpha=0.3)
     ax2.legend(fontsize=8, loc="upper left")
     fig.suptitle("Convergence near the roots of the Gosselin platform: paper's Eq. (10) vs transversal equations",
                  fontsize=11)
