@@ -45,7 +45,7 @@ if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
 import _common  # noqa: E402
-from reproduction import INPUTS, with_ranges  # noqa: E402
+from reproduction import INPUTS, angle_gap, with_ranges  # noqa: E402
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.parameterizations import make_charts  # noqa: E402
@@ -246,8 +246,8 @@ def experiment(quick: bool, seed: int = 0, args=None, roots=None, configs=CONFIG
             charts = charts_of(mech, INPUTS, p["ranges"], cfg[1])
             chain = root_chain(charts, rec.arrays(), list(p["root"].values())) if rec.records else []
             summ = chain_summary(chain)
-            found = rep is not None and any(max(abs(a - b) for a, b in zip(s.angles, p["root"].values())) < 1e-8
-                                            for s in rep.solutions)
+            found = rep is not None and any(angle_gap(s.angles, list(p["root"].values())) < 1e-8
+                                            for s in rep.solutions)     # modulo 2 pi: roots at +-pi
             chains.append(dict(config=cfg[0], root=p["index"], status=p["status"], chain=chain))
             summary.append(dict(config=cfg[0], root=p["index"], status=p["status"], tol=trace_tol[cfg[1]], **summ,
                                 boxes=rep.stats.boxes_processed if rep else None, time=t, root_found=found,
