@@ -44,6 +44,7 @@ certified bound is used all the same: it is valid whatever the solver did).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from itertools import product
 from typing import Sequence
@@ -433,7 +434,11 @@ class CvxpyBackend(LPBackend):
     def _solve(self, direction):
         self.c.value = direction
         try:
-            self.problem.solve(solver=self._solver, **self._options)
+            with warnings.catch_warnings():
+                # "Solution may be inaccurate": every answer is checked by its dual certificate
+                # (an inaccurate one only gives a looser bound or a doubt), so the warning says nothing
+                warnings.simplefilter("ignore", UserWarning)
+                self.problem.solve(solver=self._solver, **self._options)
         except self._cp.error.SolverError:
             return OTHER, None, None
         except ValueError as exc:
