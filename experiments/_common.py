@@ -25,7 +25,10 @@ def parser(description: str, default_seed: int = 0) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--quick", action="store_true", help="a small version that finishes in seconds (make experiments)")
     p.add_argument("--seed", type=int, default=default_seed, help="seed of every random choice (default %(default)s)")
-    p.add_argument("--out-dir", type=Path, default=RESULTS, help="where the JSON and markdown go")
+    p.add_argument("--out-dir", type=Path, default=None,
+                   help="where the JSON and markdown go (default: experiments/results/, or "
+                        "experiments/results/quick/ with --quick, so a smoke run never overwrites the "
+                        "full results that experiments/README.md quotes)")
     return p
 
 
@@ -77,7 +80,7 @@ def markdown_table(rows: Sequence[dict], columns: Sequence[tuple[str, str, str]]
 def write_results(name: str, args, data: dict, tables: Sequence[tuple[str, Sequence[dict], Sequence]],
                   notes: str = "") -> Path:
     """Write <out-dir>/<name>.json (data + settings + machine) and <name>.md (titled tables + notes)."""
-    out = Path(args.out_dir)
+    out = Path(args.out_dir) if args.out_dir is not None else (RESULTS / "quick" if args.quick else RESULTS)
     out.mkdir(parents=True, exist_ok=True)
     meta = dict(experiment=name, quick=bool(args.quick), seed=args.seed, machine=machine())
     (out / f"{name}.json").write_text(json.dumps({**meta, **data}, indent=1, default=float))
