@@ -9,7 +9,8 @@ Each configuration runs ``--repeats`` times (3 when one run takes over ``--slow`
 it takes over a minute; the table says how many); the table gives the median wall time of the
 library call ``solve`` / ``solve_system`` (polishing and classification included for "full"), the
 ratio against the default configuration measured in the same process, where the time goes
-(setup, restriction, pruning, isolation, finishing), boxes, LPs and the solutions found. A
+(setup, restriction, pruning, isolation, finishing), boxes, LPs, the solutions found ("sols") and
+how many of them are classified certified or singular ("c+s"; the rest are unverified). A
 configuration that hits a cap is reported as such. The default's whole ``spherekin solve``
 process is timed too (``--process-runs``). JSON goes to benchmarks/results/solve.json.
 
@@ -121,7 +122,7 @@ def main(argv=None):
     print(f"Gosselin platform, inputs {INPUTS} rad; medians of {args.repeats} runs (3 when a run takes over "
           f"{args.slow:.0f} s, 1 over 60 s); {os.cpu_count()} cores, Python {platform.python_version()}")
     header = (f"{'configuration':26s} {'median s':>9s} {'ratio':>6s} {'runs':>4s} {'setup':>6s} {'restr':>6s} "
-              f"{'prune':>6s} {'isol':>6s} {'final':>6s} {'boxes':>7s} {'LPs':>6s} {'sols':>4s} {'cert':>4s}")
+              f"{'prune':>6s} {'isol':>6s} {'final':>6s} {'boxes':>7s} {'LPs':>6s} {'sols':>4s} {'c+s':>4s}")
     print(header)
     print("-" * len(header))
     baseline = None
