@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spherekin.mechanism.chains import axis_rotation, serial_ik, wrap
+from spherekin.mechanism.chains import axis_rotation, serial_ik, sphere_point, wrap
 from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 from spherekin.mechanism.presets import five_bar, four_bar, general_3rrr, gosselin
 
@@ -55,21 +55,6 @@ def random_rotation(rng: np.random.Generator, max_angle: float | None = None) ->
 def _polar(polar_deg: float, azimuth_deg: float) -> np.ndarray:
     p, a = math.radians(polar_deg), math.radians(azimuth_deg)
     return np.array([math.sin(p) * math.cos(a), math.sin(p) * math.sin(a), math.cos(p)])
-
-
-def sphere_point(p, q, ang_p: float, ang_q: float, branch: float) -> np.ndarray | None:
-    """The unit vector c with angle(c, p) = ang_p and angle(c, q) = ang_q on side ``branch`` (+1/-1)
-    of p x q; None when the two circles do not meet."""
-    p, q = np.asarray(p, float), np.asarray(q, float)
-    cpq = float(p @ q)
-    den = 1.0 - cpq * cpq
-    a = (math.cos(ang_p) - cpq * math.cos(ang_q)) / den
-    b = (math.cos(ang_q) - cpq * math.cos(ang_p)) / den
-    n = np.cross(p, q)
-    g2 = (1.0 - a * a - b * b - 2 * a * b * cpq) / float(n @ n)
-    if g2 < 0:
-        return None
-    return a * p + b * q + branch * math.sqrt(g2) * n
 
 
 def _angle(a, b) -> float:

@@ -448,3 +448,28 @@ def test_coaxial_base_joints_are_allowed():
     for sol in sols:
         closure, pose_err = check_round_trip(mech, pose, sol)
         assert closure < CLOSURE_TOL and pose_err < CLOSURE_TOL
+
+
+def test_sphere_point_meets_both_angles_on_the_asked_side():
+    """chains.sphere_point against its definition: unit length, the two angles, the side of p x q;
+    None when the circles miss (checked by arccos of dot products, not by the formula)."""
+    from spherekin.mechanism.chains import sphere_point
+
+    rng = np.random.default_rng(11)
+    hits = 0
+    for _ in range(200):
+        p, q = (v / np.linalg.norm(v) for v in rng.normal(size=(2, 3)))
+        ang_p, ang_q = rng.uniform(0.05, math.pi - 0.05, 2)
+        branch = rng.choice([-1.0, 1.0])
+        c = sphere_point(p, q, ang_p, ang_q, branch)
+        gap = math.acos(np.clip(p @ q, -1, 1))
+        meet = abs(ang_p - ang_q) <= gap <= min(ang_p + ang_q, 2 * math.pi - ang_p - ang_q)
+        if c is None:
+            assert not meet
+            continue
+        hits += 1
+        assert abs(np.linalg.norm(c) - 1) < 1e-9
+        assert abs(math.acos(np.clip(c @ p, -1, 1)) - ang_p) < 1e-6
+        assert abs(math.acos(np.clip(c @ q, -1, 1)) - ang_q) < 1e-6
+        assert branch * (c @ np.cross(p, q)) >= -1e-12
+    assert hits > 50

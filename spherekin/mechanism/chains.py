@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 __all__ = ["IK_TOL", "axis_rotation", "angle_about", "least_aligned_basis", "perpendicular", "wrap", "chain_rotation",
-           "current_axes", "serial_ik"]
+           "current_axes", "serial_ik", "sphere_point"]
 
 #: Residual (max |entry| of the rotation mismatch) under which a leg's inverse kinematics is
 #: accepted, and the negative slack allowed for the discriminant of the 3-joint subproblem.
@@ -131,3 +131,22 @@ def serial_ik(axes: np.ndarray, target: np.ndarray) -> list[tuple[float, ...]]:
         d1 = angle_about(a1, c, q)
         out.extend(finish([d1, d2]))
     return out
+
+
+def sphere_point(p, q, ang_p: float, ang_q: float, branch: float) -> np.ndarray | None:
+    """The unit vector c with angle(c, p) = ang_p and angle(c, q) = ang_q (radians), on side
+    ``branch`` (+1 or -1) of p x q; None when the two circles do not meet.
+
+    c = a p + b q + g (p x q): the two angle conditions fix a and b (a 2 x 2 linear system in the
+    Gram matrix of p, q), and |c| = 1 fixes g^2. p and q: non-parallel unit vectors.
+    """
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    cpq = float(p @ q)
+    den = 1.0 - cpq * cpq
+    a = (math.cos(ang_p) - cpq * math.cos(ang_q)) / den
+    b = (math.cos(ang_q) - cpq * math.cos(ang_p)) / den
+    n = np.cross(p, q)
+    g2 = (1.0 - a * a - b * b - 2 * a * b * cpq) / float(n @ n)
+    if g2 < 0:
+        return None
+    return a * p + b * q + branch * math.sqrt(g2) * n

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .chains import axis_rotation
+from .chains import axis_rotation, sphere_point
 from .model import Joint, Leg, SphericalMechanism
 from .rrr import three_rrr
 
@@ -72,17 +72,6 @@ def general_3rrr() -> SphericalMechanism:
     )
 
 
-def _sphere_point(p: np.ndarray, q: np.ndarray, ang_p: float, ang_q: float, branch: float) -> np.ndarray:
-    """The unit vector c with angle(c, p) = ang_p, angle(c, q) = ang_q; branch +1/-1 picks the side of p x q."""
-    cpq = float(p @ q)
-    den = 1.0 - cpq * cpq
-    a = (math.cos(ang_p) - cpq * math.cos(ang_q)) / den
-    b = (math.cos(ang_q) - cpq * math.cos(ang_p)) / den
-    n = np.cross(p, q)
-    g2 = (1.0 - a * a - b * b - 2 * a * b * cpq) / float(n @ n)
-    return a * p + b * q + branch * math.sqrt(g2) * n
-
-
 def four_bar() -> SphericalMechanism:
     """A spherical four-bar (crank-rocker): ground 80, crank 30, coupler 70, rocker 60 degrees.
 
@@ -94,7 +83,7 @@ def four_bar() -> SphericalMechanism:
     a = np.array([0.0, 0.0, 1.0])
     d = _polar(80.0, 0.0)
     b = axis_rotation(a, math.pi / 2) @ _polar(30.0, 0.0)
-    c = _sphere_point(b, d, math.radians(70.0), math.radians(60.0), 1.0)
+    c = sphere_point(b, d, math.radians(70.0), math.radians(60.0), 1.0)
     return SphericalMechanism(
         legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
               Leg("rocker", (Joint("D", d), Joint("C", c)))),
@@ -114,7 +103,7 @@ def five_bar() -> SphericalMechanism:
     s45 = math.sin(math.radians(45.0))
     b = s45 * a + s45 * y
     d = s45 * e + s45 * y
-    c = _sphere_point(b, d, math.radians(60.0), math.radians(60.0), -1.0)
+    c = sphere_point(b, d, math.radians(60.0), math.radians(60.0), -1.0)
     return SphericalMechanism(
         legs=(Leg("left", (Joint("A", a, actuated=True), Joint("B", b))),
               Leg("right", (Joint("E", e, actuated=True), Joint("D", d), Joint("C", c)))),
