@@ -267,6 +267,29 @@ class ChartSet:
             return v
         return np.arctan2(v[:, 1::2], v[:, 0::2])
 
+    def contract(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """sin-cos: the boxes [lo, hi] (unit coordinates, B x N) shrunk to the bounding box of the
+        unit circle inside each (c, s) rectangle (:func:`circle_bounds`); lo > hi where the circle
+        misses a rectangle. None for tan-half (nothing to contract).
+
+        Departure from the paper: the circle equation c^2 + s^2 = 1 is also a block that the
+        pruners use, but its hull bounds are loose (the circle is curved); this exact bound is
+        what the constraint allows, at the cost of a few square roots per box.
+        """
+        if self.parameterization != "sin-cos":
+            return None
+        mlo, mhi = self.map_lo[chart], self.map_hi[chart]
+        span = mhi - mlo
+        clo, chi = mlo + span * lo, mlo + span * hi
+        blo, bhi = circle_bounds(clo[:, 0::2], chi[:, 0::2], clo[:, 1::2], chi[:, 1::2])
+        new_lo, new_hi = np.empty_like(lo), np.empty_like(hi)
+        new_lo[:, 0::2], new_lo[:, 1::2] = blo
+        new_hi[:, 0::2], new_hi[:, 1::2] = bhi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ulo = np.where(span > 0, (new_lo - mlo) / span, lo)
+            uhi = np.where(span > 0, (new_hi - mlo) / span, hi)
+        return np.maximum(lo, ulo), np.minimum(hi, uhi)
+
     def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians.
 
@@ -281,6 +304,52 @@ class ChartSet:
         corners = [np.arctan2(s[:, 1::2], c[:, 0::2]) for c in (mlo, mhi) for s in (mlo, mhi)]
         corners = [centre + np.mod(a - centre + math.pi, 2 * math.pi) - math.pi for a in corners]
         return np.minimum.reduce(corners), np.maximum.reduce(corners)
+
+
+#: Slack (c, s units) of the circle bounds: a candidate point counts as inside a rectangle within
+#: this distance of it, and the bounds are widened by it. The square roots and products behind a
+#: bound err by a few 1e-16; 1e-12 is far above that and far below any tolerance of the solver.
+CIRCLE_SLACK = 1e-12
+
+
+def circle_bounds(c_lo, c_hi, s_lo, s_hi):
+    """Bounding box of the unit circle inside the rectangles [c_lo, c_hi] x [s_lo, s_hi].
+
+    Arrays of one shape; returns ((c_lo', s_lo'), (c_hi', s_hi')), with lo' > hi' where the circle
+    misses the rectangle. The circle inside a rectangle is a union of arcs whose ends lie on the
+    rectangle's edges; an arc reaches beyond its ends only at the axis points (+-1, 0), (0, +-1).
+    So the bounding box is that of the edge crossings (c = c_lo: s = +-sqrt(1 - c_lo^2), ...) and
+    of the axis points inside the rectangle. Widened by CIRCLE_SLACK.
+    """
+    m = CIRCLE_SLACK
+    pts_c, pts_s = [], []
+
+    def add(c, s):
+        ok = (c >= c_lo - m) & (c <= c_hi + m) & (s >= s_lo - m) & (s <= s_hi + m)
+        pts_c.append(np.where(ok, c, np.nan))
+        pts_s.append(np.where(ok, s, np.nan))
+
+    with np.errstate(invalid="ignore"):
+        for edge in (c_lo, c_hi):
+            root = np.sqrt(np.maximum(1.0 - edge * edge, 0.0))
+            inside = np.abs(edge) <= 1.0 + m
+            for sign in (1.0, -1.0):
+                add(np.where(inside, edge, np.nan), sign * root)
+        for edge in (s_lo, s_hi):
+            root = np.sqrt(np.maximum(1.0 - edge * edge, 0.0))
+            inside = np.abs(edge) <= 1.0 + m
+            for sign in (1.0, -1.0):
+                add(sign * root, np.where(inside, edge, np.nan))
+        one, zero = np.ones_like(c_lo), np.zeros_like(c_lo)
+        for c, s in ((one, zero), (-one, zero), (zero, one), (zero, -one)):
+            add(c, s)
+        pc, ps = np.stack(pts_c), np.stack(pts_s)
+        found = ~np.all(np.isnan(pc), axis=0)
+        lo_c = np.where(found, np.nanmin(np.where(np.isnan(pc), np.inf, pc), axis=0) - m, 1.0)
+        hi_c = np.where(found, np.nanmax(np.where(np.isnan(pc), -np.inf, pc), axis=0) + m, 0.0)
+        lo_s = np.where(found, np.nanmin(np.where(np.isnan(ps), np.inf, ps), axis=0) - m, 1.0)
+        hi_s = np.where(found, np.nanmax(np.where(np.isnan(ps), -np.inf, ps), axis=0) + m, 0.0)
+    return (lo_c, lo_s), (hi_c, hi_s)
 
 
 def _stack_blocks(per_chart: list[list[EquationBlock]]):

@@ -270,3 +270,59 @@ def test_unknown_parameterization_lists_valid_ones():
     with pytest.raises(ValueError) as err:
         make_charts("quaternion", build, ranges, "halves")
     assert "quaternion" in str(err.value) and all(n in str(err.value) for n in PARAMETERIZATIONS)
+
+
+def test_circle_bounds_against_dense_samples_of_the_circle():
+    """circle_bounds(rectangle) vs brute force: 200,000 points of the unit circle, those inside each
+    random rectangle, and their bounding box. The bounds must contain every sample (soundness) and
+    exceed the samples' box by no more than the sampling gap (tightness); empty iff no sample."""
+    from spherekin.parameterizations import CIRCLE_SLACK, circle_bounds
+
+    theta = np.linspace(-np.pi, np.pi, 200_001)
+    pc, ps = np.cos(theta), np.sin(theta)
+    gap = 2 * np.pi / 200_000 + CIRCLE_SLACK
+    rng = np.random.default_rng(4)
+    n_empty = n_cut = 0
+    for _ in range(300):
+        c = np.sort(rng.uniform(-1.2, 1.2, 2))
+        s = np.sort(rng.uniform(-1.2, 1.2, 2))
+        (clo, slo), (chi, shi) = circle_bounds(*(np.array([v]) for v in (c[0], c[1], s[0], s[1])))
+        inside = (pc >= c[0]) & (pc <= c[1]) & (ps >= s[0]) & (ps <= s[1])
+        if not inside.any():
+            # no sample inside: either truly empty or a sliver thinner than the sampling gap
+            assert clo[0] > chi[0] or (chi[0] - clo[0] < 4 * gap and shi[0] - slo[0] < 4 * gap)
+            n_empty += clo[0] > chi[0]
+            continue
+        sc, ss = pc[inside], ps[inside]
+        assert clo[0] <= sc.min() and sc.max() <= chi[0]
+        assert slo[0] <= ss.min() and ss.max() <= shi[0]
+        assert clo[0] >= sc.min() - 2 * gap and chi[0] <= sc.max() + 2 * gap
+        assert slo[0] >= ss.min() - 2 * gap and shi[0] <= ss.max() + 2 * gap
+        n_cut += (chi[0] - clo[0] < c[1] - c[0] - 1e-3) or (shi[0] - slo[0] < s[1] - s[0] - 1e-3)
+    assert n_empty > 10 and n_cut > 50
+
+
+def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
+    from spherekin.mechanism import gosselin
+    from spherekin.solver import solve
+
+    mech = gosselin()
+    names = mech.loop_system((0.3, -0.2, 0.5), {n: (-1.0, 1.0) for n in mech.passive}).names
+    ranges = {n: mech.ranges[n] for n in names}
+
+    def build(chart):
+        system = mech.loop_system((0.3, -0.2, 0.5), chart)
+        return system.loops, system.unknowns
+
+    tan = make_charts("tan-half", build, ranges, "halves")
+    assert tan.contract(np.zeros(1, dtype=int), np.zeros((1, 6)), np.ones((1, 6))) is None
+    sc = make_charts("sin-cos", build, ranges, "halves")
+    rep = solve(mech, (0.3, -0.2, 0.5))
+    chart = np.zeros(len(rep.solutions), dtype=int)
+    # boxes of unit side 0.2 around each solution's (c, s) point: contraction keeps the point
+    pts = np.array([[f(a) for a in s.angles for f in (np.cos, np.sin)] for s in rep.solutions])
+    u = (pts - sc.map_lo[chart]) / (sc.map_hi[chart] - sc.map_lo[chart])
+    lo, hi = np.clip(u - 0.1, 0, 1), np.clip(u + 0.1, 0, 1)
+    tlo, thi = sc.contract(chart, lo, hi)
+    assert np.all(tlo <= u + 1e-12) and np.all(u - 1e-12 <= thi)
+    assert np.all(thi - tlo <= hi - lo + 1e-15)
