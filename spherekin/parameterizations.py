@@ -267,28 +267,33 @@ class ChartSet:
             return v
         return np.arctan2(v[:, 1::2], v[:, 0::2])
 
-    def contract(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """sin-cos: the boxes [lo, hi] (unit coordinates, B x N) shrunk to the bounding box of the
-        unit circle inside each (c, s) rectangle (:func:`circle_bounds`); lo > hi where the circle
-        misses a rectangle. None for tan-half (nothing to contract).
+    def contract(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray, rlo: np.ndarray, rhi: np.ndarray) -> None:
+        """sin-cos: shrink the reductions [rlo, rhi] (in the unit coordinates of the boxes [lo, hi],
+        all B x N, updated in place) to the bounding box of the unit circle inside each (c, s)
+        rectangle (:func:`circle_bounds`); rlo > rhi where the circle misses one. Nothing for
+        tan-half.
 
         Departure from the paper: the circle equation c^2 + s^2 = 1 is also a block that the
         pruners use, but its hull bounds are loose (the circle is curved); this exact bound is
         what the constraint allows, at the cost of a few square roots per box.
         """
         if self.parameterization != "sin-cos":
-            return None
-        mlo, mhi = self.map_lo[chart], self.map_hi[chart]
-        span = mhi - mlo
-        clo, chi = mlo + span * lo, mlo + span * hi
+            return
+        live = np.flatnonzero(~np.any(rlo > rhi, axis=1))
+        if not len(live):
+            return
+        w = hi[live] - lo[live]
+        mlo, mhi = self.map_lo[chart[live]], self.map_hi[chart[live]]
+        span = (mhi - mlo) * w                                 # metric length of each box side
+        base = mlo + (mhi - mlo) * lo[live]                    # metric coordinate of each box's lo
+        clo, chi = base + span * rlo[live], base + span * rhi[live]
         blo, bhi = circle_bounds(clo[:, 0::2], chi[:, 0::2], clo[:, 1::2], chi[:, 1::2])
-        new_lo, new_hi = np.empty_like(lo), np.empty_like(hi)
+        new_lo, new_hi = np.empty_like(clo), np.empty_like(chi)
         new_lo[:, 0::2], new_lo[:, 1::2] = blo
         new_hi[:, 0::2], new_hi[:, 1::2] = bhi
         with np.errstate(divide="ignore", invalid="ignore"):
-            ulo = np.where(span > 0, (new_lo - mlo) / span, lo)
-            uhi = np.where(span > 0, (new_hi - mlo) / span, hi)
-        return np.maximum(lo, ulo), np.minimum(hi, uhi)
+            rlo[live] = np.where(span > 0, np.maximum(rlo[live], (new_lo - base) / span), rlo[live])
+            rhi[live] = np.where(span > 0, np.minimum(rhi[live], (new_hi - base) / span), rhi[live])
 
     def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians.

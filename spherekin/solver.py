@@ -238,14 +238,7 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         mwidth = charts.metric(chart, hi) - charts.metric(chart, lo)
         widths = mwidth.max(axis=1)
         rlo, rhi = pruner.reduce([cps[b] for b in pruned], [tols[b] for b in pruned], widths=widths)
-        live = np.flatnonzero(~np.any(rlo > rhi, axis=1))
-        if len(live):
-            w = hi[live] - lo[live]
-            tight = charts.contract(chart[live], lo[live] + rlo[live] * w, lo[live] + rhi[live] * w)
-            if tight is not None:               # back to the box's own unit coordinates
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    rlo[live] = np.where(w > 0, (tight[0] - lo[live]) / w, rlo[live])
-                    rhi[live] = np.where(w > 0, (tight[1] - lo[live]) / w, rhi[live])
+        charts.contract(chart, lo, hi, rlo, rhi)
         t3 = time.perf_counter()
         iso = np.zeros(len(lo), dtype=bool)
         if isolate:

@@ -315,7 +315,9 @@ def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
         return system.loops, system.unknowns
 
     tan = make_charts("tan-half", build, ranges, "halves")
-    assert tan.contract(np.zeros(1, dtype=int), np.zeros((1, 6)), np.ones((1, 6))) is None
+    rlo, rhi = np.full((1, 6), 0.25), np.full((1, 6), 0.75)
+    tan.contract(np.zeros(1, dtype=int), np.zeros((1, 6)), np.ones((1, 6)), rlo, rhi)
+    assert np.all(rlo == 0.25) and np.all(rhi == 0.75)
     sc = make_charts("sin-cos", build, ranges, "halves")
     rep = solve(mech, (0.3, -0.2, 0.5))
     chart = np.zeros(len(rep.solutions), dtype=int)
@@ -323,6 +325,7 @@ def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
     pts = np.array([[f(a) for a in s.angles for f in (np.cos, np.sin)] for s in rep.solutions])
     u = (pts - sc.map_lo[chart]) / (sc.map_hi[chart] - sc.map_lo[chart])
     lo, hi = np.clip(u - 0.1, 0, 1), np.clip(u + 0.1, 0, 1)
-    tlo, thi = sc.contract(chart, lo, hi)
+    tlo, thi = lo.copy(), hi.copy()          # reductions of the whole chart box [0, 1]^N
+    sc.contract(chart, np.zeros_like(lo), np.ones_like(hi), tlo, thi)
     assert np.all(tlo <= u + 1e-12) and np.all(u - 1e-12 <= thi)
     assert np.all(thi - tlo <= hi - lo + 1e-15)
