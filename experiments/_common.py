@@ -1,7 +1,8 @@
 """Shared plumbing of the experiment scripts: arguments, timing, machine description, output files.
 
 Every experiment writes ``experiments/results/<name>.json`` (all numbers, the settings and the
-machine) and ``experiments/results/<name>.md`` (the table quoted in experiments/README.md).
+machine; generated, git-ignored) and ``experiments/results/<name>.md`` (the table quoted in
+experiments/README.md, committed); ``--quick`` runs go to ``experiments/results/quick/``.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ import _common  # noqa: E402  (experiments/_common.py: the shared argument parse
 from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
                             _view_direction, great_circle_arc)
 
-__all__ = ["HERE", "DPI", "parser", "save", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
+__all__ = ["HERE", "DPI", "parser", "experiment_data", "save", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
            "view_for", "great_circle_arc", "polygon", "along", "away"]
 
 #: Resolution of the PNG files: 150 dpi keeps 9-point labels sharp on screen and in the README.
@@ -37,6 +37,24 @@ def parser(description: str):
     p = _common.parser(description)
     p.set_defaults(out_dir=HERE)
     return p
+
+
+def experiment_data(name: str, path: Path | None = None) -> dict:
+    """The data of experiments/<name>.py: ``path`` if given, else its latest run --
+    experiments/results/<name>.json (``make experiments FULL=1``), else results/quick/<name>.json
+    (``make experiments``), else a quick run made now (written to results/quick/). The JSON files
+    are generated and not committed; the committed PNGs of Figs. 3, 6, 7 come from full runs.
+    """
+    import importlib
+    import json
+
+    if path is not None:
+        return json.loads(Path(path).read_text())
+    for candidate in (_common.RESULTS / f"{name}.json", _common.RESULTS / "quick" / f"{name}.json"):
+        if candidate.exists():
+            return json.loads(candidate.read_text())
+    importlib.import_module(name).main(["--quick"])
+    return json.loads((_common.RESULTS / "quick" / f"{name}.json").read_text())
 
 
 def save(fig, out_dir, name: str) -> list[Path]:

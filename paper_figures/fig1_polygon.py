@@ -139,7 +139,7 @@ def draw(data: dict):
         ft.label_at(ax, ft.away(mid, centre, 0.15), f"α{k + 1} = {_deg(poly['sides'][k])}", v, POLYGON_COLOUR,
                     radius=1.0, fontsize=10, bbox=LABEL_BOX)
     for k in range(m):
-        a, prev_pt, next_pt = p[k], p[k - 1], p[(k + 1) % m]
+        a, prev_pt = p[k], p[k - 1]
         t_in = -_tangent(a, prev_pt)                     # direction of travel arriving at p_k
         ft.draw_curve(ax, np.array([ft.along(a, t_in, s) for s in np.linspace(0, PROLONGATION, 20)]), v, "0.3", 1.0)
         turn = poly["exterior"][k]

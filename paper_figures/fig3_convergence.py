@@ -1,7 +1,7 @@
 """Fig. 3: convergence of the subdivision near the roots (Section 4's "quadratically convergent" claim).
 
-Reads experiments/results/convergence.json (written by experiments/convergence.py; when it is
-missing, runs the quick experiment first) and draws two panels:
+Plots the latest run of experiments/convergence.py (see _figure_tools.experiment_data: the full
+run, else the quick one, else a quick run made now) in two panels:
 
 (a) the widest side of the box that holds a root against the iteration (subdivision depth), log y,
     one colour per configuration (paper's scalar Eq. (10) vs the transversal equations, LP vs
@@ -13,7 +13,6 @@ missing, runs the quick experiment first) and draws two panels:
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -26,9 +25,8 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
-from _figure_tools import parser, save  # noqa: E402
+from _figure_tools import experiment_data, parser, save  # noqa: E402
 
-RESULTS = HERE.parent / "experiments" / "results" / "convergence.json"
 #: One colour and marker per configuration (colour-blind safe pairs: formulation = hue family,
 #: pruner = dark/light), so the four stay apart in print and on screen.
 STYLE = {"paper + lp": ("#b2182b", "o"), "paper + pp": ("#ef8a62", "s"),
@@ -39,16 +37,6 @@ FALLBACK = ("#444444", "x")
 def line_style(name: str) -> str:
     """LP pruning solid, projected polyhedron dashed (the paper's two curves nearly coincide)."""
     return "--" if name.endswith("pp") else "-"
-
-
-def load(path: Path, quick_seed: int = 0) -> dict:
-    """The experiment's JSON; runs the quick experiment when the file is missing."""
-    if not path.exists():
-        sys.path.insert(0, str(HERE.parent / "experiments"))
-        import convergence
-
-        convergence.main(["--quick", "--seed", str(quick_seed), "--out-dir", str(path.parent)])
-    return json.loads(path.read_text())
 
 
 def draw(data: dict):
@@ -102,9 +90,10 @@ def draw(data: dict):
 
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
-    p.add_argument("--results", type=Path, default=RESULTS, help="convergence.json to plot (default %(default)s)")
+    p.add_argument("--results", type=Path, default=None,
+                   help="convergence.json to plot (default: the latest run, see _figure_tools.experiment_data)")
     args = p.parse_args(argv)
-    fig = draw(load(args.results, args.seed))
+    fig = draw(experiment_data("convergence", args.results))
     paths = save(fig, args.out_dir, "fig3_convergence")
     plt.close(fig)
     return paths

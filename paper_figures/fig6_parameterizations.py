@@ -1,8 +1,8 @@
 """Figure 6: tan-half-angle vs sin/cos -- what each parameterization costs on the same mechanisms.
 
 Question: the paper's tan(theta/2) (Section 2.2) or the sin/cos variables it proposes in Section 5?
-Reads experiments/results/parameterizations.json (made by experiments/parameterizations.py; the
-quick experiment is run first if the file is missing) and draws, per mechanism and
+Plots the latest run of experiments/parameterizations.py (see _figure_tools.experiment_data) and
+draws, per mechanism and
 parameterization: (a) the Bernstein control points of one loop equation on one chart and of all
 equations over all charts, (b) the median number of boxes processed and (c) the median solve time
 over the random ground-truth inputs. Log scales: the quantities span several decades.
@@ -10,7 +10,6 @@ over the random ground-truth inputs. Log scales: the quantities span several dec
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -22,18 +21,8 @@ if str(Path(__file__).resolve().parent) not in sys.path:
 import _figure_tools as ft  # noqa: E402
 
 NAME = "fig6_parameterizations"
-RESULTS = ft.ROOT / "experiments" / "results" / "parameterizations.json"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 LABELS = {"four_bar": "four-bar", "five_bar": "five-bar", "gosselin": "Gosselin", "general_3rrr": "general 3-RRR"}
-
-
-def load(path: Path = RESULTS) -> dict:
-    """The experiment's JSON, or the quick experiment's data when the file is missing."""
-    if path.exists():
-        return json.loads(path.read_text())
-    import parameterizations
-
-    return parameterizations.run(quick=True, seed=0)
 
 
 def _bars(ax, mechs, values, ylabel, title, fmt="{:.0f}", hatch_values=None, headroom=3.0):
@@ -88,7 +77,7 @@ def draw(data: dict):
 
 def main(argv=None):
     args = ft.parser(__doc__.splitlines()[0]).parse_args(argv)
-    fig = draw(load())
+    fig = draw(ft.experiment_data("parameterizations"))
     ft.save(fig, args.out_dir, NAME)
 
 

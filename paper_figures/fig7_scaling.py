@@ -1,8 +1,8 @@
 """Figure 7: how the cost of a solve grows with the number of unknown joint angles.
 
 Question: how do boxes and time grow from one-loop linkages (3 unknowns) to 3-RRRs (6) and to
-four-legged platforms (8 and 9)? Reads experiments/results/scaling.json (made by
-experiments/scaling.py; the quick experiment is run first if the file is missing) and plots, per
+four-legged platforms (8 and 9)? Plots the latest run of experiments/scaling.py (see
+_figure_tools.experiment_data), per
 mechanism and parameterization, (a) boxes processed and (b) solve time against the number of
 unknowns, on log scales. Mechanisms the solver could not handle, or that the quick run skipped,
 are listed under the panels.
@@ -10,7 +10,6 @@ are listed under the panels.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -20,7 +19,6 @@ if str(Path(__file__).resolve().parent) not in sys.path:
 import _figure_tools as ft  # noqa: E402
 
 NAME = "fig7_scaling"
-RESULTS = ft.ROOT / "experiments" / "results" / "scaling.json"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 MARKERS = {"four_bar": "o", "five_bar": "s", "gosselin": "^", "general_3rrr": "v", "3rrr_rrrr": "D",
            "4rrr_redundant": "P", "3rrr_passive_leg": "X"}
@@ -30,14 +28,6 @@ LABELS = {"four_bar": "four-bar", "five_bar": "five-bar", "gosselin": "Gosselin 
 #: Horizontal offsets (unknowns) of the two parameterizations so that equal-size mechanisms do not overlap.
 OFFSET = {"tan-half": -0.12, "sin-cos": 0.12}
 JITTER = {"four_bar": -0.05, "five_bar": 0.05, "gosselin": -0.06, "general_3rrr": 0.0, "3rrr_rrrr": 0.06}
-
-
-def load(path: Path = RESULTS) -> dict:
-    if path.exists():
-        return json.loads(path.read_text())
-    import scaling
-
-    return scaling.run(quick=True, seed=0)
 
 
 def draw(data: dict):
@@ -79,7 +69,7 @@ def draw(data: dict):
 
 def main(argv=None):
     args = ft.parser(__doc__.splitlines()[0]).parse_args(argv)
-    fig = draw(load())
+    fig = draw(ft.experiment_data("scaling"))
     ft.save(fig, args.out_dir, NAME)
 
 
