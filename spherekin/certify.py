@@ -72,6 +72,9 @@ __all__ = [
     "ANGLE_TOLERANCE",
     "CERTIFY_RADII",
     "MIDPOINT_RCOND_MIN",
+    "OVERDETERMINED_BOUND",
+    "BoxTests",
+    "krawczyk_many",
     "KrawczykResult",
     "transversal_labels",
     "transversal_equations",
@@ -107,6 +110,13 @@ CERTIFY_RADII = (1e-10, 1e-8, 1e-6)
 #: (1e-6): the inclusion cannot succeed, and the singular Jacobian is the real reason.
 MIDPOINT_RCOND_MIN = 1e-12
 
+#: Over-determined systems: a certified square subsystem counts as a certificate of the whole system
+#: only when the other equations stay within this bound over the certified box. Reason: on a box of
+#: radius r their enclosure is ~|J| r wide (|J_ij| <= 1), so at a root and the radii tried (<= 1e-6)
+#: it is ~1e-6 at most; a point where they are larger is not a root of the whole system to the
+#: accuracy the radii can show (inconsistent redundant inputs leave residuals far above it).
+OVERDETERMINED_BOUND = 1e-5
+
 
 # --------------------------------------------------------------------------------------------
 # Result
@@ -128,7 +138,13 @@ class KrawczykResult:
       constant angles lie within the angle tolerance, so ~1e-13 at an exact root by default);
     * ``singular_values``: of the float Jacobian J(y), descending (its rank and conditioning);
     * ``n_equations``, ``n_unknowns``; ``radii_tried``: the radii tested, in order (by
-      :func:`certify`; just ``(radius,)`` for a single test).
+      :func:`certify`; just ``(radius,)`` for a single test);
+    * over-determined systems (more equations than unknowns: redundant actuation):
+      ``subsystem_rows``, the equations of the square subsystem tested (well-conditioned rows of
+      J(y), see :func:`_subsystem_rows`), and ``other_bound``, a bound of |F| of the other
+      equations over X. ``certified`` then means: X holds exactly one root of the subsystem (so at
+      most one root of the whole system), and the other equations are within +-other_bound
+      <= :data:`OVERDETERMINED_BOUND` on X. None and 0.0 for square systems.
     """
 
     certified: bool
@@ -145,6 +161,8 @@ class KrawczykResult:
     n_equations: int
     n_unknowns: int
     radii_tried: tuple
+    subsystem_rows: tuple | None = None
+    other_bound: float = 0.0
 
     def summary(self) -> dict:
         """JSON-ready evidence: the verdict, radius, contraction, residual bound, singular values."""
@@ -159,6 +177,8 @@ class KrawczykResult:
             "n_equations": self.n_equations,
             "n_unknowns": self.n_unknowns,
             "radii_tried": list(self.radii_tried),
+            **({} if self.subsystem_rows is None else {
+                "subsystem_rows": list(self.subsystem_rows), "other_equations_bound": self.other_bound}),
         }
 
 
@@ -557,10 +577,133 @@ def certify_many(system: LoopSystem, thetas, radii: Sequence[float] = CERTIFY_RA
     return _certify_points(system, ys.reshape(len(ys), len(system.unknowns)), rs, tol)
 
 
+@dataclass(frozen=True)
+class BoxTests:
+    """Krawczyk tests of B general boxes X_b = [lo_b, hi_b] (radians) at points y_b in them.
+
+    ``certified`` (B,): K(X_b) lies in the interior of X_b, so X_b holds exactly one solution (for
+    an over-determined system, with the meaning of :class:`KrawczykResult`); ``no_solution`` (B,):
+    K(X_b) misses X_b, so X_b holds none; ``krawczyk_lo``, ``krawczyk_hi`` (B, M): floats
+    enclosing K(X_b) (nan where J(y_b) is singular or the system has fewer equations than
+    unknowns: neither conclusion then).
+    """
+
+    certified: np.ndarray
+    no_solution: np.ndarray
+    krawczyk_lo: np.ndarray
+    krawczyk_hi: np.ndarray
+
+
+def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = ANGLE_TOLERANCE) -> BoxTests:
+    """Krawczyk tests of B boxes [lo, hi] (B, M; radians, ``system.unknowns`` order) in one pass.
+
+    ``ys`` (B, M): the point y of each test (default the box centres; it must lie in its box).
+    Boxes may be thin or unequal (the Krawczyk operator is that of :func:`krawczyk`, with
+    X - y enclosed by [-rho, rho], rho = max(hi - y, y - lo)). Fast arithmetic only: outside the
+    IEEE default rounding environment every box is inconclusive (a refusal, never a wrong verdict).
+    """
+    _check_system(system)
+    lo = np.asarray(lo, dtype=float)
+    hi = np.asarray(hi, dtype=float)
+    m = len(system.unknowns)
+    if lo.ndim != 2 or lo.shape != hi.shape or lo.shape[1] != m or not np.all(np.isfinite(lo) & np.isfinite(hi)) \
+            or np.any(lo > hi):
+        raise ValueError(f"lo, hi: expected two (B, {m}) arrays of finite angles with lo <= hi, got shapes "
+                         f"{lo.shape} and {hi.shape}")
+    ys = 0.5 * (lo + hi) if ys is None else np.asarray(ys, dtype=float)
+    if ys.shape != lo.shape or np.any((ys < lo) | (ys > hi)):
+        raise ValueError(f"ys: expected a ({len(lo)}, {m}) array of points inside their boxes")
+    tol = _check_tolerance(angle_tolerance)
+    b = len(lo)
+    nan = np.full((b, m), np.nan)
+    if b == 0 or not iv_ops.rounding_environment_ok():
+        return BoxTests(np.zeros(b, bool), np.zeros(b, bool), nan, nan.copy())
+    core = _krawczyk_core(_plan(system), ys, lo[:, None], hi[:, None], tol)
+    k_lo, k_hi = core["k_lo"][:, 0], core["k_hi"][:, 0]
+    finite = np.all(np.isfinite(k_lo) & np.isfinite(k_hi), axis=1)
+    inside = finite & np.all((k_lo > lo) & (k_hi < hi), axis=1) & (core["other"][:, 0] <= OVERDETERMINED_BOUND)
+    disjoint = finite & np.any((k_hi < lo) | (k_lo > hi), axis=1)
+    return BoxTests(inside & ~disjoint, disjoint, k_lo, k_hi)
+
+
 def _certify_points(system: LoopSystem, ys: np.ndarray, rs: list[float], tol: float) -> list[KrawczykResult]:
     if not iv_ops.rounding_environment_ok():
         return [certify_reference(system, y, rs, tol) for y in ys]
     return _krawczyk_batch(system, ys, rs, tol, first_success=True)
+
+
+def _subsystem_rows(j_mid: np.ndarray) -> np.ndarray:
+    """Rows (P, M) of a well-conditioned square subsystem of J(y) (P, E, M), E >= M, in ascending order.
+
+    Greedy pivoted Gram-Schmidt on the rows (QR with column pivoting of J^T): at each step the row
+    with the largest component orthogonal to the rows already taken. For E == M, all rows.
+    """
+    n_pts, n_eq, m = j_mid.shape
+    if n_eq == m:
+        return np.broadcast_to(np.arange(m), (n_pts, m)).copy()
+    out = np.empty((n_pts, m), dtype=np.intp)
+    for p in range(n_pts):
+        rows = j_mid[p].copy()
+        taken = []
+        for k in range(m):
+            norms = np.einsum("ij,ij->i", rows, rows)
+            norms[taken] = -1.0
+            i = int(np.argmax(norms))
+            taken.append(i)
+            q = rows[i] / math.sqrt(norms[i]) if norms[i] > 0 else rows[i]
+            rows -= np.outer(rows @ q, q)
+        out[p] = np.sort(taken)
+    return out
+
+
+def _krawczyk_core(plan: _Plan, ys: np.ndarray, x_lo: np.ndarray, x_hi: np.ndarray, tol: float) -> dict:
+    """Krawczyk operators of the boxes X = [x_lo, x_hi] (P, R, M) around the points ys (P, M).
+
+    Returns arrays: ``residual`` (P,) bounds max |F(y)|; ``sv`` (P, min(E, M)) singular values of
+    the float J(y); ``regular`` (P,); ``rows`` (P, M) the equations of the square (sub)system (all
+    of them when E == M; see :func:`_subsystem_rows` when E > M; None when E < M); ``k_lo``,
+    ``k_hi`` (P, R, M) enclose K(X) of that subsystem (nan where not computed); ``other`` (P, R)
+    bounds |F| of the equations left out of the subsystem over X (0 when square).
+    """
+    n_pts, m = ys.shape
+    n_rad = x_lo.shape[1]
+    n_eq = 3 * plan.n_loops
+    # one evaluation: the P points (F(y), J(y)) then the P * R boxes (F(X), J(X))
+    lo = np.concatenate((ys, x_lo.reshape(-1, m)))
+    hi = np.concatenate((ys, x_hi.reshape(-1, m)))
+    center = np.concatenate((ys, np.repeat(ys, n_rad, axis=0)))
+    f_all, j_all = _enclose(plan, lo, hi, center, tol, jacobian=True)
+    f_y = f_all[:, :n_pts]                                           # (2, P, E)
+    residual = iv_ops.magnitude(f_y).max(axis=-1, initial=0.0)
+    j_mid = 0.5 * (j_all[0, :n_pts] + j_all[1, :n_pts])              # a float J(y) (any C is valid)
+    out = dict(residual=residual, rows=None, k_lo=np.full((n_pts, n_rad, m), np.nan),
+               k_hi=np.full((n_pts, n_rad, m), np.nan), other=np.zeros((n_pts, n_rad)))
+    if n_eq < m or m == 0:
+        out["sv"] = np.linalg.svd(j_mid, compute_uv=False) if j_mid.size else np.zeros((n_pts, 0))
+        out["regular"] = np.zeros(n_pts, bool)
+        return out
+    rows = _subsystem_rows(j_mid)
+    out["rows"] = rows
+    pick = np.arange(n_pts)[:, None]
+    j_sq = j_mid[pick, rows]                                         # (P, M, M)
+    svd_u, sv, svd_vt = np.linalg.svd(j_sq)
+    regular = sv[:, -1] > MIDPOINT_RCOND_MIN * sv[:, 0]
+    out.update(sv=sv, regular=regular)
+    if n_eq > m:
+        left = np.ones((n_pts, n_eq), bool)
+        left[pick, rows] = False
+        f_x = iv_ops.magnitude(f_all[:, n_pts:]).reshape(n_pts, n_rad, n_eq)
+        out["other"] = np.where(left[:, None, :], f_x, 0.0).max(axis=-1)
+    if regular.any():
+        ok = np.flatnonzero(regular)
+        j_x = j_all[:, n_pts:].reshape(2, n_pts, n_rad, n_eq, m)[:, ok]             # (2, P', R, E, M)
+        sel = rows[ok][None, :, None, :, None]
+        j_x = np.take_along_axis(j_x, np.broadcast_to(sel, j_x.shape[:3] + (m, m)), axis=3)
+        f_sq = np.take_along_axis(f_y[:, ok], np.broadcast_to(rows[ok][None], (2, len(ok), m)), axis=2)
+        # C = J(y)^-1 = V S^-1 U^T (floats; any C is valid, a good one makes K small)
+        c = np.matmul(np.swapaxes(svd_vt[ok], -1, -2) / sv[ok, None, :], np.swapaxes(svd_u[ok], -1, -2))
+        out["k_lo"][ok], out["k_hi"][ok] = _krawczyk_operator(ys[ok], x_lo[ok], x_hi[ok], f_sq, j_x, c)
+    return out
 
 
 def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol: float,
@@ -573,41 +716,21 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
     """
     plan = _plan(system)
     n_pts, m = ys.shape
-    n_rad, n_eq = len(rs), 3 * len(system.loops)
+    n_eq = 3 * len(system.loops)
     radii = np.asarray(rs, dtype=float)
     x_lo = ys[:, None, :] - radii[None, :, None]                     # (P, R, M), the floats of X
     x_hi = ys[:, None, :] + radii[None, :, None]
-    # one evaluation: the P points (F(y), J(y)) then the P * R boxes (J(X))
-    lo = np.concatenate((ys, x_lo.reshape(-1, m)))
-    hi = np.concatenate((ys, x_hi.reshape(-1, m)))
-    center = np.concatenate((ys, np.repeat(ys, n_rad, axis=0)))
-    f_all, j_all = _enclose(plan, lo, hi, center, tol, jacobian=True)
-    f_y = f_all[:, :n_pts]                                           # (2, P, E)
-    residual = iv_ops.magnitude(f_y).max(axis=-1, initial=0.0)
-    j_mid = 0.5 * (j_all[0, :n_pts] + j_all[1, :n_pts])              # a float J(y) (any C is valid)
-    square = n_eq == m
-    if square and m:
-        svd_u, sv, svd_vt = np.linalg.svd(j_mid)
-    else:
-        sv = np.linalg.svd(j_mid, compute_uv=False) if j_mid.size else np.zeros((n_pts, 0))
-    regular = (sv[:, -1] > MIDPOINT_RCOND_MIN * sv[:, 0]) if square and m else np.zeros(n_pts, bool)
-    k_lo = k_hi = None
-    if regular.any():
-        ok = np.flatnonzero(regular)
-        j_x = j_all[:, n_pts:].reshape(2, n_pts, n_rad, n_eq, m)[:, ok]                # (2, P', R, M, M)
-        k_lo = np.full((n_pts, n_rad, m), np.nan)
-        k_hi = np.full((n_pts, n_rad, m), np.nan)
-        # C = J(y)^-1 = V S^-1 U^T (floats; any C is valid, a good one makes K small)
-        c = np.matmul(np.swapaxes(svd_vt[ok], -1, -2) / sv[ok, None, :], np.swapaxes(svd_u[ok], -1, -2))
-        k_lo[ok], k_hi[ok] = _krawczyk_operator(ys[ok], x_lo[ok], x_hi[ok], f_y[:, ok], j_x, c)
+    core = _krawczyk_core(plan, ys, x_lo, x_hi, tol)
     out = []
     for p in range(n_pts):
-        base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(residual[p]),
-                    singular_values=tuple(float(v) for v in sv[p]), n_equations=n_eq, n_unknowns=m)
+        base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(core["residual"][p]),
+                    singular_values=tuple(float(v) for v in core["sv"][p]), n_equations=n_eq, n_unknowns=m,
+                    subsystem_rows=None if core["rows"] is None or n_eq == m else tuple(int(i) for i in core["rows"][p]))
         results = []
         for ri, r in enumerate(rs):
-            results.append(_outcome(base, r, x_lo[p, ri], x_hi[p, ri], square, bool(regular[p]),
-                                    None if k_lo is None or not regular[p] else (k_lo[p, ri], k_hi[p, ri])))
+            k = None if not core["regular"][p] else (core["k_lo"][p, ri], core["k_hi"][p, ri])
+            results.append(_outcome(base, r, x_lo[p, ri], x_hi[p, ri], core["rows"] is not None,
+                                    bool(core["regular"][p]), k, float(core["other"][p, ri])))
             if first_success and (results[-1].certified or results[-1].krawczyk_box is None):
                 break
         out.append(replace(results[-1], radii_tried=tuple(rs[:len(results)])) if first_success else results)
@@ -633,15 +756,20 @@ def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, c) -> tuple[np.ndarray, np.ndarr
     return k[0], k[1]
 
 
-def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k) -> KrawczykResult:
-    """The KrawczykResult of one box X = [x_lo, x_hi] from K(X) = (k_lo, k_hi) (floats enclosing it)."""
+def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k, other: float = 0.0) -> KrawczykResult:
+    """The KrawczykResult of one box X = [x_lo, x_hi] from K(X) = (k_lo, k_hi) (floats enclosing it).
+
+    ``square``: a square (sub)system could be formed (False when there are fewer equations than
+    unknowns); ``other``: bound of the equations left out of the subsystem over X.
+    """
     names = base["names"]
     sv = base["singular_values"]
     common = dict(base, radius=r, box=tuple((float(a), float(b)) for a, b in zip(x_lo, x_hi)),
-                  krawczyk_box=None, contraction=math.nan, no_solution=False, radii_tried=(r,))
+                  krawczyk_box=None, contraction=math.nan, no_solution=False, radii_tried=(r,),
+                  other_bound=float(other))
     if not square:
         return KrawczykResult(certified=False, reason=f"not certified: {base['n_equations']} equations, "
-                                                      f"{base['n_unknowns']} unknowns", **common)
+                                                      f"{base['n_unknowns']} unknowns (not isolated roots)", **common)
     if not regular:
         smin = sv[-1] if sv else 0.0
         return KrawczykResult(
@@ -658,6 +786,10 @@ def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k) -
         ratio = float(np.max((k_hi - k_lo) / (x_hi - x_lo)))
     common.update(krawczyk_box=tuple((float(a), float(b)) for a, b in zip(k_lo, k_hi)), contraction=ratio,
                   no_solution=disjoint)
+    if inside and other > OVERDETERMINED_BOUND and not disjoint:
+        return KrawczykResult(certified=False, reason=(
+            f"not certified at radius {r:g}: the square subsystem has one root in X but the other "
+            f"equations reach {other:.3g} there (above {OVERDETERMINED_BOUND:g})"), **common)
     if inside:
         return KrawczykResult(certified=True, reason="", **common)
     if not finite:
@@ -689,16 +821,22 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
     f_y, _ = _interval_eval(system, [iv.mpf(v) for v in y], tol, jacobian=False)
     residual = max((_magnitude(v) for v in f_y), default=0.0)
     _, j_float = transversal_equations(system, y)
-    sv = tuple(float(v) for v in np.linalg.svd(j_float, compute_uv=False)) if j_float.size else ()
+    square = n_eq >= n_unk > 0
+    rows = _subsystem_rows(j_float[None])[0] if square else np.arange(0)
+    j_sq = j_float[rows] if square else j_float
+    sv = tuple(float(v) for v in np.linalg.svd(j_sq, compute_uv=False)) if j_sq.size else ()
     base = dict(names=system.names, center=tuple(float(v) for v in y), residual=residual, singular_values=sv,
-                n_equations=n_eq, n_unknowns=n_unk)
-    square = n_eq == n_unk
+                n_equations=n_eq, n_unknowns=n_unk,
+                subsystem_rows=tuple(int(i) for i in rows) if square and n_eq > n_unk else None)
     regular = bool(sv) and sv[-1] > MIDPOINT_RCOND_MIN * sv[0]
     if not (square and regular):
         return _outcome(base, r, lo, hi, square, regular, None)
-    c_float = np.linalg.inv(j_float)
+    c_float = np.linalg.inv(j_sq)
     xs = [iv.mpf([a, b]) for a, b in zip(lo, hi)]
-    _, j_box = _interval_eval(system, xs, tol, jacobian=True)
+    f_box, j_box = _interval_eval(system, xs, tol, jacobian=True)
+    other = max((_magnitude(f_box[i]) for i in range(n_eq) if i not in set(rows.tolist())), default=0.0)
+    f_y = [f_y[i] for i in rows]
+    j_box = j_box[rows]
     c_iv = [[iv.mpf(float(v)) for v in row] for row in c_float]
     y_iv = [iv.mpf(v) for v in y]
     dx = [x - yv for x, yv in zip(xs, y_iv)]
@@ -711,7 +849,7 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
             acc = acc + a_ij * dx[j]
         k_box.append(acc)
     k_float = [_outward(k) for k in k_box]           # floats enclosing K(X) (exact at iv's 53 bits)
-    return _outcome(base, r, lo, hi, True, True, ([a for a, _ in k_float], [b for _, b in k_float]))
+    return _outcome(base, r, lo, hi, True, True, ([a for a, _ in k_float], [b for _, b in k_float]), other)
 
 
 def certify_reference(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,

@@ -555,17 +555,37 @@ def test_five_bar_at_its_fold_fails_with_a_reason():
 
 # ----------------------------------------------------------------------------- non-square, API, input
 
-def test_non_square_system_is_reported_not_raised():
-    """A four-bar with both ground joints actuated: 3 equations, 2 unknowns (B, C)."""
+def _four_bar_two_inputs():
     base = four_bar()
     legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, actuated=j.name in ("A", "D")) for j in leg.joints))
                  for leg in base.legs)
-    mech = SphericalMechanism(legs, name="4R, two inputs")
+    return SphericalMechanism(legs, name="4R, two inputs")
+
+
+def test_over_determined_system_certifies_a_square_subsystem():
+    """A four-bar with both ground joints actuated: 3 equations, 2 unknowns (B, C). Its reference
+    configuration (all joints at 0) closes by construction, so a square subsystem of two rows has a
+    root there and the third row vanishes with it; the evidence names the rows and bounds the other."""
+    mech = _four_bar_two_inputs()
     system = mech.loop_system((0.0, 0.0), {"B": (-1.0, 1.0), "C": (-1.0, 1.0)})
-    res = certify(system, (0.0, 0.0))  # the reference configuration closes
-    assert not res.certified and res.reason == "not certified: 3 equations, 2 unknowns"
-    assert res.krawczyk_box is None and math.isnan(res.contraction) and res.residual < 1e-12
+    res = certify(system, (0.0, 0.0))
+    assert res.certified, res.reason
     assert (res.n_equations, res.n_unknowns) == (3, 2) and len(res.singular_values) == 2
+    assert len(res.subsystem_rows) == 2 and set(res.subsystem_rows) <= {0, 1, 2}
+    assert 0.0 <= res.other_bound <= 10 * res.radius
+    assert res.summary()["subsystem_rows"] == list(res.subsystem_rows)
+    _same_verdict(res, certify_reference(system, (0.0, 0.0)))
+
+
+def test_over_determined_system_with_inconsistent_inputs_is_not_certified():
+    """Moving one actuator of the rigid two-input four-bar off a consistent value by 0.05 rad leaves no
+    assembly near the old one: the subsystem still has a root, the left-out equation does not vanish."""
+    mech = _four_bar_two_inputs()
+    system = mech.loop_system((0.0, 0.05), {"B": (-1.0, 1.0), "C": (-1.0, 1.0)})
+    f, _ = transversal_equations(system, (0.0, 0.0))
+    assert np.abs(f).max() > 1e-3           # the old assembly no longer closes
+    res = certify(system, (0.0, 0.0), radii=(0.2,))
+    assert not res.certified
 
 
 # ----------------------------------------------------------------------------- fast vs reference

@@ -49,6 +49,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
+from ..angles import in_range, into_range
 from ..rotations import normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
@@ -487,7 +488,7 @@ class SphericalMechanism:
         for name, value in zip(names, inputs):
             v = parse_angle(f"inputs ({name})", value)
             rng = self.joint(name).range
-            if rng is not None and not _in_range(v, rng):
+            if not in_range(v, rng):
                 raise ValueError(f"inputs ({name}): {v!r} is outside the joint range [{rng[0]!r}, {rng[1]!r}]")
             out.append(v)
         return tuple(out)
@@ -645,8 +646,8 @@ class SphericalMechanism:
             for leg, (readings, _) in zip(self.legs, combo):
                 for j, r in zip(leg.joints, readings):
                     if j.range is not None:
-                        r = j.range[0] + (r - j.range[0]) % _TWO_PI
-                        ok = ok and r <= j.range[1]
+                        ok = ok and in_range(r, j.range)
+                        r = into_range(r, j.range) if ok else j.range[0] + (r - j.range[0]) % _TWO_PI
                     angles[j.name] = r
             if only_in_range and not ok:
                 continue
@@ -724,6 +725,3 @@ class SphericalMechanism:
         )
 
 
-def _in_range(value: float, rng: tuple[float, float]) -> bool:
-    """Whether an angle lies in [lo, hi] modulo 2 pi."""
-    return rng[0] + (value - rng[0]) % _TWO_PI <= rng[1]

@@ -1,0 +1,49 @@
+"""Angles modulo 2 pi: wrapping, and closed joint ranges with one documented tolerance.
+
+A joint range [lo, hi] (radians, lo <= hi, hi - lo <= 2 pi) is closed at both ends and read modulo
+2 pi: theta is in it when some theta + 2 k pi lies in [lo - RANGE_TOL, hi + RANGE_TOL]. The same
+rule, with the same tolerance, applies to actuator inputs (:mod:`spherekin.mechanism`) and to the
+passive angles of solutions (:mod:`spherekin.solutions`), so that an input equal to a range end
+is accepted and a solution on a range end is kept whichever end it is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "into_range"]
+
+TWO_PI = 2.0 * math.pi
+#: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
+#: in decimal or degrees and an angle computed from it (an input, a polished root ~1e-15 accurate,
+#: an angle reduced modulo 2 pi: a few ulps of 2 pi ~ 1e-15) may differ by rounding alone; 1e-10
+#: is far above that and far below the accuracy anyone states a joint range with.
+RANGE_TOL = 1e-10
+
+
+def wrap(angle):
+    """``angle`` (radians, a float or an array) modulo 2 pi, in [-pi, pi)."""
+    out = np.mod(np.asarray(angle, dtype=float) + math.pi, TWO_PI) - math.pi
+    return float(out) if out.ndim == 0 else out
+
+
+def in_range(theta: float, rng, tol: float = RANGE_TOL) -> bool:
+    """Whether ``theta`` (radians) lies in the closed range ``rng`` = (lo, hi) modulo 2 pi, ends widened by ``tol``.
+
+    ``rng`` None is the full circle. The test is symmetric: theta = lo - tol and theta = hi + tol
+    are both in, anything farther from the range on either side is out.
+    """
+    if rng is None:
+        return True
+    lo, hi = float(rng[0]), float(rng[1])
+    return float(np.mod(float(theta) - (lo - tol), TWO_PI)) <= (hi - lo) + 2.0 * tol
+
+
+def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:
+    """The representative of ``theta`` modulo 2 pi that lies in ``rng`` (see :func:`in_range`); theta if none."""
+    if rng is None or not in_range(theta, rng, tol):
+        return float(theta)
+    lo = float(rng[0])
+    return lo - tol + float(np.mod(float(theta) - (lo - tol), TWO_PI))
