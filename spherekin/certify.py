@@ -70,6 +70,7 @@ from .mechanism import LoopSystem
 
 __all__ = [
     "ANGLE_TOLERANCE",
+    "FINE_ANGLE_TOLERANCE",
     "CERTIFY_RADII",
     "MIDPOINT_RCOND_MIN",
     "OVERDETERMINED_BOUND",
@@ -96,13 +97,23 @@ __all__ = [
 #: smallest radius tried.
 ANGLE_TOLERANCE = 2.0 * KNOWN_ANGLE_SNAP
 
+#: The tighter angle tolerance (radians) :mod:`spherekin.solutions` retries with when a test at
+#: ANGLE_TOLERANCE fails next to a singularity. Reason: the width of F(y) (~n_factors * the angle
+#: tolerance) divided by the smallest singular value of J bounds how small K(X) can be; for two
+#: roots 1e-5 apart (sigma_min ~5e-6) 2e-14 makes K wider than any box that still contracts. The
+#: constants of a LoopSystem are computed from the mechanism's floats in a few operations (a few
+#: ulps of 2 pi, ~1e-15), so 4e-15 still covers every rounding of the mechanism; it no longer
+#: covers the snapping of the Bernstein equations (the certificate is about the mechanism).
+FINE_ANGLE_TOLERANCE = 4e-15
+
 #: Box radii (radians) tried by :func:`certify`, smallest first. Reason: K's width is about
 #: |C| (|F(y)| + rounding) + cond(J) * radius^2, so a small box suffices for a regular root polished
-#: to ~1e-15 (1e-10 sits well above that accuracy and the ~1e-13 width of F(y)); 1e-8 and 1e-6
-#: rescue points polished less accurately or Jacobians with |J^-1| up to ~1e5, while 1e-6 stays
+#: to ~1e-15 (1e-10 sits well above that accuracy and the ~1e-13 width of F(y)); larger radii
+#: rescue points polished less accurately or Jacobians with |J^-1| up to ~1e5 (a root next to a
+#: fold contracts only in a narrow window of radii, hence every decade), while 1e-6 stays
 #: far below the distance between distinct solutions that the solver can separate (its default
 #: tolerance is 1e-6).
-CERTIFY_RADII = (1e-10, 1e-8, 1e-6)
+CERTIFY_RADII = (1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
 
 #: The midpoint Jacobian is reported singular when sigma_min / sigma_max is below this. Reason:
 #: entries of J are products of sines and cosines (|J_ij| <= 1), so then |C| >~ 1e12 and the width
@@ -139,6 +150,7 @@ class KrawczykResult:
     * ``singular_values``: of the float Jacobian J(y), descending (its rank and conditioning);
     * ``n_equations``, ``n_unknowns``; ``radii_tried``: the radii tested, in order (by
       :func:`certify`; just ``(radius,)`` for a single test);
+    * ``angle_tolerance``: the half-width of the interval each constant angle stood for;
     * over-determined systems (more equations than unknowns: redundant actuation):
       ``subsystem_rows``, the equations of the square subsystem tested (well-conditioned rows of
       J(y), see :func:`_subsystem_rows`), and ``other_bound``, a bound of |F| of the other
@@ -163,6 +175,7 @@ class KrawczykResult:
     radii_tried: tuple
     subsystem_rows: tuple | None = None
     other_bound: float = 0.0
+    angle_tolerance: float = ANGLE_TOLERANCE
 
     def summary(self) -> dict:
         """JSON-ready evidence: the verdict, radius, contraction, residual bound, singular values."""
@@ -170,6 +183,7 @@ class KrawczykResult:
             "certified": self.certified,
             "reason": self.reason,
             "radius": self.radius,
+            "angle_tolerance": self.angle_tolerance,
             "contraction": None if math.isnan(self.contraction) else self.contraction,
             "no_solution": self.no_solution,
             "residual_bound": self.residual,
@@ -725,7 +739,8 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
     for p in range(n_pts):
         base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(core["residual"][p]),
                     singular_values=tuple(float(v) for v in core["sv"][p]), n_equations=n_eq, n_unknowns=m,
-                    subsystem_rows=None if core["rows"] is None or n_eq == m else tuple(int(i) for i in core["rows"][p]))
+                    subsystem_rows=None if core["rows"] is None or n_eq == m else tuple(int(i) for i in core["rows"][p]),
+                    angle_tolerance=tol)
         results = []
         for ri, r in enumerate(rs):
             k = None if not core["regular"][p] else (core["k_lo"][p, ri], core["k_hi"][p, ri])
@@ -827,7 +842,7 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
     sv = tuple(float(v) for v in np.linalg.svd(j_sq, compute_uv=False)) if j_sq.size else ()
     base = dict(names=system.names, center=tuple(float(v) for v in y), residual=residual, singular_values=sv,
                 n_equations=n_eq, n_unknowns=n_unk,
-                subsystem_rows=tuple(int(i) for i in rows) if square and n_eq > n_unk else None)
+                subsystem_rows=tuple(int(i) for i in rows) if square and n_eq > n_unk else None, angle_tolerance=tol)
     regular = bool(sv) and sv[-1] > MIDPOINT_RCOND_MIN * sv[0]
     if not (square and regular):
         return _outcome(base, r, lo, hi, square, regular, None)

@@ -105,7 +105,7 @@ def _solve(args) -> int:
     finally:
         progress.close()
     st = report.stats
-    print(f"{len(report.solutions)} solution(s); passive joint angles in {'degrees' if args.degrees else 'radians'}:")
+    print(f"{report.count_text()}; passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
     print(f"{args.parameterization}, formulation {args.formulation}, pruner {args.pruner}"
           + (f" ({report.settings['lp_backend'] or 'default backend'})" if args.pruner != "pp" else "")

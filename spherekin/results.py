@@ -61,7 +61,8 @@ class Solution:
     """One cluster of touching accepted boxes: the candidate solution it encloses.
 
     ``angles`` (radians, one per unknown) is the centre of the cluster's hull, ``lo``/``hi`` the
-    hull, ``n_boxes`` how many accepted boxes it merges. When solved from a mechanism the angles
+    hull, ``n_boxes`` how many accepted boxes it merges, ``members`` their boxes (n_boxes, 2, M:
+    lo then hi, unwrapped next to the hull; None once finalized). When solved from a mechanism the angles
     are polished (:mod:`spherekin.solutions`): ``platform_rotation`` is R with v_i = R v_i^0,
     ``residual`` the largest entry of |F_n - I| over the loops, ``singularity`` the mechanism's
     classification ("regular", "serial", "parallel" or "serial+parallel"), ``status`` one of
@@ -77,17 +78,39 @@ class Solution:
     singularity: str | None = None
     status: str | None = None
     evidence: dict = field(default_factory=dict)
+    members: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
 class SolveReport:
-    """Everything a solve returns: the unknowns' names, the solutions, the raw boxes, statistics."""
+    """Everything a solve returns: the unknowns' names, the solutions, the raw boxes, statistics.
+
+    ``proven_count``: the number of solutions proven by a certificate (status ``certified``, or
+    ``singular`` with ``krawczyk_certified`` in its evidence); ``count_exact``: True when that is
+    every entry, so the count is exact; False when it is a lower bound ("at least"). Both None
+    for the raw clusters of :func:`spherekin.solver.solve_system`.
+    """
 
     unknowns: tuple[str, ...]
     solutions: tuple[Solution, ...]
     boxes: tuple[AcceptedBox, ...]
     stats: SolverStats
     settings: dict = field(default_factory=dict)
+    proven_count: int | None = None
+    count_exact: bool | None = None
+
+    def count_text(self) -> str:
+        """"8 solutions (count proven)", "at least 6 solutions (2 entries unresolved)", or for an
+        unfinalized report (:func:`spherekin.solver.solve_system`) "N cluster(s) of boxes"."""
+        if self.count_exact is None:
+            return f"{len(self.solutions)} cluster(s) of boxes (not polished nor certified)"
+        n = self.proven_count
+        word = "solution" if n == 1 else "solutions"
+        if self.count_exact:
+            return f"{n} {word} (count proven: every solution certified)"
+        other = len(self.solutions) - n
+        return (f"at least {n} {word} (count not proven: {other} entr{'y' if other == 1 else 'ies'} "
+                "unverified, singular without certificate, cluster or continuum; see the status column)")
 
     def table(self, degrees: bool = False) -> str:
         """A readable table of the solutions (angles in radians, or degrees)."""
@@ -99,7 +122,8 @@ class SolveReport:
         for i, s in enumerate(self.solutions, start=1):
             row = f"{i:3d}  " + " ".join(f"{a * scale:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}"
             if extra:
-                row += f"  {s.residual:9.1e}  {s.status or '-':10s}  {s.singularity or '-'}"
+                res = "-" if s.residual is None else f"{s.residual:9.1e}"
+                row += f"  {res:>9s}  {s.status or '-':10s}  {s.singularity or '-'}"
             rows.append(row)
         return "\n".join(rows)
 
@@ -113,10 +137,11 @@ class SolveReport:
 
         actuated = dict(zip(self.settings.get("actuated", ()), self.settings.get("inputs", ())))
         return {
-            "schema": "spherekin.solve/1",
+            "schema": "spherekin.solve/2",
             "spherekin_version": __version__,
             "settings": self.settings,
             "unknowns": list(self.unknowns),
+            "count": {"proven": self.proven_count, "exact": self.count_exact, "entries": len(self.solutions)},
             "solutions": [
                 {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},

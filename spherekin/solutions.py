@@ -1,21 +1,39 @@
-"""From clusters of accepted boxes to solutions you can trust: polish, deduplicate, classify.
+"""From clusters of accepted boxes to solutions you can trust: polish, separate, prove, classify.
 
-For each cluster of the box loop (see :mod:`spherekin.solver`):
+The box loop (:mod:`spherekin.solver`) proves that every root inside the joint ranges lies in one
+of its clusters (unions of touching boxes). A cluster is not one solution by default: next to a
+singularity it may hold two roots 1e-5 apart, or none (two roots that just turned complex). For
+each cluster, :func:`finalize`
 
-1. polish its centre by Gauss-Newton on the full closure residuals (:mod:`spherekin.polish`);
-2. merge polished points that coincide (:data:`DEDUPE_TOL`, angles modulo 2 pi);
-3. give each a status with its evidence:
-   * ``singular``: the mechanism is at a singularity there (:meth:`SphericalMechanism.singularity`):
-     a serial one (the actuators can move while the platform stays still; the four "singular"
-     Gosselin solutions of the paper) or a parallel one (the passive joints can move with the
-     actuators locked; the direct-kinematics root is then not isolated). The evidence has the
-     kind and the smallest singular values of the leg and loop Jacobians;
-   * ``certified``: a Krawczyk test in outward-rounded interval arithmetic proves that a small box
-     around the point holds exactly one solution (:mod:`spherekin.certify`);
-   * ``unverified``: neither could be shown; the evidence says why.
-   A serial singularity is an isolated, often certifiable, root of the direct kinematics; it is
-   still reported ``singular`` (with the certificate in its evidence) because the actuators lose
-   control of the platform there.
+1. polishes (Gauss-Newton on the full closure residuals, :mod:`spherekin.polish`) from its centre
+   and from up to :data:`MAX_SEEDS` of its member boxes, and keeps the distinct converged points
+   that stay in the cluster (a point that polishing moves out of its cluster is the root of
+   another cluster, or of none in the ranges: it is never reported as this cluster's root);
+2. certifies each point by the Krawczyk test (:mod:`spherekin.certify`) at radii below 0.4 times
+   its distance to the nearest other point, so that distinct certified points are distinct roots;
+3. accounts for the whole cluster: a member box inside a certified box holds no other root; the
+   others go through Krawczyk tests on sub-boxes (:func:`spherekin.certify.krawczyk_many`): a box
+   whose Krawczyk image misses it holds no root and is dropped, one whose image lies inside it
+   holds exactly one (a known root, or a new one, polished and added), any other is bisected, up
+   to :data:`MAX_RESOLVE_BOXES` boxes per cluster. Boxes left over make the count a lower bound.
+
+Statuses (docs/results-format.md):
+
+* ``certified``: a Krawczyk test proves that a box around the point holds exactly one root;
+* ``singular``: the point is a solution within a stated bound (polishing converged; the interval
+  bound of the closure equations at the point is below :data:`SOLUTION_BOUND`) and the mechanism
+  is at a singularity there (:meth:`SphericalMechanism.singularity`; the evidence has its kind
+  and margins). A serial singularity is usually an isolated, certifiable root: it is proven
+  (``krawczyk_certified`` in the evidence) and counts as exact. A parallel one is not isolated
+  (the passive joints can move with the actuators locked) and cannot be certified: the count
+  is then a lower bound;
+* ``unverified``: a converged point that could not be certified nor shown singular (the evidence
+  says why), or a point whose polishing did not converge;
+* ``cluster``: part of a cluster that could not be resolved and holds no converged point: it may
+  hold roots; its box and the reason are reported.
+
+:func:`count_summary` gives the proven count and whether the count is exact: exact when every
+entry is certified, or singular with a certificate.
 """
 
 from __future__ import annotations
@@ -25,86 +43,282 @@ import math
 
 import numpy as np
 
+from .angles import RANGE_TOL, in_range, into_range, wrap
+from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, krawczyk_many
 from .polish import polish
 from .results import Solution
 
-__all__ = ["DEDUPE_TOL", "finalize"]
+__all__ = ["DEDUPE_TOL", "MAX_SEEDS", "MAX_RESOLVE_BOXES", "SEPARATION_FRACTION", "SOLUTION_BOUND", "STATUSES",
+           "finalize", "count_summary", "is_proven"]
 
-#: Polished solutions closer than this (radians, every passive angle, modulo 2 pi) are one solution:
-#: polished points agree to ~1e-14, distinct solutions of a generic mechanism are far apart.
+#: Statuses a finalized entry can have (see the module docstring and docs/results-format.md).
+STATUSES = ("certified", "singular", "unverified", "cluster", "continuum")
+#: Converged polished points closer than this (radians, every passive angle, modulo 2 pi) are one
+#: point when neither is certified (certified points are compared through their boxes): polished
+#: points agree to ~1e-14 and two roots this close cannot be separated by polishing anyway.
 DEDUPE_TOL = 1e-8
-#: Half-width (radians) of the chart used to evaluate the loops around a solution: any value
-#: below pi/2 keeps tan((theta - shift)/2) well conditioned there.
+#: Half-width (radians) of the chart used to evaluate the loops around a cluster: any value below
+#: pi/2 keeps tan((theta - shift)/2) well conditioned there (clusters are at most MAX_TOL-sized).
 LOCAL_CHART = 1.0
+#: Polishing starts per cluster at most: its centre and member boxes spread evenly over it. A
+#: cluster of simple roots has a few members; near a fold it has ~100, and two roots 1e-5 apart
+#: need seeds on both sides; 32 seeds cost ~10 ms of polishing.
+MAX_SEEDS = 32
+#: A point is certified on boxes of radius at most this fraction of its distance to the nearest
+#: other point, so that certified boxes of distinct points are disjoint (the roots are distinct).
+SEPARATION_FRACTION = 0.4
+#: Sub-boxes tested per cluster while accounting for it. Reason: a cluster of tol-sized boxes next
+#: to a fold is resolved in ~10-100 tests; the cap bounds the work on clusters that cannot be
+#: resolved (at a singular input), which are then reported with a lower-bound count.
+MAX_RESOLVE_BOXES = 2000
+#: Sub-boxes narrower than this (radians) are not bisected further: their Krawczyk images are
+#: dominated by rounding (~1e-15 relative), so smaller boxes cannot decide anything new.
+MIN_RESOLVE_WIDTH = 1e-13
+#: Bisection point (fraction of the widest side) of a sub-box; off-centre for the same reason as
+#: :data:`spherekin.solver.SPLIT_POINT` (symmetric roots must not stay on box faces).
+RESOLVE_SPLIT = 0.4917
+#: A ``singular`` point must be a solution within this bound: the interval bound of the closure
+#: equations at the polished point (certify's ``residual``). Polished points reach ~1e-15; 1e-12 is
+#: polish's own convergence threshold (:data:`spherekin.polish.CONVERGED_TOL`).
+SOLUTION_BOUND = 1e-12
 
 
-def _wrap(a):
-    return np.mod(np.asarray(a) + math.pi, 2 * math.pi) - math.pi
+@dataclasses.dataclass
+class _Point:
+    """A polished point of a cluster (angles unwrapped next to the cluster) and what is known of it."""
+
+    theta: np.ndarray
+    polished: object
+    seed_moved: float
+    cert: object = None
+    box: tuple | None = None          # (lo, hi) holding exactly this root, when certified
+    evidence: dict = dataclasses.field(default_factory=dict)
 
 
-def _in_range(theta: float, rng, tol: float) -> bool:
-    """Is the angle within ``tol`` of the range [lo, hi] (modulo 2 pi)? None = the full circle."""
-    if rng is None:
-        return True
-    lo, hi = rng
-    return float(np.mod(theta - lo + tol, 2 * math.pi)) <= hi - lo + 2 * tol
+def is_proven(sol: Solution) -> bool:
+    """Whether an entry is a root proven by a certificate (it counts towards an exact count)."""
+    return sol.status == "certified" or (sol.status == "singular" and bool(sol.evidence.get("krawczyk_certified")))
+
+
+def count_summary(solutions) -> tuple[int, bool]:
+    """(proven count, exact): the number of proven roots, and whether that is all there is."""
+    proven = sum(is_proven(s) for s in solutions)
+    return proven, proven == len(solutions)
+
+
+def _contains(lo, hi, p) -> bool:
+    return bool(np.all(lo <= p) and np.all(p <= hi))
+
+
+def _inside_any(boxes, lo, hi) -> bool:
+    return any(bool(np.all(blo <= lo) and np.all(hi <= bhi)) for blo, bhi in boxes)
+
+
+def _seeds(sol: Solution) -> np.ndarray:
+    """The cluster's centre (unwrapped next to its hull) then up to MAX_SEEDS - 1 member centres."""
+    centre = 0.5 * (sol.lo + sol.hi)
+    if sol.members is None or len(sol.members) <= 1:
+        return centre[None]
+    mids = 0.5 * (sol.members[:, 0] + sol.members[:, 1])
+    if len(mids) > MAX_SEEDS - 1:
+        # spread along the cluster's main direction: sort by the projection on it, take evenly
+        d = mids - mids.mean(axis=0)
+        axis = np.linalg.svd(d, full_matrices=False)[2][0] if np.any(d) else np.ones(d.shape[1])
+        order = np.argsort(d @ axis)
+        mids = mids[order[np.linspace(0, len(mids) - 1, MAX_SEEDS - 1).round().astype(int)]]
+    return np.vstack((centre[None], mids))
+
+
+def _resolve(system, sol: Solution, points: list[_Point], certify_fn, stats: dict) -> list:
+    """Account for every member box of the cluster; returns the boxes left unresolved [(lo, hi)].
+
+    Adds the roots found on the way to ``points`` (certified on the sub-box that isolated them).
+    """
+    members = sol.members if sol.members is not None else np.array([[sol.lo, sol.hi]])
+    certified = [p.box for p in points if p.box is not None]
+    # fast path (a simple root): the whole hull, tested at the one certified point
+    if len(points) == 1 and points[0].box is not None and np.any(sol.hi > sol.lo):
+        # X = the hull and the point's certified box (so that X holds that root, not just the float y)
+        y = points[0].theta
+        xlo, xhi = np.minimum(sol.lo, points[0].box[0]), np.maximum(sol.hi, points[0].box[1])
+        test = krawczyk_many(system, xlo[None], xhi[None], y[None], angle_tolerance=FINE_ANGLE_TOLERANCE)
+        stats["tests"] += 1
+        if test.certified[0]:
+            points[0].evidence["covers_cluster"] = True
+            return []
+    queue = [(m[0], m[1]) for m in members if not _inside_any(certified, m[0], m[1])]
+    unresolved = []
+    while queue:
+        if stats["tests"] >= MAX_RESOLVE_BOXES:
+            unresolved += queue
+            stats["capped"] = True
+            break
+        thin = [b for b in queue if np.max(b[1] - b[0]) < MIN_RESOLVE_WIDTH]
+        unresolved += thin
+        queue = [b for b in queue if np.max(b[1] - b[0]) >= MIN_RESOLVE_WIDTH]
+        if not queue:
+            break
+        batch, queue = queue[:256], queue[256:]
+        lo = np.array([b[0] for b in batch])
+        hi = np.array([b[1] for b in batch])
+        test = krawczyk_many(system, lo, hi, angle_tolerance=FINE_ANGLE_TOLERANCE)
+        stats["tests"] += len(batch)
+        for i, (blo, bhi) in enumerate(batch):
+            if _inside_any(certified, blo, bhi) or test.no_solution[i]:
+                stats["excluded" if test.no_solution[i] else "covered"] += 1
+                continue
+            if test.certified[i]:
+                # B holds exactly one root, in K(B): a known one if a certified box lies inside B; if a
+                # certified box only meets K(B), undecided (bisect); otherwise a new root
+                known = [p for p in points if p.box is not None and _inside_any([(blo, bhi)], *p.box)]
+                if known:
+                    certified.append((blo, bhi))
+                    continue
+                kb = (test.krawczyk_lo[i], test.krawczyk_hi[i])
+                touching = [p for p in points if p.box is not None and np.all(p.box[0] <= kb[1])
+                            and np.all(kb[0] <= p.box[1])]
+                new = None if touching else _new_root(system, blo, bhi, test.krawczyk_lo[i], test.krawczyk_hi[i], certify_fn)
+                if new is not None:
+                    points.append(new)
+                    certified.append((blo, bhi))
+                    stats["new_roots"] += 1
+                    continue
+            w = bhi - blo
+            axis = int(np.argmax(w))
+            mid = blo[axis] + RESOLVE_SPLIT * w[axis]
+            left_hi, right_lo = bhi.copy(), blo.copy()
+            left_hi[axis] = mid
+            right_lo[axis] = mid
+            queue += [(blo, left_hi), (right_lo, bhi)]
+    return unresolved
+
+
+def _certify_with_fallback(certify_fn, system, theta, radii):
+    """certify at the default angle tolerance, then, if K(X) was computed but not inside X, at the
+    finer one (:data:`spherekin.certify.FINE_ANGLE_TOLERANCE`; the evidence records which)."""
+    cert = certify_fn(system, theta, radii=radii)
+    if not cert.certified and cert.krawczyk_box is not None and not cert.no_solution:
+        fine = certify_fn(system, theta, radii=radii, angle_tolerance=FINE_ANGLE_TOLERANCE)
+        if fine.certified:
+            return fine
+    return cert
+
+
+def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
+    """The one root of a sub-box whose Krawczyk image lies inside it: polished from the image's centre."""
+    start = 0.5 * (k_lo + k_hi)
+    p = polish(system.loops, system.unknowns, start)
+    if not (p.converged and _contains(k_lo, k_hi, p.theta)):
+        return None
+    point = _Point(np.asarray(p.theta, float), p, float(np.abs(p.theta - start).max()),
+                   evidence={"found_by": "Krawczyk test on a sub-box of the cluster"})
+    point.box = (lo, hi)
+    half = 0.5 * float(np.min(hi - lo))
+    point.cert = _certify_with_fallback(certify_fn, system, point.theta, [r for r in CERTIFY_RADII if r <= half] or [half])
+    return point
 
 
 def finalize(mechanism, inputs, names, clusters, tol, certify=None) -> list[Solution]:
-    """Polish, deduplicate and classify the clusters found for ``mechanism`` at ``inputs``.
+    """Polish, separate, prove and classify the clusters found for ``mechanism`` at ``inputs``.
 
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: Solutions from the
-    box loop; ``tol``: the solver tolerance (radians); ``certify(system, theta)``: the certification
-    function (default :func:`spherekin.certify.certify`).
+    box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
+    ``certify(system, theta, radii=...)``: the certification function (default
+    :func:`spherekin.certify.certify`). Returns the entries sorted by angles; see the module
+    docstring for the statuses and :func:`count_summary` for the count.
     """
     if certify is None:
         from .certify import certify
-    polished = []
-    for sol in clusters:
-        system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART)
-                                                for n, a in zip(names, sol.angles)})
-        p = polish(system.loops, system.unknowns, sol.angles)
-        theta = _wrap(p.theta)
-        evidence = {"polish_iterations": p.iterations, "polish_residual": p.residual,
-                    "moved": float(np.abs(_wrap(theta - sol.angles)).max())}
-        polished.append((sol, theta, p, evidence))
-    # deduplicate polished points (two clusters may polish to the same root)
-    merged: list[list] = []
-    for sol, theta, p, ev in polished:
-        for m in merged:
-            if p.converged and m[2].converged and np.abs(_wrap(theta - m[1])).max() <= DEDUPE_TOL:
-                m[0] = dataclasses.replace(m[0], lo=np.minimum(m[0].lo, sol.lo), hi=np.maximum(m[0].hi, sol.hi),
-                                           n_boxes=m[0].n_boxes + sol.n_boxes)
-                m[3]["merged_clusters"] = m[3].get("merged_clusters", 1) + 1
-                break
-        else:
-            merged.append([sol, theta, p, ev])
-    out = []
     ranges = mechanism.ranges
-    for sol, theta, p, ev in merged:
-        angles = dict(zip(names, (float(a) for a in theta)))
-        if not all(_in_range(a, ranges[n], tol) for n, a in angles.items()):
-            continue  # polishing left the joint ranges: the root lies outside them
-        system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in angles.items()})
-        joints = {**dict(zip(mechanism.actuated, (float(v) for v in inputs))), **angles}
-        sing = mechanism.singularity(joints)
-        ev.update(serial_margin=float(sing.serial_margin), parallel_margin=float(sing.parallel_margin),
-                  singularity=sing.kind)
-        if p.converged:
-            cert = certify(system, theta)
-            ev.update(krawczyk_certified=bool(cert.certified), krawczyk=cert.summary())
-        else:
-            cert = None
-            ev["reason"] = f"polishing did not converge (residual {p.residual:.1e})"
-        if sing.kind != "regular":
-            status = "singular"
-        elif cert is not None and cert.certified:
-            status = "certified"
-        else:
-            status = "unverified"
-            ev.setdefault("reason", f"Krawczyk test failed: {cert.reason}" if cert is not None else "")
-        out.append(dataclasses.replace(
-            sol, angles=theta, residual=p.residual, singularity=sing.kind,
-            platform_rotation=mechanism.pose_from_passive(inputs, angles), status=status, evidence=ev))
+    out = []
+    for sol in clusters:
+        centre = 0.5 * (sol.lo + sol.hi)
+        system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in zip(names, centre)})
+        slack = tol + RANGE_TOL
+        points: list[_Point] = []
+        left_cluster = 0
+        best = None
+        for seed in _seeds(sol):
+            p = polish(system.loops, system.unknowns, seed)
+            theta = np.asarray(p.theta, float)
+            theta = centre + wrap(theta - centre)
+            if best is None or p.residual < best[1].residual:
+                best = (theta, p, float(np.abs(theta - seed).max()))
+            if not p.converged:
+                continue
+            if np.any(theta < sol.lo - slack) or np.any(theta > sol.hi + slack):
+                left_cluster += 1
+                continue
+            if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
+                continue
+            points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
+        # certify at radii below the separation of the points
+        for i, pt in enumerate(points):
+            sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
+            radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
+            pt.cert = _certify_with_fallback(certify, system, pt.theta, radii)
+            if pt.cert.certified:
+                pt.box = tuple(np.array(v) for v in zip(*pt.cert.box))
+        stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
+        unresolved = _resolve(system, sol, points, certify, stats)
+        cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
+                      "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
+                      "unresolved_boxes": len(unresolved)}
+        if left_cluster:
+            cluster_ev["polished_out_of_cluster"] = left_cluster
+        kept = []
+        for pt in points:
+            angles = {n: float(a) for n, a in zip(names, wrap(pt.theta))}
+            if not all(in_range(a, ranges[n]) for n, a in angles.items()):
+                continue  # the root lies outside the joint ranges
+            angles = {n: into_range(a, ranges[n]) for n, a in angles.items()}
+            kept.append(_classify(mechanism, inputs, sol, pt, angles, cluster_ev, unresolved))
+        if unresolved and not any(s.status == "unverified" for s in kept):
+            kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
+        out += kept
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return out
+
+
+def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict, unresolved) -> Solution:
+    joints = {**dict(zip(mechanism.actuated, (float(v) for v in inputs))), **angles}
+    sing = mechanism.singularity(joints)
+    p, cert = pt.polished, pt.cert
+    ev = {"polish_iterations": p.iterations, "polish_residual": p.residual, "moved": pt.seed_moved,
+          **pt.evidence, "serial_margin": float(sing.serial_margin), "parallel_margin": float(sing.parallel_margin),
+          "singularity": sing.kind, "krawczyk_certified": bool(cert.certified), "krawczyk": cert.summary(),
+          "cluster": dict(cluster_ev)}
+    theta = np.array(list(angles.values()))
+    proven = pt.box is not None       # a Krawczyk test proved a box holding exactly this root
+    ev["krawczyk_certified"] = proven
+    if proven and sing.kind == "regular":
+        status = "certified"
+    elif proven or (sing.kind != "regular" and cert.residual <= SOLUTION_BOUND):
+        status = "singular"
+        if not proven:
+            ev["reason"] = (f"a solution within {cert.residual:.1e} (interval bound of the closure equations) "
+                            f"at a {sing.kind} singularity; not isolated, so not certified")
+    else:
+        status = "unverified"
+        ev["reason"] = f"Krawczyk test failed: {cert.reason}"
+        if unresolved:
+            ev["reason"] += f"; {len(unresolved)} boxes of its cluster could not be resolved (it may hold more roots)"
+    lo, hi = pt.box if pt.box is not None else (sol.lo, sol.hi)
+    shift = theta - pt.theta
+    return dataclasses.replace(sol, angles=theta, lo=lo + shift, hi=hi + shift, residual=p.residual,
+                               singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
+                               status=status, evidence=ev, members=None)
+
+
+def _cluster_entry(sol, unresolved, cluster_ev, stats, best) -> Solution:
+    lo = np.min([b[0] for b in unresolved], axis=0)
+    hi = np.max([b[1] for b in unresolved], axis=0)
+    ev = {"cluster": dict(cluster_ev),
+          "reason": (f"{len(unresolved)} boxes of this cluster could neither be excluded nor shown to hold a known "
+                     "root" + (f" (the cap of {MAX_RESOLVE_BOXES} sub-box tests was reached)" if stats["capped"]
+                               else "") + "; polishing found no converged root in them: they may hold roots")}
+    if best is not None:
+        ev.update(best_residual=float(best[1].residual), polish_iterations=best[1].iterations)
+    centre = 0.5 * (lo + hi)
+    return dataclasses.replace(sol, angles=wrap(centre), lo=lo, hi=hi, residual=float(best[1].residual) if best else None,
+                               singularity=None, platform_rotation=None, status="cluster", evidence=ev, members=None)

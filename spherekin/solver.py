@@ -41,6 +41,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from . import bernstein
+from .angles import RANGE_TOL, in_range
 from .closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS
 from .isolation import SquareSystem, krawczyk_boxes, newton
@@ -48,10 +49,10 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
                                 make_charts)
 from .pruners import PRUNERS, excludes_zero, make_pruner
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
-from .solutions import finalize
+from .solutions import count_summary, finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
+           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
 #: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
 DEFAULT_FORMULATION = "halves"
@@ -59,6 +60,12 @@ DEFAULT_PRUNER = "pp"
 DEFAULT_PARAMETERIZATION = "tan-half"
 #: Default tolerance (radians): a box is accepted when every joint angle is known to within it.
 DEFAULT_TOL = 1e-6
+#: Largest tolerance accepted (radians). Reason: a cluster of accepted boxes is polished from its
+#: own boxes and accounted for by Krawczyk tests on them (:mod:`spherekin.solutions`); boxes wider
+#: than ~0.1 rad are wider than the distance between distinct assemblies of real mechanisms
+#: (Gosselin: 0.3 rad) and than any box a Krawczyk test isolates (~0.3 rad), so a coarser tol could
+#: only merge roots. The paper's coarsest run uses 1e-2.
+MAX_TOL = 0.1
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
@@ -364,6 +371,10 @@ def _check_strategy(formulation, pruner, parameterization, tol, jobs):
         raise ValueError(f"parameterization: expected one of {sorted(PARAMETERIZATIONS)}, got {parameterization!r}")
     if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol: expected a positive number of radians, got {tol!r}")
+    if tol > MAX_TOL:
+        raise ValueError(f"tol: expected at most MAX_TOL = {MAX_TOL} rad, got {tol!r}: a coarser box could hold "
+                         "several assemblies, which polishing would merge or move (the tolerance is the size of the "
+                         "boxes the search stops at; the solutions are polished to ~1e-15 whatever it is)")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"jobs: expected a positive integer, got {jobs!r}")
 
@@ -446,11 +457,8 @@ def solve_system(
 
 
 def _within(angles, ranges, tol) -> bool:
-    """Every angle within ``tol`` of its range (modulo 2 pi); None = the full circle."""
-    for a, rng in zip(angles, ranges.values()):
-        if rng is not None and float(np.mod(a - rng[0] + tol, 2 * math.pi)) > rng[1] - rng[0] + 2 * tol:
-            return False
-    return True
+    """Every angle within ``tol`` of its closed range (modulo 2 pi, :func:`spherekin.angles.in_range`)."""
+    return all(in_range(a, rng, tol + RANGE_TOL) for a, rng in zip(angles, ranges.values()))
 
 
 def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
@@ -484,7 +492,8 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
         shift = np.round((mid[members] - ref) / (2 * math.pi)) * 2 * math.pi
         glo, ghi = (lo[members] - shift).min(axis=0), (hi[members] - shift).max(axis=0)
         centre = np.mod(0.5 * (glo + ghi) + math.pi, 2 * math.pi) - math.pi
-        out.append(Solution(centre, glo, ghi, len(members)))
+        out.append(Solution(centre, glo, ghi, len(members),
+                            members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return out
 
@@ -527,8 +536,10 @@ def solve(
                           max_boxes=max_boxes, max_depth=max_depth, progress=progress, trace=trace)
     t0 = time.perf_counter()
     solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
+    proven, exact = count_summary(solutions)
     settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
                 "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
     t_final = time.perf_counter() - t0
     stats = dataclasses.replace(report.stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
-    return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats)
+    return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,
+                               proven_count=proven, count_exact=exact)

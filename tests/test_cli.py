@@ -17,8 +17,9 @@ def test_solve_prints_table_and_writes_json(tmp_path, capsys):
     out = tmp_path / "report.json"
     assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "8 solution(s)" in text and "gamma1" in text and "serial" in text
+    assert "8 solutions (count proven" in text and "gamma1" in text and "serial" in text
     data = json.loads(out.read_text())
+    assert data["count"] == {"proven": 8, "exact": True, "entries": 8}
     assert data["unknowns"] == ["gamma1", "delta1", "gamma2", "delta2", "gamma3", "delta3"]
     assert len(data["solutions"]) == 8
     for sol in data["solutions"]:
