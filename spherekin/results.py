@@ -108,9 +108,14 @@ class SolveReport:
         word = "solution" if n == 1 else "solutions"
         if self.count_exact:
             return f"{n} {word} (count proven: every solution certified)"
-        other = len(self.solutions) - n
-        return (f"at least {n} {word} (count not proven: {other} entr{'y' if other == 1 else 'ies'} "
-                "unverified, singular without certificate, cluster or continuum; see the status column)")
+        others: dict[str, int] = {}
+        for s in self.solutions:
+            if s.status != "certified" and not (s.status == "singular" and s.evidence.get("krawczyk_certified")):
+                key = "singular without certificate" if s.status == "singular" else s.status
+                others[key] = others.get(key, 0) + 1
+        listed = ", ".join(f"{v} {k}" for k, v in others.items())
+        capped = "; the search hit a cap" if "limit" in self.settings else ""
+        return f"at least {n} {word} proven (count not exact: {listed or 'none listed'}{capped}; see the status column)"
 
     def table(self, degrees: bool = False) -> str:
         """A readable table of the solutions (angles in radians, or degrees)."""

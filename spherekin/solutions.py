@@ -29,6 +29,9 @@ Statuses (docs/results-format.md):
   is then a lower bound;
 * ``unverified``: a converged point that could not be certified nor shown singular (the evidence
   says why), or a point whose polishing did not converge;
+* ``continuum``: the cluster holds a continuum of solutions (a folded mechanism, a mobile one):
+  several distinct polished points spread over it, each with a rank-deficient Jacobian; the
+  evidence has the estimated dimension (the nullity there), sample points and the covering boxes;
 * ``cluster``: part of a cluster that could not be resolved and holds no converged point: it may
   hold roots; its box and the reason are reported.
 
@@ -44,7 +47,7 @@ import math
 import numpy as np
 
 from .angles import RANGE_TOL, in_range, into_range, wrap
-from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, krawczyk_many
+from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, krawczyk_many, transversal_equations
 from .polish import polish
 from .results import Solution
 
@@ -77,6 +80,15 @@ MIN_RESOLVE_WIDTH = 1e-13
 #: Bisection point (fraction of the widest side) of a sub-box; off-centre for the same reason as
 #: :data:`spherekin.solver.SPLIT_POINT` (symmetric roots must not stay on box faces).
 RESOLVE_SPLIT = 0.4917
+#: A singular value of the Jacobian below this fraction of the largest (or of 1) counts as zero
+#: when estimating the dimension of a continuum: on a continuum the polished points reach
+#: residuals ~1e-15 and their null directions singular values ~1e-15; a regular root has ~1e-3+.
+NULLITY_RCOND = 1e-8
+#: A cluster is a continuum when at least this many distinct polished points, spread over at least
+#: CONTINUUM_MIN_SPREAD radians, all have a rank-deficient Jacobian. Reason: polishing converges
+#: linearly to a double root, and its points scatter by ~sqrt(1e-12) = 1e-6 rad, not 1e-4.
+CONTINUUM_MIN_POINTS = 3
+CONTINUUM_MIN_SPREAD = 1e-4
 #: A ``singular`` point must be a solution within this bound: the interval bound of the closure
 #: equations at the polished point (certify's ``residual``). Polished points reach ~1e-15; 1e-12 is
 #: polish's own convergence threshold (:data:`spherekin.polish.CONVERGED_TOL`).
@@ -252,6 +264,10 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None) -> list[Solu
             if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
                 continue
             points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
+        cont = _continuum(system, sol, points, names)
+        if cont is not None:
+            out.append(cont)
+            continue
         # certify at radii below the separation of the points
         for i, pt in enumerate(points):
             sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
@@ -308,6 +324,38 @@ def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict
     return dataclasses.replace(sol, angles=theta, lo=lo + shift, hi=hi + shift, residual=p.residual,
                                singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
                                status=status, evidence=ev, members=None)
+
+
+def _nullity(system, theta) -> int:
+    """Dimension of the null space of the float Jacobian of the transversal system at ``theta``."""
+    _, jac = transversal_equations(system, theta)
+    m = jac.shape[1]
+    sv = np.linalg.svd(jac, compute_uv=False)
+    return int(m - np.sum(sv > NULLITY_RCOND * max(sv[0], 1.0)))
+
+
+def _continuum(system, sol, points: list, names) -> Solution | None:
+    """A ``continuum`` entry when the cluster's polished points spread over a set of non-isolated roots."""
+    if len(points) < CONTINUUM_MIN_POINTS:
+        return None
+    thetas = np.array([p.theta for p in points])
+    spread = float(np.max(thetas.max(axis=0) - thetas.min(axis=0)))
+    if spread < CONTINUUM_MIN_SPREAD:
+        return None
+    dims = [_nullity(system, t) for t in thetas]
+    if min(dims) < 1:
+        return None
+    members = sol.members if sol.members is not None else np.array([[sol.lo, sol.hi]])
+    ev = {"dimension": int(np.median(dims)), "nullity_at_samples": dims,
+          "sample_points": [dict(zip(names, (float(a) for a in wrap(t)))) for t in thetas[:8]],
+          "sample_residuals": [float(p.polished.residual) for p in points[:8]],
+          "spread": spread, "covering_boxes": [[m[0].tolist(), m[1].tolist()] for m in members],
+          "reason": (f"{len(points)} distinct polished solutions spread over {spread:.3g} rad, each with a "
+                     f"{int(np.median(dims))}-dimensional null space of the Jacobian: a continuum of solutions, "
+                     f"covered by {len(members)} boxes")}
+    return dataclasses.replace(sol, angles=wrap(thetas[0]), residual=float(points[0].polished.residual),
+                               singularity=None, platform_rotation=None, status="continuum", evidence=ev,
+                               members=None)
 
 
 def _cluster_entry(sol, unresolved, cluster_ev, stats, best) -> Solution:

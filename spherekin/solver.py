@@ -52,7 +52,7 @@ from .results import AcceptedBox, Solution, SolveReport, SolverStats
 from .solutions import count_summary, finalize
 
 __all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
+           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "CONTINUUM_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
 #: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
 DEFAULT_FORMULATION = "halves"
@@ -66,6 +66,10 @@ DEFAULT_TOL = 1e-6
 #: (Gosselin: 0.3 rad) and than any box a Krawczyk test isolates (~0.3 rad), so a coarser tol could
 #: only merge roots. The paper's coarsest run uses 1e-2.
 MAX_TOL = 0.1
+#: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
+#: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
+#: the boxes are fine enough to show its shape and estimate its dimension.
+CONTINUUM_TOL = 1e-2
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
@@ -456,6 +460,14 @@ def solve_system(
     return SolveReport(charts.unknowns, tuple(solutions), tuple(boxes), stats, settings)
 
 
+def _partial_report(exc: SolverLimitError, ranges, tol) -> SolveReport:
+    """A report from the accepted boxes a capped search had found (its clusters, no statistics)."""
+    found = list(exc.partial)
+    names = tuple(ranges)
+    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
+    return SolveReport(names, tuple(solutions), tuple(found), SolverStats(accepted=len(found)), {"tol": tol})
+
+
 def _within(angles, ranges, tol) -> bool:
     """Every angle within ``tol`` of its closed range (modulo 2 pi, :func:`spherekin.angles.in_range`)."""
     return all(in_range(a, rng, tol + RANGE_TOL) for a, rng in zip(angles, ranges.values()))
@@ -531,14 +543,33 @@ def solve(
         system = mechanism.loop_system(inputs, chart)
         return system.loops, system.unknowns
 
-    report = solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                          parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs,
-                          max_boxes=max_boxes, max_depth=max_depth, progress=progress, trace=trace)
+    def run(t):
+        return solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                            parameterization=parameterization, tol=t, isolate=isolate, jobs=jobs,
+                            max_boxes=max_boxes, max_depth=max_depth, progress=progress, trace=trace)
+
+    limit = None
+    try:
+        report = run(tol)
+    except SolverLimitError as exc:
+        # A continuum of solutions (or a cap too small for this tol): cover the solution set with
+        # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
+        # algorithm then returns a discretization of the solution set).
+        limit = {"error": str(exc), "tol": tol, "covering_tol": max(tol, CONTINUUM_TOL)}
+        try:
+            report = run(max(tol, CONTINUUM_TOL))
+        except SolverLimitError as exc2:
+            limit["covering_error"] = str(exc2)
+            report = _partial_report(exc2, ranges, max(tol, CONTINUUM_TOL))
+        tol = max(tol, CONTINUUM_TOL)
     t0 = time.perf_counter()
     solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
     proven, exact = count_summary(solutions)
     settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
                 "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
+    if limit is not None:
+        settings["limit"] = limit
+        exact = False
     t_final = time.perf_counter() - t0
     stats = dataclasses.replace(report.stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
     return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,

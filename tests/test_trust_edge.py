@@ -1,0 +1,185 @@
+"""Trust at the edge (issue 13): the inputs where spherekin used to lose, merge or invent solutions.
+
+Each expectation rests on a reason independent of the solver: inverse kinematics of the reported
+poses (a closed-form serial computation, :meth:`SphericalMechanism.inverse_kinematics`), the Bezout
+bound of the 3-RRR (at most 8 assemblies), poses chosen first and their inputs computed by inverse
+kinematics, and geometry (a kite four-bar whose input link folds onto its ground link).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from spherekin import solve
+from spherekin.angles import RANGE_TOL, in_range
+from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
+from spherekin.mechanism.chains import axis_rotation, sphere_point
+from spherekin.solver import MAX_TOL
+
+#: The issue's near-singular inputs of general_3rrr: 8 real assemblies (two 1.48e-5 rad apart), and
+#: 1.2e-10 away on the other side of the parallel singularity, 6.
+TWIN_INPUTS = (0.18613171226800826, -0.15119930525771785, 0.6382686351031328)
+SIX_INPUTS = (0.18613171214533802, -0.15119930520514488, 0.6382686352520895)
+
+
+def _assert_poses_are_assemblies(mech, inputs, report):
+    """Every reported pose is reached by the legs at these inputs (independent IK, 1e-9 rad). At a
+    serial singularity a leg's actuator angle is not determined by the pose (IK picks one): those
+    poses are checked by their closure residual instead."""
+    for s in report.solutions:
+        if "serial" in (s.singularity or ""):
+            assert s.residual < 1e-12
+            continue
+        ik = mech.inverse_kinematics(s.platform_rotation)
+        assert min(max(abs(math.remainder(a - b, 2 * math.pi)) for a, b in zip(sol.inputs, inputs))
+                   for sol in ik) < 1e-9
+
+
+def _distinct_rotations(report, sep=1e-7):
+    rots = [s.platform_rotation for s in report.solutions]
+    return all(np.abs(a - b).max() > sep for i, a in enumerate(rots) for b in rots[i + 1:])
+
+
+def test_twin_roots_next_to_a_fold_are_both_found_and_certified():
+    mech = general_3rrr()
+    report = solve(mech, TWIN_INPUTS)
+    # 8 distinct certified assemblies: the Bezout bound, so none is missing
+    assert len(report.solutions) == 8 and report.count_exact and report.proven_count == 8
+    assert all(s.status == "certified" for s in report.solutions) and _distinct_rotations(report)
+    _assert_poses_are_assemblies(mech, TWIN_INPUTS, report)
+    gaps = sorted(np.abs(a.angles - b.angles).max() for i, a in enumerate(report.solutions)
+                  for b in report.solutions[i + 1:])
+    assert 1.0e-5 < gaps[0] < 2.0e-5      # the twins, 1.48e-5 rad apart
+
+
+def test_no_root_is_invented_where_a_pair_just_turned_complex():
+    mech = general_3rrr()
+    twins = solve(mech, TWIN_INPUTS)
+    close = sorted(((np.abs(a.angles - b.angles).max(), a.angles) for i, a in enumerate(twins.solutions)
+                    for b in twins.solutions[i + 1:]), key=lambda t: t[0])[0][1]
+    report = solve(mech, SIX_INPUTS)
+    assert report.count_exact and report.proven_count == len(report.solutions) == 6
+    assert all(np.abs(s.angles - close).max() > 1e-3 for s in report.solutions)   # nothing where the twins were
+    _assert_poses_are_assemblies(mech, SIX_INPUTS, report)
+
+
+def test_a_non_converged_point_is_never_singular():
+    for inputs in (TWIN_INPUTS, SIX_INPUTS):
+        for s in solve(general_3rrr(), inputs).solutions:
+            if s.status == "singular":
+                assert s.evidence["polish_residual"] <= 1e-12
+
+
+@pytest.mark.parametrize("tol", [0.5, 10.0])
+def test_a_coarse_tolerance_is_refused_with_the_reason(tol):
+    with pytest.raises(ValueError, match="MAX_TOL"):
+        solve(gosselin(), (0.3, -0.2, 0.5), tol=tol)
+
+
+@pytest.mark.parametrize("tol", [MAX_TOL, 0.03, 1e-3])
+def test_coarse_tolerances_below_the_cap_keep_every_gosselin_assembly(tol):
+    """The Gosselin platform at (0.3, -0.2, 0.5) has 8 assemblies (the paper, Section 5): any
+    tolerance up to the cap gives 8 distinct, IK-consistent, proven ones."""
+    mech = gosselin()
+    report = solve(mech, (0.3, -0.2, 0.5), tol=tol)
+    assert len(report.solutions) == 8 and report.count_exact and _distinct_rotations(report)
+    _assert_poses_are_assemblies(mech, (0.3, -0.2, 0.5), report)
+    for s in report.solutions:
+        assert s.evidence["moved"] <= 2 * tol + 1e-9
+
+
+def _gosselin_with_ranges(ranges: dict):
+    base = gosselin()
+    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, j.actuated, ranges.get(j.name, j.range), j.reference_angle)
+                                     for j in leg.joints)) for leg in base.legs)
+    return SphericalMechanism(legs, name="ranged", reference_leg=base.reference_leg)
+
+
+def test_range_ends_are_closed_for_inputs():
+    mech = _gosselin_with_ranges({"beta1": (-0.5, 0.3)})
+    assert len(solve(mech, (0.3, -0.2, 0.5)).solutions) == 8           # the upper end itself
+    assert len(solve(mech, (-0.5, -0.2, 0.5)).solutions) == 8          # the lower end itself
+    with pytest.raises(ValueError, match="outside the joint range"):
+        solve(mech, (0.3 + 1e-8, -0.2, 0.5))
+    with pytest.raises(ValueError, match="outside the joint range"):
+        solve(mech, (-0.5 - 1e-8, -0.2, 0.5))
+
+
+def test_passive_range_ends_are_symmetric():
+    """A passive angle of a known assembly (IK of a chosen pose) on each end of a range, and 1e-8
+    beyond each end: kept on the ends, dropped beyond either."""
+    R = Rotation.from_rotvec([0.2, -0.1, 0.15]).as_matrix()
+    base = gosselin()
+    ik = [s for s in base.inverse_kinematics(R)][0]
+    inputs = ik.inputs
+    a = ik.joint_angles["gamma1"]
+
+    def found(rng):
+        report = solve(_gosselin_with_ranges({"gamma1": rng}), inputs)
+        return any(np.abs(s.platform_rotation - R).max() < 1e-9 for s in report.solutions)
+
+    assert found((a, a + 1.0)) and found((a - 1.0, a))
+    assert not found((a + 1e-8, a + 1.0)) and not found((a - 1.0, a - 1e-8))
+
+
+def test_in_range_is_symmetric_and_closed():
+    for lo, hi in [(-0.5, 0.3), (2.0, 3.5), (-3.0, 3.0)]:
+        for end, out in ((lo, -1), (hi, 1)):
+            assert in_range(end, (lo, hi)) and in_range(end + out * 0.5 * RANGE_TOL, (lo, hi))
+            assert not in_range(end + out * 2 * RANGE_TOL, (lo, hi))
+            assert in_range(end + 2 * math.pi, (lo, hi)) and in_range(end - 2 * math.pi, (lo, hi))
+
+
+def _four_rrr():
+    """general_3rrr plus a fourth actuated leg: 9 equations, 8 unknowns (redundant actuation)."""
+    g = general_3rrr()
+
+    def unit(v):
+        v = np.asarray(v, float)
+        return tuple(v / np.linalg.norm(v))
+
+    leg4 = Leg("leg4", (Joint("beta4", unit([0.2, 0.3, -0.93]), actuated=True), Joint("gamma4", unit([0.6, 0.5, 0.1])),
+                        Joint("delta4", unit([-0.2, 0.4, 0.9]))))
+    return SphericalMechanism(g.legs + (leg4,), name="4-RRR")
+
+
+def test_redundant_actuation_is_certified_through_a_square_subsystem():
+    mech = _four_rrr()
+    R = Rotation.from_rotvec([0.1, -0.05, 0.08]).as_matrix()
+    inputs = mech.inverse_kinematics(R)[0].inputs                    # a pose chosen first
+    report = solve(mech, inputs)
+    hits = [s for s in report.solutions if np.abs(s.platform_rotation - R).max() < 1e-9]
+    assert len(hits) == 1 and hits[0].status == "certified"
+    k = hits[0].evidence["krawczyk"]
+    assert len(k["subsystem_rows"]) == 8 and k["n_equations"] == 9 and k["other_equations_bound"] <= 1e-5
+    _assert_poses_are_assemblies(mech, inputs, report)
+
+
+def _kite():
+    """Spherical four-bar with ground AD = crank AB = 40 deg and coupler BC = rocker DC = 60 deg.
+    At crank input -pi/2 (from the reference, where B is 90 deg around A from the point towards D)
+    B coincides with D, and C can be anywhere on the 60-degree circle around it: a continuum."""
+    a = np.array([0.0, 0.0, 1.0])
+    d = np.array([math.sin(math.radians(40)), 0.0, math.cos(math.radians(40))])
+    b = axis_rotation(a, math.pi / 2) @ d
+    c = sphere_point(b, d, math.radians(60.0), math.radians(60.0), 1.0)
+    return SphericalMechanism(legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
+                                    Leg("rocker", (Joint("D", d), Joint("C", c)))), name="kite")
+
+
+def test_a_folded_linkage_is_reported_as_a_continuum_not_an_error():
+    report = solve(_kite(), (-math.pi / 2,), max_boxes=20_000)
+    assert not report.count_exact and "limit" in report.settings
+    (cont,) = [s for s in report.solutions if s.status == "continuum"]
+    assert cont.evidence["dimension"] == 1
+    assert cont.evidence["spread"] > 1.0 and max(cont.evidence["sample_residuals"]) < 1e-12
+    assert len(cont.evidence["covering_boxes"]) == cont.n_boxes > 10
+
+
+def test_the_kite_away_from_its_fold_has_two_certified_assemblies():
+    report = solve(_kite(), (-math.pi / 2 + 0.3,))
+    assert report.count_exact and report.proven_count == len(report.solutions) == 2
