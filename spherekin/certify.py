@@ -636,7 +636,7 @@ def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = 
     k_lo, k_hi = core["k_lo"][:, 0], core["k_hi"][:, 0]
     finite = np.all(np.isfinite(k_lo) & np.isfinite(k_hi), axis=1)
     inside = finite & np.all((k_lo > lo) & (k_hi < hi), axis=1) & (core["other"][:, 0] <= OVERDETERMINED_BOUND)
-    disjoint = finite & np.any((k_hi < lo) | (k_lo > hi), axis=1)
+    disjoint = (finite & np.any((k_hi < lo) | (k_lo > hi), axis=1)) | core["excluded"][:, 0]
     return BoxTests(inside & ~disjoint, disjoint, k_lo, k_hi)
 
 
@@ -670,6 +670,34 @@ def _subsystem_rows(j_mid: np.ndarray) -> np.ndarray:
     return out
 
 
+def _excludes_zero(f_all, j_all, ys, x_lo, x_hi, j_mid) -> np.ndarray:
+    """(P, R) bool: 0 is not in F(X), shown for some row of F(X) or of U^T F(X) (centred form).
+
+    ``f_all``, ``j_all``: the enclosures of _krawczyk_core (P points then P * R boxes). F(X) is
+    the natural enclosure; U^T F(X) is enclosed by U^T F(y) + |U^T J(X)| [-rho, rho] (mean value
+    theorem; rho as in :func:`_krawczyk_operator`), with U from the SVD of the float J(y): any
+    matrix gives a valid test, an orthogonal one rotates F so that the rows along the regular
+    directions of J are not swamped by a nearly singular one (a Krawczyk preconditioner J(y)^-1
+    amplifies the variation of J over X by 1 / sigma_min in every row). No root in X when either
+    excludes 0.
+    """
+    n_pts, m = ys.shape
+    n_rad = x_lo.shape[1]
+    f_y = f_all[:, :n_pts]
+    f_x = f_all[:, n_pts:].reshape(2, n_pts, n_rad, -1)
+    natural = np.any((f_x[0] > 0) | (f_x[1] < 0), axis=-1)
+    if m == 0:
+        return natural
+    j_x = j_all[:, n_pts:].reshape(2, n_pts, n_rad, f_y.shape[-1], m)
+    ut = np.swapaxes(np.linalg.svd(j_mid)[0], -1, -2)                                 # (P, E, E)
+    cf = iv_ops.fmatmul(ut, f_y[..., None])[..., 0]                                   # (2, P, E)
+    cj = iv_ops.fmatmul(ut[:, None], j_x)                                             # (2, P, R, E, M)
+    rho = np.maximum(np.nextafter(x_hi - ys[:, None], math.inf), np.nextafter(ys[:, None] - x_lo, math.inf))
+    spread = iv_ops.sum_up(np.nextafter(iv_ops.magnitude(cj) * rho[:, :, None, :], math.inf), axis=-1)
+    g = iv_ops.add(cf[:, :, None, :], np.stack((-spread, spread)))                   # (2, P, R, E)
+    return natural | np.any((g[0] > 0) | (g[1] < 0), axis=-1)
+
+
 def _krawczyk_core(plan: _Plan, ys: np.ndarray, x_lo: np.ndarray, x_hi: np.ndarray, tol: float) -> dict:
     """Krawczyk operators of the boxes X = [x_lo, x_hi] (P, R, M) around the points ys (P, M).
 
@@ -691,7 +719,8 @@ def _krawczyk_core(plan: _Plan, ys: np.ndarray, x_lo: np.ndarray, x_hi: np.ndarr
     residual = iv_ops.magnitude(f_y).max(axis=-1, initial=0.0)
     j_mid = 0.5 * (j_all[0, :n_pts] + j_all[1, :n_pts])              # a float J(y) (any C is valid)
     out = dict(residual=residual, rows=None, k_lo=np.full((n_pts, n_rad, m), np.nan),
-               k_hi=np.full((n_pts, n_rad, m), np.nan), other=np.zeros((n_pts, n_rad)))
+               k_hi=np.full((n_pts, n_rad, m), np.nan), other=np.zeros((n_pts, n_rad)),
+               excluded=_excludes_zero(f_all, j_all, ys, x_lo, x_hi, j_mid))
     if n_eq < m or m == 0:
         out["sv"] = np.linalg.svd(j_mid, compute_uv=False) if j_mid.size else np.zeros((n_pts, 0))
         out["regular"] = np.zeros(n_pts, bool)

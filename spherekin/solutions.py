@@ -70,7 +70,7 @@ MAX_SEEDS = 32
 #: A point is certified on boxes of radius at most this fraction of its distance to the nearest
 #: other point, so that certified boxes of distinct points are disjoint (the roots are distinct).
 SEPARATION_FRACTION = 0.4
-#: Sub-boxes tested per cluster while accounting for it. Reason: a cluster of tol-sized boxes next
+#: Sub-boxes tested per cluster while accounting for it, beyond one test per member box. Reason: a cluster of tol-sized boxes next
 #: to a fold is resolved in ~10-100 tests; the cap bounds the work on clusters that cannot be
 #: resolved (at a singular input), which are then reported with a lower-bound count.
 MAX_RESOLVE_BOXES = 2000
@@ -104,6 +104,7 @@ class _Point:
     seed_moved: float
     cert: object = None
     box: tuple | None = None          # (lo, hi) holding exactly this root, when certified
+    enc: tuple | None = None          # (lo, hi) a tight enclosure of that root: K(box), inside box
     evidence: dict = dataclasses.field(default_factory=dict)
 
 
@@ -161,7 +162,7 @@ def _resolve(system, sol: Solution, points: list[_Point], certify_fn, stats: dic
     queue = [(m[0], m[1]) for m in members if not _inside_any(certified, m[0], m[1])]
     unresolved = []
     while queue:
-        if stats["tests"] >= MAX_RESOLVE_BOXES:
+        if stats["tests"] >= MAX_RESOLVE_BOXES + len(members):
             unresolved += queue
             stats["capped"] = True
             break
@@ -180,16 +181,17 @@ def _resolve(system, sol: Solution, points: list[_Point], certify_fn, stats: dic
                 stats["excluded" if test.no_solution[i] else "covered"] += 1
                 continue
             if test.certified[i]:
-                # B holds exactly one root, in K(B): a known one if a certified box lies inside B; if a
-                # certified box only meets K(B), undecided (bisect); otherwise a new root
-                known = [p for p in points if p.box is not None and _inside_any([(blo, bhi)], *p.box)]
+                # B holds exactly one root r_B, in K(B). A known root r_p lies in its enclosure E_p:
+                # E_p inside B means r_B = r_p (covered); E_p missing K(B) for every p means r_B is
+                # new; an E_p that meets K(B) without lying inside B leaves it undecided (bisect)
+                kb = (test.krawczyk_lo[i], test.krawczyk_hi[i])
+                known = [p for p in points if p.enc is not None and _inside_any([(blo, bhi)], *p.enc)]
                 if known:
                     certified.append((blo, bhi))
                     continue
-                kb = (test.krawczyk_lo[i], test.krawczyk_hi[i])
-                touching = [p for p in points if p.box is not None and np.all(p.box[0] <= kb[1])
-                            and np.all(kb[0] <= p.box[1])]
-                new = None if touching else _new_root(system, blo, bhi, test.krawczyk_lo[i], test.krawczyk_hi[i], certify_fn)
+                touching = [p for p in points if p.enc is not None and np.all(p.enc[0] <= kb[1])
+                            and np.all(kb[0] <= p.enc[1])]
+                new = None if touching else _new_root(system, blo, bhi, kb[0], kb[1], certify_fn)
                 if new is not None:
                     points.append(new)
                     certified.append((blo, bhi))
@@ -225,75 +227,101 @@ def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
     point = _Point(np.asarray(p.theta, float), p, float(np.abs(p.theta - start).max()),
                    evidence={"found_by": "Krawczyk test on a sub-box of the cluster"})
     point.box = (lo, hi)
+    point.enc = (np.asarray(k_lo, float), np.asarray(k_hi, float))
     half = 0.5 * float(np.min(hi - lo))
     point.cert = _certify_with_fallback(certify_fn, system, point.theta, [r for r in CERTIFY_RADII if r <= half] or [half])
     return point
 
 
-def finalize(mechanism, inputs, names, clusters, tol, certify=None) -> list[Solution]:
+def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None) -> list[Solution]:
     """Polish, separate, prove and classify the clusters found for ``mechanism`` at ``inputs``.
 
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: Solutions from the
     box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
     ``certify(system, theta, radii=...)``: the certification function (default
-    :func:`spherekin.certify.certify`). Returns the entries sorted by angles; see the module
-    docstring for the statuses and :func:`count_summary` for the count.
+    :func:`spherekin.certify.certify`). ``refine(lo, hi, tol)``, optional: the clusters of a new
+    search of the box [lo, hi] at a finer tolerance, as ``(clusters, finer_tol)``, or None when
+    there is none; a cluster that cannot be resolved is replaced by the clusters of that search
+    (recursively) before it is reported as unresolved. Returns the entries sorted by angles;
+    see the module docstring for the statuses and :func:`count_summary` for the count.
     """
     if certify is None:
         from .certify import certify
-    ranges = mechanism.ranges
     out = []
     for sol in clusters:
-        centre = 0.5 * (sol.lo + sol.hi)
-        system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in zip(names, centre)})
-        slack = tol + RANGE_TOL
-        points: list[_Point] = []
-        left_cluster = 0
-        best = None
-        for seed in _seeds(sol):
-            p = polish(system.loops, system.unknowns, seed)
-            theta = np.asarray(p.theta, float)
-            theta = centre + wrap(theta - centre)
-            if best is None or p.residual < best[1].residual:
-                best = (theta, p, float(np.abs(theta - seed).max()))
-            if not p.converged:
-                continue
-            if np.any(theta < sol.lo - slack) or np.any(theta > sol.hi + slack):
-                left_cluster += 1
-                continue
-            if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
-                continue
-            points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
-        cont = _continuum(system, sol, points, names)
-        if cont is not None:
-            out.append(cont)
+        out += _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine)
+    # a root found from two clusters (a refined search of a hull can reach a neighbour's root)
+    unique: list[Solution] = []
+    for e in sorted(out, key=lambda e: not is_proven(e)):
+        if e.status in ("cluster", "continuum") or not any(
+                u.status not in ("cluster", "continuum") and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL
+                for u in unique):
+            unique.append(e)
+    unique.sort(key=lambda s: tuple(np.round(s.angles, 9)))
+    return unique
+
+
+def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> list[Solution]:
+    ranges = mechanism.ranges
+    centre = 0.5 * (sol.lo + sol.hi)
+    system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in zip(names, centre)})
+    slack = tol + RANGE_TOL
+    points: list[_Point] = []
+    left_cluster = 0
+    best = None
+    for seed in _seeds(sol):
+        p = polish(system.loops, system.unknowns, seed)
+        theta = np.asarray(p.theta, float)
+        theta = centre + wrap(theta - centre)
+        if best is None or p.residual < best[1].residual:
+            best = (theta, p, float(np.abs(theta - seed).max()))
+        if not p.converged:
             continue
-        # certify at radii below the separation of the points
-        for i, pt in enumerate(points):
-            sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
-            radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
-            pt.cert = _certify_with_fallback(certify, system, pt.theta, radii)
-            if pt.cert.certified:
-                pt.box = tuple(np.array(v) for v in zip(*pt.cert.box))
-        stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
-        unresolved = _resolve(system, sol, points, certify, stats)
-        cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
-                      "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
-                      "unresolved_boxes": len(unresolved)}
-        if left_cluster:
-            cluster_ev["polished_out_of_cluster"] = left_cluster
-        kept = []
-        for pt in points:
-            angles = {n: float(a) for n, a in zip(names, wrap(pt.theta))}
-            if not all(in_range(a, ranges[n]) for n, a in angles.items()):
-                continue  # the root lies outside the joint ranges
-            angles = {n: into_range(a, ranges[n]) for n, a in angles.items()}
-            kept.append(_classify(mechanism, inputs, sol, pt, angles, cluster_ev, unresolved))
-        if unresolved and not any(s.status == "unverified" for s in kept):
-            kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
-        out += kept
-    out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
-    return out
+        if np.any(theta < sol.lo - slack) or np.any(theta > sol.hi + slack):
+            left_cluster += 1
+            continue
+        if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
+            continue
+        points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
+    cont = _continuum(system, sol, points, names)
+    if cont is not None:
+        return [cont]
+    # certify at radii below the separation of the points
+    for i, pt in enumerate(points):
+        sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
+        radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
+        pt.cert = _certify_with_fallback(certify, system, pt.theta, radii)
+        if pt.cert.certified:
+            pt.box = tuple(np.array(v) for v in zip(*pt.cert.box))
+            pt.enc = tuple(np.array(v) for v in zip(*pt.cert.krawczyk_box))
+    stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
+    unresolved = _resolve(system, sol, points, certify, stats)
+    if unresolved and refine is not None:
+        finer = refine(sol.lo, sol.hi, tol)
+        if finer is not None:
+            subs, finer_tol = finer
+            out = []
+            for sub in subs:
+                for e in _finalize_cluster(mechanism, inputs, names, sub, finer_tol, certify, refine):
+                    e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
+                                                                    "to_tol": finer_tol})
+                    out.append(e)
+            return out
+    cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
+                  "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
+                  "unresolved_boxes": len(unresolved)}
+    if left_cluster:
+        cluster_ev["polished_out_of_cluster"] = left_cluster
+    kept = []
+    for pt in points:
+        angles = {n: float(a) for n, a in zip(names, wrap(pt.theta))}
+        if not all(in_range(a, ranges[n]) for n, a in angles.items()):
+            continue  # the root lies outside the joint ranges
+        angles = {n: into_range(a, ranges[n]) for n, a in angles.items()}
+        kept.append(_classify(mechanism, inputs, sol, pt, angles, cluster_ev, unresolved))
+    if unresolved and not any(s.status == "unverified" for s in kept):
+        kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
+    return kept
 
 
 def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict, unresolved) -> Solution:

@@ -70,6 +70,12 @@ MAX_TOL = 0.1
 #: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
 #: the boxes are fine enough to show its shape and estimate its dimension.
 CONTINUUM_TOL = 1e-2
+#: A cluster that :mod:`spherekin.solutions` cannot resolve at tol (two roots closer than the
+#: boxes can separate, next to a fold) is searched again, its hull only, at tol * REFINE_FACTOR,
+#: down to REFINE_MIN_TOL: roots 1e-5 apart separate at 1e-6, ~1e-8 apart (within ~1e-16 of a
+#: singular input) at 1e-10; below that, Krawczyk tests are swamped by rounding.
+REFINE_FACTOR = 1e-2
+REFINE_MIN_TOL = 1e-10
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
@@ -562,8 +568,24 @@ def solve(
             limit["covering_error"] = str(exc2)
             report = _partial_report(exc2, ranges, max(tol, CONTINUUM_TOL))
         tol = max(tol, CONTINUUM_TOL)
+    def refine(lo, hi, t):
+        # a new search of a cluster's hull (which holds every root of its boxes) at a finer tol
+        finer = t * REFINE_FACTOR
+        if finer < REFINE_MIN_TOL:
+            return None
+        box = {n: (float(a) - RANGE_TOL, float(b) + RANGE_TOL) for n, a, b in zip(names, lo, hi)}
+        try:
+            sub = solve_system(build, box, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                               parameterization=parameterization, tol=finer, isolate=isolate, jobs=1,
+                               max_boxes=max_boxes, max_depth=max_depth)
+        except SolverLimitError:
+            return None
+        refined.append(sub.stats)
+        return sub.solutions, finer
+
+    refined: list[SolverStats] = []
     t0 = time.perf_counter()
-    solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol)
+    solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol, refine=refine)
     proven, exact = count_summary(solutions)
     settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
                 "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
@@ -571,6 +593,12 @@ def solve(
         settings["limit"] = limit
         exact = False
     t_final = time.perf_counter() - t0
-    stats = dataclasses.replace(report.stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
+    stats = report.stats
+    for extra in refined:   # the refined searches' boxes count; their time is in time_finalize
+        stats = stats + dataclasses.replace(extra, time_total=0.0, time_setup=0.0, time_restrict=0.0,
+                                            time_prune=0.0, time_isolate=0.0)
+    stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
+    if refined:
+        settings["refined_searches"] = len(refined)
     return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,
                                proven_count=proven, count_exact=exact)

@@ -42,6 +42,7 @@ from spherekin.certify import (
     interval_transversal,
     interval_transversal_reference,
     krawczyk,
+    krawczyk_many,
     krawczyk_reference,
     transversal_equations,
     transversal_labels,
@@ -741,3 +742,50 @@ def test_bad_input_raises_value_error(call, message):
     system = gosselin().loop_system((0.0, 0.0, 0.0), {n: (-1.0, 1.0) for n in gosselin().passive})
     with pytest.raises(ValueError, match=message):
         call(system)
+
+
+# ----------------------------------------------------------------------------- general boxes
+
+def test_krawczyk_many_decides_boxes_by_where_the_roots_are():
+    """Boxes placed around roots known independently (IK of two chosen poses of the Gosselin
+    platform at the same inputs would need equal inputs, so one pose: its root, and points 1e-3
+    away from it in each direction): a small box around the root is certified, boxes 1e-3 away with
+    radius 1e-4 hold no root (the roots of a regular mechanism are ~0.1 rad apart) and are
+    excluded, and a box too large to contract is neither."""
+    mech = gosselin()
+    R = Rotation.from_rotvec([0.3, -0.2, 0.25]).as_matrix()
+    ik = mech.inverse_kinematics(R)[0]
+    system = mech.loop_system(ik.inputs, {n: (ik.joint_angles[n] - 1, ik.joint_angles[n] + 1)
+                                          for n in mech.passive})
+    root = np.array([ik.joint_angles[n] for n in system.names])
+    m = len(root)
+    shifts = np.vstack((np.zeros(m), 1e-3 * np.eye(m), -1e-3 * np.eye(m)))
+    centres = root + shifts
+    r = np.array([1e-6] + [1e-4] * (2 * m))[:, None]
+    test = krawczyk_many(system, centres - r, centres + r)
+    assert test.certified[0] and not test.no_solution[0]
+    assert np.all(test.krawczyk_lo[0] <= root) and np.all(root <= test.krawczyk_hi[0])
+    assert not test.certified[1:].any() and test.no_solution[1:].all()
+    big = krawczyk_many(system, (root - 0.8)[None], (root + 0.8)[None])
+    assert not big.certified[0]
+
+
+def test_krawczyk_many_never_certifies_a_box_with_two_roots():
+    """The general_3rrr twins of issue 13 (8 real assemblies, two 1.48e-5 rad apart: found by
+    spherekin and checked by IK in tests/test_trust_edge.py): a box holding both is not isolated."""
+    from spherekin import solve
+
+    inputs = (0.18613171226800826, -0.15119930525771785, 0.6382686351031328)
+    mech = general_3rrr()
+    sols = solve(mech, inputs).solutions
+    a, b = min(((p, q) for i, p in enumerate(sols) for q in sols[i + 1:]),
+               key=lambda pq: np.abs(pq[0].angles - pq[1].angles).max())
+    system = mech.loop_system(inputs, {n: (v - 1, v + 1) for n, v in zip(system_names(mech, inputs), a.angles)})
+    lo = np.minimum(a.angles, b.angles) - 2e-6
+    hi = np.maximum(a.angles, b.angles) + 2e-6
+    test = krawczyk_many(system, lo[None], hi[None])
+    assert not test.certified[0] and not test.no_solution[0]
+
+
+def system_names(mech, inputs):
+    return mech.loop_system(inputs, {n: (-1.0, 1.0) for n in mech.passive}).names

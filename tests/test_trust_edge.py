@@ -44,9 +44,12 @@ def _distinct_rotations(report, sep=1e-7):
     return all(np.abs(a - b).max() > sep for i, a in enumerate(rots) for b in rots[i + 1:])
 
 
-def test_twin_roots_next_to_a_fold_are_both_found_and_certified():
+@pytest.mark.parametrize("tol", [1e-6, 1e-4, 1e-2])
+def test_twin_roots_next_to_a_fold_are_both_found_and_certified(tol):
+    """At the default tol the twins' cluster is resolved by Krawczyk tests on its boxes; at coarse
+    tolerances by a refined search of its hull (``settings['refined_searches']``)."""
     mech = general_3rrr()
-    report = solve(mech, TWIN_INPUTS)
+    report = solve(mech, TWIN_INPUTS, tol=tol)
     # 8 distinct certified assemblies: the Bezout bound, so none is missing
     assert len(report.solutions) == 8 and report.count_exact and report.proven_count == 8
     assert all(s.status == "certified" for s in report.solutions) and _distinct_rotations(report)
