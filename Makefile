@@ -5,6 +5,8 @@
 #   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
 #   make bench / bench-peers / sweep -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root sweep)
+#   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
+# Scripts of benchmarks/, experiments/, paper_figures/ are modules: run them as python -m benchmarks.bench_solve.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -13,7 +15,7 @@ STAMP := $(VENV)/.installed
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep mutants
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,27 +40,30 @@ experiments: $(STAMP)
 	@for e in $(EXPERIMENTS); do \
 		test -f experiments/$$e.py || { echo "experiments/$$e.py: missing"; exit 1; }; \
 		echo "== experiments/$$e.py $(QUICK_FLAG)"; \
-		MPLBACKEND=Agg $(BIN)/python experiments/$$e.py $(QUICK_FLAG) || exit 1; \
+		MPLBACKEND=Agg $(BIN)/python -m experiments.$$e $(QUICK_FLAG) || exit 1; \
 	done
 
 figures: $(STAMP)
 	@for f in paper_figures/fig*.py; do \
 		echo "== $$f"; \
-		MPLBACKEND=Agg $(BIN)/python $$f || exit 1; \
+		MPLBACKEND=Agg $(BIN)/python -m paper_figures.$$(basename $$f .py) || exit 1; \
 	done
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_solve.py
-	$(BIN)/python benchmarks/bench_certify.py
+	$(BIN)/python -m benchmarks.bench_solve
+	$(BIN)/python -m benchmarks.bench_certify
 
 bench-peers: $(STAMP)
 	@command -v phc >/dev/null || { echo "phc not found: installing PHCpack (Debian package phcpack)"; \
 		apt-get install -y -qq phcpack >/dev/null || sudo apt-get install -y -qq phcpack >/dev/null || \
 		echo "could not install phcpack: the PHCpack rows are skipped"; }
-	$(BIN)/python benchmarks/bench_peers.py
+	$(BIN)/python -m benchmarks.bench_peers
 
 sweep: $(STAMP)
-	$(BIN)/python benchmarks/sweep_roots.py --poses 1000 --jobs 2
+	$(BIN)/python -m benchmarks.sweep_roots --poses 1000 --jobs 2
+
+mutants: $(STAMP)
+	$(BIN)/python mutation/run.py $(if $(ONLY),--only $(ONLY))
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info

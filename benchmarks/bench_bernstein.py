@@ -7,7 +7,7 @@ Measures, on the 81-control-point tensor of loop 1:
 Prints a table of medians over ``--repeats`` runs, with ratios against the baseline measured in
 the same process, and writes the numbers as JSON.
 
-    python benchmarks/bench_bernstein.py [--boxes 1000] [--repeats 7] [--out FILE]
+    python -m benchmarks.bench_bernstein [--boxes 1000] [--repeats 7] [--out FILE]
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ Solutions: real solutions inside the joint ranges, each pose compared with spher
 (rotation matrices within :data:`MATCH_TOL`) and checked against the leg constraints independently.
 Prints a table, writes JSON to benchmarks/results/peers.json (peers_quick.json with ``--quick``).
 
-    python benchmarks/bench_peers.py [--repeats 5] [--quick] [--skip-paper] [--with-slow-phc]
+    python -m benchmarks.bench_peers [--repeats 5] [--quick] [--skip-paper] [--with-slow-phc]
 """
 
 from __future__ import annotations
@@ -43,9 +43,8 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-import peers_closed_form as pcf  # noqa: E402
-import peers_phc as pphc  # noqa: E402
+from benchmarks import peers_closed_form as pcf
+from benchmarks import peers_phc as pphc
 
 from spherekin.mechanism import general_3rrr, gosselin, three_rrr  # noqa: E402
 from spherekin.solver import solve  # noqa: E402
@@ -297,9 +296,8 @@ print("RESULT " + json.dumps({"seconds": t2 - t1, "imports": t1 - t0, "boxes": r
 _CHILD_PEERS = r"""
 import json, sys, time
 t0 = time.perf_counter()
-sys.path.insert(0, sys.argv[3])
 import numpy as np
-import peers_closed_form as pcf
+import peers_closed_form as pcf  # the child runs in benchmarks/ (cwd, on sys.path for python -c)
 spec, method = json.loads(sys.argv[1]), sys.argv[2]
 g = spec["geometry"]
 geom = tuple(np.array(g[k], dtype=float) for k in ("base_axes", "elbow_axes_at_zero", "platform_axes",
@@ -595,7 +593,7 @@ def main(argv=None) -> int:
         else:
             ip = time_in_process(lambda: quaternion_phc(spec), args.repeats, args.slow)
             poses, run, extra = ip["result"]
-            wp = time_whole_process(_CHILD_PEERS, [json.dumps(spec), "phc-quaternion", str(HERE)],
+            wp = time_whole_process(_CHILD_PEERS, [json.dumps(spec), "phc-quaternion"],
                                     args.repeats, args.slow, None)
             found = count_solutions(spec, mech, poses)
             found.update(compare(found["poses"], reference))
@@ -627,7 +625,7 @@ def main(argv=None) -> int:
 
         # 4. degree-8 closed form
         ip = time_in_process(lambda: closed_form_poses(spec), args.repeats, args.slow)
-        wp = time_whole_process(_CHILD_PEERS, [json.dumps(spec), "closed-form", str(HERE)], args.repeats,
+        wp = time_whole_process(_CHILD_PEERS, [json.dumps(spec), "closed-form"], args.repeats,
                                 args.slow, None)
         found = count_solutions(spec, mech, ip["result"])
         found.update(compare(found["poses"], reference))

@@ -14,7 +14,7 @@ how many of them are classified certified or singular ("c+s"; the rest are unver
 configuration that hits a cap is reported as such. The default's whole ``spherekin solve``
 process is timed too (``--process-runs``). JSON goes to benchmarks/results/solve.json.
 
-    python benchmarks/bench_solve.py [--repeats 5] [--quick]
+    python -m benchmarks.bench_solve [--repeats 5] [--quick]
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ whose platform rotation equals R0 (to MATCH_TOL). A *miss* is a trial where it d
 cos(alpha2_i), computed here independently of the solver. Prints a summary table, writes JSON
 (with the seeds of every miss, for regression tests) and exits 1 if anything was missed.
 
-    python benchmarks/sweep_roots.py [--poses 1000] [--jobs 2] [--seed 0] [--parameterization sin-cos]
+    python -m benchmarks.sweep_roots [--poses 1000] [--jobs 2] [--seed 0] [--parameterization sin-cos]
 """
 
 from __future__ import annotations

@@ -28,24 +28,21 @@ step cannot cut a side around it by more than half. This script measures it.
 the LP runs only at the loosest, smaller caps. JSON and markdown go to experiments/results/convergence.{json,md}; the figure
 is drawn by paper_figures/fig3_convergence.py.
 
-    python experiments/convergence.py [--quick] [--seed 0] [--out-dir experiments/results]
+    python -m experiments.convergence [--quick] [--seed 0] [--out-dir experiments/results]
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
 
-import _common  # noqa: E402
-from reproduction import INPUTS, angle_gap, with_ranges  # noqa: E402
+from experiments import _common
+from experiments.reproduction import INPUTS, angle_gap, with_ranges
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.parameterizations import make_charts  # noqa: E402

@@ -29,15 +29,13 @@ state (or import cost) leaks into another's timings.
 from __future__ import annotations
 
 import multiprocessing
-import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import median_time, parser, write_results  # noqa: E402
-from _compare import MECHANISMS, angle_distance, contains, random_cases  # noqa: E402
+from experiments._common import median_time, parser, write_results
+from experiments._compare import MECHANISMS, angle_distance, contains, random_cases
 
 #: Half-width (radians) of the Gosselin passive ranges around the start configuration: one chart,
 #: ~8 boxes and ~85 LPs, small enough for --quick with the slowest backend (~4 s per solve).

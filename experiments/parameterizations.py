@@ -24,14 +24,12 @@ no singularity (pi is c = -1, s = 0, a face of the (c, s) box [-1, 1]^2).
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import median_time, parser, write_results  # noqa: E402
-from _compare import MATCH_TOL, MECHANISMS, Case, closure_error, contains, random_cases, same_set  # noqa: E402
+from experiments._common import median_time, parser, write_results
+from experiments._compare import MATCH_TOL, MECHANISMS, Case, closure_error, contains, random_cases, same_set
 
 from spherekin.mechanism.chains import axis_rotation, serial_ik, wrap  # noqa: E402
 from spherekin.parameterizations import make_charts  # noqa: E402

@@ -25,24 +25,21 @@ Questions and how each is answered:
    (verification/REPORT.md, s4-quadratic-convergence), so it is run at a loose tolerance; in
    --quick the paper-faithful run is on the local box only (on the full circles it takes ~10 min).
 
-    python experiments/reproduction.py [--quick] [--seed 0] [--out-dir experiments/results]
+    python -m experiments.reproduction [--quick] [--seed 0] [--out-dir experiments/results]
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
 
-import _common  # noqa: E402
+from experiments import _common
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.paper_gosselin import paper_gosselin_loops  # noqa: E402
@@ -172,11 +169,8 @@ def axis_angle(rot) -> tuple[float, np.ndarray]:
 def eigen_poses(mech, inputs):
     """Real platform poses of the degree-8 quaternion eigen solver (benchmarks/peers_closed_form.py),
     or None when it is not available."""
-    bench = _common.ROOT / "benchmarks"
-    if str(bench) not in sys.path:
-        sys.path.insert(0, str(bench))
     try:
-        import peers_closed_form as pc
+        from benchmarks import peers_closed_form as pc
     except ImportError:
         return None
     return pc.direct_kinematics(pc.geometry_of(mech), inputs)

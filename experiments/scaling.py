@@ -19,15 +19,13 @@ is recorded with its exact message.
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import median_time, parser, write_results  # noqa: E402
-from _compare import (GENERAL_POSE_ANGLE, MECHANISMS, closure_error, contains, four_rrr,  # noqa: E402
+from experiments._common import median_time, parser, write_results
+from experiments._compare import (GENERAL_POSE_ANGLE, MECHANISMS, closure_error, contains, four_rrr,
                       random_cases, three_rrr_rrrr)
 
 from spherekin.solver import solve  # noqa: E402

@@ -8,17 +8,14 @@ joint dots, wireframe, view direction), so the figures look like ``spherekin sol
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-if str(ROOT / "experiments") not in sys.path:
-    sys.path.insert(0, str(ROOT / "experiments"))
 
-import _common  # noqa: E402  (experiments/_common.py: the shared argument parser)
+from experiments import _common  # the shared argument parser
 
 from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
                             _view_direction, great_circle_arc)

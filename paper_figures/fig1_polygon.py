@@ -21,15 +21,12 @@ No randomness (--seed is unused); --quick changes nothing (the script runs in se
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
+from paper_figures import _figure_tools as ft
 
 from spherekin.rotations import (Z, normalization_conjugator, normalize_polygon, normalized_closure,  # noqa: E402
                                  polygon_closure, rx)

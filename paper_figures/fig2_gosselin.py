@@ -21,15 +21,12 @@ is unused); --quick changes nothing (the script runs in seconds).
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
+from paper_figures import _figure_tools as ft
 
 from spherekin.mechanism import presets  # noqa: E402
 from spherekin.plot import (BASE_COLOUR, LEG_COLOURS, PLATFORM_COLOUR, _configuration_arcs,  # noqa: E402

@@ -8,12 +8,11 @@ run, else the quick one, else a quick run made now) in two panels:
     projected-polyhedron pruning): thin lines for every root, a thick line for the first regular one;
 (b) boxes processed against the tolerance, log-log, summed over the same local problems.
 
-    python paper_figures/fig3_convergence.py [--out-dir paper_figures] [--results PATH]
+    python -m paper_figures.fig3_convergence [--out-dir paper_figures] [--results PATH]
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import matplotlib
@@ -22,10 +21,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
 
-from _figure_tools import experiment_data, parser, save  # noqa: E402
+from paper_figures._figure_tools import experiment_data, parser, save
 
 #: One colour and marker per configuration (colour-blind safe pairs: formulation = hue family,
 #: pruner = dark/light), so the four stay apart in print and on screen.

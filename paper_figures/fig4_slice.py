@@ -29,16 +29,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
-from _common import median_time  # noqa: E402
+from paper_figures import _figure_tools as ft
+from experiments._common import median_time
 
 from spherekin.closure import ClosureLoop, Term, Unknown  # noqa: E402
 from spherekin.mechanism import presets  # noqa: E402

@@ -13,14 +13,11 @@ singular / unverified), singularity kind and closure residual. No randomness (--
 
 from __future__ import annotations
 
-import sys
 from collections import Counter
 from pathlib import Path
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
+from paper_figures import _figure_tools as ft
 
 from spherekin.mechanism import presets  # noqa: E402
 import numpy as np  # noqa: E402

@@ -10,15 +10,12 @@ over the random ground-truth inputs. Log scales: the quantities span several dec
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
+from paper_figures import _figure_tools as ft
 
 NAME = "fig6_parameterizations"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}

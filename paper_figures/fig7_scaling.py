@@ -10,13 +10,10 @@ are listed under the panels.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import _figure_tools as ft  # noqa: E402
+from paper_figures import _figure_tools as ft
 
 NAME = "fig7_scaling"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}

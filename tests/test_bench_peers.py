@@ -6,18 +6,14 @@ degree-8 eigen solver must return the pose among its roots.
 """
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-import peers_closed_form as pcf  # noqa: E402
-import peers_phc as pphc  # noqa: E402
-
-from spherekin.closure import ClosureLoop, Unknown  # noqa: E402
-from spherekin.mechanism import axis_rotation, general_3rrr, gosselin, three_rrr  # noqa: E402
+from benchmarks import peers_closed_form as pcf
+from benchmarks import peers_phc as pphc
+from spherekin.closure import ClosureLoop, Unknown
+from spherekin.mechanism import axis_rotation, general_3rrr, gosselin, three_rrr
 
 needs_phc = pytest.mark.skipif(not pphc.phc_available(), reason="phc (PHCpack) not installed")
 

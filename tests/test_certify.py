@@ -18,12 +18,10 @@ the other for containment).
 """
 
 import math
-import time
 from fractions import Fraction
 
 import numpy as np
 import pytest
-import statistics
 
 from mpmath import MPContext, mpf
 from scipy.optimize import brentq, least_squares
@@ -60,13 +58,6 @@ FLOAT_REF_TOL = 1e-14
 #: Central difference step (radians) and its error bound (h^2 |F'''| / 6 + eps / h with |F'''| <= ~10).
 FD_STEP = 1e-6
 FD_TOL = 1e-8
-#: Bound (s) for the slowest fast certify() call on a Gosselin solution: ~100x the measured
-#: ~0.3-1 ms, so that a loaded 2-core machine does not fail the test while a return to the
-#: mpmath cost (~10-30 ms) does.
-TIME_LIMIT = 0.05
-#: The fast certify() must beat the reference by at least this factor in the same process
-#: (measured ~15-30x per call; the benchmark has the exact figures).
-SPEEDUP_MIN = 4.0
 #: Widest point enclosure (tol = 0) of F allowed: ulp-level. The fast arithmetic rounds to
 #: nearest then widens one ulp (up to 1.5 ulp per operation, vs <= 1 for mpmath's directed
 #: rounding) and builds cos phi from cos/sin of the constant and of the unknown (3 more
@@ -687,26 +678,19 @@ def test_fast_functions_fall_back_to_the_reference_outside_the_ieee_default(monk
         enclose_transversal(system, box)
 
 
-# ----------------------------------------------------------------------------- API, timing, input
+# ----------------------------------------------------------------------------- API, input
+# (the speed of certify() against certify_reference() is measured by benchmarks/bench_certify.py,
+# not asserted here: a test must not fail on a loaded machine)
 
-def test_labels_summary_and_timing():
+def test_labels_and_summary():
     mech = gosselin()
     sols = mech.inverse_kinematics(rot([0.3, -0.2, 0.5]))
     system = system_at(mech, sols[0])
     assert transversal_labels(system) == ("loop1:f21", "loop1:f31", "loop1:f32", "loop2:f21", "loop2:f31", "loop2:f32")
-    worst, fast_times, ref_times = 0.0, [], []
     for sol in sols:
         system = system_at(mech, sol)
-        theta = theta_of(system, sol)
-        start = time.perf_counter()
-        res = certify(system, theta)
-        fast_times.append(time.perf_counter() - start)
+        res = certify(system, theta_of(system, sol))
         assert isinstance(res, KrawczykResult) and res.certified
-        start = time.perf_counter()
-        certify_reference(system, theta)
-        ref_times.append(time.perf_counter() - start)
-    assert max(fast_times) < TIME_LIMIT
-    assert statistics.median(ref_times) > SPEEDUP_MIN * statistics.median(fast_times)
     summary = res.summary()
     assert summary["certified"] is True and summary["radius"] == CERTIFY_RADII[0]
     assert 0 < summary["contraction"] < 1 and summary["residual_bound"] < 1e-12

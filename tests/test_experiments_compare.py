@@ -5,21 +5,15 @@ products, the ground-truth configuration among the solutions, pi found exactly."
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
-if str(EXPERIMENTS) not in sys.path:
-    sys.path.insert(0, str(EXPERIMENTS))
-
-import _compare  # noqa: E402
-import lp_backends as lpx  # noqa: E402
-import parameterizations as par  # noqa: E402
-import scaling  # noqa: E402
+from experiments import _compare
+from experiments import lp_backends as lpx
+from experiments import parameterizations as par
+from experiments import scaling
 
 # fast: the whole file runs in a few seconds (not marked slow, so part of make test)
 

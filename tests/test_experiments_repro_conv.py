@@ -11,23 +11,14 @@ from __future__ import annotations
 
 import json
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sympy as sp
 
-ROOT = Path(__file__).resolve().parent.parent
-for sub in ("experiments", "paper_figures"):
-    if str(ROOT / sub) not in sys.path:
-        sys.path.insert(0, str(ROOT / sub))
-
-import convergence  # noqa: E402
-import reproduction  # noqa: E402
-
-from spherekin.mechanism import gosselin  # noqa: E402
-from spherekin.solver import solve  # noqa: E402
+from experiments import convergence, reproduction
+from spherekin.mechanism import gosselin
+from spherekin.solver import solve
 
 INPUTS = reproduction.INPUTS
 
@@ -173,7 +164,7 @@ def test_local_problem_roots_close_in_numpy(tiny_convergence):
 
 
 def test_figure_from_tiny_results(tiny_convergence, tmp_path):
-    import fig3_convergence
+    from paper_figures import fig3_convergence
 
     data = json.loads(json.dumps(tiny_convergence, default=float))
     path = tmp_path / "convergence.json"

@@ -302,8 +302,54 @@ def test_cos_sin_of_intervals_and_center_choice():
                 assert contains_mp(cos[0, k], cos[1, k], c) and contains_mp(sin[0, k], sin[1, k], s)
 
 
-def test_rounding_environment_is_the_ieee_default_here():
+#: u = 2^-53, half an ulp of 1.0.
+U = Fraction(1, 2**53)
+#: Operations whose exact results (Fractions) are not floats: a correctly outward-rounded
+#: result must enclose them with both endpoints strictly apart from them.
+INEXACT_CASES = [
+    ("add", 0.1, 0.2), ("add", 1.0, float(U)), ("add", 1.0, float(3 * U / 2)), ("add", -1.0, -float(3 * U / 2)),
+    ("add", 1e16, 1.0), ("sub", 1.0, 1e-20), ("sub", 1.0, 0.1), ("sub", -1e-300, 1.0),
+    ("mul", 0.1, 3.0), ("mul", 1 / 3, 1 / 3), ("mul", -0.1, 0.7), ("mul", 2.0**-1022, 0.75 + float(U)),
+]
+EXACT_OPS = {"add": lambda x, y: x + y, "sub": lambda x, y: x - y, "mul": lambda x, y: x * y}
+
+
+def representable(v: Fraction) -> bool:
+    return Fraction(float(v)) == v
+
+
+@pytest.mark.parametrize("op, x, y", INEXACT_CASES)
+def test_outward_rounding_strictly_encloses_inexact_results(op, x, y):
+    exact = EXACT_OPS[op](Fraction(x), Fraction(y))
+    assert not representable(exact)
+    lo, hi = getattr(I, op)(I.point([x]), I.point([y]))[:, 0]
+    assert Fraction(lo) < exact < Fraction(hi)
+    assert ulps_beyond(lo, exact, "lo") <= SINGLE_OP_ULPS and ulps_beyond(hi, exact, "hi") <= SINGLE_OP_ULPS
+
+
+def test_rounding_environment_matches_exact_round_to_nearest():
+    """The arithmetic here rounds to nearest, ties to even, with gradual underflow (checked against
+    exact Fractions, independently of the probes), and rounding_environment_ok() says so."""
+    for x, y, nearest in [(1.0, 3 * U / 2, 1 + 2 * U), (-1.0, -3 * U / 2, -1 - 2 * U), (1.0, U, Fraction(1)),
+                          (1.0, 3 * U, 1 + 4 * U)]:
+        total = Fraction(x) + y
+        assert not representable(total)
+        got = np.full(16, x) + np.full(16, float(y))           # numpy's vector loop, as the probes
+        assert all(Fraction(v) == nearest for v in got.tolist())
+    tiny = 2.0**-1022
+    assert Fraction((np.full(16, tiny) * 0.5)[0]) == Fraction(tiny) / 2   # no flush to zero
+    assert Fraction((np.full(16, tiny / 2) * 2.0)[0]) == Fraction(tiny)   # subnormal inputs read as such
     assert I.rounding_environment_ok()
+
+
+@pytest.mark.parametrize("probe", ["_ADD_EXPECTED", "_MUL_EXPECTED"])
+def test_rounding_environment_check_fails_when_a_probe_disagrees(monkeypatch, probe):
+    """The check compares the probe results: expecting the bits of another environment (one bit
+    flipped: rounding up or flushing to zero) makes it False."""
+    wrong = getattr(I, probe).copy()
+    wrong[0] ^= np.uint64(1)
+    monkeypatch.setattr(I, probe, wrong)
+    assert not I.rounding_environment_ok()
 
 
 # ----------------------------------------------------------------------------- bad input

@@ -15,7 +15,7 @@ with independent derivations.
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import math
 from pathlib import Path
 
@@ -24,7 +24,6 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-FIGURES = Path(__file__).resolve().parent.parent / "paper_figures"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Closure and angle agreement: products of at most 16 double-precision rotations are exact to ~1e-15.
 TIGHT = 1e-12
@@ -34,10 +33,7 @@ ROOT_AGREEMENT = 1e-5
 
 
 def load(name: str):
-    spec = importlib.util.spec_from_file_location(f"paper_figures_{name}", FIGURES / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module(f"paper_figures.{name}")
 
 
 def assert_written(out: Path, name: str) -> None:

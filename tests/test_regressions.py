@@ -4,13 +4,9 @@ Each runs the sweep's own trial (random geometry, random pose, inverse kinematic
 solve) for the seed that once missed, and requires the pose to be found with no spurious solution.
 """
 
-import sys
-from pathlib import Path
-
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-from sweep_roots import trial  # noqa: E402
+from benchmarks.sweep_roots import trial
 
 
 @pytest.mark.parametrize("seed", [

@@ -316,7 +316,8 @@ def check_eq5(quick: bool) -> ClaimResult:
                     "and angle signs of the actuator relations); otherwise theta4^2 = theta4^1 - pi/2. "
                     "Independent of the base and of the actuator zeros."),
         statement="theta4^2 = theta4^1 + pi/2, theta5^2 = theta5^1",
-        data={"theta4_residual": w4, "theta5_residual": w5},
+        data={"theta4_residual": w4, "theta5_residual": w5,
+              "mirrored_theta4_offset": max(abs(float(wrap(d - np.pi / 2))) for d in diffs)},
     )
 
 

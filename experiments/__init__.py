@@ -1,0 +1,1 @@
+"""experiments/ as a package: the tests import its scripts (`from experiments import ...`) and its scripts import each other; run a script from the repository root as `python -m experiments.<name>`."""

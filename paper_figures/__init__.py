@@ -1,0 +1,1 @@
+"""paper_figures/ as a package: the tests import its scripts (`from paper_figures import ...`) and its scripts import each other; run a script from the repository root as `python -m paper_figures.<name>`."""
