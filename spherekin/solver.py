@@ -458,7 +458,7 @@ def solve_system(
     t_restrict, t_prune, t_isolate = (sum(r[3][i] for r in results) for i in range(3))
     boxes = [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
     found = boxes + [AcceptedBox(a, a.copy(), c) for c, a in points]
-    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
+    solutions = _clusters_in_range(found, ranges, tol)
     stats = SolverStats(charts=charts.n_charts, **counts, time_setup=t_setup, time_restrict=t_restrict,
                         time_prune=t_prune, time_isolate=t_isolate, time_total=time.perf_counter() - t0)
     settings = dict(formulation=formulation, pruner=pruner, lp_backend=lp_backend, parameterization=parameterization,
@@ -470,8 +470,14 @@ def _partial_report(exc: SolverLimitError, ranges, tol) -> SolveReport:
     """A report from the accepted boxes a capped search had found (its clusters, no statistics)."""
     found = list(exc.partial)
     names = tuple(ranges)
-    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
+    solutions = _clusters_in_range(found, ranges, tol)
     return SolveReport(names, tuple(solutions), tuple(found), SolverStats(accepted=len(found)), {"tol": tol})
+
+
+def _clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Solution]:
+    """The clusters of the boxes found whose centres lie within the joint ranges (tol + RANGE_TOL)."""
+    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
+    return solutions
 
 
 def _within(angles, ranges, tol) -> bool:

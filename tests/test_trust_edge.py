@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 from spherekin import solve
@@ -186,3 +187,42 @@ def test_a_folded_linkage_is_reported_as_a_continuum_not_an_error():
 def test_the_kite_away_from_its_fold_has_two_certified_assemblies():
     report = solve(_kite(), (-math.pi / 2 + 0.3,))
     assert report.count_exact and report.proven_count == len(report.solutions) == 2
+
+
+def _double_rocker():
+    """Spherical four-bar, ground AD 80, crank AB 30, coupler BC 55, rocker DC 30 degrees (not
+    Grashof: the crank input has branch points). Assembled iff the diagonal BD is at most 85 deg =
+    BC + DC (and at least 25 = BC - DC, always true here): two assemblies inside, none outside."""
+    a = np.array([0.0, 0.0, 1.0])
+    d = np.array([math.sin(math.radians(80)), 0.0, math.cos(math.radians(80))])
+    b = axis_rotation(a, math.pi / 2) @ np.array([math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))])
+    c = sphere_point(b, d, math.radians(55.0), math.radians(30.0), 1.0)
+    mech = SphericalMechanism(legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
+                                    Leg("rocker", (Joint("D", d), Joint("C", c)))), name="double rocker")
+
+    def diagonal_excess(x):   # BD(x) - 85 deg, B(x) = Rot(A, x) B
+        return math.acos(float(np.clip((axis_rotation(a, x) @ b) @ d, -1, 1))) - math.radians(85.0)
+
+    return mech, brentq(diagonal_excess, 0.0, 0.5, xtol=1e-15)
+
+
+def test_a_root_only_a_sub_box_test_can_find_is_found():
+    """1e-6 inside a branch point the two assemblies are ~3e-3 rad apart. A hand-made cluster, one
+    box around both (1e-3 margin): polishing from its centre does not reach them (it sits between
+    them, where the Jacobian is nearly singular), so both must come from the Krawczyk tests on its
+    sub-boxes."""
+    from spherekin.results import Solution
+    from spherekin.solutions import count_summary, finalize
+
+    mech, branch = _double_rocker()
+    x = (branch - 1e-6,)
+    assert len(solve(mech, (branch + 1e-6,)).solutions) == 0          # outside: no assembly
+    full = solve(mech, x)
+    assert len(full.solutions) == 2
+    lo = np.minimum(*(s.angles for s in full.solutions)) - 1e-3
+    hi = np.maximum(*(s.angles for s in full.solutions)) + 1e-3
+    cluster = Solution(0.5 * (lo + hi), lo, hi, 1, members=np.array([[lo, hi]]))
+    out = finalize(mech, x, full.unknowns, [cluster], 1e-6)
+    assert count_summary(out) == (2, True)
+    for ref in full.solutions:   # sigma_min ~ 3e-3 there: polished angles agree to ~1e-13 / sigma_min
+        assert min(np.abs(s.angles - ref.angles).max() for s in out) < 1e-9
