@@ -112,6 +112,13 @@ def _solve(args) -> int:
           + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
+    limit = report.settings.get("limit")
+    if limit:
+        print(f"note: {limit['error']}; the solution set was covered with boxes of {limit['covering_tol']:g} rad "
+              "instead (status continuum: its dimension and covering boxes are in the JSON evidence)")
+    if report.settings.get("refined_searches"):
+        print(f"note: {report.settings['refined_searches']} cluster(s) next to a singularity were searched again at "
+              "a finer tolerance to separate their roots")
     if args.json:
         Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
         print(f"wrote {args.json}")
