@@ -319,7 +319,7 @@ def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> li
             continue  # the root lies outside the joint ranges
         angles = {n: into_range(a, ranges[n]) for n, a in angles.items()}
         kept.append(_classify(mechanism, inputs, sol, pt, angles, cluster_ev, unresolved))
-    if unresolved and not any(s.status == "unverified" for s in kept):
+    if unresolved and all(is_proven(s) for s in kept):   # else a non-proven entry already says so
         kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
     return kept
 

@@ -48,6 +48,7 @@ from spherekin.certify import (
 from spherekin.closure import Term
 from spherekin.mechanism import (Joint, Leg, LoopSystem, SphericalMechanism, five_bar, four_bar, general_3rrr,
                                  gosselin)
+from conftest import rot
 
 #: Half-width (radians) of the passive ranges of the loop systems built around IK solutions.
 RANGE_HALF_WIDTH = 1.0
@@ -81,9 +82,6 @@ IMPLS = {
                       interval_transversal=interval_transversal_reference),
 }
 
-
-def rot(rotvec):
-    return Rotation.from_rotvec(rotvec).as_matrix()
 
 
 def system_at(mech, sol):
@@ -773,3 +771,20 @@ def test_krawczyk_many_never_certifies_a_box_with_two_roots():
 
 def system_names(mech, inputs):
     return mech.loop_system(inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+
+
+def test_a_box_that_misses_the_root_in_one_coordinate_only_is_not_certified(gosselin_roots):
+    """X = (root + 1e-3 e_k) +- 1e-4 holds no root: the root is 1e-3 away along e_k and the other
+    Gosselin roots are farther than ROOT_SEPARATION. K(X) then lies inside X in every coordinate but
+    k (it encloses the root), so a test of the inclusion in one coordinate would certify it."""
+    system, roots = gosselin_roots
+    root = roots[0]
+    for k in range(len(root)):
+        centre = root.copy()
+        centre[k] += 1e-3
+        res = krawczyk(system, centre, 1e-4)
+        assert not res.certified and res.no_solution
+        k_lo, k_hi = (np.array(v) for v in zip(*res.krawczyk_box))
+        x_lo, x_hi = (np.array(v) for v in zip(*res.box))
+        inside = (k_lo > x_lo) & (k_hi < x_hi)
+        assert not inside[k] and inside.sum() == len(root) - 1     # the case the test is about

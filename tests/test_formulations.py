@@ -23,6 +23,7 @@ from spherekin.closure import ClosureLoop, Unknown
 from spherekin.formulations import FORMULATIONS, embed, formulate
 from spherekin.rotations import normalize_polygon, normalized_closure
 from verification.spherical import exterior_angles, random_polygon, side_lengths
+from conftest import wrap
 
 #: Closure at a random polygon's normalized angles holds to rounding (products of ~10 rotations).
 CLOSURE_TOL = 1e-12
@@ -43,9 +44,6 @@ def closed_polygon_angles(rng, m):
     assert np.abs(normalized_closure(phis) - np.eye(3)).max() < CLOSURE_TOL
     return phis
 
-
-def wrap(angle):
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def new_unknown(rng, name, theta):

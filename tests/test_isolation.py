@@ -17,13 +17,10 @@ import pytest
 from spherekin import bernstein
 from spherekin.isolation import (SquareSystem, _derivative_bounds, evaluate_at, jacobian_at, krawczyk_boxes,
                                  newton)
+from conftest import times_linear
 
 EPS = np.finfo(float).eps
 
-
-def times_linear(g, k, r):
-    """Power coefficients of (x_k - r) g(x); g has degree <= 1 in x_k."""
-    return np.roll(g, 1, axis=k) - r * g
 
 
 def square_system(seed, n):

@@ -17,6 +17,8 @@ when the reference agrees it is empty.
 
 import functools
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from scipy.optimize import linprog
@@ -614,3 +616,28 @@ def test_highspy_that_refuses_to_run_is_an_error_not_a_doubt():
     backend.h.setOptionValue("threads", 3)
     with pytest.raises(RuntimeError, match="refused to run"):
         backend.box_bounds(cps, tols)
+
+
+def test_certified_min_never_exceeds_the_exact_rational_minimum():
+    """One equation, one variable, two control points (-a, b) scaled to (w0, w1) by load: Eq. (12)
+    is min x = lambda_1 subject to lambda_0 + lambda_1 = 1 and |w0 lambda_0 + w1 lambda_1| <= h, whose
+    exact minimum is (-w0 - h) / (w1 - w0) (derived by hand; computed here in Fractions from the
+    floats load stored). Its optimal multipliers are y = (-w0, -1, 1) / (w1 - w0) on the (sum,
+    variable, slab) rows, given in floats: weak duality with them lands within a few ulps of the
+    minimum, on either side, and only the rounding allowance keeps every bound below it."""
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        a, b = rng.uniform(0.1, 1.0, 2)
+        st = LPStructure([(1, 2)])
+        assert st.load([np.array([[-a, b]])], [np.array([rng.uniform(1e-4, 1e-2)])])
+        w0, w1 = (Fraction(float(v)) for v in st.w_values)
+        h = Fraction(float(st.half_widths[0]))
+        exact = (-w0 - h) / (w1 - w0)
+        eq = st.equations[0]
+        y = np.zeros(st.nrow)
+        y[eq.sum_row] = float(-w0 / (w1 - w0))
+        y[eq.var_rows[0]] = -1.0
+        y[eq.slab_row] = float(1 / (w1 - w0))
+        bound = st.certified_min(st.objective(0, 1.0), y)
+        assert Fraction(bound) <= exact
+        assert float(exact) - bound < 1e-12                       # and it is still tight

@@ -27,17 +27,12 @@ from spherekin.mechanism import (
     three_rrr,
 )
 from spherekin.rotations import normalization_conjugator
+from conftest import rot, unit
+
 
 CLOSURE_TOL = 1e-12   # the bound for loop equations at IK solutions and for the recovered pose
 
 
-def rot(rotvec):
-    return Rotation.from_rotvec(rotvec).as_matrix()
-
-
-def unit(v):
-    v = np.asarray(v, dtype=float)
-    return v / np.linalg.norm(v)
 
 
 def random_assembled_3rrr(seed):

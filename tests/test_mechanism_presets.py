@@ -29,12 +29,10 @@ from spherekin.closure import ClosureLoop, Term
 from spherekin.mechanism import PRESETS, gosselin, load_mechanism, preset
 from spherekin.paper_gosselin import paper_gosselin_loops
 from spherekin.rotations import normalized_closure
+from conftest import wrap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
-
-def wrap(a):
-    return math.remainder(a, 2 * math.pi)
 
 
 def factor_value(f, values):

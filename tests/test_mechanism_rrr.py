@@ -19,6 +19,7 @@ from spherekin.mechanism import (
     rrr_joint_names,
     three_rrr,
 )
+from conftest import unit
 
 
 def closed_form_betas(u, w0, v, alpha2):
@@ -120,9 +121,6 @@ def test_impossible_geometry_is_rejected():
                             (0.1, 0.1, 0.1))
     assert find_reference_pose(geom) is None
 
-
-def unit(v):
-    return np.asarray(v, dtype=float) / np.linalg.norm(v)
 
 
 def test_joint_names_and_ranges():

@@ -10,6 +10,8 @@
 * the LP box (Eq. 12) lies inside the PP box up to the documented margins.
 """
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
@@ -19,8 +21,9 @@ from spherekin import bernstein
 from spherekin.formulations import formulate
 from spherekin.lp_backends import FEASIBILITY_TOL, LP_BOUND_MARGIN
 from spherekin.mechanism import gosselin
-from spherekin.pruners import INTERVAL_MARGIN, PRUNERS, make_pruner, pp_intervals
+from spherekin.pruners import INTERVAL_MARGIN, PRUNERS, excludes_zero, make_pruner, pp_intervals
 from spherekin.solver import ROUNDING_SAFETY
+from conftest import times_linear
 
 EPS = np.finfo(float).eps
 #: The brute-force hull and the pruner compute the same crossings by different formulas (measured
@@ -37,10 +40,6 @@ def tolerances(coeffs):
 
 
 # ---------------------------------------------------------------- polynomial systems with known roots
-
-def times_linear(g, k, r):
-    """Power coefficients of (x_k - r) g(x); g has degree <= 1 in x_k (top coefficient zero)."""
-    return np.roll(g, 1, axis=k) - r * g
 
 
 def random_factor(rng, shape, k):
@@ -325,3 +324,19 @@ def test_pruner_names():
         make_pruner("pp", [(1, 3)], "highs")
     with pytest.raises(ValueError, match="lp_backend"):
         make_pruner("lp", [(1, 3)], "glpk")
+
+
+def test_excludes_zero_keeps_a_box_whose_control_points_clear_zero_by_less_than_their_tolerance():
+    """p(x) = x^2 on [0, 1] has exact Bernstein control points (0, 0, 1) and a root at x = 0. Float
+    control points that carry rounding errors (here +1e-17 on the zeros) stay within their tolerance
+    1e-15 of the exact ones, so the box must be kept: only points beyond the slab |w| <= tol prove
+    that no root is there. Checked in exact rationals."""
+    exact = [Fraction(0), Fraction(0), Fraction(1)]
+    noisy = np.array([[1e-17, 1e-17, 1.0]])[..., None]                  # (E=1, 3, B=1)
+    tol = np.array([1e-15])
+    assert all(abs(Fraction(float(f)) - e) <= Fraction(float(tol[0])) for f, e in zip(noisy[0, :, 0], exact))
+    assert min(exact) == 0                                               # p(0) = b_0 = 0: a root in the box
+    assert not excludes_zero([noisy], [tol])[0]
+    clear = np.array([[2e-15, 3e-15, 1.0]])[..., None]                  # beyond the slab: p >= 2e-15 - 1e-15 > 0
+    assert Fraction(float(clear.min())) - Fraction(float(tol[0])) > 0
+    assert excludes_zero([clear], [tol])[0] and excludes_zero([-clear], [tol])[0]

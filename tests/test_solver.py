@@ -55,7 +55,7 @@ def test_gosselin_eight_solutions_four_singular(gosselin_report):
     for s in sols:
         assert s.residual < 1e-12                     # polished
         assert s.evidence["krawczyk_certified"]       # serial singularities are still isolated roots
-        assert leg_residuals(EXAMPLES / "gosselin.toml", INPUTS, s.platform_rotation).max() < 1e-5
+        assert leg_residuals(EXAMPLES / "gosselin.toml", INPUTS, s.platform_rotation).max() < 1e-12
         np.testing.assert_allclose(s.platform_rotation @ s.platform_rotation.T, np.eye(3), atol=1e-12)
     poses = [s.platform_rotation for s in sols]
     assert min(np.abs(a - b).max() for i, a in enumerate(poses) for b in poses[i + 1:]) > 1e-3
@@ -63,7 +63,7 @@ def test_gosselin_eight_solutions_four_singular(gosselin_report):
 
 def test_gosselin_solutions_include_angles_at_pi(gosselin_report):
     """The singular solutions have passive angles at exactly +-pi: found through the chart at pi."""
-    at_pi = [a for s in gosselin_report.solutions for a in s.angles if abs(abs(a) - math.pi) < 1e-5]
+    at_pi = [a for s in gosselin_report.solutions for a in s.angles if abs(abs(a) - math.pi) < 1e-12]
     assert len(at_pi) >= 4
 
 
@@ -74,7 +74,7 @@ def test_regular_solutions_reproduce_inputs_by_inverse_kinematics(gosselin_repor
             continue
         modes = mech.inverse_kinematics(s.platform_rotation)
         d = [np.abs(np.mod(np.array(m.inputs) - INPUTS + math.pi, 2 * math.pi) - math.pi).max() for m in modes]
-        assert min(d) < 1e-5
+        assert min(d) < 1e-12
 
 
 @pytest.mark.parametrize("preset, seed", [("gosselin.toml", 1), ("general_3rrr.toml", 2)])
@@ -105,39 +105,50 @@ def test_round_trip_sweep(preset):
 
 # ---------------------------------------------------------------- every pruner and backend
 
-def _narrow(mech, centre, half):
+def _narrow(mech, centre, half, inputs=INPUTS):
     """A build function and ranges for a box of half-width ``half`` around passive angles ``centre``."""
     ranges = {n: (a - half, a + half) for n, a in centre.items()}
 
     def build(chart):
-        system = mech.loop_system(INPUTS, chart)
+        system = mech.loop_system(inputs, chart)
         return system.loops, system.unknowns
 
     return build, ranges
 
 
+#: A pose of the Gosselin platform chosen first; its inputs and passive angles come from inverse
+#: kinematics (closed form), so the solver is checked against a root it did not compute.
+REGULAR_POSE = Rotation.from_rotvec([0.3, -0.2, 0.25]).as_matrix()
+
+
 @pytest.fixture(scope="module")
-def regular_solution(gosselin_report):
-    s = next(s for s in gosselin_report.solutions if s.singularity == "regular")
-    return dict(zip(gosselin_report.unknowns, s.angles))
+def regular_root():
+    """(inputs, passive angles by name) of REGULAR_POSE, a regular assembly (checked)."""
+    mech = gosselin()
+    ik = mech.inverse_kinematics(REGULAR_POSE)[0]
+    assert mech.singularity(ik.joint_angles).kind == "regular"
+    names = mech.loop_system(ik.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    return ik.inputs, {n: ik.joint_angles[n] for n in names}
 
 
 @pytest.mark.parametrize("parameterization", ["tan-half", "sin-cos"])
 @pytest.mark.parametrize("pruner, backend", [("pp", None), ("hybrid", None), ("lp", "highspy"), ("lp", "highs"),
                                              ("lp", "clarabel")])
 class TestEveryPruner:
-    def test_finds_the_solution(self, pruner, backend, parameterization, regular_solution):
-        build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+    def test_finds_the_solution(self, pruner, backend, parameterization, regular_root):
+        inputs, root = regular_root
+        build, ranges = _narrow(gosselin(), root, 0.15, inputs)
         rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization,
                            formulation="halves")
-        assert len(rep.solutions) == 1
-        np.testing.assert_allclose(rep.solutions[0].angles, list(regular_solution.values()), atol=2e-6)
+        assert len(rep.solutions) == 1       # unpolished: the centre of a box of width <= tol (1e-6)
+        np.testing.assert_allclose(rep.solutions[0].angles, list(root.values()), atol=2e-6)
         if pruner == "lp":
             assert rep.stats.lps_solved > 0
 
-    def test_empty_when_no_solution_in_range(self, pruner, backend, parameterization, regular_solution):
-        away = {n: a + 0.5 for n, a in regular_solution.items()}
-        build, ranges = _narrow(gosselin(), away, 0.1)
+    def test_empty_when_no_solution_in_range(self, pruner, backend, parameterization, regular_root):
+        inputs, root = regular_root
+        away = {n: a + 0.5 for n, a in root.items()}
+        build, ranges = _narrow(gosselin(), away, 0.1, inputs)
         rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization)
         assert rep.solutions == ()
 
@@ -148,12 +159,21 @@ def _poses(report):
 
 @pytest.mark.parametrize("parameterization", ["tan-half", "sin-cos"])
 @pytest.mark.parametrize("formulation", ["transversal", "halves"])
-def test_every_parameterization_and_formulation_finds_the_eight_solutions(parameterization, formulation,
-                                                                           gosselin_report):
-    rep = solve(gosselin(), INPUTS, parameterization=parameterization, formulation=formulation)
+def test_every_parameterization_and_formulation_finds_the_eight_solutions(parameterization, formulation):
+    """8 distinct assemblies (the Bezout bound of a 3-RRR: none can be missing), each reached by the
+    legs at INPUTS (leg residuals straight from the TOML file), and the regular ones reproduce INPUTS by
+    inverse kinematics."""
+    mech = gosselin()
+    rep = solve(mech, INPUTS, parameterization=parameterization, formulation=formulation)
     assert sorted(s.status for s in rep.solutions) == ["certified"] * 4 + ["singular"] * 4
-    for a, b in zip(_poses(rep), _poses(gosselin_report)):
-        np.testing.assert_allclose(a, b, atol=1e-12)
+    poses = _poses(rep)
+    assert min(np.abs(a - b).max() for i, a in enumerate(poses) for b in poses[i + 1:]) > 1e-3
+    for s in rep.solutions:
+        assert leg_residuals(EXAMPLES / "gosselin.toml", INPUTS, s.platform_rotation).max() < 1e-12
+        if s.singularity == "regular":
+            d = [np.abs(np.mod(np.array(m.inputs) - INPUTS + math.pi, 2 * math.pi) - math.pi).max()
+                 for m in mech.inverse_kinematics(s.platform_rotation)]
+            assert min(d) < 1e-12
     assert rep.settings["parameterization"] == parameterization
     assert rep.stats.charts == (64 if parameterization == "tan-half" else 1)
 
@@ -167,10 +187,11 @@ def test_jobs_do_not_change_the_result(gosselin_report):
         solve(gosselin(), INPUTS, jobs=0)
 
 
-def test_trace_accounts_for_every_box(regular_solution):
+def test_trace_accounts_for_every_box(regular_root):
     from spherekin.solver import TRACE_OUTCOMES
 
-    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+    inputs, root = regular_root
+    build, ranges = _narrow(gosselin(), root, 0.15, inputs)
     records = []
     rep = solve_system(build, ranges, trace=records.append)
     outcome = np.concatenate([r["outcome"] for r in records])
@@ -193,25 +214,43 @@ def test_isolation_saves_boxes_but_not_solutions(gosselin_report):
     assert plain.stats.boxes_processed > gosselin_report.stats.boxes_processed
 
 
-def test_sin_cos_drops_solutions_outside_limited_ranges(regular_solution):
-    """The sin-cos box of an arc is its bounding box, which holds circle points beyond the arc."""
-    mech = gosselin()
-    centre = {n: a + 0.12 for n, a in regular_solution.items()}   # the root near one end of each range
-    build, ranges = _narrow(mech, centre, 0.125)
-    for par in ("tan-half", "sin-cos"):
-        rep = solve_system(build, ranges, parameterization=par)
-        assert len(rep.solutions) == 1
-    build, ranges = _narrow(mech, {n: a + 0.13 for n, a in regular_solution.items()}, 0.125)
-    for par in ("tan-half", "sin-cos"):
-        assert solve_system(build, ranges, parameterization=par).solutions == ()
+def _arc_box(lo, hi, samples=200_001):
+    """Bounding box of the unit-circle arc [lo, hi] in (cos, sin), by dense sampling (to ~1e-10)."""
+    t = np.linspace(lo, hi, samples)
+    return np.cos(t).min(), np.cos(t).max(), np.sin(t).min(), np.sin(t).max()
 
 
-def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_solution):
-    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+def test_sin_cos_drops_solutions_outside_limited_ranges(regular_root):
+    """The sin-cos box of an arc wider than pi is its bounding box in (c, s), which holds circle points
+    beyond the arc. A range of width 4 rad for gamma1 is placed so that the root's gamma1 (from IK) is
+    0.05 rad or more outside it yet inside that bounding box (by geometry): the box loop accepts boxes
+    at the root (``boxes``: before the range filter) and the filter must drop them."""
+    inputs, root = regular_root
+    a = root["gamma1"]
+    for delta in np.arange(0.05, 2.0, 0.05):          # range (a + delta, a + delta + 4): a is delta below it
+        c_lo, c_hi, s_lo, s_hi = _arc_box(a + delta, a + delta + 4.0)
+        if c_lo + 1e-3 < math.cos(a) < c_hi - 1e-3 and s_lo + 1e-3 < math.sin(a) < s_hi - 1e-3:
+            break
+    else:
+        pytest.fail("no placement puts the root in the arc's bounding box")
+    build, ranges = _narrow(gosselin(), root, 0.15, inputs)
+    ranges["gamma1"] = (a + delta, a + delta + 4.0)
+    rep = solve_system(build, ranges, parameterization="sin-cos", isolate=False)
+    k = list(ranges).index("gamma1")
+    near = [b for b in rep.boxes if abs(math.remainder(0.5 * (b.lo[k] + b.hi[k]) - a, 2 * math.pi)) < 1e-5]
+    assert near                                        # the search reached the root outside the arc
+    assert not any(abs(math.remainder(s.angles[k] - a, 2 * math.pi)) < 1e-3 for s in rep.solutions)
+    for s in rep.solutions:
+        assert math.remainder(s.angles[k] - (a + delta), 2 * math.pi) % (2 * math.pi) <= 4.0 + 1e-5
+
+
+def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_root):
+    inputs, root = regular_root
+    build, ranges = _narrow(gosselin(), root, 0.15, inputs)
     rep = solve_system(build, ranges, formulation="paper", tol=1e-3)
     assert len(rep.solutions) >= 1      # unpolished clusters: solve() polishes and merges them
     for sol in rep.solutions:  # a double root: boxes survive ~sqrt(hull slack) away, beyond tol
-        np.testing.assert_allclose(sol.angles, list(regular_solution.values()), atol=2e-2)
+        np.testing.assert_allclose(sol.angles, list(root.values()), atol=2e-2)
     assert sum(s.n_boxes for s in rep.solutions) > 10  # the double root leaves a cloud of boxes
 
 
@@ -230,13 +269,14 @@ def test_charts_cover_ranges():
         charts_for_range((1.0, 1.0))
 
 
-def test_caps_raise_distinct_errors(regular_solution):
-    build, ranges = _narrow(gosselin(), regular_solution, 0.15)
+def test_caps_raise_distinct_errors(regular_root):
+    inputs, root = regular_root
+    build, ranges = _narrow(gosselin(), root, 0.15, inputs)
     with pytest.raises(BoxLimitError, match="max_boxes") as err:
         solve_system(build, ranges, max_boxes=5)
     assert isinstance(err.value, SolverLimitError)
     with pytest.raises(DepthLimitError, match="max_depth") as err:
-        solve_system(build, ranges, tol=1e-12, max_depth=3)
+        solve_system(build, ranges, tol=1e-12, max_depth=3, isolate=False)
     assert isinstance(err.value, SolverLimitError) and not isinstance(err.value, BoxLimitError)
 
 

@@ -1,0 +1,47 @@
+"""Shared test helpers and fixtures (pytest puts this directory on sys.path: ``from conftest import ...``).
+
+Helpers here are small, obviously correct and independent of spherekin's own code paths (scipy's
+Rotation, math.remainder, numpy), so that tests built on them compare spherekin against something
+else.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+#: The paper's Gosselin example inputs (Section 5), radians.
+GOSSELIN_INPUTS = (0.3, -0.2, 0.5)
+
+
+def rot(rotvec) -> np.ndarray:
+    """The rotation matrix of a rotation vector (axis * angle, radians), by scipy."""
+    return Rotation.from_rotvec(rotvec).as_matrix()
+
+
+def unit(v) -> np.ndarray:
+    """v / |v| as a float array."""
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def wrap(angle: float) -> float:
+    """angle modulo 2 pi in [-pi, pi] (IEEE remainder: exact)."""
+    return math.remainder(angle, 2 * math.pi)
+
+
+def times_linear(g, k, r):
+    """Power coefficients of (x_k - r) g(x); g has degree <= 1 in x_k (its top coefficient is zero)."""
+    return np.roll(g, 1, axis=k) - r * g
+
+
+@pytest.fixture(scope="session")
+def gosselin_report():
+    """spherekin's solve of the Gosselin platform at GOSSELIN_INPUTS (default settings), computed once."""
+    from spherekin import solve
+    from spherekin.mechanism import gosselin
+
+    return solve(gosselin(), GOSSELIN_INPUTS)

@@ -1,0 +1,103 @@
+"""spherekin.solutions: from the solver's clusters to entries whose status says what was proven.
+
+finalize is fed clusters made by hand or by solve_system, and judged by reasons outside it: a
+certification function that refuses everything (nothing can then be proven), joint ranges placed
+around a root known from inverse kinematics, and the count rule applied to hand-made entries.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from conftest import GOSSELIN_INPUTS, rot
+from spherekin import solve_system
+from spherekin.certify import certify as real_certify
+from spherekin.mechanism import Joint, Leg, SphericalMechanism, gosselin
+from spherekin.results import Solution
+from spherekin.solutions import STATUSES, count_summary, finalize, is_proven
+
+
+def clusters_of(mech, inputs, **kw):
+    """(names, clusters) of the box loop of solve_system, before finalize."""
+    names = mech.loop_system(inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+
+    def build(chart):
+        system = mech.loop_system(inputs, chart)
+        return system.loops, system.unknowns
+
+    report = solve_system(build, {n: mech.ranges[n] for n in names}, **kw)
+    return report.unknowns, report.solutions
+
+
+def refusing_certify(system, theta, radii=None, angle_tolerance=None):
+    """A certification function that never certifies: the real test's evidence, verdict False."""
+    kw = {} if radii is None else {"radii": radii}
+    res = real_certify(system, theta, **kw)
+    return dataclasses.replace(res, certified=False, reason="not certified: refused by the test")
+
+
+def test_nothing_is_certified_when_every_certificate_is_refused():
+    """The Gosselin clusters are single Newton points of isolated boxes; with every point certificate
+    refused, no entry may be certified and the count cannot be exact."""
+    mech = gosselin()
+    names, clusters = clusters_of(mech, GOSSELIN_INPUTS)
+    assert len(clusters) == 8
+    out = finalize(mech, GOSSELIN_INPUTS, names, clusters, 1e-6, certify=refusing_certify)
+    assert out and not any(s.status == "certified" for s in out)
+    assert not any(is_proven(s) for s in out)
+    assert count_summary(out) == (0, False)
+    for s in out:
+        assert s.status in ("unverified", "singular") and not s.evidence["krawczyk_certified"]
+
+
+def test_the_real_certificates_prove_all_eight():
+    mech = gosselin()
+    names, clusters = clusters_of(mech, GOSSELIN_INPUTS)
+    out = finalize(mech, GOSSELIN_INPUTS, names, clusters, 1e-6)
+    assert count_summary(out) == (8, True)
+
+
+def _with_range(name, rng):
+    base = gosselin()
+    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, j.actuated, rng if j.name == name else j.range,
+                                           j.reference_angle) for j in leg.joints)) for leg in base.legs)
+    return SphericalMechanism(legs, name="ranged", reference_leg=base.reference_leg)
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+def test_a_root_outside_a_passive_range_is_dropped(side):
+    """Clusters found over the full circles are handed to finalize with a mechanism whose gamma1 range
+    stops 1e-6 short of a root chosen first (pose -> inverse kinematics -> inputs): that root must
+    not be reported, and every reported entry must lie in the range."""
+    R = rot([0.2, -0.1, 0.15])
+    base = gosselin()
+    ik = base.inverse_kinematics(R)[0]
+    inputs = ik.inputs
+    a = ik.joint_angles["gamma1"]
+    rng = (a + 1e-6, a + 1.0) if side > 0 else (a - 1.0, a - 1e-6)
+    names, clusters = clusters_of(base, inputs)
+    assert any(np.abs(np.mod(c.angles[0] - a + np.pi, 2 * np.pi) - np.pi) < 1e-5 for c in clusters)
+    out = finalize(_with_range("gamma1", rng), inputs, names, clusters, 1e-6)
+    assert not any(np.abs(s.platform_rotation - R).max() < 1e-9 for s in out if s.platform_rotation is not None)
+    for s in out:
+        g = s.angles[list(names).index("gamma1")]
+        assert rng[0] - 1e-9 <= g <= rng[1] + 1e-9
+
+
+def test_count_summary_rule():
+    """Exact only when every entry is proven: certified, or singular with a certificate."""
+    z = np.zeros(1)
+
+    def entry(status, certified=None):
+        ev = {} if certified is None else {"krawczyk_certified": certified}
+        return Solution(z, z, z, 1, status=status, evidence=ev)
+
+    assert count_summary([entry("certified"), entry("singular", True)]) == (2, True)
+    assert count_summary([entry("certified"), entry("singular", False)]) == (1, False)
+    for other in ("unverified", "cluster", "continuum"):
+        assert count_summary([entry("certified"), entry(other)]) == (1, False)
+    assert count_summary([]) == (0, True)
+    assert set(STATUSES) == {"certified", "singular", "unverified", "cluster", "continuum"}
