@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 __all__ = ["REAL_TOL", "NULL_GAP", "POLISH_STEPS", "MONOMIALS", "rodrigues", "elbow_axis", "leg_quadrics",
-           "quaternion_rotation", "rotation_quaternion", "leg_residuals", "solve_quadrics", "direct_kinematics",
+           "quaternion_rotation", "rotation_quaternion", "leg_residuals", "candidate_points", "solve_quadrics", "direct_kinematics",
            "geometry_of"]
 
 #: A root of the eigenproblem is real when the imaginary part of its coordinates (scaled so that
@@ -184,12 +184,10 @@ def _polish(quadrics: np.ndarray, q: np.ndarray) -> np.ndarray:
     return q
 
 
-def solve_quadrics(quadrics: np.ndarray) -> tuple[np.ndarray, int]:
-    """Real unit quaternions of three quadrics, one of each pair +-q (first non-negligible entry > 0).
-
-    Returns (real roots, shape (r, 4); the number of roots of the eigenproblem, real or complex:
-    8 generically). Raises ValueError when the Macaulay matrix has no clear 8-dimensional null
-    space (a degenerate geometry whose roots are not isolated).
+def candidate_points(quadrics: np.ndarray) -> np.ndarray:
+    """Every root of three quadrics, real or complex, from the eigenproblem: shape (8, 4) complex,
+    each scaled so that its largest coordinate is 1 (steps 1-2 of the module docstring; not polished).
+    Raises ValueError as :func:`solve_quadrics`.
     """
     mac = _macaulay(quadrics)
     _, sv, vt = np.linalg.svd(mac)
@@ -209,15 +207,25 @@ def solve_quadrics(quadrics: np.ndarray) -> tuple[np.ndarray, int]:
     cubes = m3[_CUBE_ROWS]                               # (4, 4, 8): [a, k, r] ~ p_a^2 p_k
     diag = np.abs(cubes[np.arange(4), np.arange(4)])     # (4, 8): |p_a^3|
     pts = cubes[np.argmax(diag, axis=0), :, np.arange(vecs.shape[1])]   # (8, 4), ~ p_a^2 * p
-    pts = pts / pts[np.arange(len(pts)), np.argmax(np.abs(pts), axis=1)][:, None]
+    return pts / pts[np.arange(len(pts)), np.argmax(np.abs(pts), axis=1)][:, None]
+
+
+def solve_quadrics(quadrics: np.ndarray) -> tuple[np.ndarray, int]:
+    """Real unit quaternions of three quadrics, one of each pair +-q (first non-negligible entry > 0).
+
+    Returns (real roots, shape (r, 4); the number of roots of the eigenproblem, real or complex:
+    8 generically). Raises ValueError when the Macaulay matrix has no clear 8-dimensional null
+    space (a degenerate geometry whose roots are not isolated).
+    """
+    pts = candidate_points(quadrics)
     real = pts[np.abs(pts.imag).max(axis=1) <= REAL_TOL].real
     if len(real) == 0:
-        return np.zeros((0, 4)), vecs.shape[1]
+        return np.zeros((0, 4)), len(pts)
     q = real / np.linalg.norm(real, axis=1, keepdims=True)
     q = _polish(quadrics, q)
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     lead = q[np.arange(len(q)), np.argmax(np.abs(q) > 1e-12, axis=1)]
-    return q * np.sign(lead)[:, None], vecs.shape[1]
+    return q * np.sign(lead)[:, None], len(pts)
 
 
 def direct_kinematics(geometry, inputs) -> list[np.ndarray]:

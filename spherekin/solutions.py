@@ -306,7 +306,7 @@ def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> li
                     e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
                                                                     "to_tol": finer_tol})
                     out.append(e)
-            return out
+            return _merge_unproven(out, sol, tol)
     cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
                   "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
                   "unresolved_boxes": len(unresolved)}
@@ -322,6 +322,31 @@ def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> li
     if unresolved and all(is_proven(s) for s in kept):   # else a non-proven entry already says so
         kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
     return kept
+
+
+def _merge_unproven(entries: list, sol: Solution, tol: float) -> list:
+    """The entries of one cluster's refined search, with its non-proven entries merged into one.
+
+    Next to a singular input a refined search can leave several sub-clusters, each with a point of
+    residual below 1e-12 along a valley of near-solutions (the ghost of a complex pair) or with
+    one of two roots too close to separate. They are one region the solver could not resolve: one
+    ``cluster`` entry, its points listed in the evidence, instead of a list of look-alike entries.
+    """
+    proven = [e for e in entries if is_proven(e)]
+    other = [e for e in entries if not is_proven(e)]
+    if len(other) <= 1:
+        return entries
+    lo = np.min([e.lo for e in other], axis=0)
+    hi = np.max([e.hi for e in other], axis=0)
+    points = [dict(angles=[float(a) for a in e.angles], status=e.status, residual=e.residual) for e in other]
+    ev = {"reason": (f"next to a singularity, {len(other)} entries of one cluster (refined from tol {tol:g}) could "
+                     "not be proven: converged points that could not be certified or separated, or boxes that could "
+                     "not be excluded; the region may hold none, one or several roots"),
+          "candidates": points[:16], "refined": other[0].evidence.get("refined", [])}
+    best = min(other, key=lambda e: e.residual if e.residual is not None else math.inf)
+    merged = dataclasses.replace(sol, angles=best.angles, lo=lo, hi=hi, residual=best.residual, singularity=None,
+                                 platform_rotation=None, status="cluster", evidence=ev, members=None)
+    return proven + [merged]
 
 
 def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict, unresolved) -> Solution:

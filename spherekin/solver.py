@@ -76,6 +76,10 @@ CONTINUUM_TOL = 1e-2
 #: singular input) at 1e-10; below that, Krawczyk tests are swamped by rounding.
 REFINE_FACTOR = 1e-2
 REFINE_MIN_TOL = 1e-10
+#: Box cap of one refined search. Reason: a hull that holds separable roots is resolved in a few
+#: thousand boxes; a search that needs more is at the singular input itself (roots not separable
+#: at any tol worth paying for), and the cluster is then reported as unresolved.
+REFINE_MAX_BOXES = 20_000
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
@@ -583,7 +587,7 @@ def solve(
         try:
             sub = solve_system(build, box, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                                parameterization=parameterization, tol=finer, isolate=isolate, jobs=1,
-                               max_boxes=max_boxes, max_depth=max_depth)
+                               max_boxes=min(max_boxes, REFINE_MAX_BOXES), max_depth=max_depth)
         except SolverLimitError:
             return None
         refined.append(sub.stats)
