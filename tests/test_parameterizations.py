@@ -303,8 +303,9 @@ def test_circle_bounds_against_dense_samples_of_the_circle():
 
 
 def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
-    from spherekin.mechanism import gosselin
-    from spherekin.solver import solve
+    """The circle contraction must keep every point of the circles c_k^2 + s_k^2 = 1; the points
+    tried are passive angles of inverse-kinematics configurations (not solver output)."""
+    from scipy.spatial.transform import Rotation
 
     mech = gosselin()
     names = mech.loop_system((0.3, -0.2, 0.5), {n: (-1.0, 1.0) for n in mech.passive}).names
@@ -319,10 +320,11 @@ def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
     tan.contract(np.zeros(1, dtype=int), np.zeros((1, 6)), np.ones((1, 6)), rlo, rhi)
     assert np.all(rlo == 0.25) and np.all(rhi == 0.75)
     sc = make_charts("sin-cos", build, ranges, "halves")
-    rep = solve(mech, (0.3, -0.2, 0.5))
-    chart = np.zeros(len(rep.solutions), dtype=int)
-    # boxes of unit side 0.2 around each solution's (c, s) point: contraction keeps the point
-    pts = np.array([[f(a) for a in s.angles for f in (np.cos, np.sin)] for s in rep.solutions])
+    roots = [[sol.joint_angles[n] for n in names] for seed in range(2)
+             for sol in mech.inverse_kinematics(Rotation.random(random_state=seed).as_matrix())]
+    chart = np.zeros(len(roots), dtype=int)
+    # boxes of unit side 0.2 around each configuration's (c, s) point: contraction keeps the point
+    pts = np.array([[f(a) for a in angles for f in (np.cos, np.sin)] for angles in roots])
     u = (pts - sc.map_lo[chart]) / (sc.map_hi[chart] - sc.map_lo[chart])
     lo, hi = np.clip(u - 0.1, 0, 1), np.clip(u + 0.1, 0, 1)
     tlo, thi = lo.copy(), hi.copy()          # reductions of the whole chart box [0, 1]^N
