@@ -15,7 +15,8 @@ import pytest
 from conftest import GOSSELIN_INPUTS, rot
 from spherekin import solve_system
 from spherekin.certify import certify as real_certify
-from spherekin.mechanism import Joint, Leg, SphericalMechanism, gosselin
+from benchmarks import peers_closed_form as pcf
+from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.results import Solution
 from spherekin.solutions import STATUSES, count_summary, finalize, is_proven
 
@@ -101,3 +102,38 @@ def test_count_summary_rule():
         assert count_summary([entry("certified"), entry(other)]) == (1, False)
     assert count_summary([]) == (0, True)
     assert set(STATUSES) == {"certified", "singular", "unverified", "cluster", "continuum"}
+
+
+def _cluster_at(angles, half=1e-7):
+    """A cluster as the box loop returns it: a tiny hull around (not at) the root."""
+    a = np.asarray(angles, float) + 0.3 * half
+    return Solution(a, a - half, a + half, 1)
+
+
+def test_clusters_polishing_to_one_root_give_one_solution():
+    """Two clusters 1e-6 apart around the same inverse-kinematics root (as stray boxes of one root
+    come out of the box loop) polish to that root: one solution, not two."""
+    mech = general_3rrr()
+    ik = mech.inverse_kinematics(rot([0.1, 0.2, -0.1]))[0]
+    assert mech.singularity(ik.joint_angles).kind == "regular"
+    names = mech.loop_system(ik.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    root = np.array([ik.joint_angles[n] for n in names])
+    sols = finalize(mech, ik.inputs, names, [_cluster_at(root), _cluster_at(root - 1e-6)], 1e-6)
+    assert len(sols) == 1 and sols[0].status == "certified"
+    np.testing.assert_allclose(sols[0].angles, root, atol=1e-12)
+
+
+def test_distinct_roots_stay_distinct():
+    """Two regular roots of the Gosselin platform at the same inputs, from the closed-form solver
+    (benchmarks/peers_closed_form.py) and inverse kinematics: two certified solutions, each at its own root."""
+    mech = gosselin()
+    names = mech.loop_system(GOSSELIN_INPUTS, {n: (-1.0, 1.0) for n in mech.passive}).names
+    roots = [np.array([m.joint_angles[n] for n in names])
+             for pose in pcf.direct_kinematics(pcf.geometry_of(mech), GOSSELIN_INPUTS)
+             for m in mech.inverse_kinematics(pose)
+             if np.abs(np.remainder(np.array(m.inputs) - GOSSELIN_INPUTS + np.pi, 2 * np.pi) - np.pi).max() < 1e-12]
+    assert len(roots) >= 2
+    sols = finalize(mech, GOSSELIN_INPUTS, names, [_cluster_at(r) for r in roots[:2]], 1e-6)
+    assert len(sols) == 2 and all(s.status == "certified" for s in sols)
+    for r in roots[:2]:
+        assert min(np.abs(np.remainder(s.angles - r + np.pi, 2 * np.pi) - np.pi).max() for s in sols) < 1e-12
