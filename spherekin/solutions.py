@@ -89,6 +89,11 @@ NULLITY_RCOND = 1e-8
 #: linearly to a double root, and its points scatter by ~sqrt(1e-12) = 1e-6 rad, not 1e-4.
 CONTINUUM_MIN_POINTS = 3
 CONTINUUM_MIN_SPREAD = 1e-4
+#: Non-proven entries whose boxes are within this many tolerances of each other are one region
+#: the solver could not resolve (next to a singular input: the ghost of a complex pair leaves a
+#: valley of near-solutions, polished to several look-alike points) and are reported as one
+#: ``cluster`` entry; distinct assemblies of a mechanism are ~1e-3 rad apart or more.
+NEARBY_TOLS = 100.0
 #: A ``singular`` point must be a solution within this bound: the interval bound of the closure
 #: equations at the polished point (certify's ``residual``). Polished points reach ~1e-15; 1e-12 is
 #: polish's own convergence threshold (:data:`spherekin.polish.CONVERGED_TOL`).
@@ -257,8 +262,47 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
                 u.status not in ("cluster", "continuum") and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL
                 for u in unique):
             unique.append(e)
+    unique = _merge_nearby_unproven(unique, tol)
     unique.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return unique
+
+
+def _merge_nearby_unproven(entries: list, tol: float) -> list:
+    """Non-proven entries (not continua) whose boxes lie within NEARBY_TOLS * tol of each other
+    (modulo 2 pi) merged into one ``cluster`` entry each (see :func:`_merge_unproven`)."""
+    idx = [i for i, e in enumerate(entries) if not is_proven(e) and e.status != "continuum"]
+    if len(idx) < 2:
+        return entries
+    gap = NEARBY_TOLS * tol
+    parent = {i: i for i in idx}
+
+    def find(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for a_pos, i in enumerate(idx):
+        for j in idx[a_pos + 1:]:
+            a, b = entries[i], entries[j]
+            ca, cb = 0.5 * (a.lo + a.hi), 0.5 * (b.lo + b.hi)
+            d = np.abs(wrap(ca - cb)) - 0.5 * (a.hi - a.lo) - 0.5 * (b.hi - b.lo)
+            if np.all(d <= gap):
+                parent[find(j)] = find(i)
+    groups: dict[int, list] = {}
+    for i in idx:
+        groups.setdefault(find(i), []).append(i)
+    out = [e for i, e in enumerate(entries) if i not in parent]
+    for members in groups.values():
+        group = [entries[i] for i in members]
+        if len(group) == 1:
+            out += group
+            continue
+        ref = group[0]
+        shifted = [dataclasses.replace(e, lo=e.lo - (e.angles - ref.angles - wrap(e.angles - ref.angles)),
+                                       hi=e.hi - (e.angles - ref.angles - wrap(e.angles - ref.angles)))
+                   for e in group]
+        out += _merge_unproven(shifted, ref, tol)
+    return out
 
 
 def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> list[Solution]:
@@ -339,8 +383,7 @@ def _merge_unproven(entries: list, sol: Solution, tol: float) -> list:
     lo = np.min([e.lo for e in other], axis=0)
     hi = np.max([e.hi for e in other], axis=0)
     points = [dict(angles=[float(a) for a in e.angles], status=e.status, residual=e.residual) for e in other]
-    ev = {"reason": (f"next to a singularity, {len(other)} entries of one cluster (refined from tol {tol:g}) could "
-                     "not be proven: converged points that could not be certified or separated, or boxes that could "
+    ev = {"reason": (f"next to a singularity, {len(other)} nearby entries (tol {tol:g}) could not be proven: converged points that could not be certified or separated, or boxes that could "
                      "not be excluded; the region may hold none, one or several roots"),
           "candidates": points[:16], "refined": other[0].evidence.get("refined", [])}
     best = min(other, key=lambda e: e.residual if e.residual is not None else math.inf)

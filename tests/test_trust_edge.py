@@ -226,3 +226,42 @@ def test_a_root_only_a_sub_box_test_can_find_is_found():
     assert count_summary(out) == (2, True)
     for ref in full.solutions:   # sigma_min ~ 3e-3 there: polished angles agree to ~1e-13 / sigma_min
         assert min(np.abs(s.angles - ref.angles).max() for s in out) < 1e-9
+
+
+def _branch_points():
+    """Closed form for the double rocker: the diagonal BD at crank input x obeys
+    cos BD = cos AD cos AB + sin AD sin AB cos(theta), theta = pi/2 + x the angle at A between AB and
+    AD (AB starts 90 deg around A from the plane of A and D). Assemblies exist iff BD <= BC + DC =
+    85 deg, so the branch points are theta = +-acos((cos 85 - cos 80 cos 30) / (sin 80 sin 30))."""
+    r = math.radians
+    c = (math.cos(r(85)) - math.cos(r(80)) * math.cos(r(30))) / (math.sin(r(80)) * math.sin(r(30)))
+    return [math.remainder(s * math.acos(c) - math.pi / 2, 2 * math.pi) for s in (1.0, -1.0)]
+
+
+def _closed_form_count(x):
+    r = math.radians
+    cos_bd = math.cos(r(80)) * math.cos(r(30)) + math.sin(r(80)) * math.sin(r(30)) * math.cos(math.pi / 2 + x)
+    return 2 if cos_bd > math.cos(r(85)) else 0
+
+
+def test_the_closed_form_matches_the_geometry():
+    mech, branch = _double_rocker()
+    assert min(abs(math.remainder(branch - b, 2 * math.pi)) for b in _branch_points()) < 1e-12
+    for x in np.linspace(-math.pi, math.pi, 13):
+        assert len(solve(mech, (x,)).solutions) == _closed_form_count(x)
+
+
+@pytest.mark.parametrize("distance", [1e-3, 1e-5, 1e-7, 1e-9, 1e-12])
+def test_four_bar_near_its_branch_points_against_the_closed_form(distance):
+    """On both sides of both branch points: the count is the closed form's (2 inside, 0 outside), or
+    flagged as a lower bound within 1e-8 of the branch point; no proven entry outside."""
+    mech, _ = _double_rocker()
+    for b in _branch_points():
+        for side in (-1.0, 1.0):
+            x = b + side * distance
+            expected = _closed_form_count(x)
+            report = solve(mech, (x,))
+            if report.count_exact:
+                assert report.proven_count == len(report.solutions) == expected, (b, side, distance)
+            else:
+                assert distance <= 1e-8 and report.proven_count <= expected, (b, side, distance)
