@@ -9,6 +9,15 @@ cos(alpha2_i), computed here independently of the solver. Prints a summary table
 (with the seeds of every miss, for regression tests) and exits 1 if anything was missed.
 
     python -m benchmarks.sweep_roots [--poses 1000] [--jobs 2] [--seed 0] [--parameterization sin-cos]
+
+``--near-singular N``: instead, N inputs next to parallel singularities (issue 13). Seeded random
+general 3-RRR geometries; on each, a segment of inputs along which the number of real assemblies
+changes, its singular input found by bisection on the count of an independent 50-digit reference
+(benchmarks/reference_roots.py), and the inputs at 1e-2, 1e-4, ..., 1e-12 on both sides (12 per
+segment). Each input is judged by benchmarks/near_singular.py: exact and right, flagged (a lower
+bound), wrong count, lost root, invented root. Table by distance band; JSON to
+results/sweep_near_singular.json; exit 1 on any failure (a wrong or flagged-far count, a lost or
+invented root).
 """
 
 from __future__ import annotations
@@ -101,10 +110,70 @@ def trial(seed: int, parameterization: str = DEFAULT_PARAMETERIZATION) -> dict:
                     error=str(exc).split(";")[0])
     seconds = time.perf_counter() - t0
     miss = not any(np.abs(s.platform_rotation - r0).max() < MATCH_TOL for s in rep.solutions)
-    spurious = sum(leg_residual(data, mode.inputs, s.platform_rotation) > SPURIOUS_TOL for s in rep.solutions)
+    spurious = sum(leg_residual(data, mode.inputs, s.platform_rotation) > SPURIOUS_TOL for s in rep.solutions
+                   if s.platform_rotation is not None)
     statuses = [s.status for s in rep.solutions]
     return dict(seed=seed, kind=kind, miss=bool(miss), spurious=int(spurious), solutions=len(rep.solutions),
                 seconds=seconds, statuses=statuses, boxes=rep.stats.boxes_processed)
+
+
+def near_singular_segment(seed: int) -> list:
+    """The judged near-singular inputs of one seeded segment (12 rows)."""
+    from benchmarks.near_singular import judge, random_segment
+    from benchmarks.reference_roots import near_singular_inputs
+
+    mech, geometry, x_star, direction = random_segment(seed)
+    rows = []
+    for distance, inputs in near_singular_inputs(x_star, direction):
+        t0 = time.perf_counter()
+        verdict = judge(mech, geometry, inputs, distance)
+        rows.append(dict(seed=seed, distance=float(distance), inputs=[float(v) for v in inputs],
+                         seconds=time.perf_counter() - t0, **verdict))
+    return rows
+
+
+def near_singular_main(args) -> int:
+    n_segments = -(-args.near_singular // 12)
+    seeds = range(args.seed, args.seed + n_segments)
+    t0 = time.perf_counter()
+    rows = []
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        for i, part in enumerate(pool.map(near_singular_segment, seeds), start=1):
+            rows += part
+            for r in part:
+                if r["wrong"]:
+                    print(f"  seed {r['seed']} distance {r['distance']:+.0e}: {r['wrong']}", flush=True)
+            if i % 5 == 0:
+                print(f"  {len(rows)} inputs, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    rows = rows[:args.near_singular]
+    wall = time.perf_counter() - t0
+    bands = sorted({abs(r["distance"]) for r in rows}, reverse=True)
+    head = (f"{'distance':>9s} {'inputs':>7s} {'exact&right':>12s} {'flagged':>8s} {'wrong count':>12s} "
+            f"{'lost':>5s} {'invented':>9s} {'flagged>1e-8':>13s} {'median s':>9s} {'max s':>7s}")
+    print(head)
+    table = []
+    for band in bands:
+        part = [r for r in rows if abs(r["distance"]) == band]
+        row = dict(distance=band, inputs=len(part),
+                   exact_right=sum(r["exact"] and not r["wrong"] for r in part),
+                   flagged=sum(not r["exact"] for r in part),
+                   wrong_count=sum("wrong_count" in r["wrong"] for r in part),
+                   lost=sum(r["wrong"].get("lost", 0) for r in part),
+                   invented=sum(r["wrong"].get("invented", 0) for r in part),
+                   flagged_far=sum("flagged_far" in r["wrong"] for r in part),
+                   median_seconds=statistics.median(r["seconds"] for r in part),
+                   max_seconds=max(r["seconds"] for r in part))
+        table.append(row)
+        print(f"{band:9.0e} {row['inputs']:7d} {row['exact_right']:12d} {row['flagged']:8d} {row['wrong_count']:12d} "
+              f"{row['lost']:5d} {row['invented']:9d} {row['flagged_far']:13d} {row['median_seconds']:9.2f} "
+              f"{row['max_seconds']:7.2f}")
+    print(f"{len(rows)} inputs on {n_segments} segments, wall time {wall:.0f} s with {args.jobs} processes "
+          "(times include the 50-digit reference)")
+    out = args.out or Path(__file__).parent / "results" / "sweep_near_singular.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(dict(table=table, wall_seconds=wall, jobs=args.jobs, rows=rows), indent=1))
+    print(f"wrote {out}")
+    return 1 if any(r["wrong"] for r in rows) else 0
 
 
 def main(argv=None) -> int:
@@ -116,7 +185,11 @@ def main(argv=None) -> int:
                         help="tan-half or sin-cos (default %(default)s)")
     parser.add_argument("--out", type=Path, default=None,
                         help="JSON output (default results/sweep_roots.json, sweep_roots_sin-cos.json for sin-cos)")
+    parser.add_argument("--near-singular", type=int, default=0, metavar="N",
+                        help="judge N inputs next to parallel singularities instead (12 per random segment)")
     args = parser.parse_args(argv)
+    if args.near_singular:
+        return near_singular_main(args)
     if args.out is None:
         suffix = "" if args.parameterization == DEFAULT_PARAMETERIZATION else f"_{args.parameterization}"
         args.out = Path(__file__).parent / "results" / f"sweep_roots{suffix}.json"
@@ -145,7 +218,7 @@ def main(argv=None) -> int:
                  max_seconds=max(r["seconds"] for r in part),
                  median_solutions=statistics.median(r["solutions"] for r in part),
                  statuses={k: sum(st == k for r in part for st in r.get("statuses", ()))
-                           for k in ("certified", "singular", "unverified")})
+                           for k in ("certified", "singular", "unverified", "cluster", "continuum")})
         summary[kind] = s
         print(f"{kind:10s} {s['poses']:6d} {s['misses']:7d} {s['spurious']:9d} {s['median_seconds']:9.2f} "
               f"{s['max_seconds']:7.2f} {s['median_solutions']:19.1f}  "
