@@ -107,7 +107,7 @@ class SolveReport:
         n = self.proven_count
         word = "solution" if n == 1 else "solutions"
         if self.count_exact:
-            return f"{n} {word} (count proven: every solution certified)"
+            return f"{n} {word} (count proven: each one has a Krawczyk certificate)"
         others: dict[str, int] = {}
         for s in self.solutions:
             if s.status != "certified" and not (s.status == "singular" and s.evidence.get("krawczyk_certified")):
