@@ -39,7 +39,7 @@ from spherekin import intervals
 from spherekin.certify import certify, certify_many, certify_reference
 from spherekin.mechanism import gosselin
 from spherekin.solutions import LOCAL_CHART
-from spherekin.solver import solve
+from spherekin.problem import solve
 
 INPUTS = (0.3, -0.2, 0.5)
 #: Fewest runs per configuration (the brief asks for >= 5 in one process).

@@ -47,7 +47,7 @@ from benchmarks import peers_closed_form as pcf
 from benchmarks import peers_phc as pphc
 
 from spherekin.mechanism import general_3rrr, gosselin, three_rrr  # noqa: E402
-from spherekin.solver import solve  # noqa: E402
+from spherekin.problem import solve  # noqa: E402
 
 #: The paper's example inputs (radians) for the Gosselin platform.
 GOSSELIN_INPUTS = (0.3, -0.2, 0.5)
@@ -271,7 +271,7 @@ _CHILD_SPHEREKIN = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from spherekin.mechanism import three_rrr
-from spherekin.solver import solve
+from spherekin.problem import solve
 spec, kwargs = json.loads(sys.argv[1]), json.loads(sys.argv[2])
 mech = three_rrr(**spec["geometry"], reference_leg=spec["reference_leg"])
 last = [0.0]

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.mechanism import gosselin
-from spherekin.solver import SolverLimitError, solve, solve_system
+from spherekin.solver import SolverLimitError, solve_system
+from spherekin.problem import solve
 
 INPUTS = (0.3, -0.2, 0.5)
 #: Centre of the "chart" problem (radians, passive joints in the mechanism's order): rounded from

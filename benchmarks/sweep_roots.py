@@ -36,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.mechanism import gosselin, three_rrr
-from spherekin.solver import DEFAULT_PARAMETERIZATION, SolverLimitError, solve
+from spherekin.solver import DEFAULT_PARAMETERIZATION, SolverLimitError
+from spherekin.problem import solve
 
 #: A solution matches the pose when every entry of its rotation is this close to R0's: polished
 #: solutions agree with the truth to ~1e-14; 1e-8 leaves room for ill-conditioned poses.

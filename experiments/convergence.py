@@ -46,7 +46,8 @@ from experiments.reproduction import INPUTS, angle_gap, with_ranges
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.parameterizations import make_charts  # noqa: E402
-from spherekin.solver import TRACE_OUTCOMES, SolverLimitError, solve  # noqa: E402
+from spherekin.solver import TRACE_OUTCOMES, SolverLimitError  # noqa: E402
+from spherekin.problem import solve  # noqa: E402
 
 #: The four configurations compared: (name, formulation, pruner, LP backend). HiGHS (highspy) for
 #: the LPs: every backend's bound is certified by spherekin, so they give the same boxes up to

@@ -33,7 +33,8 @@ from experiments._compare import MATCH_TOL, MECHANISMS, Case, closure_error, con
 
 from spherekin.mechanism.chains import axis_rotation, serial_ik, wrap  # noqa: E402
 from spherekin.parameterizations import make_charts  # noqa: E402
-from spherekin.solver import DEFAULT_FORMULATION, SolverLimitError, solve  # noqa: E402
+from spherekin.solver import DEFAULT_FORMULATION, SolverLimitError  # noqa: E402
+from spherekin.problem import solve  # noqa: E402
 
 PARAMETERIZATIONS = ("tan-half", "sin-cos")
 #: Inputs per mechanism and timing repeats: quick keeps `make experiments` under a minute.

@@ -28,7 +28,7 @@ from experiments._common import median_time, parser, write_results
 from experiments._compare import (GENERAL_POSE_ANGLE, MECHANISMS, closure_error, contains, four_rrr,
                       random_cases, three_rrr_rrrr)
 
-from spherekin.solver import solve  # noqa: E402
+from spherekin.problem import solve  # noqa: E402
 
 #: name -> (constructor, max pose angle of the random pose or None for uniform), by growing size.
 SCALING_MECHANISMS = {

@@ -41,7 +41,8 @@ from spherekin.closure import ClosureLoop, Term, Unknown  # noqa: E402
 from spherekin.mechanism import presets  # noqa: E402
 from spherekin.parameterizations import charts_for_range  # noqa: E402
 from spherekin.rotations import normalized_closure  # noqa: E402
-from spherekin.solver import DEFAULT_TOL, TRACE_OUTCOMES, solve, solve_system  # noqa: E402
+from spherekin.solver import DEFAULT_TOL, TRACE_OUTCOMES, solve_system  # noqa: E402
+from spherekin.problem import solve  # noqa: E402
 
 NAME = "fig4_slice"
 #: Crank input (radians): the four-bar input of tests/test_plot.py; any input with two assemblies works.

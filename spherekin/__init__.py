@@ -1,11 +1,13 @@
 """spherekin: direct kinematics of parallel spherical mechanisms with Bernstein polynomials.
 
-``spherekin.solve(mechanism, inputs, ...)`` and ``spherekin.load_mechanism(path)`` are the entry
-points (loaded on first use, so that ``import spherekin`` stays cheap); see README.md.
+``spherekin.solve(mechanism, inputs, ...)``, ``spherekin.compile(mechanism, ...)`` (then
+``problem.solve(inputs)`` / ``problem.solve_many(rows)``) and ``spherekin.load_mechanism(path)`` are
+the entry points (loaded on first use, so that ``import spherekin`` stays cheap); see README.md.
 """
 __version__ = "0.1.0"
 
-_LAZY = {"solve": ("spherekin.solver", "solve"), "solve_system": ("spherekin.solver", "solve_system"),
+_LAZY = {"solve": ("spherekin.problem", "solve"), "compile": ("spherekin.problem", "compile"),
+         "solve_system": ("spherekin.solver", "solve_system"),
          "load_mechanism": ("spherekin.mechanism", "load_mechanism")}
 
 

@@ -86,7 +86,7 @@ class _Progress:
 
 def _solve(args) -> int:
     from .mechanism import load_mechanism
-    from .solver import solve
+    from .problem import solve
 
     mech = load_mechanism(args.file)
     inputs = _parse_inputs(args.inputs, args.degrees)
@@ -107,11 +107,14 @@ def _solve(args) -> int:
     st = report.stats
     print(f"{report.count_text()}; passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
-    print(f"{args.parameterization}, formulation {args.formulation}, pruner {args.pruner}"
+    used = report.settings
+    print(f"{used['parameterization']}, formulation {used['formulation']}, pruner {args.pruner}"
           + (f" ({report.settings['lp_backend'] or 'default backend'})" if args.pruner != "pp" else "")
           + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
+    if used.get("fallback"):
+        print(f"note: {used['fallback']}")
     limit = report.settings.get("limit")
     if limit:
         print(f"note: {limit['error']}; the solution set was covered with boxes of {limit['covering_tol']:g} rad "
@@ -139,22 +142,25 @@ def _verify(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    from .formulations import FORMULATIONS
     from .lp_backends import LP_BACKENDS
     from .parameterizations import PARAMETERIZATIONS
+    from .problem import DEFAULT_FORMULATION, FORMULATION_CHOICES
     from .pruners import PRUNERS
-    from .solver import DEFAULT_FORMULATION, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
+    from .solver import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
     so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
     so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=sorted(PARAMETERIZATIONS),
-                    help="tan-half: t = tan(theta/2), the paper's (charts for full ranges); sin-cos: "
-                         "c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). Default %(default)s")
-    so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=sorted(FORMULATIONS),
-                    help="paper: Eq. (10) only; transversal: three entries of F (simple roots) + Eq. (10); "
-                         "halves: three entries of F + the loop closed in the middle, P = S^T. Default %(default)s")
+                    help="variables of the loop equations: tan-half: t = tan(theta/2), the paper's (charts for "
+                         "full ranges); sin-cos: c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). "
+                         "Default %(default)s")
+    so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=FORMULATION_CHOICES,
+                    help="platform: one equation per leg in the platform's orientation (quaternion charts; "
+                         "3-RRR legs); paper: Eq. (10) only; transversal: three entries of F (simple roots) + "
+                         "Eq. (10); halves: three entries of F + the loop closed in the middle, P = S^T; auto: "
+                         "platform where it applies, else halves. Default %(default)s")
     so.add_argument("--pruner", default=DEFAULT_PRUNER, choices=PRUNERS,
                     help="pp: projected polyhedron, no LP; hybrid: pp, LPs where it stalls; "
                          "lp: the Eq. (12) linear programs on every box. Default %(default)s")

@@ -131,7 +131,7 @@ def current_joint_axes(mechanism: SphericalMechanism, inputs, passive_angles: Ma
     """
     if not isinstance(mechanism, SphericalMechanism):
         raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
-    values = mechanism._check_inputs(inputs)
+    values = mechanism.check_inputs(inputs)
     if not isinstance(passive_angles, Mapping):
         raise ValueError(f"passive_angles: expected a mapping joint name -> angle (radians), "
                          f"got {type(passive_angles).__name__}")
@@ -374,7 +374,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
     """
     if not isinstance(mechanism, SphericalMechanism):
         raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
-    values = mechanism._check_inputs(inputs)
+    values = mechanism.check_inputs(inputs)
     if not isinstance(degrees, (bool, np.bool_)):
         raise ValueError(f"degrees: expected true or false, got {degrees!r}")
     out, fmt = _check_path(path)

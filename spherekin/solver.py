@@ -49,10 +49,10 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
                                 make_charts)
 from .pruners import PRUNERS, excludes_zero, make_pruner
 from .results import AcceptedBox, Solution, SolveReport, SolverStats
-from .solutions import count_summary, finalize
 
-__all__ = ["solve", "solve_system", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
-           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "CONTINUUM_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
+__all__ = ["solve_system", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
+           "partial_report", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
+           "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
 #: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
 DEFAULT_FORMULATION = "halves"
@@ -66,20 +66,6 @@ DEFAULT_TOL = 1e-6
 #: (Gosselin: 0.3 rad) and than any box a Krawczyk test isolates (~0.3 rad), so a coarser tol could
 #: only merge roots. The paper's coarsest run uses 1e-2.
 MAX_TOL = 0.1
-#: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
-#: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
-#: the boxes are fine enough to show its shape and estimate its dimension.
-CONTINUUM_TOL = 1e-2
-#: A cluster that :mod:`spherekin.solutions` cannot resolve at tol (two roots closer than the
-#: boxes can separate, next to a fold) is searched again, its hull only, at tol * REFINE_FACTOR,
-#: down to REFINE_MIN_TOL: roots 1e-5 apart separate at 1e-6, ~1e-8 apart (within ~1e-16 of a
-#: singular input) at 1e-10; below that, Krawczyk tests are swamped by rounding.
-REFINE_FACTOR = 1e-2
-REFINE_MIN_TOL = 1e-10
-#: Box cap of one refined search. Reason: a hull that holds separable roots is resolved in a few
-#: thousand boxes; a search that needs more is at the singular input itself (roots not separable
-#: at any tol worth paying for), and the cluster is then reported as unresolved.
-REFINE_MAX_BOXES = 20_000
 #: A reduced box whose sides all shrank to at most this fraction is reduced again instead of split
 #: (Sherbrooke & Patrikalakis use 0.8: below it, another reduction pays more than a bisection).
 SPLIT_RATIO = 0.8
@@ -372,11 +358,46 @@ def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, p
     return accepted, points, counts, times
 
 
+@dataclasses.dataclass(frozen=True)
+class PlatformSearch:
+    """What the box loop found on the quaternion charts of the platform formulation.
+
+    ``points``: (chart, x) of every isolated root after Newton (x: the chart's unit coordinates,
+    :func:`spherekin.platform_orientation.chart_rotation`); ``unresolved``: boxes that reached the
+    tolerance without being isolated, plus isolated boxes Newton did not converge in (then the
+    points are not the whole answer); ``stats``: the search's counters and timings.
+    """
+
+    points: tuple
+    unresolved: int
+    stats: SolverStats
+
+
+def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
+                    progress: Callable[[dict], None] | None = None) -> PlatformSearch:
+    """Section 4's loop on the platform formulation's chart set
+    (:meth:`spherekin.platform_orientation.PlatformSystem.charts`), with Krawczyk isolation and
+    Newton; ``pruner`` is built by the caller (once per compiled problem). Caps as in
+    :func:`solve_system` (a :class:`SolverLimitError` when reached)."""
+    t0 = time.perf_counter()
+    lp0, doubts0 = getattr(pruner, "lp_count", 0), getattr(pruner, "doubts", 0)   # the pruner is reused
+    if max_depth is None:
+        max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
+    accepted, isolated, counts, (t_r, t_p, t_i) = _box_loop(charts, pruner, tol, max_boxes, max_depth,
+                                                            None, True, progress)
+    points, spurious, failed = _solve_isolated(charts, isolated)
+    counts.update(spurious=spurious, newton_failures=len(failed),
+                  lps_solved=getattr(pruner, "lp_count", 0) - lp0, lp_doubts=getattr(pruner, "doubts", 0) - doubts0)
+    stats = SolverStats(charts=charts.n_charts, **counts, time_restrict=t_r, time_prune=t_p, time_isolate=t_i,
+                        time_total=time.perf_counter() - t0)
+    return PlatformSearch(tuple(points), len(accepted) + len(failed) + spurious, stats)
+
+
 def _worker(args):
     return _run_group(*args)
 
 
-def _check_strategy(formulation, pruner, parameterization, tol, jobs):
+def check_strategy(formulation, pruner, parameterization, tol, jobs):
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {formulation!r}")
     if pruner not in PRUNERS:
@@ -429,7 +450,7 @@ def solve_system(
     metric units ``metric_width`` (B, N; radians for tan-half) and ``outcome`` (B,): an index
     into :data:`TRACE_OUTCOMES`.
     """
-    _check_strategy(formulation, pruner, parameterization, tol, jobs)
+    check_strategy(formulation, pruner, parameterization, tol, jobs)
     if trace is not None and jobs != 1:
         raise ValueError(f"trace: only available with jobs=1, got jobs={jobs}")
     t0 = time.perf_counter()
@@ -462,7 +483,7 @@ def solve_system(
     t_restrict, t_prune, t_isolate = (sum(r[3][i] for r in results) for i in range(3))
     boxes = [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
     found = boxes + [AcceptedBox(a, a.copy(), c) for c, a in points]
-    solutions = _clusters_in_range(found, ranges, tol)
+    solutions = clusters_in_range(found, ranges, tol)
     stats = SolverStats(charts=charts.n_charts, **counts, time_setup=t_setup, time_restrict=t_restrict,
                         time_prune=t_prune, time_isolate=t_isolate, time_total=time.perf_counter() - t0)
     settings = dict(formulation=formulation, pruner=pruner, lp_backend=lp_backend, parameterization=parameterization,
@@ -470,15 +491,15 @@ def solve_system(
     return SolveReport(charts.unknowns, tuple(solutions), tuple(boxes), stats, settings)
 
 
-def _partial_report(exc: SolverLimitError, ranges, tol) -> SolveReport:
+def partial_report(exc: SolverLimitError, ranges, tol) -> SolveReport:
     """A report from the accepted boxes a capped search had found (its clusters, no statistics)."""
     found = list(exc.partial)
     names = tuple(ranges)
-    solutions = _clusters_in_range(found, ranges, tol)
+    solutions = clusters_in_range(found, ranges, tol)
     return SolveReport(names, tuple(solutions), tuple(found), SolverStats(accepted=len(found)), {"tol": tol})
 
 
-def _clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Solution]:
+def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Solution]:
     """The clusters of the boxes found whose centres lie within the joint ranges (tol + RANGE_TOL)."""
     solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
     return solutions
@@ -524,91 +545,3 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
                             members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return out
-
-
-def solve(
-    mechanism,
-    inputs,
-    *,
-    formulation: str = DEFAULT_FORMULATION,
-    pruner: str = DEFAULT_PRUNER,
-    lp_backend: str | None = None,
-    parameterization: str = DEFAULT_PARAMETERIZATION,
-    tol: float = DEFAULT_TOL,
-    isolate: bool = True,
-    jobs: int = 1,
-    max_boxes: int = DEFAULT_MAX_BOXES,
-    max_depth: int | None = None,
-    progress: Callable[[dict], None] | None = None,
-    trace: Callable[[dict], None] | None = None,
-) -> SolveReport:
-    """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
-
-    ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
-    (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
-    deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles, platform
-    rotation, residual, status and its evidence. The strategies are chosen by name (see
-    :func:`solve_system`). Defaults: the fastest configuration that finds every solution
-    (benchmarks/README.md); the paper-faithful one is
-    ``formulation="paper", pruner="lp", lp_backend="clarabel", isolate=False``.
-    """
-    names = mechanism.loop_system(inputs, {n: (-1.0, 1.0) for n in mechanism.passive}).names
-    ranges = {n: mechanism.ranges[n] for n in names}
-
-    def build(chart):
-        system = mechanism.loop_system(inputs, chart)
-        return system.loops, system.unknowns
-
-    def run(t):
-        return solve_system(build, ranges, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                            parameterization=parameterization, tol=t, isolate=isolate, jobs=jobs,
-                            max_boxes=max_boxes, max_depth=max_depth, progress=progress, trace=trace)
-
-    limit = None
-    try:
-        report = run(tol)
-    except SolverLimitError as exc:
-        # A continuum of solutions (or a cap too small for this tol): cover the solution set with
-        # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
-        # algorithm then returns a discretization of the solution set).
-        limit = {"error": str(exc), "tol": tol, "covering_tol": max(tol, CONTINUUM_TOL)}
-        try:
-            report = run(max(tol, CONTINUUM_TOL))
-        except SolverLimitError as exc2:
-            limit["covering_error"] = str(exc2)
-            report = _partial_report(exc2, ranges, max(tol, CONTINUUM_TOL))
-        tol = max(tol, CONTINUUM_TOL)
-    def refine(lo, hi, t):
-        # a new search of a cluster's hull (which holds every root of its boxes) at a finer tol
-        finer = t * REFINE_FACTOR
-        if finer < REFINE_MIN_TOL:
-            return None
-        box = {n: (float(a) - RANGE_TOL, float(b) + RANGE_TOL) for n, a, b in zip(names, lo, hi)}
-        try:
-            sub = solve_system(build, box, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                               parameterization=parameterization, tol=finer, isolate=isolate, jobs=1,
-                               max_boxes=min(max_boxes, REFINE_MAX_BOXES), max_depth=max_depth)
-        except SolverLimitError:
-            return None
-        refined.append(sub.stats)
-        return sub.solutions, finer
-
-    refined: list[SolverStats] = []
-    t0 = time.perf_counter()
-    solutions = finalize(mechanism, inputs, report.unknowns, report.solutions, tol, refine=refine)
-    proven, exact = count_summary(solutions)
-    settings = {**report.settings, "mechanism": mechanism.name, "actuated": list(mechanism.actuated),
-                "inputs": [float(v) for v in mechanism._check_inputs(inputs)]}
-    if limit is not None:
-        settings["limit"] = limit
-        exact = False
-    t_final = time.perf_counter() - t0
-    stats = report.stats
-    for extra in refined:   # the refined searches' boxes count; their time is in time_finalize
-        stats = stats + dataclasses.replace(extra, time_total=0.0, time_setup=0.0, time_restrict=0.0,
-                                            time_prune=0.0, time_isolate=0.0)
-    stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
-    if refined:
-        settings["refined_searches"] = len(refined)
-    return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,
-                               proven_count=proven, count_exact=exact)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from spherekin.cli import main
-from spherekin.solver import DEFAULT_FORMULATION
+from spherekin.problem import DEFAULT_FORMULATION
 
 GOSSELIN = str(Path(__file__).resolve().parent.parent / "examples" / "gosselin.toml")
 
@@ -27,7 +27,20 @@ def test_solve_prints_table_and_writes_json(tmp_path, capsys):
         np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
         assert set(sol["passive_angles"]) == set(data["unknowns"])
     assert data["statistics"]["boxes_processed"] > 0
-    assert data["settings"]["formulation"] == DEFAULT_FORMULATION and data["settings"]["jobs"] == 1
+    # the default ("auto") resolves to the platform formulation for a 3-RRR, and the JSON says so
+    assert DEFAULT_FORMULATION == "auto"
+    assert (data["settings"]["formulation"], data["settings"]["parameterization"]) == ("platform", "quaternion")
+    assert "quaternion, formulation platform" in text
+
+
+def test_loop_formulation_fallback_is_reported(capsys):
+    # 3e-9 from a parallel singularity of general_3rrr (tests/test_trust_edge.py, repro 1): the
+    # platform search cannot isolate the two nearby roots and the loop equations answer
+    path = str(Path(GOSSELIN).parent / "general_3rrr.toml")
+    assert main(["solve", path, "--inputs=0.18613171226800826,-0.15119930525771785,0.6382686351031328"]) == 0
+    text = capsys.readouterr().out
+    assert "8 solutions (count proven" in text
+    assert "tan-half, formulation halves" in text and "note: the platform search left" in text
 
 
 def test_strategy_options_reach_the_solver(tmp_path, capsys):

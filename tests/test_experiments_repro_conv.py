@@ -18,7 +18,7 @@ import sympy as sp
 
 from experiments import convergence, reproduction
 from spherekin.mechanism import gosselin
-from spherekin.solver import solve
+from spherekin.problem import solve
 
 INPUTS = reproduction.INPUTS
 

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from spherekin.mechanism import presets
 from spherekin.plot import _split_by_side, current_joint_axes, great_circle_arc, plot_solutions
-from spherekin.solver import solve
+from spherekin.problem import solve
 
 INPUTS = {"gosselin": (0.3, -0.2, 0.5), "general_3rrr": (0.6, 0.5, 0.4), "four_bar": (0.5,), "five_bar": (0.1, -0.1)}
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -457,6 +457,13 @@ class SphericalMechanism:
         return MappingProxyType({j.name: j.range for j in self.joints})
 
     @property
+    def loop_unknowns(self) -> tuple[str, ...]:
+        """The passive joints that appear in the loop equations (the unknowns of the direct
+        kinematics, in the order of ``passive``)."""
+        in_loops = {v.joint for g in self.loop_geometry for v in g.vertices if not v.actuated}
+        return tuple(n for n in self.passive if n in in_loops)
+
+    @property
     def platform_reference_matrix(self) -> np.ndarray:
         return np.array(self.platform_reference)
 
@@ -478,7 +485,9 @@ class SphericalMechanism:
 
     # ---------------------------------------------------------------- input checks
 
-    def _check_inputs(self, inputs) -> tuple[float, ...]:
+    def check_inputs(self, inputs) -> tuple[float, ...]:
+        """The actuator ``inputs`` (one angle in radians per actuated joint, in the order of
+        ``actuated``) as floats, each inside its closed joint range; else one ValueError naming it."""
         names = self.actuated
         if isinstance(inputs, (str, bytes, Mapping)) or not isinstance(inputs, (Sequence, np.ndarray)):
             raise ValueError(f"inputs: expected {len(names)} actuator angles in radians {names}, got {inputs!r}")
@@ -517,7 +526,7 @@ class SphericalMechanism:
         ``form``: "auto" (compact when every side of a loop is pi/2, else doubled), "compact" or
         "doubled" (see :meth:`LoopGeometry.factor_specs`).
         """
-        values = self._check_inputs(inputs)
+        values = self.check_inputs(inputs)
         if form not in FORMS:
             raise ValueError(f"form: expected one of {FORMS}, got {form!r}")
         overrides = {}
@@ -531,11 +540,8 @@ class SphericalMechanism:
                     raise ValueError(f"passive_ranges[{n!r}]: expected (lo, hi) with hi - lo < 2*pi, got None")
                 overrides[n] = check_range(f"passive_ranges[{n!r}]", r)
         known = dict(zip(self.actuated, values))
-        in_loops = {v.joint for g in self.loop_geometry for v in g.vertices if not v.actuated}
         unknowns = {}
-        for name in self.passive:
-            if name not in in_loops:
-                continue
+        for name in self.loop_unknowns:
             rng = overrides.get(name, self.joint(name).range)
             if rng is None:
                 raise ValueError(
@@ -584,7 +590,7 @@ class SphericalMechanism:
         axes a_i in the reference configuration, d_i = reading_i - reference_angle_i); for a 3-RRR
         this is the R with v_i = R v_i^0. Only the reference leg's passive joints are needed.
         """
-        values = dict(zip(self.actuated, self._check_inputs(inputs)))
+        values = dict(zip(self.actuated, self.check_inputs(inputs)))
         ref = self.leg(self.reference_leg)
         need = [j.name for j in ref.joints if not j.actuated]
         angles = self._check_angles("passive_angles", passive_angles, need)

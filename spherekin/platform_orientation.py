@@ -1,0 +1,264 @@
+"""The platform formulation: one equation per leg in the platform's orientation (an addition to the paper).
+
+For a mechanism whose legs all end at one platform and are R-R-R chains with the base joint
+actuated (the 3-RRR family: the Gosselin platform, general and random 3-RRR), the direct
+kinematics has three unknowns, the platform orientation, instead of the six passive angles of the
+loop equations (Eq. 2). Leg i with reference axes a1 (actuated, displacement d1 = beta - ref1), a2
+(elbow) and a3 (platform joint) is assembled at the platform displacement D (R = D R_ref, the
+product of exponentials of :meth:`SphericalMechanism.pose_from_passive`) iff
+
+    e(d1) . (D a3) = a2 . a3,    e(d1) = Rot(a1, d1) a2                               (1)
+
+(the elbow axis and the platform joint axis keep their angle). Conversely, when (1) holds, the
+passive displacements are unique (a2 is not parallel to a3, which the model checks): d2 turns a3
+onto Rot(a1, -d1) D a3 about a2, and d3 is what is left about a3 (:func:`passive_readings`). So
+the poses that satisfy (1) for every leg are the assemblies, one for one.
+
+With D = S(q) / |q|^2 for a quaternion q = (w, x, y, z) (S is quadratic in q), (1) becomes the
+homogeneous quadratic form q^T M q = 0, M = T(e, a3) - (a2 . a3) I. Every orientation is q or -q
+with some component of largest modulus; chart k fixes q_k = 1 and lets the three others range
+over [-1, 1] (widened to CHART_EXTENT so that the charts overlap): four charts of 3 variables cover the rotation group (boundaries overlap; duplicates
+are merged after polishing). On a chart, (1) is a polynomial of degree 2 in each variable; its
+Bernstein control points are exact linear functions of M (:func:`chart_control_points`), and M is
+linear in (cos d1, sin d1, 1) (Rodrigues): a new input costs three multiply-adds of compiled
+tensors (:meth:`PlatformSystem.control_points`).
+
+Measured against the paper's configuration: 4 charts x 3 variables instead of 64 charts x 6
+variables (full ranges), see benchmarks/README.md. The loop formulations stay available and are
+the fallback when the platform search cannot isolate every root (a parallel singularity: see
+:func:`spherekin.problem.Problem.solve`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .angles import wrap
+from .mechanism.chains import angle_about, axis_rotation, perpendicular
+from .parameterizations import ROUNDING_SAFETY, ChartSet
+
+__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
+           "quaternion_matrix", "form_matrix", "chart_control_points", "chart_quaternion", "chart_rotation",
+           "passive_readings", "QuaternionCharts"]
+
+#: Number of quaternion charts (one per component fixed to 1).
+CHARTS = 4
+#: Each chart lets the three free components range over [-CHART_EXTENT, CHART_EXTENT], not [-1, 1].
+#: Reason: a root with two components of equal largest modulus lies on the boundary of two
+#: [-1, 1] charts, where no box can hold it in its interior, so the Krawczyk test could never
+#: isolate it (measured: the agile eye's four serially singular assemblies, at every input, have
+#: |q_i| = |q_j|). With overlapping charts it is interior to both; its duplicate is merged after
+#: polishing.
+CHART_EXTENT = 1.25
+#: Accept a chart box when each side is below tol times this. Reason: with q_k = 1 the unit
+#: quaternion q/|q| moves by at most |du| (|q| >= 1) and the rotation angle by twice that, so sides
+#: du <= tol / (2 sqrt 3) bound the rotation's change by tol. (Accepted boxes are not used as
+#: solutions: they send the solve to a loop formulation, see the module doc.)
+ACCEPT_WIDTH = 1.0 / (2.0 * math.sqrt(3.0))
+
+# Bernstein coefficients (degree 2 on x in [0, 1]) of u^e, u = 2x - 1, for e = 0, 1, 2:
+# 1 = (1, 1, 1); u = (-1, 0, 1); u^2 = (1, -1, 1) (u^2 at x = 1/2 is 0 = (1 + 2 b1 + 1) / 4).
+_POWERS = np.array([[1.0, 1.0, 1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 1.0]])
+
+
+def quaternion_matrix(q) -> np.ndarray:
+    """S(q) (3, 3): the rotation of the quaternion q = (w, x, y, z) times |q|^2 (quadratic in q).
+
+    S(q) / |q|^2 is the right-handed rotation by 2 acos(w / |q|) about (x, y, z).
+    """
+    w, x, y, z = (float(v) for v in q)
+    return np.array([
+        [w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z],
+    ])
+
+
+def _quadratic_tensor() -> np.ndarray:
+    """T (4, 4, 3, 3), symmetric in its first two axes, with S(q) = sum_ij q_i q_j T[i, j] (polarization)."""
+    eye = np.eye(4)
+    t = np.empty((4, 4, 3, 3))
+    for i in range(4):
+        for j in range(4):
+            t[i, j] = (quaternion_matrix(eye[i] + eye[j]) - quaternion_matrix(eye[i]) - quaternion_matrix(eye[j])) / 2.0
+            if i == j:
+                t[i, j] = quaternion_matrix(eye[i])
+    return t
+
+
+_T = _quadratic_tensor()
+
+
+def form_matrix(e, a, c: float) -> np.ndarray:
+    """M (4, 4) symmetric with q^T M q = e . S(q) a - c |q|^2 (Eq. (1) of the module doc, homogenized)."""
+    return np.einsum("ijmn,m,n->ij", _T, np.asarray(e, dtype=float), np.asarray(a, dtype=float)) - c * np.eye(4)
+
+
+def _chart_basis() -> np.ndarray:
+    """B (4 charts, 4, 4, 3, 3, 3): control points of q_i q_j on chart k (q_k = 1, the others
+    CHART_EXTENT (2x - 1)); exact: CHART_EXTENT^e is a power of 5/4, representable in binary."""
+    out = np.empty((CHARTS, 4, 4, 3, 3, 3))
+    for k in range(CHARTS):
+        others = [j for j in range(4) if j != k]
+        for i in range(4):
+            for j in range(4):
+                exps = [0, 0, 0]
+                for comp in (i, j):
+                    if comp != k:
+                        exps[others.index(comp)] += 1
+                out[k, i, j] = np.einsum("a,b,c->abc", *(_POWERS[e] * CHART_EXTENT ** e for e in exps))
+    return out
+
+
+_BASIS = _chart_basis()
+
+
+def chart_control_points(m) -> np.ndarray:
+    """Bernstein control points (..., 4 charts, 3, 3, 3) of q^T M q on each chart's unit box.
+
+    ``m``: (..., 4, 4). Exact (every basis coefficient is -1, 0 or 1): the only rounding is that of
+    the sums.
+    """
+    return np.einsum("...ij,kijabc->...kabc", np.asarray(m, dtype=float), _BASIS)
+
+
+def chart_quaternion(chart, x) -> np.ndarray:
+    """Quaternions (B, 4) (not normalized) of unit-box points x (B, 3) of charts ``chart`` (B,)."""
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    chart = np.broadcast_to(np.asarray(chart, dtype=int), (len(x),))
+    q = np.empty((len(x), 4))
+    for b, (k, xb) in enumerate(zip(chart, x)):
+        q[b] = np.insert(CHART_EXTENT * (2.0 * xb - 1.0), k, 1.0)
+    return q
+
+
+def chart_rotation(chart: int, x) -> np.ndarray:
+    """The rotation (3, 3) at the unit-box point x (3,) of chart ``chart`` (for a mechanism: the
+    platform displacement D, see :meth:`PlatformSystem.pose`)."""
+    q = chart_quaternion(chart, x)[0]
+    return quaternion_matrix(q) / float(q @ q)
+
+
+@dataclass(frozen=True)
+class PlatformLeg:
+    """One R-R-R leg as Eq. (1) sees it: joint names, reference axes (base frame) and readings."""
+
+    names: tuple
+    a1: np.ndarray
+    a2: np.ndarray
+    a3: np.ndarray
+    reference: tuple
+
+
+def not_applicable(mechanism) -> str | None:
+    """Why the platform formulation does not apply to ``mechanism`` (None when it does)."""
+    if len(mechanism.legs) != 3:
+        return (f"the platform formulation needs 3 legs (3 equations in 3 unknowns), "
+                f"got {len(mechanism.legs)}")
+    for leg in mechanism.legs:
+        kinds = [j.actuated for j in leg.joints]
+        if kinds != [True, False, False]:
+            pattern = "-".join("A" if a else "P" for a in kinds)
+            return (f"the platform formulation needs R-R-R legs with the base joint actuated (A-P-P), "
+                    f"leg {leg.name!r} is {pattern}")
+    return None
+
+
+def platform_legs(mechanism) -> tuple[PlatformLeg, ...]:
+    """The legs of an eligible mechanism (:func:`not_applicable`), else ValueError naming why."""
+    reason = not_applicable(mechanism)
+    if reason is not None:
+        raise ValueError(f"formulation 'platform': {reason}")
+    return tuple(PlatformLeg(tuple(j.name for j in leg.joints), *(np.array(j.axis, dtype=float) for j in leg.joints),
+                             tuple(j.reference_angle for j in leg.joints)) for leg in mechanism.legs)
+
+
+def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, float]:
+    """Passive joint readings (radians, wrapped to [-pi, pi)) of the assembly at platform pose R.
+
+    ``inputs``: the actuated readings, one per leg. R = D R_ref; per leg M = Rot(a1, -d1) D must be
+    Rot(a2, d2) Rot(a3, d3): d2 turns a3 onto M a3 about a2, d3 = the angle of Rot(a2, -d2) M about a3.
+    """
+    d = np.asarray(rotation, dtype=float) @ np.asarray(platform_reference, dtype=float).T
+    out = {}
+    for leg, beta in zip(legs, inputs):
+        m = axis_rotation(leg.a1, -(float(beta) - leg.reference[0])) @ d
+        d2 = angle_about(leg.a2, leg.a3, m @ leg.a3)
+        n = axis_rotation(leg.a2, -d2) @ m
+        p = perpendicular(leg.a3)
+        d3 = angle_about(leg.a3, p, n @ p)
+        out[leg.names[1]] = wrap(leg.reference[1] + d2)
+        out[leg.names[2]] = wrap(leg.reference[2] + d3)
+    return out
+
+
+@dataclass(frozen=True)
+class PlatformSystem:
+    """Eq. (1) of every leg compiled on the four charts: control points = cos d1 C_c + sin d1 C_s + C_0.
+
+    ``parts`` (3 legs, 3 parts (c, s, 0), 4 charts, 3, 3, 3). Built by :meth:`from_mechanism`.
+    """
+
+    legs: tuple
+    parts: np.ndarray
+    platform_reference: np.ndarray
+
+    @classmethod
+    def from_mechanism(cls, mechanism) -> "PlatformSystem":
+        legs = platform_legs(mechanism)
+        mats = []
+        for leg in legs:
+            c1 = float(leg.a1 @ leg.a2)
+            perp, side = leg.a2 - c1 * leg.a1, np.cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
+            cos_twist = float(leg.a2 @ leg.a3)
+            mats.append([form_matrix(perp, leg.a3, 0.0), form_matrix(side, leg.a3, 0.0),
+                         form_matrix(c1 * leg.a1, leg.a3, cos_twist)])
+        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix))
+
+    def control_points(self, inputs) -> np.ndarray:
+        """Control points (4 charts, 3 legs, 3, 3, 3) of Eq. (1) at actuator ``inputs`` (radians, one per leg)."""
+        d1 = np.asarray(inputs, dtype=float) - np.array([leg.reference[0] for leg in self.legs])
+        w = np.stack([np.cos(d1), np.sin(d1), np.ones_like(d1)], axis=1)            # (legs, 3)
+        return np.moveaxis(np.einsum("lp,lpkabc->lkabc", w, self.parts), 1, 0)
+
+    def charts(self, inputs) -> "QuaternionCharts":
+        """The chart set of the box loop at actuator ``inputs``: one block of 3 equations (one per leg)
+        on 4 charts, each equation's tolerance ROUNDING_SAFETY eps times its largest control point."""
+        cps = self.control_points(inputs)
+        tols = ROUNDING_SAFETY * np.finfo(float).eps * np.abs(cps).reshape(CHARTS, len(self.legs), -1).max(axis=2)
+        names = tuple(leg.names[0] for leg in self.legs)
+        variables = ("q_a", "q_b", "q_c")
+        ones = np.full((CHARTS, 3), CHART_EXTENT)
+        return QuaternionCharts("quaternion", names, variables, [cps], [tols], [names], [tuple(range(len(self.legs)))],
+                                -ones, ones, np.zeros((CHARTS, 3)), ACCEPT_WIDTH, [None], [True])
+
+    def pose(self, chart: int, x) -> np.ndarray:
+        """The platform pose R = D R_ref (3, 3) at the unit-box point x (3,) of chart ``chart``
+        (the charts parameterize the displacement D)."""
+        return chart_rotation(chart, x) @ self.platform_reference
+
+    def residuals(self, inputs, rotation) -> np.ndarray:
+        """Eq. (1) at a pose R (3,): e(d1) . (D a3) - a2 . a3 per leg (independent of the charts)."""
+        d = np.asarray(rotation, dtype=float) @ self.platform_reference.T
+        out = []
+        for leg, beta in zip(self.legs, inputs):
+            e = axis_rotation(leg.a1, float(beta) - leg.reference[0]) @ leg.a2
+            out.append(float(e @ d @ leg.a3 - leg.a2 @ leg.a3))
+        return np.array(out)
+
+
+class QuaternionCharts(ChartSet):
+    """The :class:`~spherekin.parameterizations.ChartSet` of Eq. (1) on the four quaternion charts.
+
+    Chart coordinates u = CHART_EXTENT (2x - 1) are the metric; a chart point's "angles" are its unit
+    coordinates x (the rotation is :func:`chart_rotation`; the joint readings :func:`passive_readings`).
+    """
+
+    def angles(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
+        return np.asarray(x, dtype=float)
+
+    def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.metric(chart, lo), self.metric(chart, hi)

@@ -1,0 +1,375 @@
+"""The solve pipeline: a mechanism compiled once, then solved for one input or for many.
+
+``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
+on the actuator inputs: the strategy checks, the unknowns and their ranges, and, for the platform
+formulation (:mod:`spherekin.platform_orientation`), Eq. (1)'s control-point tensors on the four
+quaternion charts and the pruner (for the LP pruners, the compiled LP models). Then
+``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
+
+1. the search (:mod:`spherekin.solver`): the box loop of Section 4 on the platform formulation,
+   or on the loop equations (Eq. 2) in a parameterization and formulation of their own;
+2. the trust layer (:func:`spherekin.solutions.finalize`): polishing, certification, statuses and
+   the count;
+3. the report (:class:`spherekin.results.SolveReport`).
+
+``spherekin.solve(mechanism, inputs, ...)`` is ``compile(mechanism, ...).solve(inputs)``.
+
+Formulation ``"auto"`` (the default) is the platform formulation when it applies (legs R-R-R with
+the base joint actuated, three of them; the tan-half parameterization asked for; isolation on) and
+``"halves"`` otherwise. When the platform search cannot isolate every root (next to a parallel
+singularity its Jacobian is singular; a cap), the input is solved again with the loop equations
+(``settings["fallback"]`` says why): everything issue 13 built for the edge (cluster resolution,
+refined searches, continua) works on those.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+import numpy as np
+
+from .angles import RANGE_TOL
+from .formulations import FORMULATIONS
+from .platform_orientation import PlatformSystem, not_applicable, passive_readings
+from .pruners import make_pruner
+from .results import AcceptedBox, SolveReport, SolverStats
+from .solutions import count_summary, finalize, is_proven
+from .solver import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
+                     check_strategy, clusters_in_range, partial_report, search_platform, solve_system)
+
+__all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "FORMULATION_CHOICES", "CONTINUUM_TOL", "REFINE_FACTOR",
+           "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "Strategy", "Problem", "compile", "solve", "disagreement"]
+
+#: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
+DEFAULT_FORMULATION = "auto"
+#: The loop formulation of "auto" and of the platform formulation's fallback (the fastest one that
+#: finds every solution, benchmarks/README.md).
+LOOP_FORMULATION = "halves"
+#: Every formulation a solve accepts by name.
+FORMULATION_CHOICES = ("auto", "platform", *sorted(FORMULATIONS))
+#: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
+#: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
+#: the boxes are fine enough to show its shape and estimate its dimension.
+CONTINUUM_TOL = 1e-2
+#: A cluster that :mod:`spherekin.solutions` cannot resolve at tol (two roots closer than the
+#: boxes can separate, next to a fold) is searched again, its hull only, at tol * REFINE_FACTOR,
+#: down to REFINE_MIN_TOL: roots 1e-5 apart separate at 1e-6, ~1e-8 apart (within ~1e-16 of a
+#: singular input) at 1e-10; below that, Krawczyk tests are swamped by rounding.
+REFINE_FACTOR = 1e-2
+REFINE_MIN_TOL = 1e-10
+#: Box cap of one refined search. Reason: a hull that holds separable roots is resolved in a few
+#: thousand boxes; a search that needs more is at the singular input itself (roots not separable
+#: at any tol worth paying for), and the cluster is then reported as unresolved.
+REFINE_MAX_BOXES = 20_000
+#: A root of the platform search and a finalized solution are the same assembly when their poses
+#: agree to this (largest entry). Reason: both are Newton/Gauss-Newton limits accurate to ~1e-14 away
+#: from parallel singularities (near one, the platform search does not isolate the roots and this
+#: check is not reached), and distinct assemblies closer than 1e-8 occur only next to one.
+POSE_MATCH = 1e-8
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """How a problem is solved (see :func:`compile`); ``formulation`` is resolved ("auto" is gone)."""
+
+    formulation: str
+    pruner: str
+    lp_backend: str | None
+    parameterization: str
+    tol: float
+    isolate: bool
+    jobs: int
+    max_boxes: int
+    max_depth: int | None
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A mechanism compiled for one strategy: call :meth:`solve` or :meth:`solve_many`.
+
+    ``names``: the passive unknowns (order of every solution's angles); ``ranges``: their joint
+    ranges (None: the full circle); ``platform``: the compiled platform formulation, or None;
+    ``not_platform``: why "auto" chose the loop equations (None when it did not).
+    """
+
+    mechanism: object
+    strategy: Strategy
+    names: tuple
+    ranges: Mapping
+    platform: PlatformSystem | None
+    platform_pruner: object
+    not_platform: str | None
+
+    # ------------------------------------------------------------------ one input
+
+    def solve(self, inputs, *, progress: Callable[[dict], None] | None = None,
+              trace: Callable[[dict], None] | None = None) -> SolveReport:
+        """Every assembly at actuator ``inputs`` (radians, one per actuated joint) inside the joint
+        ranges: polished, certified and classified (see :func:`spherekin.solve`). ``trace`` (loop
+        formulations only, ``jobs=1``) records every batch of boxes for experiments."""
+        values = self.mechanism.check_inputs(inputs)
+        if trace is not None and self.platform is not None:
+            raise ValueError("trace: only available with a loop formulation (paper, transversal, halves), "
+                             "got the platform formulation")
+        fallback = None
+        if self.platform is not None:
+            found = self._search_platform(values, progress)
+            if isinstance(found, str):
+                fallback = found
+            else:
+                report, poses = found
+                # no refined searches: a platform root that finalize cannot prove goes to the loop equations
+                solutions, refined, t_final = self._trust(values, report, self.strategy.tol, refine=False)
+                fallback = disagreement(solutions, poses)
+                if fallback is None:
+                    return self._report(values, report, solutions, refined, t_final, None, None)
+        report, limit, tol = self._search_loops(values, self.strategy.tol, progress, trace)
+        solutions, refined, t_final = self._trust(values, report, tol, refine=True)
+        return self._report(values, report, solutions, refined, t_final, fallback, limit)
+
+    def _trust(self, values, report, tol, refine: bool):
+        """(solutions, stats of refined searches, seconds): :func:`spherekin.solutions.finalize` on the
+        clusters of ``report``; with ``refine``, unresolved clusters are searched again, finer."""
+        s = self.strategy
+        refined: list[SolverStats] = []
+
+        def again(lo, hi, t):
+            # a new search of a cluster's hull (which holds every root of its boxes) at a finer tol
+            finer = t * REFINE_FACTOR
+            if finer < REFINE_MIN_TOL:
+                return None
+            box = {n: (float(a) - RANGE_TOL, float(b) + RANGE_TOL) for n, a, b in zip(self.names, lo, hi)}
+            try:
+                sub = solve_system(self._builder(values), box, formulation=self._loop_formulation,
+                                   pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
+                                   tol=finer, isolate=s.isolate, jobs=1,
+                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth)
+            except SolverLimitError:
+                return None
+            refined.append(sub.stats)
+            return sub.solutions, finer
+
+        t0 = time.perf_counter()
+        solutions = finalize(self.mechanism, values, report.unknowns, report.solutions, tol,
+                             refine=again if refine else None)
+        return solutions, refined, time.perf_counter() - t0
+
+    def _report(self, values, report, solutions, refined, t_final, fallback, limit) -> SolveReport:
+        proven, exact = count_summary(solutions)
+        settings = {**report.settings, "mechanism": self.mechanism.name, "actuated": list(self.mechanism.actuated),
+                    "inputs": [float(v) for v in values]}
+        if fallback is not None:
+            settings["fallback"] = fallback
+        if limit is not None:
+            settings["limit"] = limit
+            exact = False
+        stats = report.stats
+        for extra in refined:   # the refined searches' boxes count; their time is in time_finalize
+            stats = stats + dataclasses.replace(extra, time_total=0.0, time_setup=0.0, time_restrict=0.0,
+                                                time_prune=0.0, time_isolate=0.0)
+        stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
+        if refined:
+            settings["refined_searches"] = len(refined)
+        return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,
+                                   proven_count=proven, count_exact=exact)
+
+    # ------------------------------------------------------------------ many inputs
+
+    def solve_many(self, inputs, *, progress: Callable[[int, int], None] | None = None) -> tuple[SolveReport, ...]:
+        """One report per row of ``inputs`` (shape (K, number of actuated joints), radians), in order.
+
+        Every row is checked before the first solve (one error naming the row); ``progress(done,
+        total)`` is called after each row.
+        """
+        rows = np.asarray(inputs, dtype=float) if not isinstance(inputs, np.ndarray) else inputs
+        if rows.ndim != 2 or rows.shape[1] != len(self.mechanism.actuated):
+            raise ValueError(f"inputs: expected an array of shape (K, {len(self.mechanism.actuated)}) "
+                             f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), "
+                             f"got shape {rows.shape}")
+        for k, row in enumerate(rows):
+            try:
+                self.mechanism.check_inputs(row)
+            except ValueError as exc:
+                raise ValueError(f"inputs row {k}: {exc}") from None
+        out = []
+        for k, row in enumerate(rows):
+            out.append(self.solve(row))
+            if progress is not None:
+                progress(k + 1, len(rows))
+        return tuple(out)
+
+    # ------------------------------------------------------------------ stages
+
+    @property
+    def _loop_formulation(self) -> str:
+        return LOOP_FORMULATION if self.strategy.formulation == "platform" else self.strategy.formulation
+
+    def _builder(self, values):
+        def build(chart):
+            system = self.mechanism.loop_system(values, chart)
+            return system.loops, system.unknowns
+        return build
+
+    def _search_platform(self, values, progress):
+        """(report, poses of the roots in range) from the platform search, or why the loop equations
+        must answer instead (a string)."""
+        s = self.strategy
+        t0 = time.perf_counter()
+        charts = self.platform.charts(values)
+        t_setup = time.perf_counter() - t0
+        try:
+            found = search_platform(charts, self.platform_pruner, s.tol, s.max_boxes, s.max_depth, progress)
+        except SolverLimitError as exc:
+            return f"the platform search reached a cap ({exc})"
+        if found.unresolved:
+            return (f"the platform search left {found.unresolved} box(es) it could not isolate (a parallel "
+                          "singularity or a double root nearby): solved with the loop equations")
+        boxes, poses = [], []
+        for chart, x in found.points:
+            pose = self.platform.pose(chart, x)
+            readings = passive_readings(self.platform.legs, values, pose, self.platform.platform_reference)
+            angles = np.array([readings[n] for n in self.names])
+            box = AcceptedBox(angles, angles.copy(), int(chart))
+            if clusters_in_range([box], self.ranges, s.tol):
+                boxes.append(box)
+                poses.append(pose)
+        solutions = clusters_in_range(boxes, self.ranges, s.tol)
+        stats = dataclasses.replace(found.stats, time_setup=t_setup,
+                                    time_total=found.stats.time_total + time.perf_counter() - t0
+                                    - found.stats.time_total)
+        settings = dict(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
+                        parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=charts.n_charts)
+        return SolveReport(self.names, tuple(solutions), (), stats, settings), poses
+
+    def _search_loops(self, values, tol, progress, trace):
+        """(report, limit, tol): the loop equations' search; a capped one is re-run as a covering."""
+        s = self.strategy
+
+        def run(t):
+            return solve_system(self._builder(values), self.ranges, formulation=self._loop_formulation,
+                                pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
+                                tol=t, isolate=s.isolate, jobs=s.jobs, max_boxes=s.max_boxes,
+                                max_depth=s.max_depth, progress=progress, trace=trace)
+
+        try:
+            return run(tol), None, tol
+        except SolverLimitError as exc:
+            # A continuum of solutions (or a cap too small for this tol): cover the solution set with
+            # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
+            # algorithm then returns a discretization of the solution set).
+            covering = max(tol, CONTINUUM_TOL)
+            limit = {"error": str(exc), "tol": tol, "covering_tol": covering}
+            try:
+                report = run(covering)
+            except SolverLimitError as exc2:
+                limit["covering_error"] = str(exc2)
+                report = partial_report(exc2, self.ranges, covering)
+            return report, limit, covering
+
+
+def disagreement(solutions, poses) -> str | None:
+    """Why the finalized ``solutions`` of a platform search are not its roots ``poses`` (None when
+    they are): every entry proven, one entry per distinct root, each matching one (POSE_MATCH).
+
+    The platform search proves where the roots are; the trust layer proves each assembly in the
+    loop equations. The two must agree, or the input goes to the loop equations (in the manner of
+    scipy's ``_check_result``: the fast path's answer is checked, not trusted).
+    """
+    bad = [s.status for s in solutions if not is_proven(s)]
+    if bad:
+        return f"the trust layer could not prove {len(bad)} root(s) of the platform search ({', '.join(bad)})"
+    distinct: list = []
+    for r in poses:
+        if not any(np.abs(r - d).max() <= POSE_MATCH for d in distinct):
+            distinct.append(r)
+    got = [s.platform_rotation for s in solutions]
+    if len(got) != len(distinct) or any(
+            not any(g is not None and np.abs(g - r).max() <= POSE_MATCH for g in got) for r in distinct):
+        return (f"the platform search found {len(distinct)} assemblies and the trust layer {len(got)} "
+                "different ones")
+    return None
+
+
+def compile(
+    mechanism,
+    *,
+    formulation: str = DEFAULT_FORMULATION,
+    pruner: str = DEFAULT_PRUNER,
+    lp_backend: str | None = None,
+    parameterization: str = DEFAULT_PARAMETERIZATION,
+    tol: float = DEFAULT_TOL,
+    isolate: bool = True,
+    jobs: int = 1,
+    max_boxes: int = DEFAULT_MAX_BOXES,
+    max_depth: int | None = None,
+) -> Problem:
+    """Compile ``mechanism`` for a strategy (names as in :func:`spherekin.solve`); every name and
+    number is checked here, before any input is solved."""
+    if formulation not in FORMULATION_CHOICES:
+        raise ValueError(f"formulation: expected one of {list(FORMULATION_CHOICES)}, got {formulation!r}")
+    check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner,
+                   parameterization, tol, jobs)
+    why = not_applicable(mechanism)
+    if formulation == "platform":
+        if why is not None:
+            raise ValueError(f"formulation 'platform': {why}; use 'auto' or a loop formulation")
+        if not isolate:
+            raise ValueError("formulation 'platform': needs isolate=True (its roots are proven by the Krawczyk test)")
+    not_platform = None
+    if formulation == "auto":
+        if why is None and parameterization != "tan-half":
+            why = f"parameterization {parameterization!r} asked for (the platform formulation has its own variables)"
+        if why is None and not isolate:
+            why = "isolate=False asked for (the platform formulation proves its roots by the Krawczyk test)"
+        formulation, not_platform = ("platform", None) if why is None else (LOOP_FORMULATION, why)
+    names = mechanism.loop_unknowns
+    ranges = {n: mechanism.ranges[n] for n in names}
+    platform = pruner_obj = None
+    if formulation == "platform":
+        platform = PlatformSystem.from_mechanism(mechanism)
+        pruner_obj = make_pruner(pruner, [(len(platform.legs), 3, 3, 3)], lp_backend)
+    else:
+        make_pruner(pruner, [(1, 3)], lp_backend)      # an unknown LP backend fails here, before any solve
+    strategy = Strategy(formulation, pruner, lp_backend, parameterization, float(tol), bool(isolate), jobs,
+                        max_boxes, max_depth)
+    return Problem(mechanism, strategy, tuple(names), ranges, platform, pruner_obj, not_platform)
+
+
+def solve(
+    mechanism,
+    inputs,
+    *,
+    formulation: str = DEFAULT_FORMULATION,
+    pruner: str = DEFAULT_PRUNER,
+    lp_backend: str | None = None,
+    parameterization: str = DEFAULT_PARAMETERIZATION,
+    tol: float = DEFAULT_TOL,
+    isolate: bool = True,
+    jobs: int = 1,
+    max_boxes: int = DEFAULT_MAX_BOXES,
+    max_depth: int | None = None,
+    progress: Callable[[dict], None] | None = None,
+    trace: Callable[[dict], None] | None = None,
+) -> SolveReport:
+    """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
+
+    ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
+    (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
+    deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles, platform
+    rotation, residual, status and its evidence. The strategies are chosen by name:
+    ``formulation`` one of :data:`FORMULATION_CHOICES` ("auto": the platform formulation where it
+    applies, else "halves"), ``pruner``, ``lp_backend``, ``parameterization`` (of the loop
+    equations), ``tol`` (radians), ``isolate``, ``jobs`` (worker processes over the charts of the
+    loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.solver.solve_system`).
+    The paper-faithful configuration is ``formulation="paper", pruner="lp", lp_backend="clarabel",
+    isolate=False``. For many inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
+    """
+    if trace is not None and formulation == "auto":
+        formulation = LOOP_FORMULATION        # a trace records the boxes of the loop equations
+    problem = compile(mechanism, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                      parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
+                      max_depth=max_depth)
+    return problem.solve(inputs, progress=progress, trace=trace)

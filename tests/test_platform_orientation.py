@@ -1,0 +1,262 @@
+"""Tests for spherekin.platform_orientation (the platform formulation) and its solve path.
+
+References: Rodrigues' formula for the quaternion rotation; sympy for the chart polynomials and
+their Bernstein coefficients (exact rationals); the mechanism's own inverse kinematics (Paden-Kahan
+subproblems, an independent route) for the passive readings; the 50-digit complex-Newton reference
+of benchmarks/reference_roots.py for the solutions.
+"""
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from benchmarks.reference_roots import reference_roots
+from benchmarks.sweep_roots import random_3rrr, random_rotation
+from spherekin.problem import compile, solve
+from spherekin.mechanism import four_bar, general_3rrr, gosselin
+from spherekin.platform_orientation import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
+                                            chart_rotation, form_matrix, not_applicable, passive_readings,
+                                            quaternion_matrix)
+from spherekin.solutions import is_proven
+from tests.conftest import rot, unit, wrap
+
+
+def _random_unit(rng):
+    return unit(rng.normal(size=3))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_quaternion_matrix_is_the_rotation_by_twice_the_half_angle(seed):
+    rng = np.random.default_rng(seed)
+    axis, angle = _random_unit(rng), rng.uniform(-math.pi, math.pi)
+    scale = rng.uniform(0.3, 3.0)                         # S(q) is homogeneous of degree 2
+    q = scale * np.array([math.cos(angle / 2), *(math.sin(angle / 2) * axis)])
+    np.testing.assert_allclose(quaternion_matrix(q) / (q @ q), rot(angle * axis), atol=1e-14)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_form_matrix_is_the_homogenized_leg_equation(seed):
+    rng = np.random.default_rng(seed)
+    e, a, c = _random_unit(rng), _random_unit(rng), rng.uniform(-1, 1)
+    m = form_matrix(e, a, c)
+    np.testing.assert_allclose(m, m.T, atol=0)
+    for _ in range(5):
+        q = rng.normal(size=4)
+        r = quaternion_matrix(q) / (q @ q)
+        assert q @ m @ q == pytest.approx((q @ q) * (e @ r @ a - c), abs=1e-13)
+
+
+def test_chart_control_points_are_the_exact_bernstein_coefficients():
+    """Against sympy: q^T M q with q_k = 1 and q_j = E (2 x_j - 1), expanded in the tensor
+    Bernstein basis of degree (2, 2, 2) by the textbook formula, for a rational M (all exact)."""
+    rng = np.random.default_rng(7)
+    ints = rng.integers(-9, 10, size=(4, 4))
+    m = (ints + ints.T) / 8.0                               # exact in binary and in Fraction
+    got = chart_control_points(m)
+    x = sp.symbols("x0:3")
+    ext = sp.Rational(Fraction(CHART_EXTENT))
+    for k in range(4):
+        free = iter(x)
+        q = [sp.Integer(1) if j == k else ext * (2 * next(free) - 1) for j in range(4)]
+        f = sp.expand(sum(sp.Rational(Fraction(float(m[i, j]))) * q[i] * q[j] for i in range(4) for j in range(4)))
+        poly = sp.Poly(f, *x)
+        for idx in np.ndindex(3, 3, 3):
+            # b_I = sum_{J <= I} prod_v C(I_v, J_v) / C(2, J_v) a_J
+            b = sum(poly.coeff_monomial(x[0] ** j0 * x[1] ** j1 * x[2] ** j2)
+                    * math.prod(sp.binomial(i, j) / sp.binomial(2, j) for i, j in zip(idx, (j0, j1, j2)))
+                    for j0 in range(idx[0] + 1) for j1 in range(idx[1] + 1) for j2 in range(idx[2] + 1))
+            assert Fraction(float(got[k][idx])) == Fraction(int(sp.numer(b)), int(sp.denom(b))), (k, idx)
+
+
+def test_charts_cover_every_rotation_with_room_to_spare():
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        r = random_rotation(rng)
+        hits = 0
+        for k in range(4):
+            # the quaternion of r with q_k = 1, if |q_k| is large enough for this chart
+            from benchmarks.peers_closed_form import rotation_quaternion
+
+            q = rotation_quaternion(r)
+            if abs(q[k]) < 1e-9:
+                continue
+            u = np.delete(q / q[k], k)
+            if np.all(np.abs(u) <= CHART_EXTENT):
+                x = (u / CHART_EXTENT + 1) / 2
+                np.testing.assert_allclose(chart_rotation(k, x), r, atol=1e-13)
+                np.testing.assert_allclose(chart_quaternion(k, x)[0], q / q[k], atol=1e-15)
+                hits += 1
+                # the chart that holds the largest component holds r strictly inside
+                if k == int(np.argmax(np.abs(q))):
+                    assert np.all(np.abs(u) <= 1.0 + 1e-15) and CHART_EXTENT > 1.0
+        assert hits >= 1
+
+
+@pytest.mark.parametrize("preset", [gosselin, general_3rrr])
+def test_passive_readings_match_inverse_kinematics(preset):
+    """For random poses, every inverse-kinematics working mode gives inputs and passive angles; the
+    passive readings recovered from (inputs, pose) must be that working mode's, and Eq. (1) holds."""
+    mech = preset()
+    system = PlatformSystem.from_mechanism(mech)
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(20):
+        r = random_rotation(rng)
+        for mode in mech.inverse_kinematics(r):
+            readings = passive_readings(system.legs, mode.inputs, r, system.platform_reference)
+            for name, value in readings.items():
+                assert abs(wrap(value - mode.joint_angles[name])) < 1e-9, name
+            assert np.abs(system.residuals(mode.inputs, r)).max() < 1e-12
+            checked += 1
+    assert checked > 20
+
+
+def test_residuals_do_not_vanish_off_the_assembly():
+    mech = general_3rrr()
+    system = PlatformSystem.from_mechanism(mech)
+    rng = np.random.default_rng(5)
+    r = random_rotation(rng)
+    mode = mech.inverse_kinematics(r)[0]
+    other = np.array(mode.inputs) + np.array([0.3, 0.0, 0.0])
+    res = system.residuals(other, r)
+    assert abs(res[0]) > 1e-3 and np.abs(res[1:]).max() < 1e-12
+
+
+def test_control_points_evaluate_to_the_leg_equations():
+    """The Bernstein form at a chart point equals |q|^2 times Eq. (1) evaluated from the rotation."""
+    from spherekin.isolation import evaluate_at
+
+    mech = general_3rrr()
+    system = PlatformSystem.from_mechanism(mech)
+    rng = np.random.default_rng(2)
+    inputs = rng.uniform(-math.pi, math.pi, 3)
+    cps = system.control_points(inputs)
+    for k in range(4):
+        x = rng.uniform(0, 1, 3)
+        q = chart_quaternion(k, x)[0]
+        vals = evaluate_at(cps[k][..., None], x[None])[:, 0]
+        np.testing.assert_allclose(vals, (q @ q) * system.residuals(inputs, chart_rotation(k, x)), atol=1e-13)
+
+
+def _same_poses(report, reference):
+    got = [s.platform_rotation for s in report.solutions]
+    assert len(got) == reference.count
+    for q in reference.rotations:
+        assert min(np.abs(g - q).max() for g in got) < 1e-9
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_platform_solve_equals_the_50_digit_reference_on_random_geometries(seed):
+    rng = np.random.default_rng(100 + seed)
+    mech, data = random_3rrr(rng)
+    geometry = tuple(np.array(v, dtype=float) for v in data)
+    inputs = rng.uniform(-math.pi, math.pi, 3)
+    rep = solve(mech, tuple(inputs))
+    ref = reference_roots(geometry, inputs)
+    assert rep.count_exact and rep.proven_count == ref.count
+    _same_poses(rep, ref)
+    if rep.settings["formulation"] == "platform":
+        assert rep.settings["parameterization"] == "quaternion" and rep.stats.charts == 4
+    else:   # the loop equations answered: the report says why
+        assert "platform search" in rep.settings["fallback"]
+
+
+def test_gosselin_by_the_platform_formulation(gosselin_report):
+    from tests.conftest import GOSSELIN_INPUTS
+
+    rep = gosselin_report
+    assert rep.settings["formulation"] == "platform" and "fallback" not in rep.settings
+    assert sorted(s.status for s in rep.solutions) == ["certified"] * 4 + ["singular"] * 4
+    assert rep.stats.isolated >= 8 and rep.stats.accepted == 0
+    assert all(is_proven(s) for s in rep.solutions) and rep.count_exact
+    halves = solve(gosselin(), GOSSELIN_INPUTS, formulation="halves")
+    for a, b in zip(rep.solutions, halves.solutions):
+        np.testing.assert_allclose(a.angles, b.angles, atol=1e-12)
+
+
+def test_platform_roots_outside_passive_ranges_are_dropped():
+    mech = general_3rrr()
+    rng = np.random.default_rng(4)
+    modes = ()
+    while not modes:                          # a pose the mechanism reaches
+        r = random_rotation(rng)
+        modes = mech.inverse_kinematics(r)
+    mode = modes[0]
+    full = solve(mech, mode.inputs)
+    assert full.settings["formulation"] == "platform"
+    target = next(s for s in full.solutions if np.abs(s.platform_rotation - r).max() < 1e-9)
+    # limit gamma1 to a range of 0.02 rad around this solution's gamma1: only the solutions with
+    # gamma1 inside it remain (counted independently from the full solve's angles)
+    g = full.unknowns.index("gamma1")
+    centre = float(target.angles[g])
+    from spherekin.mechanism import SphericalMechanism, Leg, Joint
+
+    legs = []
+    for leg in mech.legs:
+        joints = [Joint(j.name, j.axis, j.actuated, (centre - 0.01, centre + 0.01) if j.name == "gamma1" else j.range,
+                        j.reference_angle) for j in leg.joints]
+        legs.append(Leg(leg.name, joints))
+    narrow = SphericalMechanism(legs, mech.name, mech.reference_leg, mech.platform_reference, mech.kind,
+                                mech.geometry)
+    rep = solve(narrow, mode.inputs)
+    expected = [s for s in full.solutions if abs(wrap(s.angles[g] - centre)) <= 0.01]
+    assert rep.settings["formulation"] == "platform"
+    assert len(rep.solutions) == len(expected) >= 1
+
+
+def test_not_applicable_and_strategy_errors():
+    assert not_applicable(gosselin()) is None
+    why = not_applicable(four_bar())
+    assert why is not None and "3 legs" in why or "R-R-R" in why
+    with pytest.raises(ValueError, match="formulation 'platform'"):
+        compile(four_bar(), formulation="platform")
+    with pytest.raises(ValueError, match="isolate"):
+        compile(gosselin(), formulation="platform", isolate=False)
+    with pytest.raises(ValueError, match="expected one of .*'auto', 'platform'"):
+        compile(gosselin(), formulation="quaternion")
+    # auto: the loop equations where the platform formulation does not apply, and why
+    assert compile(four_bar()).strategy.formulation == "halves"
+    assert compile(four_bar()).not_platform == why
+    p = compile(gosselin(), parameterization="sin-cos")
+    assert p.strategy.formulation == "halves" and "sin-cos" in p.not_platform
+    assert compile(gosselin(), isolate=False).strategy.formulation == "halves"
+
+
+def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
+    mech = general_3rrr()
+    rng = np.random.default_rng(9)
+    rows = rng.uniform(-math.pi, math.pi, (4, 3))
+    problem = compile(mech)
+    seen = []
+    many = problem.solve_many(rows, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(1, 4), (2, 4), (3, 4), (4, 4)]
+    for row, rep in zip(rows, many):
+        one = solve(mech, tuple(row))
+        assert rep.settings["inputs"] == list(row)
+        assert [s.angles.tolist() for s in rep.solutions] == [s.angles.tolist() for s in one.solutions]
+    with pytest.raises(ValueError, match=r"shape \(K, 3\)"):
+        problem.solve_many(rows[:, :2])
+    bad = rows.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match="inputs row 2"):
+        problem.solve_many(bad)
+
+
+def test_disagreement_between_platform_roots_and_finalized_solutions():
+    from spherekin.problem import disagreement
+    from spherekin.results import Solution
+
+    r1, r2 = rot([0.1, 0.2, 0.3]), rot([-0.4, 0.0, 0.9])
+
+    def entry(r, status="certified"):
+        z = np.zeros(6)
+        return Solution(z, z, z, 1, platform_rotation=r, status=status, evidence={"krawczyk_certified": True})
+
+    assert disagreement([entry(r1), entry(r2)], [r1, r2, r2 + 1e-12]) is None      # a duplicate root
+    assert "could not prove" in disagreement([entry(r1), entry(r2, "unverified")], [r1, r2])
+    assert "found 2 assemblies and the trust layer 1" in disagreement([entry(r1)], [r1, r2])
+    assert "found 1 assemblies and the trust layer 2" in disagreement([entry(r1), entry(r2)], [r1])
+    assert disagreement([entry(r1)], [r2]) is not None                               # moved by polishing
