@@ -50,7 +50,8 @@ def config(name, problem="full", parameterization="tan-half", formulation="halve
 
 
 CONFIGS = [
-    config("default"),                                                   # the baseline of the ratios
+    config("halves (default before 14)"),                                # the baseline of the ratios
+    config("platform (default)", formulation="platform"),                # issue 14: "auto" picks it for a 3-RRR
     config("jobs 2", jobs=2),
     config("no isolation", isolate=False),
     config("transversal", formulation="transversal"),
@@ -73,7 +74,7 @@ CONFIGS = [
     config("chart paper-faithful", problem="chart", formulation="paper", pruner="lp", lp_backend="clarabel",
            tol=1e-3, isolate=False),
 ]
-QUICK = ["default", "no isolation", "sin-cos", "chart default", "chart lp highspy"]
+QUICK = ["halves (default before 14)", "platform (default)", "no isolation", "sin-cos", "chart default", "chart lp highspy"]
 
 #: A configuration is stopped (and reported) past this many boxes: it is a measure of failure.
 MAX_BOXES = 300_000
@@ -142,7 +143,7 @@ def main(argv=None):
         row = dict(cfg)
         if failure:
             row.update(failed=failure)
-            print(f"{cfg['name']:26s}  cap hit: {failure}")
+            print(f"{cfg['name']:27s}  cap hit: {failure}")
             rows.append(row)
             continue
         med = statistics.median(times)
@@ -153,7 +154,7 @@ def main(argv=None):
         row.update(median_seconds=med, runs=len(times), times=times, ratio_vs_default=med / baseline,
                    stats=st.as_dict(), solutions=len(rep.solutions), classified=certified,
                    solution_angles=[np.asarray(s.angles).tolist() for s in rep.solutions])
-        print(f"{cfg['name']:26s} {med:9.3f} {med / baseline:6.2f} {len(times):4d} {st.time_setup:6.3f} "
+        print(f"{cfg['name']:27s} {med:9.3f} {med / baseline:6.2f} {len(times):4d} {st.time_setup:6.3f} "
               f"{st.time_restrict:6.3f} {st.time_prune:6.3f} {st.time_isolate:6.3f} {st.time_finalize:6.3f} "
               f"{st.boxes_processed:7d} {st.lps_solved:6d} {len(rep.solutions):4d} {certified:4d}", flush=True)
         rows.append(row)

@@ -69,6 +69,10 @@ REFINE_MAX_BOXES = 20_000
 #: from parallel singularities (near one, the platform search does not isolate the roots and this
 #: check is not reached), and distinct assemblies closer than 1e-8 occur only next to one.
 POSE_MATCH = 1e-8
+#: Two roots of the platform search are one (found from two overlapping charts, or on the face of
+#: two boxes) when their poses agree to this. Reason: Newton limits of one root agree to ~1e-15;
+#: two distinct roots this close could not be told apart by any float64 test downstream either.
+DUPLICATE_POSE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -230,6 +234,8 @@ class Problem:
         boxes, poses = [], []
         for chart, x in found.points:
             pose = self.platform.pose(chart, x)
+            if any(np.abs(pose - p).max() <= DUPLICATE_POSE for p in poses):
+                continue                                  # the same root from an overlapping chart
             readings = passive_readings(self.platform.legs, values, pose, self.platform.platform_reference)
             angles = np.array([readings[n] for n in self.names])
             box = AcceptedBox(angles, angles.copy(), int(chart))
