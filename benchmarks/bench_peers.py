@@ -526,7 +526,8 @@ def main(argv=None) -> int:
             return row
 
         # 1. spherekin default (baseline of the ratios), then the other parameterization
-        variants = [("spherekin default" + (f" ({param_default})" if has_param else ""), {})]
+        variants = [("spherekin default (platform)", {}), ("spherekin halves (before #14)",
+                                                       {"formulation": "halves"})]
         if has_param:
             variants += [(f"spherekin {p}", {"parameterization": p}) for p in PARAMETERIZATIONS if p != param_default]
         reference, ref_angles = None, []

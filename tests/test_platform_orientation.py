@@ -260,3 +260,24 @@ def test_disagreement_between_platform_roots_and_finalized_solutions():
     assert "found 2 assemblies and the trust layer 1" in disagreement([entry(r1)], [r1, r2])
     assert "found 1 assemblies and the trust layer 2" in disagreement([entry(r1), entry(r2)], [r1])
     assert disagreement([entry(r1)], [r2]) is not None                               # moved by polishing
+
+
+def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equations(monkeypatch):
+    """The wiring of the check: the first finalize (platform roots) loses one entry, as a broken
+    passive-angle map or polish would; the input must be solved again with the loop equations."""
+    import spherekin.problem as pipeline
+    from tests.conftest import GOSSELIN_INPUTS
+
+    real = pipeline.finalize
+    calls = []
+
+    def lossy(*args, **kwargs):
+        out = real(*args, **kwargs)
+        calls.append(len(out))
+        return out[1:] if len(calls) == 1 else out
+
+    monkeypatch.setattr(pipeline, "finalize", lossy)
+    rep = pipeline.solve(gosselin(), GOSSELIN_INPUTS)
+    assert calls == [8, 8]
+    assert "found 8 assemblies and the trust layer 7" in rep.settings["fallback"]
+    assert rep.settings["formulation"] == "halves" and len(rep.solutions) == 8 and rep.count_exact
