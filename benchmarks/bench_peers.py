@@ -193,7 +193,9 @@ def count_solutions(spec: dict, mech, poses) -> dict:
 
 def solve_accepts_parameterization() -> tuple[bool, str | None]:
     """(does spherekin's solve take ``parameterization=``, its default value or None)."""
-    p = inspect.signature(solve).parameters.get("parameterization")
+    from spherekin.problem import compile as compile_problem     # solve's strategy keywords are compile's
+
+    p = inspect.signature(compile_problem).parameters.get("parameterization")
     if p is None:
         return False, None
     return True, (p.default if p.default is not inspect.Parameter.empty else None)

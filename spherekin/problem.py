@@ -344,22 +344,8 @@ def compile(
     return Problem(mechanism, strategy, tuple(names), ranges, platform, pruner_obj, not_platform)
 
 
-def solve(
-    mechanism,
-    inputs,
-    *,
-    formulation: str = DEFAULT_FORMULATION,
-    pruner: str = DEFAULT_PRUNER,
-    lp_backend: str | None = None,
-    parameterization: str = DEFAULT_PARAMETERIZATION,
-    tol: float = DEFAULT_TOL,
-    isolate: bool = True,
-    jobs: int = 1,
-    max_boxes: int = DEFAULT_MAX_BOXES,
-    max_depth: int | None = None,
-    progress: Callable[[dict], None] | None = None,
-    trace: Callable[[dict], None] | None = None,
-) -> SolveReport:
+def solve(mechanism, inputs, *, progress: Callable[[dict], None] | None = None,
+          trace: Callable[[dict], None] | None = None, **strategy) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
     ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
@@ -371,11 +357,9 @@ def solve(
     equations), ``tol`` (radians), ``isolate``, ``jobs`` (worker processes over the charts of the
     loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.solver.solve_system`).
     The paper-faithful configuration is ``formulation="paper", pruner="lp", lp_backend="clarabel",
-    isolate=False``. For many inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
+    isolate=False``. The strategy keywords and their defaults are those of :func:`compile`; for many
+    inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
     """
-    if trace is not None and formulation == "auto":
-        formulation = LOOP_FORMULATION        # a trace records the boxes of the loop equations
-    problem = compile(mechanism, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                      parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
-                      max_depth=max_depth)
-    return problem.solve(inputs, progress=progress, trace=trace)
+    if trace is not None and strategy.get("formulation", DEFAULT_FORMULATION) == "auto":
+        strategy["formulation"] = LOOP_FORMULATION        # a trace records the boxes of the loop equations
+    return compile(mechanism, **strategy).solve(inputs, progress=progress, trace=trace)
