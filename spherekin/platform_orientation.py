@@ -42,7 +42,7 @@ from .parameterizations import ROUNDING_SAFETY, ChartSet
 
 __all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
            "quaternion_matrix", "form_matrix", "chart_control_points", "chart_quaternion", "chart_rotation",
-           "passive_readings", "QuaternionCharts"]
+           "passive_readings", "passive_readings_many", "passive_names", "QuaternionCharts"]
 
 #: Number of quaternion charts (one per component fixed to 1).
 CHARTS = 4
@@ -179,6 +179,8 @@ def platform_legs(mechanism) -> tuple[PlatformLeg, ...]:
 def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, float]:
     """Passive joint readings (radians, wrapped to [-pi, pi)) of the assembly at platform pose R.
 
+    The slow, readable reference of :func:`passive_readings_many` (which the solver uses).
+
     ``inputs``: the actuated readings, one per leg. R = D R_ref; per leg M = Rot(a1, -d1) D must be
     Rot(a2, d2) Rot(a3, d3): d2 turns a3 onto M a3 about a2, d3 = the angle of Rot(a2, -d2) M about a3.
     """
@@ -193,6 +195,48 @@ def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, fl
         out[leg.names[1]] = wrap(leg.reference[1] + d2)
         out[leg.names[2]] = wrap(leg.reference[2] + d3)
     return out
+
+
+def _angles_about(axis: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Signed angles (K,) about the unit vector ``axis`` (3,) from x to y (K, 3 each): the batch form
+    of :func:`spherekin.mechanism.chains.angle_about` (cross product written out, no np.cross)."""
+    xp = x - np.outer(x @ axis, axis)
+    yp = y - np.outer(y @ axis, axis)
+    cross_axis = (axis[0] * (xp[:, 1] * yp[:, 2] - xp[:, 2] * yp[:, 1])
+                  + axis[1] * (xp[:, 2] * yp[:, 0] - xp[:, 0] * yp[:, 2])
+                  + axis[2] * (xp[:, 0] * yp[:, 1] - xp[:, 1] * yp[:, 0]))
+    return np.arctan2(cross_axis, np.einsum("ki,ki->k", xp, yp))
+
+
+def passive_names(legs) -> tuple[str, ...]:
+    """The passive joints of the legs, in the column order of :func:`passive_readings_many`."""
+    return tuple(n for leg in legs for n in leg.names[1:])
+
+
+def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.ndarray:
+    """Passive joint readings (K, 2 x legs; radians, wrapped to [-pi, pi)) at K platform poses.
+
+    The batch form of :func:`passive_readings` (its slow, readable reference), columns in the order
+    of :func:`passive_names`. ``rotations`` (K, 3, 3); ``inputs``: the actuated readings, one per leg.
+    With M = Rot(a1, -d1) D: d2 = the angle about a2 from a3 to M a3; then Rot(a2, -d2) M p, for a
+    fixed p normal to a3, written out by Rodrigues, gives d3 about a3.
+    """
+    d = np.asarray(rotations, dtype=float) @ np.asarray(platform_reference, dtype=float).T     # (K, 3, 3)
+    cols = []
+    for leg, beta in zip(legs, inputs):
+        m = axis_rotation(leg.a1, -(float(beta) - leg.reference[0])) @ d
+        ma3 = m @ leg.a3
+        d2 = _angles_about(leg.a2, np.broadcast_to(leg.a3, ma3.shape), ma3)
+        p = perpendicular(leg.a3)
+        w = m @ p                                                 # M p, then Rot(a2, -d2) by Rodrigues
+        a = leg.a2
+        c, s = np.cos(d2)[:, None], -np.sin(d2)[:, None]
+        a_cross_w = np.stack((a[1] * w[:, 2] - a[2] * w[:, 1], a[2] * w[:, 0] - a[0] * w[:, 2],
+                              a[0] * w[:, 1] - a[1] * w[:, 0]), axis=1)
+        n_p = w * c + a_cross_w * s + np.outer(w @ a, a) * (1.0 - c)
+        d3 = _angles_about(leg.a3, np.broadcast_to(p, n_p.shape), n_p)
+        cols += [wrap(leg.reference[1] + d2), wrap(leg.reference[2] + d3)]
+    return np.stack(cols, axis=1).reshape(len(d), -1)
 
 
 @dataclass(frozen=True)

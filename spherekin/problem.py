@@ -33,7 +33,7 @@ import numpy as np
 
 from .angles import RANGE_TOL
 from .formulations import FORMULATIONS
-from .platform_orientation import PlatformSystem, not_applicable, passive_readings
+from .platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
 from .pruners import make_pruner
 from .results import AcceptedBox, SolveReport, SolverStats
 from .solutions import count_summary, finalize, is_proven
@@ -231,17 +231,23 @@ class Problem:
         if found.unresolved:
             return (f"the platform search left {found.unresolved} box(es) it could not isolate (a parallel "
                           "singularity or a double root nearby): solved with the loop equations")
-        boxes, poses = [], []
+        distinct, charts_of = [], []
         for chart, x in found.points:
             pose = self.platform.pose(chart, x)
-            if any(np.abs(pose - p).max() <= DUPLICATE_POSE for p in poses):
+            if any(np.abs(pose - p).max() <= DUPLICATE_POSE for p in distinct):
                 continue                                  # the same root from an overlapping chart
-            readings = passive_readings(self.platform.legs, values, pose, self.platform.platform_reference)
-            angles = np.array([readings[n] for n in self.names])
-            box = AcceptedBox(angles, angles.copy(), int(chart))
-            if clusters_in_range([box], self.ranges, s.tol):
-                boxes.append(box)
-                poses.append(pose)
+            distinct.append(pose)
+            charts_of.append(int(chart))
+        boxes, poses = [], []
+        if distinct:
+            legs = self.platform.legs
+            order = [passive_names(legs).index(n) for n in self.names]
+            readings = passive_readings_many(legs, values, np.array(distinct), self.platform.platform_reference)
+            for pose, chart, angles in zip(distinct, charts_of, readings[:, order]):
+                box = AcceptedBox(angles, angles.copy(), chart)
+                if clusters_in_range([box], self.ranges, s.tol):
+                    boxes.append(box)
+                    poses.append(pose)
         solutions = clusters_in_range(boxes, self.ranges, s.tol)
         stats = dataclasses.replace(found.stats, time_setup=t_setup,
                                     time_total=found.stats.time_total + time.perf_counter() - t0

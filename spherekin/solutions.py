@@ -47,7 +47,7 @@ import math
 import numpy as np
 
 from .angles import RANGE_TOL, in_range, into_range, wrap
-from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, krawczyk_many, transversal_equations
+from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many, transversal_equations
 from .polish import polish
 from .results import Solution
 
@@ -60,8 +60,10 @@ STATUSES = ("certified", "singular", "unverified", "cluster", "continuum")
 #: point when neither is certified (certified points are compared through their boxes): polished
 #: points agree to ~1e-14 and two roots this close cannot be separated by polishing anyway.
 DEDUPE_TOL = 1e-8
-#: Half-width (radians) of the chart used to evaluate the loops around a cluster: any value below
-#: pi/2 keeps tan((theta - shift)/2) well conditioned there (clusters are at most MAX_TOL-sized).
+#: Half-width (radians) of the chart of the LoopSystem that finalize evaluates: one system per
+#: input, built once for every cluster. Reason: polishing and certification evaluate the loops in
+#: the angles themselves (Rx(theta), cos and sin), never through the chart's t = tan((theta - shift)/2),
+#: so any valid chart (width below 2 pi) gives the same equations; 1 rad around 0 is one.
 LOCAL_CHART = 1.0
 #: Polishing starts per cluster at most: its centre and member boxes spread evenly over it. A
 #: cluster of simple roots has a few members; near a fold it has ~100, and two roots 1e-5 apart
@@ -212,15 +214,20 @@ def _resolve(system, sol: Solution, points: list[_Point], certify_fn, stats: dic
     return unresolved
 
 
-def _certify_with_fallback(certify_fn, system, theta, radii):
-    """certify at the default angle tolerance, then, if K(X) was computed but not inside X, at the
-    finer one (:data:`spherekin.certify.FINE_ANGLE_TOLERANCE`; the evidence records which)."""
-    cert = certify_fn(system, theta, radii=radii)
-    if not cert.certified and cert.krawczyk_box is not None and not cert.no_solution:
-        fine = certify_fn(system, theta, radii=radii, angle_tolerance=FINE_ANGLE_TOLERANCE)
-        if fine.certified:
-            return fine
-    return cert
+def _certify_with_fallback(certify_fn, system, thetas, radii) -> list:
+    """``certify_fn`` on the points ``thetas`` at the default angle tolerance, then, for each whose
+    K(X) was computed but not inside X, at the finer one (:data:`spherekin.certify.FINE_ANGLE_TOLERANCE`;
+    the evidence records which); one result per point, in order."""
+    if not len(thetas):
+        return []
+    certs = list(certify_fn(system, thetas, radii=radii))
+    again = [i for i, c in enumerate(certs) if not c.certified and c.krawczyk_box is not None and not c.no_solution]
+    if again:
+        fine = certify_fn(system, [thetas[i] for i in again], radii=radii, angle_tolerance=FINE_ANGLE_TOLERANCE)
+        for i, f in zip(again, fine):
+            if f.certified:
+                certs[i] = f
+    return certs
 
 
 def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
@@ -234,7 +241,8 @@ def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
     point.box = (lo, hi)
     point.enc = (np.asarray(k_lo, float), np.asarray(k_hi, float))
     half = 0.5 * float(np.min(hi - lo))
-    point.cert = _certify_with_fallback(certify_fn, system, point.theta, [r for r in CERTIFY_RADII if r <= half] or [half])
+    point.cert = _certify_with_fallback(certify_fn, system, [point.theta],
+                                        [r for r in CERTIFY_RADII if r <= half] or [half])[0]
     return point
 
 
@@ -243,18 +251,20 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
 
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: Solutions from the
     box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
-    ``certify(system, theta, radii=...)``: the certification function (default
-    :func:`spherekin.certify.certify`). ``refine(lo, hi, tol)``, optional: the clusters of a new
+    ``certify(system, thetas, radii=..., angle_tolerance=...)``: the batch certification function,
+    one result per point (default :func:`spherekin.certify.certify_many`; the points of every
+    cluster are certified together). ``refine(lo, hi, tol)``, optional: the clusters of a new
     search of the box [lo, hi] at a finer tolerance, as ``(clusters, finer_tol)``, or None when
     there is none; a cluster that cannot be resolved is replaced by the clusters of that search
     (recursively) before it is reported as unresolved. Returns the entries sorted by angles;
     see the module docstring for the statuses and :func:`count_summary` for the count.
     """
     if certify is None:
-        from .certify import certify
+        certify = certify_many
     out = []
-    for sol in clusters:
-        out += _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine)
+    if clusters:
+        system = mechanism.loop_system(inputs, {n: (-LOCAL_CHART, LOCAL_CHART) for n in names})
+        out = _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine)
     # a root found from two clusters (a refined search of a hull can reach a neighbour's root)
     unique: list[Solution] = []
     for e in sorted(out, key=lambda e: not is_proven(e)):
@@ -305,10 +315,10 @@ def _merge_nearby_unproven(entries: list, tol: float) -> list:
     return out
 
 
-def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> list[Solution]:
-    ranges = mechanism.ranges
+def _polish_cluster(system, sol: Solution, tol: float):
+    """(distinct converged points that stay in the cluster, how many left it, the best point) from
+    polishing the cluster's seeds (:func:`_seeds`)."""
     centre = 0.5 * (sol.lo + sol.hi)
-    system = mechanism.loop_system(inputs, {n: (a - LOCAL_CHART, a + LOCAL_CHART) for n, a in zip(names, centre)})
     slack = tol + RANGE_TOL
     points: list[_Point] = []
     left_cluster = 0
@@ -327,29 +337,60 @@ def _finalize_cluster(mechanism, inputs, names, sol, tol, certify, refine) -> li
         if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
             continue
         points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
-    cont = _continuum(system, sol, points, names)
-    if cont is not None:
-        return [cont]
-    # certify at radii below the separation of the points
-    for i, pt in enumerate(points):
-        sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
-        radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
-        pt.cert = _certify_with_fallback(certify, system, pt.theta, radii)
-        if pt.cert.certified:
-            pt.box = tuple(np.array(v) for v in zip(*pt.cert.box))
-            pt.enc = tuple(np.array(v) for v in zip(*pt.cert.krawczyk_box))
+    return points, left_cluster, best
+
+
+def _certify_all(certify_fn, system, groups: list[list[_Point]]) -> None:
+    """Certify every point of every cluster (``groups``: the points of each cluster), each at the
+    radii below SEPARATION_FRACTION of its distance to the nearest other point of its cluster; one
+    batch call per distinct list of radii (usually one for the whole input)."""
+    by_radii: dict[tuple, list[_Point]] = {}
+    for points in groups:
+        for i, pt in enumerate(points):
+            sep = min((np.abs(pt.theta - q.theta).max() for j, q in enumerate(points) if j != i), default=math.inf)
+            radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
+            by_radii.setdefault(tuple(radii), []).append(pt)
+    for radii, pts in by_radii.items():
+        certs = _certify_with_fallback(certify_fn, system, [pt.theta for pt in pts], list(radii))
+        for pt, cert in zip(pts, certs):
+            pt.cert = cert
+            if cert.certified:
+                pt.box = tuple(np.array(v) for v in zip(*cert.box))
+                pt.enc = tuple(np.array(v) for v in zip(*cert.krawczyk_box))
+
+
+def _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine) -> list[Solution]:
+    """The entries of ``clusters``: polish each, certify all their points together, then account
+    for each cluster and classify its points."""
+    out: list[Solution] = []
+    todo = []
+    for sol in clusters:
+        points, left_cluster, best = _polish_cluster(system, sol, tol)
+        cont = _continuum(system, sol, points, names)
+        if cont is not None:
+            out.append(cont)
+        else:
+            todo.append((sol, points, left_cluster, best))
+    _certify_all(certify, system, [points for _, points, _, _ in todo])
+    for sol, points, left_cluster, best in todo:
+        out += _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best)
+    return out
+
+
+def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best) -> list[Solution]:
+    """One cluster's entries from its certified points: the rest of the cluster accounted for
+    (:func:`_resolve`), searched again finer when unresolved, its points classified."""
+    ranges = mechanism.ranges
     stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
     unresolved = _resolve(system, sol, points, certify, stats)
     if unresolved and refine is not None:
         finer = refine(sol.lo, sol.hi, tol)
         if finer is not None:
             subs, finer_tol = finer
-            out = []
-            for sub in subs:
-                for e in _finalize_cluster(mechanism, inputs, names, sub, finer_tol, certify, refine):
-                    e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
-                                                                    "to_tol": finer_tol})
-                    out.append(e)
+            out = _finalize_clusters(mechanism, system, inputs, names, subs, finer_tol, certify, refine)
+            for e in out:
+                e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
+                                                                "to_tol": finer_tol})
             return _merge_unproven(out, sol, tol)
     cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
                   "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],

@@ -18,7 +18,8 @@ from benchmarks.sweep_roots import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
 from spherekin.platform_orientation import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
-                                            chart_rotation, form_matrix, not_applicable, passive_readings,
+                                            chart_rotation, form_matrix, not_applicable, passive_names, passive_readings,
+                                            passive_readings_many,
                                             quaternion_matrix)
 from spherekin.solutions import is_proven
 from tests.conftest import rot, unit, wrap
@@ -107,11 +108,31 @@ def test_passive_readings_match_inverse_kinematics(preset):
         r = random_rotation(rng)
         for mode in mech.inverse_kinematics(r):
             readings = passive_readings(system.legs, mode.inputs, r, system.platform_reference)
+            batch = passive_readings_many(system.legs, mode.inputs, r[None], system.platform_reference)[0]
             for name, value in readings.items():
+                assert abs(wrap(value - mode.joint_angles[name])) < 1e-9, name
+            for name, value in zip(passive_names(system.legs), batch):
                 assert abs(wrap(value - mode.joint_angles[name])) < 1e-9, name
             assert np.abs(system.residuals(mode.inputs, r)).max() < 1e-12
             checked += 1
     assert checked > 20
+
+
+@pytest.mark.parametrize("preset", [gosselin, general_3rrr])
+def test_batch_passive_readings_equal_the_reference_at_any_pose(preset):
+    """The batch readings equal the one-pose reference column for column at random poses and inputs
+    (poses that are no assembly of those inputs too: the formulas must agree everywhere)."""
+    mech = preset()
+    system = PlatformSystem.from_mechanism(mech)
+    rng = np.random.default_rng(23)
+    poses = np.array([random_rotation(rng) for _ in range(40)])
+    inputs = rng.uniform(-np.pi, np.pi, 3)
+    batch = passive_readings_many(system.legs, inputs, poses, system.platform_reference)
+    assert batch.shape == (40, 6)
+    for r, row in zip(poses, batch):
+        ref = passive_readings(system.legs, inputs, r, system.platform_reference)
+        assert list(ref) == list(passive_names(system.legs))
+        assert max(abs(wrap(a - b)) for a, b in zip(row, ref.values())) < 1e-12
 
 
 def test_residuals_do_not_vanish_off_the_assembly():

@@ -33,11 +33,11 @@ def clusters_of(mech, inputs, **kw):
     return report.unknowns, report.solutions
 
 
-def refusing_certify(system, theta, radii=None, angle_tolerance=None):
-    """A certification function that never certifies: the real test's evidence, verdict False."""
+def refusing_certify(system, thetas, radii=None, angle_tolerance=None):
+    """A batch certification function that never certifies: the real tests' evidence, verdict False."""
     kw = {} if radii is None else {"radii": radii}
-    res = real_certify(system, theta, **kw)
-    return dataclasses.replace(res, certified=False, reason="not certified: refused by the test")
+    return [dataclasses.replace(real_certify(system, theta, **kw), certified=False,
+                                reason="not certified: refused by the test") for theta in thetas]
 
 
 def test_nothing_is_certified_when_every_certificate_is_refused():
