@@ -28,7 +28,7 @@ Two implementations, with the same inputs and results:
   radii, loops and factors. A factor angle is phi = c + sign * theta, so
   cos phi = cos c cos theta - sign sin c sin theta and sin phi = sin c cos theta + sign cos c sin theta,
   with cos/sin of each constant c over c +- angle_tolerance and of each unknown over its box from
-  :func:`spherekin.intervals.cos_sin_table` (mpmath at the float point, then a rigorous
+  :func:`spherekin.intervals.cos_sin_table` (:mod:`spherekin.trig_enclosure` at the float point, then a rigorous
   expansion). With P_i the product of the factors before factor i (P_0 = I), F = P_n by
   P_{i+1} = P_i Rx(phi_i) Z, and dF/dphi_i = [u_i]x F with u_i = P_i e1, because
   d/dphi Rx(phi) = [e1]x Rx(phi) and P [e1]x P^T = [P e1]x for a rotation P -- an identity of

@@ -15,9 +15,9 @@ gives infinite endpoints (still an enclosure); callers reject non-finite results
 switch on flush-to-zero, which breaks it); callers must use a different method when it fails.
 
 The only transcendental functions are cos and sin (:func:`cos_sin`, :func:`cos_sin_ball`): at
-a float point a they come from mpmath's interval routine (the point case of
-``libmpi.mpi_cos_sin``, the code behind ``iv.cos``/``iv.sin``: multiprecision integer
-arithmetic, outward-rounded, independent of the FPU), then over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
+a float point a they come from :func:`spherekin.trig_enclosure.cos_sin_enclosure` (fixed-point
+integer arithmetic with a counted error bound, outward-rounded, independent of the FPU), then
+over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
 sin(a + d) = sin a cos d + cos a sin d with cos d in [1 - r^2/2, 1] and |sin d| <= min(r, 1),
 both true for every real d with |d| <= r, evaluated in this arithmetic.
 """
@@ -28,8 +28,8 @@ import functools
 import math
 
 import numpy as np
-from mpmath.libmp import (fnone, fone, from_float, from_man_exp, fzero, mpf_cmp, mpf_cos_sin, mpf_mul, round_ceiling,
-                          round_floor, to_float)
+
+from .trig_enclosure import cos_sin_enclosure
 
 __all__ = [
     "POINT_CACHE_SIZE",
@@ -57,15 +57,6 @@ __all__ = [
 #: mechanism (joint offsets, known factor angles, ~a dozen per loop system) recur in every
 #: certification of one solve and across radii; 2**14 entries (~2 MB) hold thousands of systems.
 POINT_CACHE_SIZE = 1 << 14
-
-#: Precision (bits) of the mpmath point enclosures: the endpoints are then float64 numbers (53-bit
-#: mantissas), so converting them to floats is exact outside the subnormal range.
-_MP_PREC = 53
-#: mpmath's interval cos/sin (libmpi.mpi_cos_sin) evaluates at prec + 20 bits and trusts that
-#: result to a relative 2^(10 - wp): it multiplies by 1 -+ 2^(10 - wp) while rounding outward.
-_MP_WP = _MP_PREC + 20
-_MP_MORE = from_man_exp((1 << _MP_WP) + (1 << 10), -_MP_WP)
-_MP_LESS = from_man_exp((1 << _MP_WP) - (1 << 10), -_MP_WP)
 
 _INF = math.inf
 _DIRECTIONS: dict[tuple, np.ndarray] = {}
@@ -266,57 +257,14 @@ def magnitude(a) -> np.ndarray:
 # cos and sin
 # --------------------------------------------------------------------------------------------
 
-#: Smallest binary exponent (of the leading bit + 1) of a normal float64: 2^-1022 = 2^(exp + bc - 1).
-_NORMAL_MIN_EXP = -1021
-
-
-def _float_below(v) -> float:
-    """The largest float <= the raw mpf v (v has at most 53 mantissa bits)."""
-    sign, man, exp, bc = v
-    if bc <= 53 and _NORMAL_MIN_EXP <= exp + bc <= 1024:   # a float64 number: the conversion is exact
-        return math.ldexp(-man if sign else man, exp)
-    f = to_float(v, rnd=round_floor)
-    if mpf_cmp(from_float(f), v) > 0:   # to_float may round to nearest in the subnormal range
-        f = math.nextafter(f, -_INF)
-    return f
-
-
-def _float_above(v) -> float:
-    """The smallest float >= the raw mpf v (v has at most 53 mantissa bits)."""
-    sign, man, exp, bc = v
-    if bc <= 53 and _NORMAL_MIN_EXP <= exp + bc <= 1024:
-        return math.ldexp(-man if sign else man, exp)
-    f = to_float(v, rnd=round_ceiling)
-    if mpf_cmp(from_float(f), v) < 0:
-        f = math.nextafter(f, _INF)
-    return f
-
-
-def _mp_outward(v, rounding):
-    """libmpi.mpi_cos_sin's finalize: v times 1 -+ 2^(10 - wp), rounded outward to 53 bits, clamped to [-1, 1]."""
-    v = mpf_mul(v, _MP_MORE if bool(v[0]) == (rounding == round_floor) else _MP_LESS, _MP_PREC, rounding)
-    if v[2] + v[3] >= 1:
-        return fnone if v[0] else fone
-    return v
-
-
 @functools.lru_cache(maxsize=POINT_CACHE_SIZE)
 def point_cos_sin(a: float) -> tuple[float, float, float, float]:
     """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a``.
 
-    The point case of mpmath's interval cos/sin (``libmpi.mpi_cos_sin``, behind ``iv.cos`` and
-    ``iv.sin``) at 53 bits, with its error model: one ``mpf_cos_sin`` at 73 bits (mpi_cos_sin
-    evaluates each endpoint of an interval, twice for a point), widened by a relative 2^-63 and
-    rounded outward; endpoints converted to floats outward. Cached (a pure function of a).
+    :func:`spherekin.trig_enclosure.cos_sin_enclosure` (normally the two floats adjacent to each
+    exact value), cached: a pure function of a.
     """
-    if not math.isfinite(a):
-        raise ValueError(f"a: expected a finite angle (radians), got {a!r}")
-    x = from_float(a)
-    if x == fzero:
-        return 1.0, 1.0, 0.0, 0.0
-    c, s = mpf_cos_sin(x, _MP_WP)
-    return (_float_below(_mp_outward(c, round_floor)), _float_above(_mp_outward(c, round_ceiling)),
-            _float_below(_mp_outward(s, round_floor)), _float_above(_mp_outward(s, round_ceiling)))
+    return cos_sin_enclosure(a)
 
 
 def cos_sin_table(center, radius) -> np.ndarray:
