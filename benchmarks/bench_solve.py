@@ -35,6 +35,7 @@ import numpy as np
 from spherekin.mechanism import gosselin
 from spherekin.solver import SolverLimitError, solve_system
 from spherekin.problem import solve
+from spherekin.results import SolveReport
 
 INPUTS = (0.3, -0.2, 0.5)
 #: Centre of the "chart" problem (radians, passive joints in the mechanism's order): rounded from
@@ -150,13 +151,15 @@ def main(argv=None):
         if baseline is None:
             baseline = med
         st = rep.stats
-        certified = sum(s.status in ("certified", "singular") for s in rep.solutions)
+        # a chart problem's solve_system returns clusters (nothing polished or classified: c+s is 0)
+        found = rep.solutions if isinstance(rep, SolveReport) else rep.clusters
+        certified = sum(s.status in ("certified", "singular") for s in found) if isinstance(rep, SolveReport) else 0
         row.update(median_seconds=med, runs=len(times), times=times, ratio_vs_default=med / baseline,
-                   stats=st.as_dict(), solutions=len(rep.solutions), classified=certified,
-                   solution_angles=[np.asarray(s.angles).tolist() for s in rep.solutions])
+                   stats=st.as_dict(), solutions=len(found), classified=certified,
+                   solution_angles=[np.asarray(s.angles).tolist() for s in found])
         print(f"{cfg['name']:27s} {med:9.3f} {med / baseline:6.2f} {len(times):4d} {st.time_setup:6.3f} "
               f"{st.time_restrict:6.3f} {st.time_prune:6.3f} {st.time_isolate:6.3f} {st.time_finalize:6.3f} "
-              f"{st.boxes_processed:7d} {st.lps_solved:6d} {len(rep.solutions):4d} {certified:4d}", flush=True)
+              f"{st.boxes_processed:7d} {st.lps_solved:6d} {len(found):4d} {certified:4d}", flush=True)
         rows.append(row)
     proc = process_times(args.process_runs) if args.process_runs else []
     if proc:

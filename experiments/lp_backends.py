@@ -91,7 +91,7 @@ def measure(backend: str, probs: list[dict], seed: int, repeats: int) -> list[di
         med, times, rep = median_time(lambda: solve_system(build, ranges, formulation=prob["formulation"], pruner="lp",
                                                            lp_backend=backend, tol=TOL), repeats)
         st = rep.stats
-        sols = [np.asarray(s.angles, float).tolist() for s in rep.solutions]
+        sols = [np.asarray(s.angles, float).tolist() for s in rep.clusters]
         rows.append(dict(prob, backend=backend, time=med, times=times, boxes=st.boxes_processed, lps=st.lps_solved,
                          doubts=st.lp_doubts, isolated=st.isolated, accepted=st.accepted, time_prune=st.time_prune,
                          ms_per_lp=1e3 * st.time_prune / max(st.lps_solved, 1), n_solutions=len(sols),
@@ -110,7 +110,7 @@ def bug_demo(seed: int) -> list[dict]:
         try:
             rep = solve_system(build, ranges, pruner="lp", lp_backend=backend, tol=TOL, max_boxes=BUG_DEMO_MAX_BOXES)
             row.update(boxes=rep.stats.boxes_processed, lps=rep.stats.lps_solved, doubts=rep.stats.lp_doubts,
-                       n_solutions=len(rep.solutions), outcome="finished")
+                       n_solutions=len(rep.clusters), outcome="finished")
         except SolverLimitError as exc:
             row.update(outcome=f"{type(exc).__name__}: {str(exc).split(';')[0]}")
         rows.append(row)

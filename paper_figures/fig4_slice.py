@@ -209,7 +209,7 @@ def compute(inp: float = INPUT, tol: float = DEFAULT_TOL, paper_pruner: str = "p
     for r in runs.values():
         r["solutions"] = [dict(angles=np.array(s.angles, dtype=float),
                                residual=float(residual(loop, *s.angles)))
-                          for s in r["report"].solutions]
+                          for s in r["report"].clusters]
         for s in r["solutions"]:
             s["is_root"] = s["residual"] <= ROOT_RESIDUAL_TOLS * tol
             s["source"] = None if s["is_root"] else _source_box(r["boxes"], s["angles"])
@@ -291,9 +291,9 @@ def _title(r, label: str) -> str:
     cnt = _counts(r["boxes"])
     n_roots = sum(x["is_root"] for x in r["solutions"])
     n_false = len(r["solutions"]) - n_roots
-    iso = "off" if not s["isolate"] else ("on (never applies here: 3 equations, 2 unknowns)" if not cnt["isolated"]
+    iso = "off" if not s.isolate else ("on (never applies here: 3 equations, 2 unknowns)" if not cnt["isolated"]
                                           else "on")
-    head = f"{label}: formulation {s['formulation']}, pruner {s['pruner']},\nisolation {iso}"
+    head = f"{label}: formulation {s.formulation}, pruner {s.pruner},\nisolation {iso}"
     line2 = (f"{len(r['boxes']['outcome'])} boxes ({cnt['discarded']} discarded, {cnt['split']} split, "
              f"{cnt['reduced_again']} reduced again, {cnt['accepted']} accepted, {cnt['isolated']} isolated)")
     line3 = f"{len(r['solutions'])} reported: {n_roots} root(s)" + (f", {n_false} false" if n_false else "")
@@ -310,7 +310,7 @@ def draw(data: dict):
     root = np.array([data["root"][n] for n in UNKNOWNS])
     for col, (kind, label) in enumerate((("paper", "paper"), ("default", "default"))):
         r = data["runs"][kind]
-        halves_bg = r["report"].settings["formulation"] == "halves"
+        halves_bg = r["report"].settings.formulation == "halves"
         for row, centre in enumerate((None, root)):
             window = _window(centre)
             ax = fig.add_subplot(grid[row, col])
@@ -360,7 +360,7 @@ def main(argv=None) -> dict:
     data = compute(paper_pruner=args.paper_pruner)
     for kind, r in data["runs"].items():
         cnt = _counts(r["boxes"])
-        print(f"{kind}: {r['report'].settings['formulation']}/{r['report'].settings['pruner']}: "
+        print(f"{kind}: {r['report'].settings.formulation}/{r['report'].settings.pruner}: "
               f"{len(r['boxes']['outcome'])} boxes {cnt}; median solve {1e3 * r['seconds']:.1f} ms; solutions "
               + ", ".join(f"({math.degrees(s['angles'][0]):.4f}, {math.degrees(s['angles'][1]):.4f}) deg "
                           f"|F-I|={s['residual']:.1e}" for s in r["solutions"]))

@@ -108,19 +108,19 @@ def _solve(args) -> int:
     print(f"{report.count_text()}; passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
     used = report.settings
-    print(f"{used['parameterization']}, formulation {used['formulation']}, pruner {args.pruner}"
-          + (f" ({report.settings['lp_backend'] or 'default backend'})" if args.pruner != "pp" else "")
+    print(f"{used.parameterization}, formulation {used.formulation}, pruner {args.pruner}"
+          + (f" ({used.lp_backend or 'default backend'})" if args.pruner != "pp" else "")
           + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
-    if used.get("fallback"):
-        print(f"note: {used['fallback']}")
-    limit = report.settings.get("limit")
+    if used.fallback:
+        print(f"note: {used.fallback}")
+    limit = used.limit
     if limit:
-        print(f"note: {limit['error']}; the solution set was covered with boxes of {limit['covering_tol']:g} rad "
+        print(f"note: {limit.error}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
               "instead (status continuum: its dimension and covering boxes are in the JSON evidence)")
-    if report.settings.get("refined_searches"):
-        print(f"note: {report.settings['refined_searches']} cluster(s) next to a singularity were searched again at "
+    if used.refined_searches:
+        print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "
               "a finer tolerance to separate their roots")
     if args.json:
         Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))

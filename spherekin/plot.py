@@ -176,11 +176,11 @@ def _check_report(mechanism: SphericalMechanism, values: tuple, report) -> list[
     if sorted(report.unknowns) != sorted(mechanism.passive):
         raise ValueError(f"report: expected a solve of this mechanism, whose passive joints are {mechanism.passive}, "
                          f"got a report whose unknowns are {tuple(report.unknowns)}")
-    name = report.settings.get("mechanism")
+    name = report.settings.mechanism
     if name is not None and name != mechanism.name:
         raise ValueError(f"report: expected a solve of this mechanism, {mechanism.name!r}, got a report of {name!r}")
-    solved = report.settings.get("inputs")
-    if solved is not None:
+    solved = report.settings.inputs
+    if solved:
         diff = np.array([math.remainder(a - b, 2 * math.pi) for a, b in zip(values, solved)])
         if len(solved) != len(values) or np.abs(diff).max(initial=0.0) > INPUTS_TOL:
             raise ValueError(f"inputs: expected the inputs the report was solved at, {list(solved)} (radians), "

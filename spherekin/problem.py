@@ -18,7 +18,7 @@ Formulation ``"auto"`` (the default) is the platform formulation when it applies
 the base joint actuated, three of them; the tan-half parameterization asked for; isolation on) and
 ``"halves"`` otherwise. When the platform search cannot isolate every root (next to a parallel
 singularity its Jacobian is singular; a cap), the input is solved again with the loop equations
-(``settings["fallback"]`` says why): everything issue 13 built for the edge (cluster resolution,
+(``settings.fallback`` says why): everything issue 13 built for the edge (cluster resolution,
 refined searches, continua) works on those.
 """
 
@@ -35,7 +35,7 @@ from .angles import RANGE_TOL
 from .formulations import FORMULATIONS
 from .platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
 from .pruners import make_pruner
-from .results import AcceptedBox, SolveReport, SolverStats
+from .results import AcceptedBox, SearchLimit, SearchReport, Settings, SolveReport, SolverStats
 from .solutions import count_summary, finalize, is_proven
 from .solver import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                      check_strategy, clusters_in_range, partial_report, search_platform, solve_system)
@@ -154,31 +154,27 @@ class Problem:
             except SolverLimitError:
                 return None
             refined.append(sub.stats)
-            return sub.solutions, finer
+            return sub.clusters, finer
 
         t0 = time.perf_counter()
-        solutions = finalize(self.mechanism, values, report.unknowns, report.solutions, tol,
+        solutions = finalize(self.mechanism, values, report.unknowns, report.clusters, tol,
                              refine=again if refine else None)
         return solutions, refined, time.perf_counter() - t0
 
-    def _report(self, values, report, solutions, refined, t_final, fallback, limit) -> SolveReport:
+    def _report(self, values, report: SearchReport, solutions, refined, t_final, fallback,
+                limit: SearchLimit | None) -> SolveReport:
         proven, exact = count_summary(solutions)
-        settings = {**report.settings, "mechanism": self.mechanism.name, "actuated": list(self.mechanism.actuated),
-                    "inputs": [float(v) for v in values]}
-        if fallback is not None:
-            settings["fallback"] = fallback
+        settings = dataclasses.replace(report.settings, mechanism=self.mechanism.name,
+                                       actuated=tuple(self.mechanism.actuated), inputs=tuple(float(v) for v in values),
+                                       fallback=fallback, limit=limit, refined_searches=len(refined))
         if limit is not None:
-            settings["limit"] = limit
             exact = False
         stats = report.stats
         for extra in refined:   # the refined searches' boxes count; their time is in time_finalize
             stats = stats + dataclasses.replace(extra, time_total=0.0, time_setup=0.0, time_restrict=0.0,
                                                 time_prune=0.0, time_isolate=0.0)
         stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
-        if refined:
-            settings["refined_searches"] = len(refined)
-        return dataclasses.replace(report, solutions=tuple(solutions), settings=settings, stats=stats,
-                                   proven_count=proven, count_exact=exact)
+        return SolveReport(report.unknowns, tuple(solutions), report.boxes, stats, settings, proven, exact)
 
     # ------------------------------------------------------------------ many inputs
 
@@ -248,13 +244,13 @@ class Problem:
                 if clusters_in_range([box], self.ranges, s.tol):
                     boxes.append(box)
                     poses.append(pose)
-        solutions = clusters_in_range(boxes, self.ranges, s.tol)
+        clusters = clusters_in_range(boxes, self.ranges, s.tol)
         stats = dataclasses.replace(found.stats, time_setup=t_setup,
                                     time_total=found.stats.time_total + time.perf_counter() - t0
                                     - found.stats.time_total)
-        settings = dict(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
-                        parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=charts.n_charts)
-        return SolveReport(self.names, tuple(solutions), (), stats, settings), poses
+        settings = Settings(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
+                            parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=charts.n_charts)
+        return SearchReport(self.names, tuple(clusters), (), stats, settings), poses
 
     def _search_loops(self, values, tol, progress, trace):
         """(report, limit, tol): the loop equations' search; a capped one is re-run as a covering."""
@@ -273,12 +269,15 @@ class Problem:
             # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
             # algorithm then returns a discretization of the solution set).
             covering = max(tol, CONTINUUM_TOL)
-            limit = {"error": str(exc), "tol": tol, "covering_tol": covering}
+            limit = SearchLimit(str(exc), tol, covering)
             try:
                 report = run(covering)
             except SolverLimitError as exc2:
-                limit["covering_error"] = str(exc2)
-                report = partial_report(exc2, self.ranges, covering)
+                limit = dataclasses.replace(limit, covering_error=str(exc2))
+                settings = Settings(formulation=self._loop_formulation, pruner=s.pruner, lp_backend=s.lp_backend,
+                                    parameterization=s.parameterization, tol=covering, isolate=s.isolate,
+                                    jobs=s.jobs, charts=0)
+                report = partial_report(exc2, self.ranges, settings)
             return report, limit, covering
 
 

@@ -1,12 +1,34 @@
-"""Results of a solve: frozen dataclasses only (no behaviour beyond small derived views)."""
+"""What the stages hand over: frozen dataclasses and enums (no behaviour beyond small derived views).
+
+The box loop (:mod:`spherekin.solver`) hands over :class:`AcceptedBox` es merged into
+:class:`Cluster` s, in a :class:`SearchReport`; the trust layer (:mod:`spherekin.solutions`)
+turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
+(:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
+:class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost.
+"""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+from enum import StrEnum
 
 import numpy as np
 
-__all__ = ["SolverStats", "AcceptedBox", "Solution", "SolveReport"]
+__all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "SearchLimit", "Settings", "SearchReport",
+           "SolveReport"]
+
+
+class Status(StrEnum):
+    """What is proven about one entry of a solve (docs/results-format.md; :mod:`spherekin.solutions`).
+
+    A ``StrEnum``: each member equals its value ("certified", ...) and prints as it, in text and JSON.
+    """
+
+    CERTIFIED = "certified"
+    SINGULAR = "singular"
+    UNVERIFIED = "unverified"
+    CLUSTER = "cluster"
+    CONTINUUM = "continuum"
 
 
 @dataclass(frozen=True)
@@ -57,16 +79,31 @@ class AcceptedBox:
 
 
 @dataclass(frozen=True)
-class Solution:
-    """One cluster of touching accepted boxes: the candidate solution it encloses.
+class Cluster:
+    """Touching accepted boxes of the box loop: the candidate root(s) they enclose, not yet proven.
 
-    ``angles`` (radians, one per unknown) is the centre of the cluster's hull, ``lo``/``hi`` the
-    hull, ``n_boxes`` how many accepted boxes it merges, ``members`` their boxes (n_boxes, 2, M:
-    lo then hi, unwrapped next to the hull; None once finalized). When solved from a mechanism the angles
-    are polished (:mod:`spherekin.solutions`): ``platform_rotation`` is R with v_i = R v_i^0,
-    ``residual`` the largest entry of |F_n - I| over the loops, ``singularity`` the mechanism's
-    classification ("regular", "serial", "parallel" or "serial+parallel"), ``status`` one of
-    "certified", "singular", "unverified", and ``evidence`` what backs the status.
+    ``angles`` (radians, one per unknown): the centre of the hull, wrapped to [-pi, pi);
+    ``lo``/``hi``: the hull; ``n_boxes``: how many accepted boxes it merges; ``members``: their
+    boxes (n_boxes, 2, M: lo then hi, unwrapped next to the hull), or None when only the hull is known.
+    """
+
+    angles: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    n_boxes: int
+    members: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class Solution:
+    """One entry of a solve: a solution, or a region or continuum of them, and what is proven of it.
+
+    ``angles`` (radians, one per passive unknown) are polished (:mod:`spherekin.solutions`);
+    ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull);
+    ``n_boxes``: accepted boxes of its cluster; ``platform_rotation``: R with v_i = R v_i^0;
+    ``residual``: the largest entry of |F_n - I| over the loops; ``singularity``: the mechanism's
+    classification ("regular", "serial", "parallel" or "serial+parallel"); ``status``: a
+    :class:`Status`; ``evidence``: what backs it (docs/results-format.md).
     """
 
     angles: np.ndarray
@@ -76,9 +113,81 @@ class Solution:
     platform_rotation: np.ndarray | None = None
     residual: float | None = None
     singularity: str | None = None
-    status: str | None = None
+    status: Status = Status.UNVERIFIED
     evidence: dict = field(default_factory=dict)
-    members: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class SearchLimit:
+    """A search stopped by a cap (a continuum of solutions, or a cap too small for ``tol``), and
+    the covering search run instead at ``covering_tol`` (``covering_error``: it was capped too)."""
+
+    error: str
+    tol: float
+    covering_tol: float
+    covering_error: str | None = None
+
+    def as_dict(self) -> dict:
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How a search or solve ran (the strategy names as resolved, radians for ``tol``).
+
+    The search's: ``formulation``, ``pruner``, ``lp_backend`` (None: the pruner's default),
+    ``parameterization``, ``tol``, ``isolate``, ``jobs``, ``charts``. A solve adds ``mechanism``
+    (its name), ``actuated`` and ``inputs`` (radians), and when they happened ``fallback`` (why
+    the loop equations answered instead of the platform formulation), ``limit``
+    (:class:`SearchLimit`) and ``refined_searches`` (clusters searched again at a finer tol).
+    """
+
+    formulation: str
+    pruner: str
+    lp_backend: str | None
+    parameterization: str
+    tol: float
+    isolate: bool
+    jobs: int
+    charts: int
+    mechanism: str | None = None
+    actuated: tuple = ()
+    inputs: tuple = ()
+    fallback: str | None = None
+    limit: SearchLimit | None = None
+    refined_searches: int = 0
+
+    def as_dict(self) -> dict:
+        """JSON-ready: the search's keys always, the others when set (the JSON schema of docs/results-format.md)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key in ("mechanism", "fallback", "limit"):
+            if out[key] is None:
+                del out[key]
+        if not out["refined_searches"]:
+            del out["refined_searches"]
+        if self.mechanism is None and not self.actuated:
+            del out["actuated"], out["inputs"]
+        else:
+            out["actuated"], out["inputs"] = list(self.actuated), [float(v) for v in self.inputs]
+        if self.limit is not None:
+            out["limit"] = self.limit.as_dict()
+        return out
+
+
+@dataclass(frozen=True)
+class SearchReport:
+    """What a search of the loop equations (:func:`spherekin.solver.solve_system`) or of the
+    platform formulation finds: the unknowns' names, the clusters inside the ranges, the raw
+    accepted boxes, statistics and settings. Nothing in it is polished or proven yet."""
+
+    unknowns: tuple[str, ...]
+    clusters: tuple[Cluster, ...]
+    boxes: tuple[AcceptedBox, ...]
+    stats: SolverStats
+    settings: Settings
+
+    def count_text(self) -> str:
+        return f"{len(self.clusters)} cluster(s) of boxes (not polished nor certified)"
 
 
 @dataclass(frozen=True)
@@ -87,23 +196,19 @@ class SolveReport:
 
     ``proven_count``: the number of solutions proven by a certificate (status ``certified``, or
     ``singular`` with ``krawczyk_certified`` in its evidence); ``count_exact``: True when that is
-    every entry, so the count is exact; False when it is a lower bound ("at least"). Both None
-    for the raw clusters of :func:`spherekin.solver.solve_system`.
+    every entry, so the count is exact; False when it is a lower bound ("at least").
     """
 
     unknowns: tuple[str, ...]
     solutions: tuple[Solution, ...]
     boxes: tuple[AcceptedBox, ...]
     stats: SolverStats
-    settings: dict = field(default_factory=dict)
-    proven_count: int | None = None
-    count_exact: bool | None = None
+    settings: Settings
+    proven_count: int
+    count_exact: bool
 
     def count_text(self) -> str:
-        """"8 solutions (count proven)", "at least 6 solutions (2 entries unresolved)", or for an
-        unfinalized report (:func:`spherekin.solver.solve_system`) "N cluster(s) of boxes"."""
-        if self.count_exact is None:
-            return f"{len(self.solutions)} cluster(s) of boxes (not polished nor certified)"
+        """"8 solutions (count proven)" or "at least 6 solutions (2 entries unresolved)"."""
         n = self.proven_count
         word = "solution" if n == 1 else "solutions"
         if self.count_exact:
@@ -114,21 +219,19 @@ class SolveReport:
                 key = "singular without certificate" if s.status == "singular" else s.status
                 others[key] = others.get(key, 0) + 1
         listed = ", ".join(f"{v} {k}" for k, v in others.items())
-        capped = "; the search hit a cap" if "limit" in self.settings else ""
+        capped = "; the search hit a cap" if self.settings.limit is not None else ""
         return f"at least {n} {word} proven (count not exact: {listed or 'none listed'}{capped}; see the status column)"
 
     def table(self, degrees: bool = False) -> str:
         """A readable table of the solutions (angles in radians, or degrees)."""
         scale = 180.0 / np.pi if degrees else 1.0
-        extra = any(s.residual is not None for s in self.solutions)
         head = "  #  " + " ".join(f"{name:>11s}" for name in self.unknowns) + "  boxes"
-        head += "   residual  status      singularity" if extra else ""
+        head += "   residual  status      singularity"
         rows = [head]
         for i, s in enumerate(self.solutions, start=1):
             row = f"{i:3d}  " + " ".join(f"{a * scale:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}"
-            if extra:
-                res = "-" if s.residual is None else f"{s.residual:9.1e}"
-                row += f"  {res:>9s}  {s.status or '-':10s}  {s.singularity or '-'}"
+            res = "-" if s.residual is None else f"{s.residual:9.1e}"
+            row += f"  {res:>9s}  {s.status:10s}  {s.singularity or '-'}"
             rows.append(row)
         return "\n".join(rows)
 
@@ -140,18 +243,18 @@ class SolveReport:
         def arr(a):
             return None if a is None else np.asarray(a, dtype=float).tolist()
 
-        actuated = dict(zip(self.settings.get("actuated", ()), self.settings.get("inputs", ())))
+        actuated = dict(zip(self.settings.actuated, (float(v) for v in self.settings.inputs)))
         return {
             "schema": "spherekin.solve/2",
             "spherekin_version": __version__,
-            "settings": self.settings,
+            "settings": self.settings.as_dict(),
             "unknowns": list(self.unknowns),
             "count": {"proven": self.proven_count, "exact": self.count_exact, "entries": len(self.solutions)},
             "solutions": [
                 {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
-                 "singularity": s.singularity, "status": s.status, "evidence": s.evidence,
+                 "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
                  "box_lo": arr(s.lo), "box_hi": arr(s.hi), "n_boxes": s.n_boxes}
                 for s in self.solutions],
             "statistics": self.stats.as_dict(),

@@ -49,13 +49,15 @@ import numpy as np
 from .angles import RANGE_TOL, in_range, into_range, wrap
 from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many, transversal_equations
 from .polish import polish
-from .results import Solution
+from .results import Cluster, Solution, Status
 
 __all__ = ["DEDUPE_TOL", "MAX_SEEDS", "MAX_RESOLVE_BOXES", "SEPARATION_FRACTION", "SOLUTION_BOUND", "STATUSES",
            "finalize", "count_summary", "is_proven"]
 
 #: Statuses a finalized entry can have (see the module docstring and docs/results-format.md).
-STATUSES = ("certified", "singular", "unverified", "cluster", "continuum")
+STATUSES = tuple(Status)
+#: Entries that stand for a region rather than one point.
+_REGIONS = (Status.CLUSTER, Status.CONTINUUM)
 #: Converged polished points closer than this (radians, every passive angle, modulo 2 pi) are one
 #: point when neither is certified (certified points are compared through their boxes): polished
 #: points agree to ~1e-14 and two roots this close cannot be separated by polishing anyway.
@@ -117,7 +119,7 @@ class _Point:
 
 def is_proven(sol: Solution) -> bool:
     """Whether an entry is a root proven by a certificate (it counts towards an exact count)."""
-    return sol.status == "certified" or (sol.status == "singular" and bool(sol.evidence.get("krawczyk_certified")))
+    return sol.status == Status.CERTIFIED or (sol.status == Status.SINGULAR and bool(sol.evidence.get("krawczyk_certified")))
 
 
 def count_summary(solutions) -> tuple[int, bool]:
@@ -134,7 +136,7 @@ def _inside_any(boxes, lo, hi) -> bool:
     return any(bool(np.all(blo <= lo) and np.all(hi <= bhi)) for blo, bhi in boxes)
 
 
-def _seeds(sol: Solution) -> np.ndarray:
+def _seeds(sol: Cluster) -> np.ndarray:
     """The cluster's centre (unwrapped next to its hull) then up to MAX_SEEDS - 1 member centres."""
     centre = 0.5 * (sol.lo + sol.hi)
     if sol.members is None or len(sol.members) <= 1:
@@ -149,7 +151,7 @@ def _seeds(sol: Solution) -> np.ndarray:
     return np.vstack((centre[None], mids))
 
 
-def _resolve(system, sol: Solution, points: list[_Point], certify_fn, stats: dict) -> list:
+def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict) -> list:
     """Account for every member box of the cluster; returns the boxes left unresolved [(lo, hi)].
 
     Adds the roots found on the way to ``points`` (certified on the sub-box that isolated them).
@@ -249,7 +251,7 @@ def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
 def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None) -> list[Solution]:
     """Polish, separate, prove and classify the clusters found for ``mechanism`` at ``inputs``.
 
-    ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: Solutions from the
+    ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: :class:`~spherekin.results.Cluster` s of the
     box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
     ``certify(system, thetas, radii=..., angle_tolerance=...)``: the batch certification function,
     one result per point (default :func:`spherekin.certify.certify_many`; the points of every
@@ -268,8 +270,8 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
     # a root found from two clusters (a refined search of a hull can reach a neighbour's root)
     unique: list[Solution] = []
     for e in sorted(out, key=lambda e: not is_proven(e)):
-        if e.status in ("cluster", "continuum") or not any(
-                u.status not in ("cluster", "continuum") and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL
+        if e.status in _REGIONS or not any(
+                u.status not in _REGIONS and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL
                 for u in unique):
             unique.append(e)
     unique = _merge_nearby_unproven(unique, tol)
@@ -280,7 +282,7 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
 def _merge_nearby_unproven(entries: list, tol: float) -> list:
     """Non-proven entries (not continua) whose boxes lie within NEARBY_TOLS * tol of each other
     (modulo 2 pi) merged into one ``cluster`` entry each (see :func:`_merge_unproven`)."""
-    idx = [i for i, e in enumerate(entries) if not is_proven(e) and e.status != "continuum"]
+    idx = [i for i, e in enumerate(entries) if not is_proven(e) and e.status != Status.CONTINUUM]
     if len(idx) < 2:
         return entries
     gap = NEARBY_TOLS * tol
@@ -315,7 +317,7 @@ def _merge_nearby_unproven(entries: list, tol: float) -> list:
     return out
 
 
-def _polish_cluster(system, sol: Solution, tol: float):
+def _polish_cluster(system, sol: Cluster, tol: float):
     """(distinct converged points that stay in the cluster, how many left it, the best point) from
     polishing the cluster's seeds (:func:`_seeds`)."""
     centre = 0.5 * (sol.lo + sol.hi)
@@ -409,7 +411,7 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
     return kept
 
 
-def _merge_unproven(entries: list, sol: Solution, tol: float) -> list:
+def _merge_unproven(entries: list, sol: Cluster | Solution, tol: float) -> list:
     """The entries of one cluster's refined search, with its non-proven entries merged into one.
 
     Next to a singular input a refined search can leave several sub-clusters, each with a point of
@@ -423,13 +425,12 @@ def _merge_unproven(entries: list, sol: Solution, tol: float) -> list:
         return entries
     lo = np.min([e.lo for e in other], axis=0)
     hi = np.max([e.hi for e in other], axis=0)
-    points = [dict(angles=[float(a) for a in e.angles], status=e.status, residual=e.residual) for e in other]
+    points = [dict(angles=[float(a) for a in e.angles], status=str(e.status), residual=e.residual) for e in other]
     ev = {"reason": (f"next to a singularity, {len(other)} nearby entries (tol {tol:g}) could not be proven: converged points that could not be certified or separated, or boxes that could "
                      "not be excluded; the region may hold none, one or several roots"),
           "candidates": points[:16], "refined": other[0].evidence.get("refined", [])}
     best = min(other, key=lambda e: e.residual if e.residual is not None else math.inf)
-    merged = dataclasses.replace(sol, angles=best.angles, lo=lo, hi=hi, residual=best.residual, singularity=None,
-                                 platform_rotation=None, status="cluster", evidence=ev, members=None)
+    merged = Solution(best.angles, lo, hi, sol.n_boxes, residual=best.residual, status=Status.CLUSTER, evidence=ev)
     return proven + [merged]
 
 
@@ -445,22 +446,22 @@ def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict
     proven = pt.box is not None       # a Krawczyk test proved a box holding exactly this root
     ev["krawczyk_certified"] = proven
     if proven and sing.kind == "regular":
-        status = "certified"
+        status = Status.CERTIFIED
     elif proven or (sing.kind != "regular" and cert.residual <= SOLUTION_BOUND):
-        status = "singular"
+        status = Status.SINGULAR
         if not proven:
             ev["reason"] = (f"a solution within {cert.residual:.1e} (interval bound of the closure equations) "
                             f"at a {sing.kind} singularity; not isolated, so not certified")
     else:
-        status = "unverified"
+        status = Status.UNVERIFIED
         ev["reason"] = f"Krawczyk test failed: {cert.reason}"
         if unresolved:
             ev["reason"] += f"; {len(unresolved)} boxes of its cluster could not be resolved (it may hold more roots)"
     lo, hi = pt.box if pt.box is not None else (sol.lo, sol.hi)
     shift = theta - pt.theta
-    return dataclasses.replace(sol, angles=theta, lo=lo + shift, hi=hi + shift, residual=p.residual,
-                               singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
-                               status=status, evidence=ev, members=None)
+    return Solution(theta, lo + shift, hi + shift, sol.n_boxes, residual=p.residual,
+                    singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
+                    status=status, evidence=ev)
 
 
 def _nullity(system, theta) -> int:
@@ -490,9 +491,8 @@ def _continuum(system, sol, points: list, names) -> Solution | None:
           "reason": (f"{len(points)} distinct polished solutions spread over {spread:.3g} rad, each with a "
                      f"{int(np.median(dims))}-dimensional null space of the Jacobian: a continuum of solutions, "
                      f"covered by {len(members)} boxes")}
-    return dataclasses.replace(sol, angles=wrap(thetas[0]), residual=float(points[0].polished.residual),
-                               singularity=None, platform_rotation=None, status="continuum", evidence=ev,
-                               members=None)
+    return Solution(wrap(thetas[0]), sol.lo, sol.hi, sol.n_boxes, residual=float(points[0].polished.residual),
+                    status=Status.CONTINUUM, evidence=ev)
 
 
 def _cluster_entry(sol, unresolved, cluster_ev, stats, best) -> Solution:
@@ -505,5 +505,5 @@ def _cluster_entry(sol, unresolved, cluster_ev, stats, best) -> Solution:
     if best is not None:
         ev.update(best_residual=float(best[1].residual), polish_iterations=best[1].iterations)
     centre = 0.5 * (lo + hi)
-    return dataclasses.replace(sol, angles=wrap(centre), lo=lo, hi=hi, residual=float(best[1].residual) if best else None,
-                               singularity=None, platform_rotation=None, status="cluster", evidence=ev, members=None)
+    return Solution(wrap(centre), lo, hi, sol.n_boxes, residual=float(best[1].residual) if best else None,
+                    status=Status.CLUSTER, evidence=ev)

@@ -48,7 +48,7 @@ from .isolation import SquareSystem, krawczyk_boxes, newton
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
 from .pruners import PRUNERS, excludes_zero, make_pruner
-from .results import AcceptedBox, Solution, SolveReport, SolverStats
+from .results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
 __all__ = ["solve_system", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
            "partial_report", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
@@ -429,7 +429,7 @@ def solve_system(
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
     trace: Callable[[dict], None] | None = None,
-) -> SolveReport:
+) -> SearchReport:
     """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
 
     ``build(chart_ranges)`` returns (loops, unknowns) with every unknown's range set from
@@ -483,26 +483,25 @@ def solve_system(
     t_restrict, t_prune, t_isolate = (sum(r[3][i] for r in results) for i in range(3))
     boxes = [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
     found = boxes + [AcceptedBox(a, a.copy(), c) for c, a in points]
-    solutions = clusters_in_range(found, ranges, tol)
+    clusters = clusters_in_range(found, ranges, tol)
     stats = SolverStats(charts=charts.n_charts, **counts, time_setup=t_setup, time_restrict=t_restrict,
                         time_prune=t_prune, time_isolate=t_isolate, time_total=time.perf_counter() - t0)
-    settings = dict(formulation=formulation, pruner=pruner, lp_backend=lp_backend, parameterization=parameterization,
-                    tol=tol, isolate=isolate, jobs=jobs, charts=charts.n_charts)
-    return SolveReport(charts.unknowns, tuple(solutions), tuple(boxes), stats, settings)
+    settings = Settings(formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                        parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, charts=charts.n_charts)
+    return SearchReport(charts.unknowns, tuple(clusters), tuple(boxes), stats, settings)
 
 
-def partial_report(exc: SolverLimitError, ranges, tol) -> SolveReport:
-    """A report from the accepted boxes a capped search had found (its clusters, no statistics)."""
+def partial_report(exc: SolverLimitError, ranges, settings: Settings) -> SearchReport:
+    """A report from the accepted boxes a capped search had found (its clusters, no statistics);
+    ``settings``: those of the capped search."""
     found = list(exc.partial)
-    names = tuple(ranges)
-    solutions = clusters_in_range(found, ranges, tol)
-    return SolveReport(names, tuple(solutions), tuple(found), SolverStats(accepted=len(found)), {"tol": tol})
+    clusters = clusters_in_range(found, ranges, settings.tol)
+    return SearchReport(tuple(ranges), tuple(clusters), tuple(found), SolverStats(accepted=len(found)), settings)
 
 
-def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Solution]:
+def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Cluster]:
     """The clusters of the boxes found whose centres lie within the joint ranges (tol + RANGE_TOL)."""
-    solutions = [s for s in _merge(found, tol) if _within(s.angles, ranges, tol)]
-    return solutions
+    return [c for c in _merge(found, tol) if _within(c.angles, ranges, tol)]
 
 
 def _within(angles, ranges, tol) -> bool:
@@ -510,8 +509,8 @@ def _within(angles, ranges, tol) -> bool:
     return all(in_range(a, rng, tol + RANGE_TOL) for a, rng in zip(angles, ranges.values()))
 
 
-def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
-    """Union of boxes closer than MERGE_GAP_TOLS * tol (angles modulo 2 pi) into solutions."""
+def _merge(boxes: list[AcceptedBox], tol: float) -> list[Cluster]:
+    """Union of boxes closer than MERGE_GAP_TOLS * tol (angles modulo 2 pi) into clusters."""
     if not boxes:
         return []
     lo = np.array([b.lo for b in boxes])
@@ -541,7 +540,7 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Solution]:
         shift = np.round((mid[members] - ref) / (2 * math.pi)) * 2 * math.pi
         glo, ghi = (lo[members] - shift).min(axis=0), (hi[members] - shift).max(axis=0)
         centre = np.mod(0.5 * (glo + ghi) + math.pi, 2 * math.pi) - math.pi
-        out.append(Solution(centre, glo, ghi, len(members),
-                            members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
+        out.append(Cluster(centre, glo, ghi, len(members),
+                           members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return out

@@ -179,17 +179,17 @@ def test_platform_solve_equals_the_50_digit_reference_on_random_geometries(seed)
     ref = reference_roots(geometry, inputs)
     assert rep.count_exact and rep.proven_count == ref.count
     _same_poses(rep, ref)
-    if rep.settings["formulation"] == "platform":
-        assert rep.settings["parameterization"] == "quaternion" and rep.stats.charts == 4
+    if rep.settings.formulation == "platform":
+        assert rep.settings.parameterization == "quaternion" and rep.stats.charts == 4
     else:   # the loop equations answered: the report says why
-        assert "platform search" in rep.settings["fallback"]
+        assert "platform search" in rep.settings.fallback
 
 
 def test_gosselin_by_the_platform_formulation(gosselin_report):
     from tests.conftest import GOSSELIN_INPUTS
 
     rep = gosselin_report
-    assert rep.settings["formulation"] == "platform" and "fallback" not in rep.settings
+    assert rep.settings.formulation == "platform" and rep.settings.fallback is None
     assert sorted(s.status for s in rep.solutions) == ["certified"] * 4 + ["singular"] * 4
     assert rep.stats.isolated >= 8 and rep.stats.accepted == 0
     assert all(is_proven(s) for s in rep.solutions) and rep.count_exact
@@ -207,7 +207,7 @@ def test_platform_roots_outside_passive_ranges_are_dropped():
         modes = mech.inverse_kinematics(r)
     mode = modes[0]
     full = solve(mech, mode.inputs)
-    assert full.settings["formulation"] == "platform"
+    assert full.settings.formulation == "platform"
     target = next(s for s in full.solutions if np.abs(s.platform_rotation - r).max() < 1e-9)
     # limit gamma1 to a range of 0.02 rad around this solution's gamma1: only the solutions with
     # gamma1 inside it remain (counted independently from the full solve's angles)
@@ -224,7 +224,7 @@ def test_platform_roots_outside_passive_ranges_are_dropped():
                                 mech.geometry)
     rep = solve(narrow, mode.inputs)
     expected = [s for s in full.solutions if abs(wrap(s.angles[g] - centre)) <= 0.01]
-    assert rep.settings["formulation"] == "platform"
+    assert rep.settings.formulation == "platform"
     assert len(rep.solutions) == len(expected) >= 1
 
 
@@ -256,7 +256,7 @@ def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
     assert seen == [(1, 4), (2, 4), (3, 4), (4, 4)]
     for row, rep in zip(rows, many):
         one = solve(mech, tuple(row))
-        assert rep.settings["inputs"] == list(row)
+        assert list(rep.settings.inputs) == list(row)
         assert [s.angles.tolist() for s in rep.solutions] == [s.angles.tolist() for s in one.solutions]
     with pytest.raises(ValueError, match=r"shape \(K, 3\)"):
         problem.solve_many(rows[:, :2])
@@ -300,5 +300,5 @@ def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equat
     monkeypatch.setattr(pipeline, "finalize", lossy)
     rep = pipeline.solve(gosselin(), GOSSELIN_INPUTS)
     assert calls == [8, 8]
-    assert "found 8 assemblies and the trust layer 7" in rep.settings["fallback"]
-    assert rep.settings["formulation"] == "halves" and len(rep.solutions) == 8 and rep.count_exact
+    assert "found 8 assemblies and the trust layer 7" in rep.settings.fallback
+    assert rep.settings.formulation == "halves" and len(rep.solutions) == 8 and rep.count_exact

@@ -270,8 +270,8 @@ def test_bad_input_raises_clear_errors_and_writes_nothing(solved, tmp_path):
         ((mech, (0.3, -0.2), report, target), {}, "^inputs"),
         ((mech, inputs, four_report, target), {}, "^report: expected a solve of this mechanism"),
         ((four, four_inputs, report, target), {}, "^report: expected a solve of this mechanism"),
-        ((presets.general_3rrr(), inputs, dataclasses.replace(report, settings={**report.settings,
-                                                                               "mechanism": mech.name}), target),
+        ((presets.general_3rrr(), inputs, dataclasses.replace(report, settings=dataclasses.replace(
+            report.settings, mechanism=mech.name)), target),
          {}, "^report: expected a solve of this mechanism, 'general 3-RRR"),
         ((mech, inputs, report.as_dict(), target), {}, "^report: expected a SolveReport"),
         (("gosselin", inputs, report, target), {}, "^mechanism"),

@@ -50,10 +50,10 @@ def test_a_box_reduced_to_a_non_root_point_is_not_accepted():
         return [ClosureLoop(fs)], (system.unknown("B"), system.unknown("C"))
 
     report = solve_system(build, {"B": None, "C": None})
-    assert report.solutions
+    assert report.clusters
     fs, _ = factors({"B": (-1.0, 1.0), "C": (-1.0, 1.0)})
     z = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])   # Rz(pi/2)
-    for sol in report.solutions:
+    for sol in report.clusters:
         vals = dict(zip(report.unknowns, sol.angles))
         f = np.eye(3)
         for fac in fs:

@@ -17,7 +17,7 @@ from spherekin import solve_system
 from spherekin.certify import certify as real_certify
 from benchmarks import peers_closed_form as pcf
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
-from spherekin.results import Solution
+from spherekin.results import Cluster, Solution, Status
 from spherekin.solutions import STATUSES, count_summary, finalize, is_proven
 
 
@@ -30,7 +30,7 @@ def clusters_of(mech, inputs, **kw):
         return system.loops, system.unknowns
 
     report = solve_system(build, {n: mech.ranges[n] for n in names}, **kw)
-    return report.unknowns, report.solutions
+    return report.unknowns, report.clusters
 
 
 def refusing_certify(system, thetas, radii=None, angle_tolerance=None):
@@ -102,12 +102,13 @@ def test_count_summary_rule():
         assert count_summary([entry("certified"), entry(other)]) == (1, False)
     assert count_summary([]) == (0, True)
     assert set(STATUSES) == {"certified", "singular", "unverified", "cluster", "continuum"}
+    assert all(isinstance(s, Status) for s in STATUSES) and f"{Status.CERTIFIED}" == "certified"
 
 
 def _cluster_at(angles, half=1e-7):
     """A cluster as the box loop returns it: a tiny hull around (not at) the root."""
     a = np.asarray(angles, float) + 0.3 * half
-    return Solution(a, a - half, a + half, 1)
+    return Cluster(a, a - half, a + half, 1)
 
 
 def test_clusters_polishing_to_one_root_give_one_solution():

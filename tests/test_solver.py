@@ -141,8 +141,8 @@ class TestEveryPruner:
         build, ranges = _narrow(gosselin(), root, 0.15, inputs)
         rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization,
                            formulation="halves")
-        assert len(rep.solutions) == 1       # unpolished: the centre of a box of width <= tol (1e-6)
-        np.testing.assert_allclose(rep.solutions[0].angles, list(root.values()), atol=2e-6)
+        assert len(rep.clusters) == 1       # unpolished: the centre of a box of width <= tol (1e-6)
+        np.testing.assert_allclose(rep.clusters[0].angles, list(root.values()), atol=2e-6)
         if pruner == "lp":
             assert rep.stats.lps_solved > 0
 
@@ -151,7 +151,7 @@ class TestEveryPruner:
         away = {n: a + 0.5 for n, a in root.items()}
         build, ranges = _narrow(gosselin(), away, 0.1, inputs)
         rep = solve_system(build, ranges, pruner=pruner, lp_backend=backend, parameterization=parameterization)
-        assert rep.solutions == ()
+        assert rep.clusters == ()
 
 
 def _poses(report):
@@ -175,7 +175,7 @@ def test_every_parameterization_and_formulation_finds_the_eight_solutions(parame
             d = [np.abs(np.mod(np.array(m.inputs) - INPUTS + math.pi, 2 * math.pi) - math.pi).max()
                  for m in mech.inverse_kinematics(s.platform_rotation)]
             assert min(d) < 1e-12
-    assert rep.settings["parameterization"] == parameterization
+    assert rep.settings.parameterization == parameterization
     assert rep.stats.charts == (64 if parameterization == "tan-half" else 1)
 
 
@@ -183,7 +183,7 @@ def test_jobs_do_not_change_the_result():
     # the worker processes share out the charts of the loop equations (64 here)
     rep1 = solve(gosselin(), INPUTS, formulation="halves")
     rep2 = solve(gosselin(), INPUTS, formulation="halves", jobs=2)
-    assert rep2.settings["jobs"] == 2 and rep2.stats.charts == 64
+    assert rep2.settings.jobs == 2 and rep2.stats.charts == 64
     assert [s.angles.tolist() for s in rep2.solutions] == [s.angles.tolist() for s in rep1.solutions]
     counts = ("boxes_processed", "discarded", "split", "reduced_again", "accepted", "isolated")
     assert [getattr(rep2.stats, c) for c in counts] == [getattr(rep1.stats, c) for c in counts]
@@ -244,8 +244,8 @@ def test_sin_cos_drops_solutions_outside_limited_ranges(regular_root):
     k = list(ranges).index("gamma1")
     near = [b for b in rep.boxes if abs(math.remainder(0.5 * (b.lo[k] + b.hi[k]) - a, 2 * math.pi)) < 1e-5]
     assert near                                        # the search reached the root outside the arc
-    assert not any(abs(math.remainder(s.angles[k] - a, 2 * math.pi)) < 1e-3 for s in rep.solutions)
-    for s in rep.solutions:
+    assert not any(abs(math.remainder(s.angles[k] - a, 2 * math.pi)) < 1e-3 for s in rep.clusters)
+    for s in rep.clusters:
         assert math.remainder(s.angles[k] - (a + delta), 2 * math.pi) % (2 * math.pi) <= 4.0 + 1e-5
 
 
@@ -253,10 +253,10 @@ def test_paper_formulation_finds_the_solution_at_coarse_tolerance(regular_root):
     inputs, root = regular_root
     build, ranges = _narrow(gosselin(), root, 0.15, inputs)
     rep = solve_system(build, ranges, formulation="paper", tol=1e-3)
-    assert len(rep.solutions) >= 1      # unpolished clusters: solve() polishes and merges them
-    for sol in rep.solutions:  # a double root: boxes survive ~sqrt(hull slack) away, beyond tol
+    assert len(rep.clusters) >= 1      # unpolished clusters: solve() polishes and merges them
+    for sol in rep.clusters:  # a double root: boxes survive ~sqrt(hull slack) away, beyond tol
         np.testing.assert_allclose(sol.angles, list(root.values()), atol=2e-2)
-    assert sum(s.n_boxes for s in rep.solutions) > 10  # the double root leaves a cloud of boxes
+    assert sum(s.n_boxes for s in rep.clusters) > 10  # the double root leaves a cloud of boxes
 
 
 # ---------------------------------------------------------------- charts, caps, bad input

@@ -48,7 +48,7 @@ def _distinct_rotations(report, sep=1e-7):
 @pytest.mark.parametrize("tol", [1e-6, 1e-4, 1e-2])
 def test_twin_roots_next_to_a_fold_are_both_found_and_certified(tol):
     """At the default tol the twins' cluster is resolved by Krawczyk tests on its boxes; at coarse
-    tolerances by a refined search of its hull (``settings['refined_searches']``)."""
+    tolerances by a refined search of its hull (``settings.refined_searches``)."""
     mech = general_3rrr()
     report = solve(mech, TWIN_INPUTS, tol=tol)
     # 8 distinct certified assemblies: the Bezout bound, so none is missing
@@ -177,7 +177,7 @@ def _kite():
 
 def test_a_folded_linkage_is_reported_as_a_continuum_not_an_error():
     report = solve(_kite(), (-math.pi / 2,), max_boxes=20_000)
-    assert not report.count_exact and "limit" in report.settings
+    assert not report.count_exact and report.settings.limit is not None
     (cont,) = [s for s in report.solutions if s.status == "continuum"]
     assert cont.evidence["dimension"] == 1
     assert cont.evidence["spread"] > 1.0 and max(cont.evidence["sample_residuals"]) < 1e-12
@@ -211,7 +211,7 @@ def test_a_root_only_a_sub_box_test_can_find_is_found():
     box around both (1e-3 margin): polishing from its centre does not reach them (it sits between
     them, where the Jacobian is nearly singular), so both must come from the Krawczyk tests on its
     sub-boxes."""
-    from spherekin.results import Solution
+    from spherekin.results import Cluster
     from spherekin.solutions import count_summary, finalize
 
     mech, branch = _double_rocker()
@@ -221,7 +221,7 @@ def test_a_root_only_a_sub_box_test_can_find_is_found():
     assert len(full.solutions) == 2
     lo = np.minimum(*(s.angles for s in full.solutions)) - 1e-3
     hi = np.maximum(*(s.angles for s in full.solutions)) + 1e-3
-    cluster = Solution(0.5 * (lo + hi), lo, hi, 1, members=np.array([[lo, hi]]))
+    cluster = Cluster(0.5 * (lo + hi), lo, hi, 1, members=np.array([[lo, hi]]))
     out = finalize(mech, x, full.unknowns, [cluster], 1e-6)
     assert count_summary(out) == (2, True)
     for ref in full.solutions:   # sigma_min ~ 3e-3 there: polished angles agree to ~1e-13 / sigma_min
