@@ -1,16 +1,19 @@
 """The whole ``spherekin solve`` process, today against a baseline revision, same run.
 
 A researcher who types ``spherekin solve examples/gosselin.toml --inputs ...`` pays for the
-interpreter's start, every import and the solve. This benchmark runs that command as a fresh
-process for each tree, alternating between them, and reports medians and their ratio:
+interpreter's start, every import, the solve and the interpreter's exit. This benchmark runs that
+command (each tree's console entry point from its pyproject.toml, called as pip's generated
+script calls it) as a fresh process for each tree, alternating between them, and reports medians
+and their ratio:
 
 * ``baseline``: the source tree of ``--baseline`` (default ``b54b793``, the last commit before
   issue 14: the loop equations in the halves formulation, every module imported up front),
   exported with ``git archive`` into a temporary directory;
 * ``current``: this checkout's ``spherekin``.
 
-Each process runs with its tree as the working directory (``python -m spherekin`` then imports
-that tree's package, ahead of any installed one; checked before timing). Two conditions:
+Each process runs with ``PYTHONPATH`` set to its tree, which Python searches before the installed
+(editable) package: the script then imports that tree's ``spherekin`` (checked before timing).
+Two conditions:
 
 * ``bytecode``: compiled modules cached (``PYTHONPYCACHEPREFIX`` set to a temporary directory,
   filled by a first untimed run), as after ``pip install``, which writes them;
@@ -58,9 +61,10 @@ def export_tree(rev: str, dest: Path) -> Path:
     return dest
 
 
-def _env(condition: str, prefix: Path) -> dict:
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("PYTHONPATH", "PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX")}
+def _env(condition: str, prefix: Path, tree: Path) -> dict:
+    env = {k: v for k, v in os.environ.items()       # (PYTHONUNBUFFERED: a user's shell does not set it)
+           if k not in ("PYTHONPATH", "PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX", "PYTHONUNBUFFERED")}
+    env["PYTHONPATH"] = str(tree)
     if condition == "bytecode":
         env["PYTHONPYCACHEPREFIX"] = str(prefix)
     else:
@@ -76,16 +80,29 @@ def check_no_bytecode(tree: Path) -> None:
                          f"(find spherekin -name __pycache__ -exec rm -r {{}} +), or the source condition uses them")
 
 
-def imported_from(tree: Path, env: dict) -> str:
-    out = subprocess.run([sys.executable, "-c", "import spherekin; print(spherekin.__file__)"], cwd=tree, env=env,
-                         capture_output=True, text=True, check=True).stdout.strip()
+def entry_command(tree: Path) -> list[str]:
+    """What the ``spherekin`` console script of ``tree`` runs: its ``[project.scripts]`` entry point,
+    called as pip's generated script calls it (``sys.exit(func())``)."""
+    import tomllib
+
+    scripts = tomllib.loads((tree / "pyproject.toml").read_text()).get("project", {}).get("scripts", {})
+    if "spherekin" not in scripts:
+        raise SystemExit(f"{tree / 'pyproject.toml'}: no [project.scripts] entry 'spherekin'")
+    module, func = scripts["spherekin"].split(":")
+    return [sys.executable, "-c", f"import sys; from {module} import {func}; sys.argv[0] = 'spherekin'; sys.exit({func}())"]
+
+
+def imported_from(env: dict) -> str:
+    out = subprocess.run([sys.executable, "-c", "import spherekin; print(spherekin.__file__)"], cwd=tempfile.gettempdir(),
+                         env=env, capture_output=True, text=True, check=True).stdout.strip()
     return str(Path(out).resolve())
 
 
 def run_once(tree: Path, env: dict, file: str, inputs: str) -> float:
-    cmd = [sys.executable, "-m", "spherekin", "solve", str(ROOT / file), "--inputs", inputs]
+    cmd = [*entry_command(tree), "solve", str(ROOT / file), "--inputs", inputs]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    proc = subprocess.run(cmd, cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True,
+                          stdin=subprocess.DEVNULL)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} (in {tree}) failed with code {proc.returncode}:\n{proc.stderr[-2000:]}")
@@ -94,8 +111,9 @@ def run_once(tree: Path, env: dict, file: str, inputs: str) -> float:
 
 def import_groups(tree: Path, env: dict, file: str, inputs: str) -> dict:
     """Milliseconds of imports by group (top-level packages; cumulative time of each top import)."""
-    proc = subprocess.run([sys.executable, "-X", "importtime", "-m", "spherekin", "solve", str(ROOT / file),
-                           "--inputs", inputs], cwd=tree, env=env, capture_output=True, text=True)
+    python, *rest = entry_command(tree)
+    proc = subprocess.run([python, "-X", "importtime", *rest, "solve", str(ROOT / file), "--inputs", inputs],
+                          cwd=tempfile.gettempdir(), env=env, capture_output=True, text=True)
     groups: dict[str, float] = {}
     for line in proc.stderr.splitlines():
         m = re.match(r"import time:\s+(\d+) \|\s+(\d+) \|( *)(\S+)", line)
@@ -128,26 +146,26 @@ def main(argv=None) -> int:
         trees = {"baseline": export_tree(args.baseline, tmp / "baseline"), "current": ROOT}
         for condition in ("bytecode", "source"):
             prefix = tmp / f"pycache-{condition}"
-            env = _env(condition, prefix)
+            envs = {label: _env(condition, prefix, tree) for label, tree in trees.items()}
             for label, tree in trees.items():
                 if condition == "source":
                     check_no_bytecode(tree)
-                got = imported_from(tree, env)
+                got = imported_from(envs[label])
                 if not got.startswith(str(tree.resolve())):
-                    raise SystemExit(f"{label}: python -m spherekin in {tree} imports {got}, not that tree's package")
+                    raise SystemExit(f"{label}: PYTHONPATH={tree} imports {got}, not that tree's package")
             for name, file, inputs in COMMANDS:
-                for tree in trees.values():
-                    run_once(tree, env, file, inputs)        # untimed: fills the bytecode cache (bytecode)
+                for label, tree in trees.items():
+                    run_once(tree, envs[label], file, inputs)   # untimed: fills the bytecode cache (bytecode)
                 times: dict[str, list[float]] = {k: [] for k in trees}
                 for _ in range(args.runs):
                     for label, tree in trees.items():       # alternating: both see the same machine load
-                        times[label].append(run_once(tree, env, file, inputs))
+                        times[label].append(run_once(tree, envs[label], file, inputs))
                 med = {k: statistics.median(v) for k, v in times.items()}
                 row = dict(command=name, condition=condition, runs=args.runs,
                            baseline_s=med["baseline"], current_s=med["current"],
                            ratio=med["current"] / med["baseline"], times=times)
                 if name == COMMANDS[0][0]:
-                    row["imports_ms"] = {k: import_groups(tree, env, file, inputs) for k, tree in trees.items()}
+                    row["imports_ms"] = {k: import_groups(tree, envs[k], file, inputs) for k, tree in trees.items()}
                 rows.append(row)
                 print(f"{name:13s} {condition:9s} baseline {med['baseline']:.3f} s  current {med['current']:.3f} s  "
                       f"ratio {row['ratio']:.2f}", flush=True)

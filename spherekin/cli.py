@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -198,5 +199,22 @@ def main(argv=None) -> int:
         return 2
 
 
+def run() -> None:
+    """The console entry point (``spherekin ...`` and ``python -m spherekin``): :func:`main`, then a fast exit.
+
+    Once main has returned (every file written and closed, every worker stopped), the output is
+    flushed and the process ends with ``os._exit``: Python's interpreter teardown (finalizing
+    numpy's and every module's objects) costs ~20 ms per process (benchmarks/bench_process.py)
+    and changes nothing a command produced. An exception or Ctrl-C leaves by the normal path.
+    """
+    code = main()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except BrokenPipeError:     # the reader went away (spherekin ... | head): nothing left to say
+        pass
+    os._exit(code if isinstance(code, int) else 1)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

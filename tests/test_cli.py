@@ -92,3 +92,27 @@ def test_gosselin_summary(capsys):
     assert main(["gosselin", "--samples", "200"]) == 0
     text = capsys.readouterr().out
     assert "total control points: 162" in text
+
+
+@pytest.mark.parametrize("entry", [["-m", "spherekin"],
+                                   ["-c", "import sys; from spherekin.cli import run; sys.argv[0] = 'spherekin'; run()"]])
+def test_the_console_entry_flushes_its_output_before_the_fast_exit(tmp_path, entry):
+    """run() ends the process with os._exit: everything main printed to a pipe (block-buffered)
+    must still arrive, the JSON must be complete, and the exit codes are main's."""
+    import subprocess
+    import sys
+
+    import os
+
+    out = tmp_path / "r.json"
+    root = Path(__file__).resolve().parent.parent
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}     # a pipe is block-buffered
+    proc = subprocess.run([sys.executable, *entry, "solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", str(out)],
+                          capture_output=True, text=True, cwd=root, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "8 solutions (count proven" in proc.stdout and lines[-1] == f"wrote {out}"
+    assert len(json.loads(out.read_text())["solutions"]) == 8
+    bad = subprocess.run([sys.executable, *entry, "solve", GOSSELIN, "--inputs", "0.3,-0.2"],
+                         capture_output=True, text=True, cwd=root, timeout=120, env=env)
+    assert bad.returncode == 2 and "expected 3 values" in bad.stderr and "Traceback" not in bad.stderr
