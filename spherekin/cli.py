@@ -9,7 +9,6 @@ Commands:
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -124,6 +123,8 @@ def _solve(args) -> int:
         print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "
               "a finer tolerance to separate their roots")
     if args.json:
+        import json  # only for --json (each import is paid by every process)
+
         Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
         print(f"wrote {args.json}")
     if args.plot:

@@ -16,7 +16,6 @@ key and the problem.
 
 from __future__ import annotations
 
-import json
 import math
 import tomllib
 from pathlib import Path
@@ -151,6 +150,8 @@ def _vec(v) -> str:
 
 
 def _str(s: str) -> str:
+    import json  # only when writing a mechanism file (every import is paid by every process)
+
     return json.dumps(s)  # a JSON string of printable text is a valid TOML basic string
 
 
