@@ -146,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     from .lp_backends import LP_BACKENDS
     from .parameterizations import PARAMETERIZATIONS
-    from .problem import DEFAULT_FORMULATION, FORMULATION_CHOICES
+    from .problem import DEFAULT_FORMULATION, formulation_choices
     from .pruners import PRUNERS
     from .solver import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
@@ -154,20 +154,20 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
-    so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=sorted(PARAMETERIZATIONS),
+    so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=list(PARAMETERIZATIONS),
                     help="variables of the loop equations: tan-half: t = tan(theta/2), the paper's (charts for "
                          "full ranges); sin-cos: c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). "
                          "Default %(default)s")
-    so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=FORMULATION_CHOICES,
+    so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=formulation_choices(),
                     help="platform: one equation per leg in the platform's orientation (quaternion charts; "
                          "3-RRR legs); paper: Eq. (10) only; transversal: three entries of F (simple roots) + "
                          "Eq. (10); halves: three entries of F + the loop closed in the middle, P = S^T; auto: "
                          "platform where it applies, else halves. Default %(default)s")
-    so.add_argument("--pruner", default=DEFAULT_PRUNER, choices=PRUNERS,
+    so.add_argument("--pruner", default=DEFAULT_PRUNER, choices=list(PRUNERS),
                     help="pp: projected polyhedron, no LP; hybrid: pp, LPs where it stalls; "
                          "lp: the Eq. (12) linear programs on every box. Default %(default)s")
-    so.add_argument("--lp-backend", default=None, choices=LP_BACKENDS,
-                    help="LP backend (lp: default highs; hybrid: default highspy); paper-faithful: clarabel")
+    so.add_argument("--lp-backend", default=None, choices=list(LP_BACKENDS),
+                    help=f"LP backend ({'; '.join(f'{n}: default {c.default_lp_backend}' for n, c in PRUNERS.items() if c.default_lp_backend)}); paper-faithful: clarabel")
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
     so.add_argument("--no-isolate", action="store_true",
                     help="subdivide every box down to the tolerance (no Krawczyk isolation; the paper's behaviour)")

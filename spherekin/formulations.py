@@ -27,14 +27,17 @@ core can restrict all of them to a batch of boxes in one call.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
 from .closure import ClosureLoop, Unknown
+from .registry import Registry
 
-__all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "FORMULATIONS", "TRANSVERSAL_ENTRIES", "formulate",
+__all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "Formulation", "FORMULATIONS", "Paper", "Transversal", "Halves",
+           "TRANSVERSAL_ENTRIES", "formulate",
            "formulate_polynomials", "embed", "embed_axes"]
 
 #: Entries (row, column) of q_n F_n used by the transversal formulation (strictly lower triangle).
@@ -220,25 +223,54 @@ def _scalar(lp: LoopPolynomials) -> np.ndarray:
     return lp.matrix[0, 0] + lp.matrix[1, 1] - 2 * lp.q
 
 
-def paper(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+class Formulation(ABC):
+    """A formulation: which equations of each loop's polynomials the solver works on.
+
+    A new one subclasses this, sets ``name`` and implements :meth:`blocks`, and is registered with
+    ``@FORMULATIONS.register``; every check and the command line then accept it.
+    """
+
+    name: ClassVar[str]
+
+    @abstractmethod
+    def blocks(self, polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+        """Equation blocks over the global unit box of ``n_vars`` variables, from the loops' polynomials."""
+
+
+#: The formulations of the loop equations, by name.
+FORMULATIONS = Registry("formulation")
+
+
+@FORMULATIONS.register
+class Paper(Formulation):
     """One scalar equation per loop (Eq. 10)."""
-    return [_block(lp, n_vars, [f"loop{lp.loop_index + 1}:f11+f22-2q"], [_scalar(lp)]) for lp in polys]
+
+    name = "paper"
+
+    def blocks(self, polys, n_vars):
+        return [_block(lp, n_vars, [f"loop{lp.loop_index + 1}:f11+f22-2q"], [_scalar(lp)]) for lp in polys]
 
 
-def transversal(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+@FORMULATIONS.register
+class Transversal(Formulation):
     """Per loop q f21, q f31, q f32 (simple roots; the square system) plus Eq. (10) (removes spurious roots)."""
-    blocks = []
-    for lp in polys:
-        j = lp.loop_index + 1
-        tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES] + [_scalar(lp)]
-        labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES] + [f"loop{j}:f11+f22-2q"]
-        terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
-        terms += _scalar_terms(len(TRANSVERSAL_ENTRIES))
-        blocks.append(_block(lp, n_vars, labels, tensors, square=range(len(TRANSVERSAL_ENTRIES)), terms=terms))
-    return blocks
+
+    name = "transversal"
+
+    def blocks(self, polys, n_vars):
+        blocks = []
+        for lp in polys:
+            j = lp.loop_index + 1
+            tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES] + [_scalar(lp)]
+            labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES] + [f"loop{j}:f11+f22-2q"]
+            terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
+            terms += _scalar_terms(len(TRANSVERSAL_ENTRIES))
+            blocks.append(_block(lp, n_vars, labels, tensors, square=range(len(TRANSVERSAL_ENTRIES)), terms=terms))
+        return blocks
 
 
-def halves(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
+@FORMULATIONS.register
+class Halves(Formulation):
     """Per loop the nine entries of q_b q_a (P - S^T), pruned, and q f21, q f31, q f32, the square system.
 
     The transversal entries add almost nothing to the pruning power of the nine (Gosselin: 2855 vs
@@ -246,40 +278,39 @@ def halves(polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]
     evaluates, on small boxes. A loop with one unknown has no middle to close at: it keeps the
     transversal block (pruned) with Eq. (10), which removes the spurious roots.
     """
-    blocks = []
-    for lp in polys:
-        j = lp.loop_index + 1
-        tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES]
-        labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES]
-        terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
-        square = range(len(TRANSVERSAL_ENTRIES))
-        if lp.half_a is None:
-            blocks.append(_block(lp, n_vars, labels + [f"loop{j}:f11+f22-2q"], tensors + [_scalar(lp)],
-                                 square=square))
-            continue
-        hterms = [t for r in range(3) for c in range(3) for t in _halves_terms(3 * r + c, r, c)]
-        hlabels = [f"loop{j}:P{r + 1}{c + 1}-S{c + 1}{r + 1}" for r in range(3) for c in range(3)]
-        blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, terms=hterms))
-        blocks.append(_block(lp, n_vars, labels, tensors, square=square, terms=terms, prune=False))
-    return blocks
 
+    name = "halves"
 
-FORMULATIONS = {"paper": paper, "transversal": transversal, "halves": halves}
+    def blocks(self, polys, n_vars):
+        blocks = []
+        for lp in polys:
+            j = lp.loop_index + 1
+            tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES]
+            labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES]
+            terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
+            square = range(len(TRANSVERSAL_ENTRIES))
+            if lp.half_a is None:
+                blocks.append(_block(lp, n_vars, labels + [f"loop{j}:f11+f22-2q"], tensors + [_scalar(lp)],
+                                     square=square))
+                continue
+            hterms = [t for r in range(3) for c in range(3) for t in _halves_terms(3 * r + c, r, c)]
+            hlabels = [f"loop{j}:P{r + 1}{c + 1}-S{c + 1}{r + 1}" for r in range(3) for c in range(3)]
+            blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, terms=hterms))
+            blocks.append(_block(lp, n_vars, labels, tensors, square=square, terms=terms, prune=False))
+        return blocks
 
 
 def formulate_polynomials(name: str, polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
     """Equation blocks of the formulation called ``name`` (one of FORMULATIONS) from loop polynomials."""
-    if name not in FORMULATIONS:
-        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {name!r}")
+    formulation = FORMULATIONS.lookup(name)
     if not polys:
         raise ValueError("loops: expected at least one closure loop, got none")
-    return FORMULATIONS[name](polys, n_vars)
+    return formulation().blocks(polys, n_vars)
 
 
 def formulate(name: str, loops: Sequence[ClosureLoop], unknowns: Sequence[Unknown]) -> list[EquationBlock]:
     """Equation blocks of formulation ``name`` for tan-half loops (the paper's parameterization)."""
-    if name not in FORMULATIONS:
-        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {name!r}")
+    FORMULATIONS.lookup(name)
     if not loops:
         raise ValueError("loops: expected at least one closure loop, got none")
     from .parameterizations import tan_half_loop

@@ -47,11 +47,14 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from itertools import product
-from typing import Sequence
+from typing import ClassVar, Sequence
 
 import numpy as np
 
-__all__ = ["LP_BACKENDS", "REJECTED_LP_BACKENDS", "BoxBounds", "make_backend", "LPStructure"]
+from .registry import Registry
+
+__all__ = ["LP_BACKENDS", "REJECTED_LP_BACKENDS", "BoxBounds", "LPBackend", "CvxpyBackend", "ClarabelBackend",
+           "HighsCvxpyBackend", "HighspyBackend", "make_backend", "backend_class", "LPStructure"]
 
 EPS = np.finfo(float).eps
 #: Added to every scaled slab half-width tol/s (s = max|w|): fl(w_I / s) and fl(tol / s) are each
@@ -297,16 +300,22 @@ class LPStructure:
         return bool(violation <= FEASIBILITY_TOL and c @ z - bound <= LP_BOUND_MARGIN)
 
 
+#: The LP backends of Eq. (12), by name (:func:`make_backend`).
+LP_BACKENDS = Registry("lp_backend")
+
+
 class LPBackend:
-    """Base class. Subclasses implement ``_load()`` (pass the box loaded into ``self.structure``
-    to the solver), ``_solve(direction) -> (status, z, y)`` (minimize direction . x; z the primal
-    point over all columns, y the row duals in the structure's convention c = A^T y + r, either
-    may be None) and ``_farkas() -> (y or None, extra LP solves)`` after a verdict other than
-    OPTIMAL (candidate Farkas multipliers, any sign).
-    All bounds are computed here, from certificates (:meth:`LPStructure.certified_min`).
+    """Base class of the LP backends. Subclasses set ``name``, implement ``_load()`` (pass the box
+    loaded into ``self.structure`` to the solver), ``_solve(direction) -> (status, z, y)``
+    (minimize direction . x; z the primal point over all columns, y the row duals in the
+    structure's convention c = A^T y + r, either may be None) and ``_farkas() -> (y or None,
+    extra LP solves)`` after a verdict other than OPTIMAL (candidate Farkas multipliers, any
+    sign), and are registered with ``@LP_BACKENDS.register``.
+    All bounds are computed here, from certificates (:meth:`LPStructure.certified_min`): a backend
+    is trusted for nothing.
     """
 
-    name = "?"
+    name: ClassVar[str]
 
     def __init__(self, shapes: Sequence[tuple[int, ...]]):
         self.structure = LPStructure(shapes)
@@ -367,26 +376,23 @@ class LPBackend:
 
 
 class CvxpyBackend(LPBackend):
-    """Eq. (12) modelled once in cvxpy with Parameters (DPP); solved by the named cvxpy solver.
+    """Eq. (12) modelled once in cvxpy with Parameters (DPP); solved by the cvxpy solver ``solver``
+    with ``options`` (set by the registered subclasses).
 
     Duals to the structure's rows (cvxpy's multipliers are >= 0 for ``<=`` and enter the
     Lagrangian as + mu (lhs - rhs); for ``==`` as + nu (lhs - rhs)): sum and abscissa rows
     y = -nu; slab row y = mu(-t <= w.lambda) - mu(w.lambda <= t).
     """
 
-    #: spherekin backend name -> (cvxpy solver name, solver options)
-    SOLVERS = {
-        "clarabel": ("CLARABEL", {"tol_gap_abs": CLARABEL_TOL, "tol_gap_rel": CLARABEL_TOL, "tol_feas": CLARABEL_TOL}),
-        "highs": ("HIGHS", {}),
-    }
+    solver: ClassVar[str]
+    options: ClassVar[dict]
 
-    def __init__(self, shapes, name: str):
+    def __init__(self, shapes):
         super().__init__(shapes)
         import cvxpy as cp  # imported here: only the cvxpy backends pay for it
 
-        self.name = name
         self._cp = cp
-        self._solver, self._options = self.SOLVERS[name]
+        self._solver, self._options = self.solver, dict(self.options)
         if self._solver == cp.HIGHS:
             import highspy
 
@@ -463,6 +469,24 @@ class CvxpyBackend(LPBackend):
         return self._duals(), 0
 
 
+@LP_BACKENDS.register
+class ClarabelBackend(CvxpyBackend):
+    """Clarabel (interior point, conic) through cvxpy; the paper-faithful configuration's backend."""
+
+    name = "clarabel"
+    solver = "CLARABEL"
+    options = {"tol_gap_abs": CLARABEL_TOL, "tol_gap_rel": CLARABEL_TOL, "tol_feas": CLARABEL_TOL}
+
+
+@LP_BACKENDS.register
+class HighsCvxpyBackend(CvxpyBackend):
+    """HiGHS through cvxpy (the model is rebuilt by cvxpy's canonicalization for every box)."""
+
+    name = "highs"
+    solver = "HIGHS"
+    options: ClassVar[dict] = {}
+
+
 def _quiet_highs(highspy):
     """A highspy.Highs with output off, created without its banner on standard output.
 
@@ -490,6 +514,7 @@ def _quiet_highs(highspy):
     return h
 
 
+@LP_BACKENDS.register
 class HighspyBackend(LPBackend):
     """Eq. (12) passed to HiGHS directly (highspy) with one reused model.
 
@@ -568,8 +593,6 @@ class HighspyBackend(LPBackend):
         return (np.asarray(ray) if has_ray else None), 1
 
 
-LP_BACKENDS = ("clarabel", "highs", "highspy")
-
 #: Backends that cvxpy offers but that cannot serve Eq. (12), with the measured reason
 #: (tests/test_lp_backends.py; Gosselin boxes around a root, formulations paper and transversal).
 REJECTED_LP_BACKENDS = {
@@ -584,11 +607,13 @@ REJECTED_LP_BACKENDS = {
 
 def make_backend(name: str, shapes: Sequence[tuple[int, ...]]) -> LPBackend:
     """The LP backend called ``name`` (one of LP_BACKENDS), set up for the given block shapes."""
+    return backend_class(name)(shapes)
+
+
+def backend_class(name: str) -> type:
+    """The class of the LP backend called ``name``; ValueError naming the valid ones (and saying
+    why, for a backend of cvxpy's that was measured and rejected) otherwise. Builds nothing."""
     if name in REJECTED_LP_BACKENDS:
         raise ValueError(f"lp_backend: {name!r} is not supported: {REJECTED_LP_BACKENDS[name]}; "
-                         f"use one of {LP_BACKENDS}")
-    if name == "highspy":
-        return HighspyBackend(shapes)
-    if name in CvxpyBackend.SOLVERS:
-        return CvxpyBackend(shapes, name)
-    raise ValueError(f"lp_backend: expected one of {LP_BACKENDS}, got {name!r}")
+                         f"use one of {list(LP_BACKENDS)}")
+    return LP_BACKENDS.lookup(name)

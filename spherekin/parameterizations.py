@@ -25,16 +25,22 @@ from __future__ import annotations
 
 import itertools
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
 from .closure import ClosureLoop, Term, Unknown, _cos_sin
 from .formulations import EquationBlock, LoopPolynomials, formulate_polynomials
+from .registry import Registry
 
 __all__ = [
+    "Parameterization",
+    "LoopParameterization",
     "PARAMETERIZATIONS",
+    "TanHalf",
+    "SinCos",
     "CHART_MAX_WIDTH",
     "ROUNDING_SAFETY",
     "ARC_BOX_MARGIN",
@@ -212,10 +218,54 @@ def _circle_block(k: int, n_vars: int, cbox, sbox) -> EquationBlock:
 # Chart sets
 # --------------------------------------------------------------------------------------------
 
-@dataclass
+class Parameterization(ABC):
+    """How unknown joint angles become the variables of the box loop, and back.
+
+    It owns the maps between a chart's unit box and the angles: ``metric`` (a variable's metric
+    coordinate: radians for tan-half, c or s for sin-cos), ``angles``, ``angle_box``, and the
+    contraction of reduced boxes by constraints the equations do not carry (``contract``). The
+    defaults are those of a metric that is the angle itself, affine in the unit coordinate.
+    """
+
+    name: ClassVar[str]
+
+    def metric(self, charts: "ChartSet", chart: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Metric coordinates (B, N) of unit coordinates x (B, N) in charts ``chart`` (B,)."""
+        lo, hi = charts.map_lo[chart], charts.map_hi[chart]
+        return lo + (hi - lo) * x
+
+    def angles(self, charts: "ChartSet", chart: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Unknown angles (B, n), radians, at unit coordinates x (B, N)."""
+        return self.metric(charts, chart, x)
+
+    def angle_box(self, charts: "ChartSet", chart: np.ndarray, lo: np.ndarray,
+                  hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians."""
+        return self.metric(charts, chart, lo), self.metric(charts, chart, hi)
+
+    def contract(self, charts: "ChartSet", chart: np.ndarray, lo: np.ndarray, hi: np.ndarray, rlo: np.ndarray,
+                 rhi: np.ndarray) -> None:
+        """Shrink the reductions [rlo, rhi] (unit coordinates of the boxes [lo, hi], B x N, in place)
+        by what the parameterization knows beyond the equations; nothing by default."""
+
+
+class LoopParameterization(Parameterization):
+    """A parameterization of the loop equations (Eq. 2), chosen by name (:data:`PARAMETERIZATIONS`).
+
+    A new one subclasses this, sets ``name``, implements :meth:`charts` (and the maps it needs)
+    and is registered with ``@PARAMETERIZATIONS.register``.
+    """
+
+    @abstractmethod
+    def charts(self, build, ranges: Mapping[str, tuple[float, float] | None], formulation: str) -> "ChartSet":
+        """The chart set of the loops of ``build`` over the joint ``ranges`` (see :func:`make_charts`)."""
+
+
+@dataclass(frozen=True)
 class ChartSet:
     """Everything the box loop needs, stacked along a leading chart axis (C charts).
 
+    * ``parameterization``: the :class:`Parameterization` whose maps the methods below apply;
     * ``unknowns``: the unknown angles' names (n); ``variables``: the polynomial variables (N);
     * ``coeffs[b]`` (C, E_b, d_1..d_N) and ``tols[b]`` (C, E_b): equation block b on each chart's
       unit box and the absolute tolerance of its test w = 0; ``labels[b]``; ``square[b]``: the
@@ -230,7 +280,7 @@ class ChartSet:
     * ``prune[b]``: whether the pruners use block b (else only the Krawczyk test does).
     """
 
-    parameterization: str
+    parameterization: Parameterization
     unknowns: tuple
     variables: tuple
     coeffs: list
@@ -254,61 +304,19 @@ class ChartSet:
 
     def metric(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Metric coordinates (B, N) of unit coordinates x (B, N) in charts ``chart`` (B,)."""
-        lo, hi = self.map_lo[chart], self.map_hi[chart]
-        v = lo + (hi - lo) * x
-        if self.parameterization == "tan-half":
-            return self.shift[chart] + 2.0 * np.arctan(v)
-        return v
+        return self.parameterization.metric(self, chart, x)
 
     def angles(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Unknown angles (B, n), radians, at unit coordinates x (B, N)."""
-        v = self.metric(chart, x)
-        if self.parameterization == "tan-half":
-            return v
-        return np.arctan2(v[:, 1::2], v[:, 0::2])
+        return self.parameterization.angles(self, chart, x)
 
     def contract(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray, rlo: np.ndarray, rhi: np.ndarray) -> None:
-        """sin-cos: shrink the reductions [rlo, rhi] (in the unit coordinates of the boxes [lo, hi],
-        all B x N, updated in place) to the bounding box of the unit circle inside each (c, s)
-        rectangle (:func:`circle_bounds`); rlo > rhi where the circle misses one. Nothing for
-        tan-half.
-
-        Departure from the paper: the circle equation c^2 + s^2 = 1 is also a block that the
-        pruners use, but its hull bounds are loose (the circle is curved); this exact bound is
-        what the constraint allows, at the cost of a few square roots per box.
-        """
-        if self.parameterization != "sin-cos":
-            return
-        live = np.flatnonzero(~np.any(rlo > rhi, axis=1))
-        if not len(live):
-            return
-        w = hi[live] - lo[live]
-        mlo, mhi = self.map_lo[chart[live]], self.map_hi[chart[live]]
-        span = (mhi - mlo) * w                                 # metric length of each box side
-        base = mlo + (mhi - mlo) * lo[live]                    # metric coordinate of each box's lo
-        clo, chi = base + span * rlo[live], base + span * rhi[live]
-        blo, bhi = circle_bounds(clo[:, 0::2], chi[:, 0::2], clo[:, 1::2], chi[:, 1::2])
-        new_lo, new_hi = np.empty_like(clo), np.empty_like(chi)
-        new_lo[:, 0::2], new_lo[:, 1::2] = blo
-        new_hi[:, 0::2], new_hi[:, 1::2] = bhi
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rlo[live] = np.where(span > 0, np.maximum(rlo[live], (new_lo - base) / span), rlo[live])
-            rhi[live] = np.where(span > 0, np.minimum(rhi[live], (new_hi - base) / span), rhi[live])
+        """The parameterization's contraction of the reductions [rlo, rhi] (in place)."""
+        self.parameterization.contract(self, chart, lo, hi, rlo, rhi)
 
     def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians.
-
-        tan-half: the metric is the angle itself (increasing in x). sin-cos: the angles of the four
-        corners of each (c, s) rectangle, unwrapped next to the angle of its centre (the rectangles
-        of accepted boxes are tiny and away from the origin).
-        """
-        if self.parameterization == "tan-half":
-            return self.metric(chart, lo), self.metric(chart, hi)
-        mlo, mhi = self.metric(chart, lo), self.metric(chart, hi)
-        centre = np.arctan2(0.5 * (mlo[:, 1::2] + mhi[:, 1::2]), 0.5 * (mlo[:, 0::2] + mhi[:, 0::2]))
-        corners = [np.arctan2(s[:, 1::2], c[:, 0::2]) for c in (mlo, mhi) for s in (mlo, mhi)]
-        corners = [centre + np.mod(a - centre + math.pi, 2 * math.pi) - math.pi for a in corners]
-        return np.minimum.reduce(corners), np.maximum.reduce(corners)
+        """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians."""
+        return self.parameterization.angle_box(self, chart, lo, hi)
 
 
 #: Slack (c, s units) of the circle bounds: a candidate point counts as inside a rectangle within
@@ -383,40 +391,55 @@ def _rechart(loop: ClosureLoop, unknowns: Mapping[str, Unknown]) -> ClosureLoop:
                         for f in loop.factors])
 
 
-def _tan_half(build, ranges, formulation) -> ChartSet:
-    """2^n-ish charts (:func:`charts_for_range` per unknown). ``build`` is called once: the loops'
-    factors (known angles, offsets, signs) must not depend on the chart ranges, only the unknowns'
-    ranges do; each loop's polynomials are computed once per combination of its own unknowns'
-    charts (16 per Gosselin loop instead of 64) and shared by the charts that agree on them."""
-    names = list(ranges)
-    per_name = [charts_for_range(ranges[name]) for name in names]
-    combos = list(itertools.product(*(range(len(p)) for p in per_name)))
-    loops, unknowns = build({name: per_name[k][0] for k, name in enumerate(names)})
-    if tuple(u.name for u in unknowns) != tuple(names):
-        raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
-    chart_unknowns = [[Unknown(name, *rng) for rng in per_name[k]] for k, name in enumerate(names)]
-    cache: dict = {}
-    scalar = formulation != "halves"      # the paper's recursion route, only where Eq. (10) is used
-    per_chart, t_lo, t_hi, shift = [], [], [], []
-    for combo in combos:
-        blocks = []
-        for j, lp in enumerate(loops):
-            idx = tuple(names.index(n) for n in lp.names)
-            key = (j, tuple(combo[i] for i in idx))
-            if key not in cache:     # every formulation makes one block per loop, from that loop alone
-                local = {names[i]: chart_unknowns[i][combo[i]] for i in idx}
-                poly = tan_half_loop(j, _rechart(lp, local), idx, scalar=scalar)
-                cache[key] = formulate_polynomials(formulation, [poly], len(names))
-            blocks += cache[key]
-        per_chart.append(blocks)
-        chosen = [chart_unknowns[i][c] for i, c in enumerate(combo)]
-        t = np.array([u.t_range for u in chosen])
-        t_lo.append(t[:, 0])
-        t_hi.append(t[:, 1])
-        shift.append([u.shift for u in chosen])
-    coeffs, tols, labels, square, bilinear, prune = _stack_blocks(per_chart)
-    return ChartSet("tan-half", tuple(names), tuple(names), coeffs, tols, labels, square,
-                    np.array(t_lo), np.array(t_hi), np.array(shift), 1.0, bilinear, prune)
+#: The parameterizations of the loop equations, by name (:func:`make_charts`).
+PARAMETERIZATIONS = Registry("parameterization")
+
+
+@PARAMETERIZATIONS.register
+class TanHalf(LoopParameterization):
+    """The paper's t = tan((theta - shift)/2) (Section 2.2): one variable per unknown, charts of
+    width at most CHART_MAX_WIDTH; the metric of a variable is the angle itself."""
+
+    name = "tan-half"
+
+    def metric(self, charts, chart, x):
+        lo, hi = charts.map_lo[chart], charts.map_hi[chart]
+        return charts.shift[chart] + 2.0 * np.arctan(lo + (hi - lo) * x)
+
+    def charts(self, build, ranges, formulation) -> ChartSet:
+        """2^n-ish charts (:func:`charts_for_range` per unknown). ``build`` is called once: the loops'
+        factors (known angles, offsets, signs) must not depend on the chart ranges, only the unknowns'
+        ranges do; each loop's polynomials are computed once per combination of its own unknowns'
+        charts (16 per Gosselin loop instead of 64) and shared by the charts that agree on them."""
+        names = list(ranges)
+        per_name = [charts_for_range(ranges[name]) for name in names]
+        combos = list(itertools.product(*(range(len(p)) for p in per_name)))
+        loops, unknowns = build({name: per_name[k][0] for k, name in enumerate(names)})
+        if tuple(u.name for u in unknowns) != tuple(names):
+            raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
+        chart_unknowns = [[Unknown(name, *rng) for rng in per_name[k]] for k, name in enumerate(names)]
+        cache: dict = {}
+        scalar = formulation != "halves"      # the paper's recursion route, only where Eq. (10) is used
+        per_chart, t_lo, t_hi, shift = [], [], [], []
+        for combo in combos:
+            blocks = []
+            for j, lp in enumerate(loops):
+                idx = tuple(names.index(n) for n in lp.names)
+                key = (j, tuple(combo[i] for i in idx))
+                if key not in cache:     # every formulation makes one block per loop, from that loop alone
+                    local = {names[i]: chart_unknowns[i][combo[i]] for i in idx}
+                    poly = tan_half_loop(j, _rechart(lp, local), idx, scalar=scalar)
+                    cache[key] = formulate_polynomials(formulation, [poly], len(names))
+                blocks += cache[key]
+            per_chart.append(blocks)
+            chosen = [chart_unknowns[i][c] for i, c in enumerate(combo)]
+            t = np.array([u.t_range for u in chosen])
+            t_lo.append(t[:, 0])
+            t_hi.append(t[:, 1])
+            shift.append([u.shift for u in chosen])
+        coeffs, tols, labels, square, bilinear, prune = _stack_blocks(per_chart)
+        return ChartSet(self, tuple(names), tuple(names), coeffs, tols, labels, square,
+                        np.array(t_lo), np.array(t_hi), np.array(shift), 1.0, bilinear, prune)
 
 
 #: sin-cos boxes are accepted when every c and s side is below tol times this: points of the unit
@@ -425,25 +448,69 @@ def _tan_half(build, ranges, formulation) -> ChartSet:
 SIN_COS_ACCEPT = 0.5
 
 
-def _sin_cos(build, ranges, formulation) -> ChartSet:
-    names = list(ranges)
-    loops, unknowns = build({name: (-1.0, 1.0) for name in names})
-    if tuple(u.name for u in unknowns) != tuple(names):
-        raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
-    boxes = {name: arc_box(ranges[name]) for name in names}
-    n_vars = 2 * len(names)
-    polys = [sin_cos_loop(j, lp, names, boxes) for j, lp in enumerate(loops)]
-    blocks = formulate_polynomials(formulation, polys, n_vars)
-    blocks += [_circle_block(k, n_vars, *boxes[name]) for k, name in enumerate(names)]
-    coeffs, tols, labels, square, bilinear, prune = _stack_blocks([blocks])
-    lo = np.array([[v for name in names for v in (boxes[name][0][0], boxes[name][1][0])]])
-    hi = np.array([[v for name in names for v in (boxes[name][0][1], boxes[name][1][1])]])
-    variables = tuple(f"{v}({name})" for name in names for v in ("cos", "sin"))
-    return ChartSet("sin-cos", tuple(names), variables, coeffs, tols, labels, square,
-                    lo, hi, np.zeros_like(lo), SIN_COS_ACCEPT, bilinear, prune)
+@PARAMETERIZATIONS.register
+class SinCos(LoopParameterization):
+    """Section 5's x = sin(theta), y = cos(theta): two variables (c, s) per unknown on the bounding
+    box of its range's arc, with the circle c^2 + s^2 = 1; one chart covers any range."""
+
+    name = "sin-cos"
+
+    def angles(self, charts, chart, x):
+        v = self.metric(charts, chart, x)
+        return np.arctan2(v[:, 1::2], v[:, 0::2])
+
+    def contract(self, charts, chart, lo, hi, rlo, rhi):
+        """Shrink the reductions [rlo, rhi] (in the unit coordinates of the boxes [lo, hi], all
+        B x N, updated in place) to the bounding box of the unit circle inside each (c, s)
+        rectangle (:func:`circle_bounds`); rlo > rhi where the circle misses one.
+
+        Departure from the paper: the circle equation c^2 + s^2 = 1 is also a block that the
+        pruners use, but its hull bounds are loose (the circle is curved); this exact bound is
+        what the constraint allows, at the cost of a few square roots per box.
+        """
+        live = np.flatnonzero(~np.any(rlo > rhi, axis=1))
+        if not len(live):
+            return
+        w = hi[live] - lo[live]
+        mlo, mhi = charts.map_lo[chart[live]], charts.map_hi[chart[live]]
+        span = (mhi - mlo) * w                                 # metric length of each box side
+        base = mlo + (mhi - mlo) * lo[live]                    # metric coordinate of each box's lo
+        clo, chi = base + span * rlo[live], base + span * rhi[live]
+        blo, bhi = circle_bounds(clo[:, 0::2], chi[:, 0::2], clo[:, 1::2], chi[:, 1::2])
+        new_lo, new_hi = np.empty_like(clo), np.empty_like(chi)
+        new_lo[:, 0::2], new_lo[:, 1::2] = blo
+        new_hi[:, 0::2], new_hi[:, 1::2] = bhi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rlo[live] = np.where(span > 0, np.maximum(rlo[live], (new_lo - base) / span), rlo[live])
+            rhi[live] = np.where(span > 0, np.minimum(rhi[live], (new_hi - base) / span), rhi[live])
+
+    def angle_box(self, charts, chart, lo, hi):
+        """The angles of the four corners of each (c, s) rectangle, unwrapped next to the angle of
+        its centre (the rectangles of accepted boxes are tiny and away from the origin)."""
+        mlo, mhi = self.metric(charts, chart, lo), self.metric(charts, chart, hi)
+        centre = np.arctan2(0.5 * (mlo[:, 1::2] + mhi[:, 1::2]), 0.5 * (mlo[:, 0::2] + mhi[:, 0::2]))
+        corners = [np.arctan2(s[:, 1::2], c[:, 0::2]) for c in (mlo, mhi) for s in (mlo, mhi)]
+        corners = [centre + np.mod(a - centre + math.pi, 2 * math.pi) - math.pi for a in corners]
+        return np.minimum.reduce(corners), np.maximum.reduce(corners)
+
+    def charts(self, build, ranges, formulation) -> ChartSet:
+        names = list(ranges)
+        loops, unknowns = build({name: (-1.0, 1.0) for name in names})
+        if tuple(u.name for u in unknowns) != tuple(names):
+            raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
+        boxes = {name: arc_box(ranges[name]) for name in names}
+        n_vars = 2 * len(names)
+        polys = [sin_cos_loop(j, lp, names, boxes) for j, lp in enumerate(loops)]
+        blocks = formulate_polynomials(formulation, polys, n_vars)
+        blocks += [_circle_block(k, n_vars, *boxes[name]) for k, name in enumerate(names)]
+        coeffs, tols, labels, square, bilinear, prune = _stack_blocks([blocks])
+        lo = np.array([[v for name in names for v in (boxes[name][0][0], boxes[name][1][0])]])
+        hi = np.array([[v for name in names for v in (boxes[name][0][1], boxes[name][1][1])]])
+        variables = tuple(f"{v}({name})" for name in names for v in ("cos", "sin"))
+        return ChartSet(self, tuple(names), variables, coeffs, tols, labels, square,
+                        lo, hi, np.zeros_like(lo), SIN_COS_ACCEPT, bilinear, prune)
 
 
-PARAMETERIZATIONS: dict[str, Callable] = {"tan-half": _tan_half, "sin-cos": _sin_cos}
 
 
 def make_charts(name: str, build, ranges: Mapping[str, tuple[float, float] | None], formulation: str) -> ChartSet:
@@ -453,8 +520,7 @@ def make_charts(name: str, build, ranges: Mapping[str, tuple[float, float] | Non
     ``chart_ranges`` (name -> (lo, hi), width < 2 pi); ``ranges`` gives each unknown's joint range
     (radians) or None for the full circle.
     """
-    if name not in PARAMETERIZATIONS:
-        raise ValueError(f"parameterization: expected one of {sorted(PARAMETERIZATIONS)}, got {name!r}")
+    parameterization = PARAMETERIZATIONS.lookup(name)()
     if not ranges:
         raise ValueError("ranges: expected at least one unknown, got none")
-    return PARAMETERIZATIONS[name](build, dict(ranges), formulation)
+    return parameterization.charts(build, dict(ranges), formulation)

@@ -38,11 +38,11 @@ import numpy as np
 
 from .angles import wrap
 from .mechanism.chains import angle_about, axis_rotation, perpendicular
-from .parameterizations import ROUNDING_SAFETY, ChartSet
+from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
 __all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
            "quaternion_matrix", "form_matrix", "chart_control_points", "chart_quaternion", "chart_rotation",
-           "passive_readings", "passive_readings_many", "passive_names", "QuaternionCharts"]
+           "passive_readings", "passive_readings_many", "passive_names", "Quaternion"]
 
 #: Number of quaternion charts (one per component fixed to 1).
 CHARTS = 4
@@ -268,7 +268,7 @@ class PlatformSystem:
         w = np.stack([np.cos(d1), np.sin(d1), np.ones_like(d1)], axis=1)            # (legs, 3)
         return np.moveaxis(np.einsum("lp,lpkabc->lkabc", w, self.parts), 1, 0)
 
-    def charts(self, inputs) -> "QuaternionCharts":
+    def charts(self, inputs) -> ChartSet:
         """The chart set of the box loop at actuator ``inputs``: one block of 3 equations (one per leg)
         on 4 charts, each equation's tolerance ROUNDING_SAFETY eps times its largest control point."""
         cps = self.control_points(inputs)
@@ -276,8 +276,8 @@ class PlatformSystem:
         names = tuple(leg.names[0] for leg in self.legs)
         variables = ("q_a", "q_b", "q_c")
         ones = np.full((CHARTS, 3), CHART_EXTENT)
-        return QuaternionCharts("quaternion", names, variables, [cps], [tols], [names], [tuple(range(len(self.legs)))],
-                                -ones, ones, np.zeros((CHARTS, 3)), ACCEPT_WIDTH, [None], [True])
+        return ChartSet(Quaternion(), names, variables, [cps], [tols], [names], [tuple(range(len(self.legs)))],
+                        -ones, ones, np.zeros((CHARTS, 3)), ACCEPT_WIDTH, [None], [True])
 
     def pose(self, chart: int, x) -> np.ndarray:
         """The platform pose R = D R_ref (3, 3) at the unit-box point x (3,) of chart ``chart``
@@ -294,15 +294,16 @@ class PlatformSystem:
         return np.array(out)
 
 
-class QuaternionCharts(ChartSet):
-    """The :class:`~spherekin.parameterizations.ChartSet` of Eq. (1) on the four quaternion charts.
+class Quaternion(Parameterization):
+    """The platform formulation's variables: a chart's three free quaternion components.
 
     Chart coordinates u = CHART_EXTENT (2x - 1) are the metric; a chart point's "angles" are its unit
-    coordinates x (the rotation is :func:`chart_rotation`; the joint readings :func:`passive_readings`).
+    coordinates x (the rotation is :func:`chart_rotation`; the joint readings :func:`passive_readings_many`).
+    Not among the loop equations' parameterizations (:data:`spherekin.parameterizations.PARAMETERIZATIONS`):
+    it belongs to the platform formulation, which is chosen as a formulation.
     """
 
-    def angles(self, chart: np.ndarray, x: np.ndarray) -> np.ndarray:
-        return np.asarray(x, dtype=float)
+    name = "quaternion"
 
-    def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return self.metric(chart, lo), self.metric(chart, hi)
+    def angles(self, charts, chart, x):
+        return np.asarray(x, dtype=float)

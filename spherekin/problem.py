@@ -40,7 +40,7 @@ from .solutions import count_summary, finalize, is_proven
 from .solver import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                      check_strategy, clusters_in_range, partial_report, search_platform, solve_system)
 
-__all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "FORMULATION_CHOICES", "CONTINUUM_TOL", "REFINE_FACTOR",
+__all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "Strategy", "Problem", "compile", "solve", "disagreement"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
@@ -48,8 +48,13 @@ DEFAULT_FORMULATION = "auto"
 #: The loop formulation of "auto" and of the platform formulation's fallback (the fastest one that
 #: finds every solution, benchmarks/README.md).
 LOOP_FORMULATION = "halves"
-#: Every formulation a solve accepts by name.
-FORMULATION_CHOICES = ("auto", "platform", *sorted(FORMULATIONS))
+#: The formulations a solve accepts beyond the registered loop formulations (FORMULATIONS).
+PIPELINE_FORMULATIONS = ("auto", "platform")
+
+
+def formulation_choices() -> tuple[str, ...]:
+    """Every formulation a solve accepts by name: "auto", "platform" and the registered loop formulations."""
+    return (*PIPELINE_FORMULATIONS, *FORMULATIONS)
 #: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
 #: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
 #: the boxes are fine enough to show its shape and estimate its dimension.
@@ -319,9 +324,9 @@ def compile(
 ) -> Problem:
     """Compile ``mechanism`` for a strategy (names as in :func:`spherekin.solve`); every name and
     number is checked here, before any input is solved."""
-    if formulation not in FORMULATION_CHOICES:
-        raise ValueError(f"formulation: expected one of {list(FORMULATION_CHOICES)}, got {formulation!r}")
-    check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner,
+    if formulation not in formulation_choices():
+        raise ValueError(f"formulation: expected one of {list(formulation_choices())}, got {formulation!r}")
+    check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner, lp_backend,
                    parameterization, tol, jobs)
     why = not_applicable(mechanism)
     if formulation == "platform":
@@ -342,8 +347,6 @@ def compile(
     if formulation == "platform":
         platform = PlatformSystem.from_mechanism(mechanism)
         pruner_obj = make_pruner(pruner, [(len(platform.legs), 3, 3, 3)], lp_backend)
-    else:
-        make_pruner(pruner, [(1, 3)], lp_backend)      # an unknown LP backend fails here, before any solve
     strategy = Strategy(formulation, pruner, lp_backend, parameterization, float(tol), bool(isolate), jobs,
                         max_boxes, max_depth)
     return Problem(mechanism, strategy, tuple(names), ranges, platform, pruner_obj, not_platform)
@@ -357,7 +360,7 @@ def solve(mechanism, inputs, *, progress: Callable[[dict], None] | None = None,
     (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
     deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles, platform
     rotation, residual, status and its evidence. The strategies are chosen by name:
-    ``formulation`` one of :data:`FORMULATION_CHOICES` ("auto": the platform formulation where it
+    ``formulation`` one of :func:`formulation_choices` ("auto": the platform formulation where it
     applies, else "halves"), ``pruner``, ``lp_backend``, ``parameterization`` (of the loop
     equations), ``tol`` (radians), ``isolate``, ``jobs`` (worker processes over the charts of the
     loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.solver.solve_system`).

@@ -26,13 +26,16 @@ below at every root) could be pruned away by rounding.
 
 from __future__ import annotations
 
-from typing import Sequence
+from abc import ABC, abstractmethod
+from typing import ClassVar, Sequence
 
 import numpy as np
 
-from .lp_backends import LP_BACKENDS, make_backend
+from .lp_backends import backend_class, make_backend
+from .registry import Registry
 
-__all__ = ["PRUNERS", "make_pruner", "ProjectedPolyhedron", "LinearProgramPruner", "pp_intervals"]
+__all__ = ["Pruner", "PRUNERS", "make_pruner", "check_pruner", "ProjectedPolyhedron", "LinearProgramPruner",
+           "HybridPruner", "pp_intervals", "excludes_zero"]
 
 #: Every interval computed in floating point is widened by this much (unit coordinates of the
 #: box): the crossing abscissae are rounded to ~1e-16 relative; 1e-12 keeps a wide safety margin
@@ -121,7 +124,50 @@ def excludes_zero(cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]) -> np.n
     return out
 
 
-class ProjectedPolyhedron:
+class Pruner(ABC):
+    """A pruner: from a batch of boxes' control points, the sub-box of each that may hold a root.
+
+    A new one subclasses this, sets ``name`` (and ``default_lp_backend`` when it solves Eq. (12)
+    LPs, None otherwise), implements :meth:`reduce` and, when it needs more than a name to be
+    built, :meth:`build`; it is registered with ``@PRUNERS.register``. ``lp_count`` and ``doubts``
+    count the LPs solved and the LP answers that could not be certified.
+    """
+
+    name: ClassVar[str]
+    #: The LP backend used when none is named; None: the pruner solves no LP.
+    default_lp_backend: ClassVar[str | None] = None
+    lp_count = 0
+    doubts = 0
+
+    @classmethod
+    def check(cls, lp_backend: str | None) -> None:
+        """ValueError when ``lp_backend`` does not fit this pruner; builds nothing."""
+        if cls.default_lp_backend is None and lp_backend is not None:
+            raise ValueError(f"lp_backend: the {cls.name!r} pruner solves no LP; pass lp_backend=None or "
+                             f"pruner='lp'")
+        if lp_backend is not None:
+            backend_class(lp_backend)
+
+    @classmethod
+    def build(cls, shapes: Sequence[tuple[int, ...]], lp_backend: str | None) -> "Pruner":
+        """The pruner for equation blocks of these coefficient shapes (E, d_1..d_n)."""
+        cls.check(lp_backend)
+        return cls()
+
+    @abstractmethod
+    def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], widths=None):
+        """(lo, hi), each (B, n): the reduced boxes in the unit coordinates of the B boxes whose
+        control points per block are ``cps`` (E, d_1..d_n, B), with the tolerances ``tols`` of each
+        equation's test w = 0; lo > hi where a box holds no root. ``widths`` (B,): the boxes'
+        metric widths (radians), for pruners that choose by size."""
+
+
+#: The pruners, by name (:func:`make_pruner`).
+PRUNERS = Registry("pruner")
+
+
+@PRUNERS.register
+class ProjectedPolyhedron(Pruner):
     """Projected-polyhedron pruning (Sherbrooke & Patrikalakis), vectorized over boxes."""
 
     name = "pp"
@@ -147,15 +193,22 @@ class ProjectedPolyhedron:
         return lo, hi
 
 
-class LinearProgramPruner:
+@PRUNERS.register
+class LinearProgramPruner(Pruner):
     """The Eq. (12) LPs over the intersection of all equations' convex hulls, by a named backend."""
 
     name = "lp"
+    default_lp_backend = "highs"
 
     def __init__(self, shapes: Sequence[tuple[int, ...]], backend: str):
         self.backend = make_backend(backend, shapes)
         self.lp_count = 0
         self.doubts = 0
+
+    @classmethod
+    def build(cls, shapes, lp_backend):
+        cls.check(lp_backend)
+        return cls(shapes, lp_backend or cls.default_lp_backend)
 
     def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], widths=None):
         bsz, n = cps[0].shape[-1], cps[0].ndim - 2
@@ -172,7 +225,8 @@ class LinearProgramPruner:
         return lo, hi
 
 
-class HybridPruner:
+@PRUNERS.register
+class HybridPruner(Pruner):
     """Projected polyhedron on every box; the Eq. (12) LPs only where it stalls on a small box.
 
     PP is cheap but projects each equation on one axis at a time, so near a nearly singular root
@@ -184,10 +238,16 @@ class HybridPruner:
     """
 
     name = "hybrid"
+    default_lp_backend = "highspy"
 
     def __init__(self, shapes, backend: str):
         self.pp = ProjectedPolyhedron()
         self.lp = LinearProgramPruner(shapes, backend)
+
+    @classmethod
+    def build(cls, shapes, lp_backend):
+        cls.check(lp_backend)
+        return cls(shapes, lp_backend or cls.default_lp_backend)
 
     @property
     def lp_count(self) -> int:
@@ -216,17 +276,12 @@ HYBRID_STALL_RATIO = 0.8
 #: where PP alone needed over 500000 boxes and the valley around the roots is ~0.4 rad long.
 HYBRID_MAX_WIDTH = 0.1
 
-PRUNERS = ("pp", "lp", "hybrid")
+def make_pruner(name: str, shapes: Sequence[tuple[int, ...]], lp_backend: str | None = None) -> Pruner:
+    """Pruner by name (one of PRUNERS); ``shapes`` are the equation blocks' coefficient shapes (E, d_1..d_n)."""
+    return PRUNERS.lookup(name).build(shapes, lp_backend)
 
 
-def make_pruner(name: str, shapes: Sequence[tuple[int, ...]], lp_backend: str | None = None):
-    """Pruner by name; ``shapes`` are the equation blocks' coefficient shapes (E, d_1..d_n)."""
-    if name == "pp":
-        if lp_backend is not None:
-            raise ValueError("lp_backend: the 'pp' pruner solves no LP; pass lp_backend=None or pruner='lp'")
-        return ProjectedPolyhedron()
-    if name == "lp":
-        return LinearProgramPruner(shapes, lp_backend or "highs")
-    if name == "hybrid":
-        return HybridPruner(shapes, lp_backend or "highspy")
-    raise ValueError(f"pruner: expected one of {PRUNERS}, got {name!r} (LP backends: {sorted(LP_BACKENDS)})")
+def check_pruner(name: str, lp_backend: str | None = None) -> None:
+    """ValueError when the pruner or the LP backend named does not exist or do not fit together
+    (:func:`make_pruner` would fail the same way); builds nothing (no LP model is compiled)."""
+    PRUNERS.lookup(name).check(lp_backend)

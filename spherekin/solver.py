@@ -47,7 +47,7 @@ from .formulations import FORMULATIONS
 from .isolation import SquareSystem, krawczyk_boxes, newton
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
-from .pruners import PRUNERS, excludes_zero, make_pruner
+from .pruners import check_pruner, excludes_zero, make_pruner
 from .results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
 __all__ = ["solve_system", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
@@ -397,13 +397,12 @@ def _worker(args):
     return _run_group(*args)
 
 
-def check_strategy(formulation, pruner, parameterization, tol, jobs):
-    if formulation not in FORMULATIONS:
-        raise ValueError(f"formulation: expected one of {sorted(FORMULATIONS)}, got {formulation!r}")
-    if pruner not in PRUNERS:
-        raise ValueError(f"pruner: expected one of {PRUNERS}, got {pruner!r}")
-    if parameterization not in PARAMETERIZATIONS:
-        raise ValueError(f"parameterization: expected one of {sorted(PARAMETERIZATIONS)}, got {parameterization!r}")
+def check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs):
+    """ValueError naming the first strategy name or number that is not valid (names: from the
+    registries); builds nothing."""
+    FORMULATIONS.lookup(formulation)
+    check_pruner(pruner, lp_backend)
+    PARAMETERIZATIONS.lookup(parameterization)
     if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol: expected a positive number of radians, got {tol!r}")
     if tol > MAX_TOL:
@@ -450,14 +449,13 @@ def solve_system(
     metric units ``metric_width`` (B, N; radians for tan-half) and ``outcome`` (B,): an index
     into :data:`TRACE_OUTCOMES`.
     """
-    check_strategy(formulation, pruner, parameterization, tol, jobs)
+    check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs)
     if trace is not None and jobs != 1:
         raise ValueError(f"trace: only available with jobs=1, got jobs={jobs}")
     t0 = time.perf_counter()
     charts = make_charts(parameterization, build, ranges, formulation)
     shapes = [c.shape[1:] for c in charts.coeffs]
     spec = (pruner, shapes, lp_backend)
-    make_pruner(pruner, [sh for sh, p in zip(shapes, charts.prune) if p], lp_backend)  # validate names early
     t_setup = time.perf_counter() - t0
     if max_depth is None:
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)

@@ -1,0 +1,119 @@
+"""One registry by name per strategy family: every check, error and CLI choice reads from it."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+import spherekin
+from spherekin.cli import build_parser
+from spherekin.formulations import FORMULATIONS, Formulation, Halves
+from spherekin.lp_backends import LP_BACKENDS, LPBackend
+from spherekin.mechanism import gosselin
+from spherekin.parameterizations import PARAMETERIZATIONS, LoopParameterization
+from spherekin.problem import formulation_choices
+from spherekin.pruners import PRUNERS, ProjectedPolyhedron, Pruner
+from spherekin.registry import Registry
+
+from conftest import GOSSELIN_INPUTS
+
+FAMILIES = [(FORMULATIONS, Formulation, "formulation", ["paper", "transversal", "halves"]),
+            (PARAMETERIZATIONS, LoopParameterization, "parameterization", ["tan-half", "sin-cos"]),
+            (PRUNERS, Pruner, "pruner", ["pp", "lp", "hybrid"]),
+            (LP_BACKENDS, LPBackend, "lp_backend", ["clarabel", "highs", "highspy"])]
+
+
+@pytest.mark.parametrize("registry, base, family, names", FAMILIES)
+def test_each_family_registers_its_strategies_as_subclasses_of_one_base(registry, base, family, names):
+    assert list(registry) == names and registry.family == family
+    assert all(issubclass(cls, base) and cls.name == name for name, cls in registry.items())
+
+
+@pytest.mark.parametrize("keyword, family, names", [("formulation", "formulation", None),
+                                                     ("parameterization", "parameterization", PARAMETERIZATIONS),
+                                                     ("pruner", "pruner", PRUNERS),
+                                                     ("lp_backend", "lp_backend", LP_BACKENDS)])
+def test_an_unknown_name_is_one_error_listing_the_valid_ones(keyword, family, names):
+    kwargs = {keyword: "nonesuch"}
+    if keyword == "lp_backend":
+        kwargs["pruner"] = "lp"
+    with pytest.raises(ValueError) as err:
+        spherekin.compile(gosselin(), **kwargs)
+    text = str(err.value)
+    assert text.startswith(f"{family}: expected one of") and "'nonesuch'" in text
+    assert all(repr(n) in text for n in (names if names is not None else formulation_choices()))
+
+
+def _choices(parser: argparse.ArgumentParser, command: str, option: str) -> list:
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
+    return list(next(a for a in sub._actions if option in a.option_strings).choices)
+
+
+def test_the_command_line_choices_are_the_registries():
+    parser = build_parser()
+    assert _choices(parser, "solve", "--parameterization") == list(PARAMETERIZATIONS)
+    assert _choices(parser, "solve", "--pruner") == list(PRUNERS)
+    assert _choices(parser, "solve", "--lp-backend") == list(LP_BACKENDS)
+    assert _choices(parser, "solve", "--formulation") == ["auto", "platform", *FORMULATIONS]
+
+
+@pytest.fixture
+def registered():
+    """Register test strategies; remove them afterwards (the registries are left as found)."""
+    added = []
+
+    def add(registry: Registry, cls):
+        registry.register(cls)
+        added.append((registry, cls.name))
+        return cls
+
+    yield add
+    for registry, name in added:
+        registry.unregister(name)
+
+
+def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
+    class CountingPP(ProjectedPolyhedron):
+        name = "counting-pp"
+        calls = 0
+
+        def reduce(self, cps, tols, widths=None):
+            type(self).calls += 1
+            return super().reduce(cps, tols, widths)
+
+    class HalvesAgain(Halves):
+        name = "halves-again"
+
+    registered(PRUNERS, CountingPP)
+    registered(FORMULATIONS, HalvesAgain)
+    report = spherekin.solve(gosselin(), GOSSELIN_INPUTS, pruner="counting-pp", formulation="halves-again")
+    assert CountingPP.calls > 0 and report.settings.pruner == "counting-pp"
+    assert report.settings.formulation == "halves-again" and report.proven_count == 8 and report.count_exact
+    assert "counting-pp" in _choices(build_parser(), "solve", "--pruner")
+    assert "halves-again" in formulation_choices()
+
+
+def test_the_registries_are_left_as_found_by_the_fixture():
+    assert "counting-pp" not in PRUNERS and "halves-again" not in FORMULATIONS
+
+
+def test_registry_refuses_a_class_without_a_name_or_a_name_taken():
+    reg = Registry("thing")
+
+    class A:
+        name = "a"
+
+    class Nameless:
+        pass
+
+    reg.register(A)
+    with pytest.raises(ValueError, match="'a' is already registered"):
+        reg.register(type("B", (), {"name": "a"}))
+    with pytest.raises(ValueError, match="non-empty string attribute 'name'"):
+        reg.register(Nameless)
+    with pytest.raises(ValueError, match=r"thing: expected one of \['a'\], got 'b'"):
+        reg.lookup("b")
+    with pytest.raises(ValueError, match="thing: expected one of"):
+        reg.lookup(["unhashable"])
+    assert reg.unregister("a") is A and len(reg) == 0
