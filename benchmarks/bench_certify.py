@@ -15,7 +15,7 @@ The table gives, per configuration, the median over runs of the time per solutio
 the fastest run, the slowest single call (one-point configurations), and the ratio
 reference / configuration. Verdicts must agree. The last lines compare the cold fast
 configuration with two targets (reported, never enforced; they were assertions of
-tests/test_certify.py, moved here because a test must not fail on a loaded machine): the slowest
+tests/test_krawczyk.py, moved here because a test must not fail on a loaded machine): the slowest
 fast call under TARGET_SLOWEST_CALL, and the median ratio reference / fast at least
 TARGET_SPEEDUP. JSON goes to benchmarks/results/certify.json.
 
@@ -36,7 +36,7 @@ import mpmath
 import numpy as np
 
 from spherekin import intervals
-from spherekin.certify import certify, certify_many, certify_reference
+from spherekin.krawczyk import certify, certify_many, certify_reference
 from spherekin.mechanism import gosselin
 from spherekin.solutions import LOCAL_CHART
 from spherekin.problem import solve

@@ -51,6 +51,12 @@ __all__ = [
     "cos_sin_ball",
     "cos_sin",
     "rounding_environment_ok",
+    "add_unchecked",
+    "sub_unchecked",
+    "mul_unchecked",
+    "scale_unchecked",
+    "isum_unchecked",
+    "cos_sin_table_unchecked",
 ]
 
 #: Entries kept by the cache of :func:`point_cos_sin`. Reason: the constant angles of a
@@ -130,17 +136,17 @@ def neg(a) -> np.ndarray:
 
 def add(a, b) -> np.ndarray:
     """a + b = [lo_a + lo_b, hi_a + hi_b], outward-rounded."""
-    return _add(*_align(_as_interval("a", a), _as_interval("b", b)))
+    return add_unchecked(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def sub(a, b) -> np.ndarray:
     """a - b = [lo_a - hi_b, hi_a - lo_b], outward-rounded."""
-    return _sub(*_align(_as_interval("a", a), _as_interval("b", b)))
+    return sub_unchecked(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def mul(a, b) -> np.ndarray:
     """a * b = [min, max] of the four endpoint products, outward-rounded."""
-    return _mul(*_align(_as_interval("a", a), _as_interval("b", b)))
+    return mul_unchecked(*_align(_as_interval("a", a), _as_interval("b", b)))
 
 
 def scale(c, a) -> np.ndarray:
@@ -149,7 +155,7 @@ def scale(c, a) -> np.ndarray:
     a = _as_interval("a", a)
     if c.ndim > a.ndim - 1:
         a = a.reshape((2,) + (1,) * (c.ndim - a.ndim + 1) + a.shape[1:])
-    return _scale(c, a)
+    return scale_unchecked(c, a)
 
 
 def isum(a, axis: int = -1) -> np.ndarray:
@@ -157,7 +163,7 @@ def isum(a, axis: int = -1) -> np.ndarray:
     a = _as_interval("a", a)
     if not -(a.ndim - 1) <= axis < a.ndim - 1:
         raise ValueError(f"axis: expected an element axis in [{-(a.ndim - 1)}, {a.ndim - 1}), got {axis}")
-    return _isum(a, axis + 1 if axis >= 0 else a.ndim + axis)
+    return isum_unchecked(a, axis + 1 if axis >= 0 else a.ndim + axis)
 
 
 def sum_up(x, axis: int = -1) -> np.ndarray:
@@ -182,21 +188,25 @@ def sum_up(x, axis: int = -1) -> np.ndarray:
 
 
 # Kernels: the same operations without argument checks, on float64 interval arrays whose shapes
-# broadcast with the endpoint axis first (callers align them). Used by spherekin.certify.
+# broadcast with the endpoint axis first (callers align them); public for the hot loops of
+# spherekin.transversal, which check their arguments once per call, not once per operation.
 
 def _neg(a: np.ndarray) -> np.ndarray:
     return -a[::-1]
 
 
-def _add(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def add_unchecked(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`add` without argument checks."""
     return outward(a + b)
 
 
-def _sub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def sub_unchecked(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`sub` without argument checks."""
     return outward(a - b[::-1])
 
 
-def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def mul_unchecked(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`mul` without argument checks."""
     a0, a1 = a[0], a[1]
     b0, b1 = b[0], b[1]
     p, q, r, s = a0 * b0, a0 * b1, a1 * b0, a1 * b1
@@ -206,7 +216,8 @@ def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.nextafter(out, _directions(out.shape), out=out)
 
 
-def _scale(c: np.ndarray, a: np.ndarray) -> np.ndarray:
+def scale_unchecked(c: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """:func:`scale` without argument checks."""
     p, q = c * a[0], c * a[1]
     out = np.empty((2,) + p.shape)
     np.minimum(p, q, out=out[0])
@@ -214,7 +225,7 @@ def _scale(c: np.ndarray, a: np.ndarray) -> np.ndarray:
     return np.nextafter(out, _directions(out.shape), out=out)
 
 
-def _isum(a: np.ndarray, ax: int) -> np.ndarray:
+def isum_unchecked(a: np.ndarray, ax: int) -> np.ndarray:
     """Sum over array axis ``ax`` (>= 1) of the interval array a."""
     head = (slice(None),) * ax
     n = a.shape[ax]
@@ -235,7 +246,7 @@ def matmul(a, b) -> np.ndarray:
     if a.ndim < 3 or b.ndim < 3 or a.shape[-1] != b.shape[-2]:
         raise ValueError(f"a, b: expected interval matrices (2, ..., m, k) and (2, ..., k, n), got {a.shape} and {b.shape}")
     a, b = _align(a[..., :, :, None], b[..., None, :, :])
-    return _isum(_mul(a, b), a.ndim - 2)
+    return isum_unchecked(mul_unchecked(a, b), a.ndim - 2)
 
 
 def fmatmul(c, a) -> np.ndarray:
@@ -244,7 +255,7 @@ def fmatmul(c, a) -> np.ndarray:
     if c.ndim < 2 or a.ndim < 3 or c.shape[-1] != a.shape[-2]:
         raise ValueError(f"c, a: expected a float matrix (..., m, k) and an interval matrix (2, ..., k, n), got {c.shape} and {a.shape}")
     p = scale(c[..., :, :, None], a[..., None, :, :])
-    return _isum(p, p.ndim - 2)
+    return isum_unchecked(p, p.ndim - 2)
 
 
 def magnitude(a) -> np.ndarray:
@@ -280,10 +291,10 @@ def cos_sin_table(center, radius) -> np.ndarray:
         raise ValueError("center, radius: expected finite angles and radii (radians)")
     if not (radius >= 0).all():
         raise ValueError("radius: expected radii >= 0 (radians)")
-    return _cos_sin_table(center, radius)
+    return cos_sin_table_unchecked(center, radius)
 
 
-def _cos_sin_table(center: np.ndarray, radius: np.ndarray) -> np.ndarray:
+def cos_sin_table_unchecked(center: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """cos_sin_table without argument checks (center, radius: finite float arrays of one shape, radius >= 0)."""
     shape = center.shape
     # (2 endpoints, 2 functions (cos, sin), *shape): cos(a), sin(a) at the points

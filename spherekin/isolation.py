@@ -26,7 +26,7 @@ Departure from the paper: the paper subdivides every box down to the tolerance; 
 isolating box saves the tail of the subdivision (the paper's Section 5 asks for faster
 convergence). Rounding: F and J are widened by the absolute tolerance of each equation (the same
 rounding model as the pruners), and K by :data:`KRAWCZYK_MARGIN`; the rigorous certificate of each
-final solution is :mod:`spherekin.certify`, in outward-rounded interval arithmetic.
+final solution is :mod:`spherekin.krawczyk`, in outward-rounded interval arithmetic.
 """
 
 from __future__ import annotations

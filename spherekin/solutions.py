@@ -9,10 +9,10 @@ each cluster, :func:`finalize`
    and from up to :data:`MAX_SEEDS` of its member boxes, and keeps the distinct converged points
    that stay in the cluster (a point that polishing moves out of its cluster is the root of
    another cluster, or of none in the ranges: it is never reported as this cluster's root);
-2. certifies each point by the Krawczyk test (:mod:`spherekin.certify`) at radii below 0.4 times
+2. certifies each point by the Krawczyk test (:mod:`spherekin.krawczyk`) at radii below 0.4 times
    its distance to the nearest other point, so that distinct certified points are distinct roots;
 3. accounts for the whole cluster: a member box inside a certified box holds no other root; the
-   others go through Krawczyk tests on sub-boxes (:func:`spherekin.certify.krawczyk_many`): a box
+   others go through Krawczyk tests on sub-boxes (:func:`spherekin.krawczyk.krawczyk_many`): a box
    whose Krawczyk image misses it holds no root and is dropped, one whose image lies inside it
    holds exactly one (a known root, or a new one, polished and added), any other is bisected, up
    to :data:`MAX_RESOLVE_BOXES` boxes per cluster. Boxes left over make the count a lower bound.
@@ -47,7 +47,8 @@ import math
 import numpy as np
 
 from .angles import RANGE_TOL, in_range, into_range, wrap
-from .certify import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many, transversal_equations
+from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many
+from .transversal import transversal_equations
 from .polish import polish
 from .results import Cluster, Solution, Status
 
@@ -218,7 +219,7 @@ def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict
 
 def _certify_with_fallback(certify_fn, system, thetas, radii) -> list:
     """``certify_fn`` on the points ``thetas`` at the default angle tolerance, then, for each whose
-    K(X) was computed but not inside X, at the finer one (:data:`spherekin.certify.FINE_ANGLE_TOLERANCE`;
+    K(X) was computed but not inside X, at the finer one (:data:`spherekin.krawczyk.FINE_ANGLE_TOLERANCE`;
     the evidence records which); one result per point, in order."""
     if not len(thetas):
         return []
@@ -254,7 +255,7 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: :class:`~spherekin.results.Cluster` s of the
     box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
     ``certify(system, thetas, radii=..., angle_tolerance=...)``: the batch certification function,
-    one result per point (default :func:`spherekin.certify.certify_many`; the points of every
+    one result per point (default :func:`spherekin.krawczyk.certify_many`; the points of every
     cluster are certified together). ``refine(lo, hi, tol)``, optional: the clusters of a new
     search of the box [lo, hi] at a finer tolerance, as ``(clusters, finer_tol)``, or None when
     there is none; a cluster that cannot be resolved is replaced by the clusters of that search

@@ -14,7 +14,7 @@ import pytest
 
 from conftest import GOSSELIN_INPUTS, rot
 from spherekin import solve_system
-from spherekin.certify import certify as real_certify
+from spherekin.krawczyk import certify as real_certify
 from benchmarks import peers_closed_form as pcf
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.results import Cluster, Solution, Status

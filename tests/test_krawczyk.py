@@ -1,16 +1,11 @@
-"""Tests for spherekin.certify (Krawczyk test in outward-rounded interval arithmetic).
+"""Tests for spherekin.krawczyk (the Krawczyk test in outward-rounded interval arithmetic).
 
-Independent references used here:
-* exact roots from inverse kinematics (Paden-Kahan, spherekin.mechanism), not from any solver;
-* regularity and singularity from the mechanism's velocity model (mech.singularity, the passive
-  Jacobian K_p of mech.jacobians), whose singular values the transversal Jacobian must share at a
-  root (its rows are the loops' angular velocities in rotated frames);
-* a spherical five-bar whose two assembly modes are built by intersecting two circles on the
-  sphere (spherical trigonometry), so that the two roots in a box are known;
-* F from ClosureLoop.closure_matrix (numpy products of Rx(phi) Z in unit-box coordinates) and from a
-  40-digit mpmath product of the defining matrices; J from central finite differences of it;
-* the eight direct-kinematics roots of the Gosselin platform at the paper's inputs, found here by
-  least squares on the full closure residual F - I from many starts (no solver involved).
+Independent references (see tests/loop_system_cases.py): roots from inverse kinematics, not from
+any solver; regularity and singularity from the mechanism's velocity model (mech.singularity, the
+passive Jacobian K_p of mech.jacobians), whose singular values the transversal Jacobian must
+share at a root; a spherical five-bar whose two assembly modes are built by intersecting two
+circles on the sphere (spherical trigonometry), so that the two roots in a box are known; the
+eight Gosselin roots found by least squares from many starts.
 
 Two implementations are tested (``IMPLS``): the fast float-interval one and the mpmath reference.
 They must agree on every verdict; each must contain the exact values (never one checked against
@@ -22,183 +17,28 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-
-from mpmath import MPContext, mpf
-from scipy.optimize import brentq, least_squares
+from mpmath import mpf
+from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 from spherekin import intervals
-from spherekin.certify import _krawczyk_operator
-from spherekin.certify import (
-    ANGLE_TOLERANCE,
+from spherekin.krawczyk import (
     CERTIFY_RADII,
     KrawczykResult,
+    _krawczyk_operator,
     certify,
     certify_many,
     certify_reference,
-    enclose_transversal,
-    interval_transversal,
-    interval_transversal_reference,
     krawczyk,
     krawczyk_many,
     krawczyk_reference,
-    transversal_equations,
-    transversal_labels,
 )
-from spherekin.closure import Term
 from spherekin.mechanism import (Joint, Leg, LoopSystem, SphericalMechanism, five_bar, four_bar, general_3rrr,
                                  gosselin)
+from spherekin.transversal import (enclose_transversal, interval_transversal,
+                                   interval_transversal_reference, transversal_equations, transversal_labels)
 from conftest import rot
-
-#: Half-width (radians) of the passive ranges of the loop systems built around IK solutions.
-RANGE_HALF_WIDTH = 1.0
-#: A configuration counts as clearly regular when the smallest singular value of K_p exceeds this.
-REGULAR_MARGIN = 1e-3
-#: Float references (numpy matrix products) carry rounding of a few ulps of O(1) entries.
-FLOAT_REF_TOL = 1e-14
-#: Central difference step (radians) and its error bound (h^2 |F'''| / 6 + eps / h with |F'''| <= ~10).
-FD_STEP = 1e-6
-FD_TOL = 1e-8
-#: Widest point enclosure (tol = 0) of F allowed: ulp-level. The fast arithmetic rounds to
-#: nearest then widens one ulp (up to 1.5 ulp per operation, vs <= 1 for mpmath's directed
-#: rounding) and builds cos phi from cos/sin of the constant and of the unknown (3 more
-#: operations), so its enclosures are ~3x wider after the 12 factors of a general 3-RRR loop.
-POINT_WIDTH = {"fast": 5e-14, "reference": 1e-14}
-#: Inputs of the paper's Gosselin example and the number of its direct-kinematics solutions.
-GOSSELIN_INPUTS = (0.3, -0.2, 0.5)
-GOSSELIN_ROOTS = 8
-#: Least-squares starts tried to find the Gosselin roots (8 are found after ~30 with this seed).
-ROOT_STARTS = 200
-#: A least-squares end point is a root when every entry of F - I is below this (ulps of O(1) entries).
-ROOT_RESIDUAL = 1e-13
-#: Two roots are the same when their angles agree to this (radians, modulo 2 pi).
-ROOT_SEPARATION = 1e-7
-#: Step (at 50 digits) of the central differences giving the exact Jacobian: error ~h^2 ~1e-40.
-MP_FD_STEP = mpf("1e-20")
-
-IMPLS = {
-    "fast": dict(certify=certify, krawczyk=krawczyk, interval_transversal=interval_transversal),
-    "reference": dict(certify=certify_reference, krawczyk=krawczyk_reference,
-                      interval_transversal=interval_transversal_reference),
-}
-
-
-
-def system_at(mech, sol):
-    """LoopSystem at the IK solution's inputs with ranges (a - 1, a + 1) around its passive angles."""
-    ja = sol.joint_angles
-    return mech.loop_system(sol.inputs, {n: (ja[n] - RANGE_HALF_WIDTH, ja[n] + RANGE_HALF_WIDTH) for n in mech.passive})
-
-
-def theta_of(system, sol):
-    return np.array([sol.joint_angles[n] for n in system.names])
-
-
-def poses(mech_name, count, seed):
-    """Random poses: any rotation for the agile eye (it reaches all), small ones for the general 3-RRR."""
-    if mech_name == "gosselin":
-        return [Rotation.random(random_state=seed + k).as_matrix() for k in range(count)]
-    rng = np.random.default_rng(seed)
-    return [rot(rng.normal(size=3) * 0.3) for _ in range(count)]
-
-
-MECHS = {"gosselin": gosselin, "general_3rrr": general_3rrr}
-
-
-def reference_entries(system, theta):
-    """(f21, f31, f32) of every loop by ClosureLoop.closure_matrix (numpy route), shape (3 * loops,)."""
-    x = system.to_unit(dict(zip(system.names, theta)))
-    out = []
-    for loop, idx in zip(system.loops, system.loop_indices):
-        f = loop.closure_matrix(x[list(idx)])
-        out += [f[1, 0], f[2, 0], f[2, 1]]
-    return np.array(out)
-
-
-def mp_entries(system, theta, shifts=None, dps=40):
-    """(f21, f31, f32) of every loop as a dps-digit product of Rx(phi) Z (matrices from their definition).
-
-    ``shifts``: optional iterator of amounts added to each constant angle (known angle or term
-    offset), in factor order.
-    """
-    ctx = MPContext()
-    ctx.dps = dps
-    z = ctx.matrix([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    out = []
-    for loop, idx in zip(system.loops, system.loop_indices):
-        f = ctx.eye(3)
-        k = 0
-        for fac in loop.factors:
-            if isinstance(fac, Term):
-                const, var = ctx.mpf(fac.offset), fac.sign * ctx.mpf(theta[idx[k]])
-                k += 1
-            else:
-                const, var = ctx.mpf(fac), 0
-            if shifts is not None:
-                const += ctx.mpf(next(shifts))
-            phi = const + var
-            c, s = ctx.cos(phi), ctx.sin(phi)
-            f = f * ctx.matrix([[1, 0, 0], [0, c, -s], [0, s, c]]) * z
-        out += [f[1, 0], f[2, 0], f[2, 1]]
-    return out
-
-
-def mp_jacobian(system, theta, dps=50):
-    """Exact-to-~1e-40 Jacobian of the transversal entries: central differences of the dps-digit product."""
-    ctx = MPContext()
-    ctx.dps = dps
-    base = [ctx.mpf(float(v)) for v in theta]
-    cols = []
-    for k in range(len(base)):
-        plus, minus = list(base), list(base)
-        plus[k] += MP_FD_STEP
-        minus[k] -= MP_FD_STEP
-        fp, fm = mp_entries(system, plus, dps=dps), mp_entries(system, minus, dps=dps)
-        cols.append([(a - b) / (2 * MP_FD_STEP) for a, b in zip(fp, fm)])
-    return [[cols[k][e] for k in range(len(base))] for e in range(len(cols[0]))]
-
-
-def full_closure(system, theta):
-    """All entries of F_n - I of every loop (floats, straight from the definition of Eq. 2)."""
-    z = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-    out = []
-    for loop, idx in zip(system.loops, system.loop_indices):
-        f, k = np.eye(3), 0
-        for fac in loop.factors:
-            if isinstance(fac, Term):
-                phi = fac.offset + fac.sign * theta[idx[k]]
-                k += 1
-            else:
-                phi = fac
-            c, s = math.cos(phi), math.sin(phi)
-            f = f @ np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]) @ z
-        out.append((f - np.eye(3)).ravel())
-    return np.concatenate(out)
-
-
-@pytest.fixture(scope="module")
-def gosselin_roots():
-    """(system, roots): the direct-kinematics roots at GOSSELIN_INPUTS by least squares on F - I."""
-    mech = gosselin()
-    system = mech.loop_system(GOSSELIN_INPUTS, {n: (-1.0, 1.0) for n in mech.passive})
-    rng = np.random.default_rng(0)
-    roots = []
-    for _ in range(ROOT_STARTS):
-        fit = least_squares(lambda th: full_closure(system, th), rng.uniform(-math.pi, math.pi, 6),
-                            xtol=1e-15, ftol=1e-15, gtol=1e-15)
-        x = np.mod(fit.x + math.pi, 2 * math.pi) - math.pi
-        if np.abs(full_closure(system, x)).max() > ROOT_RESIDUAL:
-            continue
-        if not any(np.abs(np.mod(x - r + math.pi, 2 * math.pi) - math.pi).max() < ROOT_SEPARATION for r in roots):
-            roots.append(x)
-        if len(roots) == GOSSELIN_ROOTS:
-            break
-    return system, roots
-
-
-def contains(interval, value, slack=0.0) -> bool:
-    return mpf(interval.a) - slack <= value <= mpf(interval.b) + slack
-
+from loop_system_cases import (REGULAR_MARGIN, GOSSELIN_ROOTS, ROOT_SEPARATION, IMPLS, MECHS, system_at, theta_of, poses, mp_entries, gosselin_roots, contains)
 
 # ----------------------------------------------------------------------------- (1) regular roots
 
@@ -354,89 +194,12 @@ def test_box_with_two_solutions_is_not_certified():
 
 # ----------------------------------------------------------------------------- (3) enclosures
 
-@pytest.mark.parametrize("impl", sorted(IMPLS))
-@pytest.mark.parametrize("name", sorted(MECHS))
-def test_interval_f_and_j_enclose_float_values_in_a_box(name, impl):
-    enclose = IMPLS[impl]["interval_transversal"]
-    mech = MECHS[name]()
-    rng = np.random.default_rng(5)
-    sol = mech.inverse_kinematics(poses(name, 1, seed=21)[0])[1]
-    system = system_at(mech, sol)
-    # a box around a root and a box around an arbitrary point
-    for centre, radius in ((theta_of(system, sol), 1e-2), (theta_of(system, sol) + rng.uniform(-0.5, 0.5, 6), 5e-2)):
-        box = np.column_stack([centre - radius, centre + radius])
-        f_box, j_box = enclose(system, box)
-        for _ in range(20):
-            p = rng.uniform(box[:, 0] + FD_STEP, box[:, 1] - FD_STEP)
-            f_ref = reference_entries(system, p)
-            assert all(contains(iv_, v, FLOAT_REF_TOL) for iv_, v in zip(f_box, f_ref))
-            for k in range(len(p)):
-                step = np.zeros(len(p))
-                step[k] = FD_STEP
-                fd = (reference_entries(system, p + step) - reference_entries(system, p - step)) / (2 * FD_STEP)
-                assert all(contains(j_box[e, k], fd[e], FD_TOL) for e in range(len(fd))), (k, fd)
-        # the float routine agrees with the references too
-        f_float, j_float = transversal_equations(system, centre)
-        np.testing.assert_allclose(f_float, reference_entries(system, centre), atol=FLOAT_REF_TOL)
-        assert all(contains(j_box[e, k], j_float[e, k]) for e in range(6) for k in range(6))
 
 
-@pytest.mark.parametrize("name", sorted(MECHS))
-def test_fast_box_enclosures_contain_exact_values(name):
-    """Exact (40-50 digit) F and J at points of a box lie in the fast enclosures over the box, no slack."""
-    mech = MECHS[name]()
-    rng = np.random.default_rng(15)
-    sol = mech.inverse_kinematics(poses(name, 1, seed=22)[0])[3]
-    system = system_at(mech, sol)
-    centre, radius = theta_of(system, sol) + rng.uniform(-0.2, 0.2, 6), 1e-3
-    box = np.column_stack([centre - radius, centre + radius])
-    f_box, j_box = enclose_transversal(system, box)
-    for p in [box[:, 0], box[:, 1], centre] + [rng.uniform(box[:, 0], box[:, 1]) for _ in range(4)]:
-        for e, v in enumerate(mp_entries(system, p)):
-            assert mpf(f_box[0, e]) <= v <= mpf(f_box[1, e])
-        for e, row in enumerate(mp_jacobian(system, p)):
-            for k, v in enumerate(row):
-                assert mpf(j_box[0, e, k]) <= v <= mpf(j_box[1, e, k]), (e, k)
 
 
-@pytest.mark.parametrize("impl", sorted(IMPLS))
-@pytest.mark.parametrize("name", sorted(MECHS))
-def test_point_enclosure_contains_40_digit_value(name, impl):
-    """At a point (no angle tolerance) the interval is ulp-tight and contains the 40-digit value."""
-    enclose = IMPLS[impl]["interval_transversal"]
-    mech = MECHS[name]()
-    rng = np.random.default_rng(8)
-    sol = mech.inverse_kinematics(poses(name, 1, seed=31)[0])[6]
-    system = system_at(mech, sol)
-    for _ in range(5):
-        theta = theta_of(system, sol) + rng.uniform(-0.3, 0.3, 6)
-        f_pt, j_pt = enclose(system, np.column_stack([theta, theta]), angle_tolerance=0.0)
-        exact = mp_entries(system, theta)
-        for iv_, v in zip(f_pt, exact):
-            assert contains(iv_, v)
-            assert mpf(iv_.b) - mpf(iv_.a) < POINT_WIDTH[impl]
-        for row_iv, row in zip(j_pt, mp_jacobian(system, theta)):
-            assert all(contains(iv_, v) for iv_, v in zip(row_iv, row))
 
 
-@pytest.mark.parametrize("impl", sorted(IMPLS))
-def test_angle_tolerance_encloses_perturbed_constants(impl):
-    """With the default tolerance, F(y) encloses F of the system whose constant angles moved by < tol."""
-    enclose = IMPLS[impl]["interval_transversal"]
-    mech = general_3rrr()
-    sol = mech.inverse_kinematics(rot([0.2, 0.1, 0.0]))[4]
-    system = system_at(mech, sol)
-    theta = theta_of(system, sol)
-    n_const = sum(loop.n for loop in system.loops)
-    point = np.column_stack([theta, theta])
-    wide, _ = enclose(system, point, jacobian=False)
-    tight, _ = enclose(system, point, angle_tolerance=0.0, jacobian=False)
-    rng = np.random.default_rng(9)
-    for shift in (np.full(n_const, 0.9 * ANGLE_TOLERANCE), rng.uniform(-0.9, 0.9, n_const) * ANGLE_TOLERANCE):
-        moved = mp_entries(system, theta, shifts=iter(shift))
-        assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
-    moved = mp_entries(system, theta, shifts=iter(np.full(n_const, 0.9 * ANGLE_TOLERANCE)))
-    assert not all(contains(iv_, v) for iv_, v in zip(tight, moved))  # the tolerance is what covers them
 
 
 def _exact_interval_krawczyk(y, x_lo, x_hi, f_y, j_x, c):
@@ -483,26 +246,6 @@ def test_fast_krawczyk_operator_contains_the_exact_interval_evaluation():
                 assert Fraction(a) <= lo and hi <= Fraction(b)
 
 
-def test_enclose_transversal_batches_boxes_like_interval_transversal():
-    mech = gosselin()
-    sol = mech.inverse_kinematics(rot([0.1, 0.4, -0.3]))[2]
-    system = system_at(mech, sol)
-    theta = theta_of(system, sol)
-    boxes = np.stack([np.column_stack([theta - r, theta + r]) for r in (0.0, 1e-8, 1e-3, 0.3)])
-    f_all, j_all = enclose_transversal(system, boxes)
-    assert f_all.shape == (2, 4, 6) and j_all.shape == (2, 4, 6, 6)
-    assert np.all(f_all[0] <= f_all[1]) and np.all(j_all[0] <= j_all[1])
-    for k, box in enumerate(boxes):
-        f_iv, j_iv = interval_transversal(system, box)
-        f_one, j_one = enclose_transversal(system, box)
-        np.testing.assert_array_equal(f_one, f_all[:, k])
-        np.testing.assert_array_equal(j_one, j_all[:, k])
-        assert all(float(mpf(v.a)) == f_one[0, e] and float(mpf(v.b)) == f_one[1, e] for e, v in enumerate(f_iv))
-        assert all(float(mpf(j_iv[e, c].a)) == j_one[0, e, c] for e in range(6) for c in range(6))
-    f_only, j_none = enclose_transversal(system, boxes[1], jacobian=False)
-    assert j_none is None and f_only.shape == (2, 6)
-    widths = f_all[1] - f_all[0]
-    assert np.all(np.diff(widths.max(axis=-1)) > 0)  # larger boxes, wider enclosures
 
 
 # ----------------------------------------------------------------------------- (4) singular points
