@@ -135,10 +135,22 @@ def _solve(args) -> int:
 
 
 def _verify(args) -> int:
-    from verification import main as verify_main  # sympy-heavy: imported only for this command
+    """Run ``python -m verification`` of the source checkout this package lives in.
 
+    The verification (sympy, an independent geometric model) is not part of the package: it checks
+    the paper and the package from outside. So the package never imports it; this command runs it
+    as its own process when the checkout has it, and says where it lives otherwise.
+    """
+    import subprocess
+
+    root = Path(__file__).resolve().parent.parent
+    if not (root / "verification" / "__main__.py").is_file():
+        print("spherekin: error: 'spherekin verify' runs the verification/ directory of a source checkout of "
+              f"spherekin, and there is none next to this installation ({root}); clone the repository and run "
+              "'make verify' (or 'python -m verification') there", file=sys.stderr)
+        return 2
     argv = (["--quick"] if args.quick else []) + (["--report", args.report] if args.report else [])
-    return verify_main(argv)
+    return subprocess.run([sys.executable, "-m", "verification", *argv], cwd=root).returncode
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -47,6 +47,7 @@ from .rotations import normalized_closure
 
 __all__ = [
     "KNOWN_ANGLE_SNAP",
+    "snapped_cos_sin",
     "Unknown",
     "Term",
     "FactorPolynomials",
@@ -84,7 +85,7 @@ def _finite_float(name: str, value) -> float:
     return out
 
 
-def _cos_sin(angle: float) -> tuple[float, float]:
+def snapped_cos_sin(angle: float) -> tuple[float, float]:
     """cos and sin of a known angle, with values within KNOWN_ANGLE_SNAP of 0 made exact."""
     c, s = math.cos(angle), math.sin(angle)
     if abs(c) < KNOWN_ANGLE_SNAP:
@@ -208,7 +209,7 @@ class Term(_AngleArithmetic):
 
     def factor_polynomials(self) -> "FactorPolynomials":
         """Factor polynomials of this term over the unknown's range (see :func:`variable_factor`)."""
-        cos_d, sin_d = _cos_sin(self.offset + self.sign * self.unknown.shift)
+        cos_d, sin_d = snapped_cos_sin(self.offset + self.sign * self.unknown.shift)
         t_lo, t_hi = self.unknown.t_range
         return variable_factor(t_lo, t_hi, cos_d, sin_d, self.sign)
 
@@ -449,7 +450,7 @@ class ClosureLoop:
         return tuple(u.name for u in self.unknowns)
 
     def factor_polynomials(self) -> list[FactorPolynomials]:
-        return [f.factor_polynomials() if isinstance(f, Term) else known_factor(*_cos_sin(f))
+        return [f.factor_polynomials() if isinstance(f, Term) else known_factor(*snapped_cos_sin(f))
                 for f in self.factors]
 
     def matrix_control_points(self) -> np.ndarray:

@@ -31,7 +31,7 @@ from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
-from .closure import ClosureLoop, Term, Unknown, _cos_sin
+from .closure import ClosureLoop, Term, Unknown, snapped_cos_sin
 from .formulations import EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
 
@@ -155,7 +155,7 @@ def _sin_cos_factor(term: Term, cbox, sbox) -> np.ndarray:
     cos(phi) = cos(o) c - sign sin(o) s and sin(phi) = sin(o) c + sign cos(o) s are affine in
     (c, s), so Rx(phi) Z is multilinear and its degree-(1, 1) control points are its corner values.
     """
-    co, so = _cos_sin(term.offset)
+    co, so = snapped_cos_sin(term.offset)
     c = np.array(cbox, dtype=float)[:, None]
     s = np.array(sbox, dtype=float)[None, :]
     cp = co * c - term.sign * so * s
@@ -179,7 +179,7 @@ def _sin_cos_product(factors, names, boxes):
             variables += [2 * k, 2 * k + 1]
             prod = prod[..., None, None, :, :] @ _sin_cos_factor(f, *boxes[f.unknown.name])
         else:
-            c, s = _cos_sin(f)
+            c, s = snapped_cos_sin(f)
             prod = prod @ np.array([[0.0, -1.0, 0.0], [c, 0.0, -s], [s, 0.0, c]])
     return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0), variables
 

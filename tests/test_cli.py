@@ -116,3 +116,25 @@ def test_the_console_entry_flushes_its_output_before_the_fast_exit(tmp_path, ent
     bad = subprocess.run([sys.executable, *entry, "solve", GOSSELIN, "--inputs", "0.3,-0.2"],
                          capture_output=True, text=True, cwd=root, timeout=120, env=env)
     assert bad.returncode == 2 and "expected 3 values" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_verify_runs_the_checkouts_verification_as_its_own_process(tmp_path, capfd):
+    """spherekin verify runs python -m verification of this checkout (the package never imports it)."""
+    report = tmp_path / "REPORT.md"
+    assert main(["verify", "--quick", "--report", str(report)]) == 0
+    assert "report written to" in capfd.readouterr().out
+    assert "ERRATUM" in report.read_text()
+
+
+def test_verify_without_a_checkout_says_where_the_verification_lives(tmp_path):
+    """An installation with no verification/ beside it: one clear message, exit 2, no traceback."""
+    import shutil
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    shutil.copytree(root / "spherekin", tmp_path / "spherekin", ignore=shutil.ignore_patterns("__pycache__"))
+    proc = subprocess.run([sys.executable, "-c", "import sys; from spherekin.cli import main; sys.exit(main(['verify']))"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "source checkout" in proc.stderr and "make verify" in proc.stderr

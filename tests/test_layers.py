@@ -1,0 +1,122 @@
+"""The package's layers, read from its source: lower layers never import higher ones, no cycles.
+
+Every ``import`` of a spherekin module is collected with ``ast`` (module level and inside
+functions). Layers, lowest first (README's tour):
+
+core -> closure equations -> mechanism model -> hand-over types (results) -> solve -> trust ->
+pipeline -> interfaces.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "spherekin"
+
+LAYERS = [
+    ("core", {"angles", "rotations", "bernstein", "intervals", "trig_enclosure", "registry"}),
+    ("closure equations", {"closure", "paper_gosselin"}),
+    ("mechanism model", {"mechanism"}),
+    ("hand-over types", {"results"}),
+    ("solve", {"parameterizations", "formulations", "platform_orientation", "pruners", "lp_backends", "isolation",
+               "solver"}),
+    ("trust", {"polish", "transversal", "krawczyk", "solutions"}),
+    ("pipeline", {"problem"}),
+    ("interfaces", {"cli", "plot", "__main__"}),
+]
+LEVEL = {name: k for k, (_, names) in enumerate(LAYERS) for name in names}
+
+
+def unit_of(module: str) -> str:
+    """The layer unit of a dotted module name inside the package: 'mechanism' for spherekin.mechanism.*."""
+    return module.split(".")[1] if module.count(".") else module
+
+
+def modules() -> dict[str, Path]:
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE.parent).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def imports(module: str, path: Path):
+    """(target module, imported names, at module level?) for every import of a spherekin module."""
+    tree = ast.parse(path.read_text())
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    top_level = {id(node) for node in tree.body}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            names = [a.name for a in node.names]
+            if not node.module and node.level:        # from . import x: the modules x
+                for n in names:
+                    yield f"{target}.{n}", [], id(node) in top_level
+                continue
+            yield target, names, id(node) in top_level
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name, [], id(node) in top_level
+
+
+ALL = modules()
+
+
+def test_every_module_has_a_layer():
+    units = {unit_of(m) for m in ALL if m != "spherekin"}
+    assert units <= set(LEVEL), f"modules without a layer in this test: {sorted(units - set(LEVEL))}"
+
+
+@pytest.mark.parametrize("module", sorted(ALL))
+def test_the_package_never_imports_the_verification(module):
+    assert not any(t == "verification" or t.startswith("verification.") for t, _, _ in imports(module, ALL[module]))
+
+
+@pytest.mark.parametrize("module", sorted(ALL))
+def test_no_private_name_is_imported_from_another_module(module):
+    for target, names, _ in imports(module, ALL[module]):
+        if target.startswith("spherekin") and target != module:
+            private = [n for n in names if n.startswith("_") and not n.startswith("__")]
+            assert not private, f"{module} imports private {private} from {target}"
+
+
+@pytest.mark.parametrize("module", sorted(m for m in ALL if m != "spherekin"))
+def test_lower_layers_never_import_higher_ones(module):
+    here = LEVEL[unit_of(module)]
+    for target, names, _ in imports(module, ALL[module]):
+        if target == "spherekin.__version__":
+            continue                                     # the version string, from the package root
+        if not target.startswith("spherekin."):
+            continue
+        there = LEVEL.get(unit_of(target))
+        assert there is not None and there <= here, (
+            f"{module} ({LAYERS[here][0]}) imports {target} ({LAYERS[there][0] if there is not None else '?'})")
+
+
+def test_the_module_level_import_graph_has_no_cycle():
+    graph = {m: {t for t, _, top in imports(m, ALL[m]) if top and t in ALL and t != m} for m in ALL}
+    state: dict[str, int] = {}
+
+    def visit(m, stack):
+        state[m] = 1
+        for t in graph[m]:
+            if state.get(t) == 1:
+                pytest.fail("import cycle: " + " -> ".join(stack + [m, t]))
+            if t not in state:
+                visit(t, stack + [m])
+        state[m] = 2
+
+    for m in graph:
+        if m not in state:
+            visit(m, [])
