@@ -36,7 +36,7 @@ import numpy as np
 from .closure import ClosureLoop, Unknown
 from .registry import Registry
 
-__all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "Formulation", "FORMULATIONS", "Paper", "Transversal", "Halves",
+__all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "ChartBilinear", "Formulation", "FORMULATIONS", "Paper", "Transversal", "Halves",
            "TRANSVERSAL_ENTRIES", "formulate",
            "formulate_polynomials", "embed", "embed_axes"]
 
@@ -149,6 +149,67 @@ class Bilinear:
         out = np.zeros(self.n_equations)
         np.add.at(out, e, np.abs(self.terms[:, 3]) * amax[u] * bmax[v])
         return out
+
+
+@dataclass(frozen=True)
+class ChartBilinear:
+    """The :class:`Bilinear` form of one block on every chart, laid out for the box loop.
+
+    ``a`` (U, *dims_a, C) and ``b`` (V, *dims_b, C): each chart's halves, chart axis last (the box
+    loop takes the charts of a batch of boxes with ``np.take(..., axis=-1)``); ``sums[e]``: the
+    (u, v, coef) terms of equation e; ``shape``: (E, d_1..d_N) of the dense block it stands for.
+    Built by :meth:`stack`; :meth:`assemble` is the fast form of :meth:`Bilinear.assemble` (its
+    reference), tested against it.
+    """
+
+    a_vars: tuple[int, ...]
+    b_vars: tuple[int, ...]
+    a: np.ndarray
+    b: np.ndarray
+    sums: tuple
+    shape: tuple[int, ...]
+
+    @classmethod
+    def stack(cls, forms: Sequence[Bilinear], n_vars: int) -> "ChartBilinear":
+        """One chart's Bilinear per entry of ``forms`` (the same terms and variables on each)."""
+        f0 = forms[0]
+        e, u, v = (f0.terms[:, i].astype(int) for i in range(3))
+        # per equation, its terms: a sparse sum, not a dense matrix product (a BLAS call of this
+        # size costs more in threading than the ~3 terms per equation need)
+        sums = tuple(tuple((int(u[t]), int(v[t]), float(f0.terms[t, 3])) for t in np.flatnonzero(e == k))
+                     for k in range(f0.n_equations))
+        shape = [f0.n_equations] + [1] * n_vars
+        for var, d in zip(f0.a_vars + f0.b_vars, f0.a.shape[1:] + f0.b.shape[1:]):
+            shape[1 + var] = d
+        return cls(tuple(f0.a_vars), tuple(f0.b_vars), np.ascontiguousarray(np.stack([f.a for f in forms], axis=-1)),
+                   np.ascontiguousarray(np.stack([f.b for f in forms], axis=-1)), sums, tuple(shape))
+
+    def assemble(self, ra: np.ndarray, rb: np.ndarray) -> np.ndarray:
+        """Control points (E, d_1..d_N, B) from the halves restricted to B boxes, ra (U, *dims_a, B)
+        and rb (V, *dims_b, B): the equations' sparse sums of outer products, reordered to the
+        global variables (axes of variables in neither half have length 1)."""
+        nb = ra.shape[-1]
+        da, db = ra.shape[1:-1], rb.shape[1:-1]
+        af = ra.reshape(ra.shape[0], -1, 1, nb)
+        bf = rb.reshape(rb.shape[0], 1, -1, nb)
+        full = np.empty((len(self.sums), af.shape[1], bf.shape[2], nb))
+        for k, terms in enumerate(self.sums):
+            out = full[k]
+            (u0, v0, c0), rest = terms[0], terms[1:]
+            np.multiply(af[u0], bf[v0], out=out)
+            if c0 != 1.0:
+                out *= c0
+            for u1, v1, c1 in rest:
+                if c1 == 1.0:
+                    out += af[u1] * bf[v1]
+                elif c1 == -1.0:
+                    out -= af[u1] * bf[v1]
+                else:
+                    out += c1 * (af[u1] * bf[v1])
+        full = full.reshape((len(self.sums),) + da + db + (nb,))
+        lv = list(self.a_vars) + list(self.b_vars)
+        perm = (0,) + tuple(1 + int(i) for i in np.argsort(lv)) + (1 + len(lv),)
+        return np.ascontiguousarray(np.transpose(full, perm)).reshape(self.shape + (nb,))
 
 
 #: Rows of a loop half: the entry (r, c) of q P (or q S) is row 3 r + c; the denominator is row Q.

@@ -32,7 +32,7 @@ from typing import ClassVar, Mapping, Sequence
 import numpy as np
 
 from .closure import ClosureLoop, Term, Unknown, snapped_cos_sin
-from .formulations import EquationBlock, LoopPolynomials, formulate_polynomials
+from .formulations import ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
 
 __all__ = [
@@ -274,9 +274,9 @@ class ChartSet:
     * ``map_lo``, ``map_hi`` (C, N): each variable's metric coordinate (radians for tan-half, c or s
       for sin-cos) is a monotone function of its unit coordinate x between these values;
     * ``accept_width``: a box is accepted when every metric side is below ``tol * accept_width``;
-    * ``bilinear[b]``: None, or (a_vars, b_vars, a (C, U, *dims_a), b (C, V, *dims_b), terms) when
-      block b is the bilinear form of a loop's halves on every chart
-      (:class:`spherekin.formulations.Bilinear`): the solver then restricts the halves, not ``coeffs``;
+    * ``bilinear[b]``: None, or the :class:`spherekin.formulations.ChartBilinear` of block b when it
+      is the bilinear form of a loop's halves on every chart: the box loop then restricts the
+      halves and assembles them, not ``coeffs``;
     * ``prune[b]``: whether the pruners use block b (else only the Krawczyk test does).
     """
 
@@ -372,15 +372,11 @@ def _stack_blocks(per_chart: list[list[EquationBlock]]):
     tols = [ROUNDING_SAFETY * eps * np.stack([bl[b].scale for bl in per_chart]) for b in range(nb)]
     labels = [bl.labels for bl in per_chart[0]]
     square = [bl.square for bl in per_chart[0]]
+    n_vars = per_chart[0][0].coeffs.ndim - 1
     bilinear = []
     for b in range(nb):
         forms = [bl[b].bilinear for bl in per_chart]
-        if any(f is None for f in forms):
-            bilinear.append(None)
-            continue
-        f0 = forms[0]
-        bilinear.append((f0.a_vars, f0.b_vars, np.stack([f.a for f in forms]), np.stack([f.b for f in forms]),
-                         f0.terms))
+        bilinear.append(None if any(f is None for f in forms) else ChartBilinear.stack(forms, n_vars))
     prune = [bl.prune for bl in per_chart[0]]
     return coeffs, tols, labels, square, bilinear, prune
 

@@ -43,7 +43,7 @@ import numpy as np
 from . import bernstein
 from .angles import RANGE_TOL, in_range
 from .closure import ClosureLoop, Unknown
-from .formulations import FORMULATIONS
+from .formulations import FORMULATIONS, ChartBilinear
 from .isolation import SquareSystem, krawczyk_boxes, newton
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
@@ -115,29 +115,13 @@ _COUNTERS = ("boxes_processed", "discarded", "split", "reduced_again", "accepted
 
 
 class _Layout:
-    """Chart-last copies of the blocks (dense coefficients, or the halves of bilinear blocks)."""
+    """Chart-last copies of the dense blocks; the bilinear blocks (already chart-last) as they are."""
 
     def __init__(self, charts: ChartSet, dense: bool = False):
-        n = len(charts.variables)
         self.blocks = []
         for b, c in enumerate(charts.coeffs):
             bil = None if dense or charts.bilinear is None else charts.bilinear[b]
-            if bil is None:
-                self.blocks.append(("dense", np.ascontiguousarray(np.moveaxis(c, 0, -1))))
-                continue
-            a_vars, b_vars, a, bb, terms = bil
-            lv = list(a_vars) + list(b_vars)
-            e, u, v = (terms[:, i].astype(int) for i in range(3))
-            # per equation, its terms (u, v, coef): a sparse sum, not a dense matrix product (a BLAS
-            # call of this size costs more in threading than the ~3 terms per equation need)
-            sums = [[(int(u[t]), int(v[t]), float(terms[t, 3])) for t in np.flatnonzero(e == k)]
-                    for k in range(c.shape[1])]
-            shape = [c.shape[1]] + [1] * n
-            for var in lv:
-                shape[1 + var] = c.shape[2 + var]
-            perm = (0,) + tuple(1 + int(i) for i in np.argsort(lv)) + (1 + len(lv),)
-            self.blocks.append(("bilinear", (list(a_vars), list(b_vars), np.ascontiguousarray(np.moveaxis(a, 0, -1)),
-                                             np.ascontiguousarray(np.moveaxis(bb, 0, -1)), sums, perm, shape)))
+            self.blocks.append(np.ascontiguousarray(np.moveaxis(c, 0, -1)) if bil is None else bil)
 
 
 def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi, which=None, cache=None):
@@ -145,41 +129,21 @@ def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi, which=None, cach
     (batch last), and their tolerances; None for the blocks not asked for.
 
     Dense blocks are restricted as they are; a bilinear block restricts its two halves and
-    assembles the products (:class:`spherekin.formulations.Bilinear`), ~20x fewer operations.
-    ``cache`` shares restriction matrices between calls on the same boxes.
+    assembles the products (:meth:`spherekin.formulations.ChartBilinear.assemble`), ~20x fewer
+    operations. ``cache`` shares restriction matrices between calls on the same boxes.
     """
     cache = {} if cache is None else cache
     cps = []
-    nb = len(chart)
-    for b, (kind, data) in enumerate(layout.blocks):
+    for b, block in enumerate(layout.blocks):
         if which is not None and b not in which:
             cps.append(None)
-            continue
-        if kind == "dense":
-            cps.append(bernstein.restrict_batch_last(np.take(data, chart, axis=-1), lo, hi, cache))
-            continue
-        a_vars, b_vars, a, b, sums, perm, shape = data
-        ra = bernstein.restrict_batch_last(np.take(a, chart, axis=-1), lo[:, a_vars], hi[:, a_vars], cache, a_vars)
-        rb = bernstein.restrict_batch_last(np.take(b, chart, axis=-1), lo[:, b_vars], hi[:, b_vars], cache, b_vars)
-        da, db = ra.shape[1:-1], rb.shape[1:-1]
-        af = ra.reshape(ra.shape[0], -1, 1, nb)
-        bf = rb.reshape(rb.shape[0], 1, -1, nb)
-        full = np.empty((len(sums), af.shape[1], bf.shape[2], nb))
-        for k, terms in enumerate(sums):
-            out = full[k]
-            (u0, v0, c0), rest = terms[0], terms[1:]
-            np.multiply(af[u0], bf[v0], out=out)
-            if c0 != 1.0:
-                out *= c0
-            for u1, v1, c1 in rest:
-                if c1 == 1.0:
-                    out += af[u1] * bf[v1]
-                elif c1 == -1.0:
-                    out -= af[u1] * bf[v1]
-                else:
-                    out += c1 * (af[u1] * bf[v1])
-        full = full.reshape((len(sums),) + da + db + (nb,))
-        cps.append(np.ascontiguousarray(np.transpose(full, perm)).reshape(shape + [nb]))
+        elif isinstance(block, ChartBilinear):
+            av, bv = list(block.a_vars), list(block.b_vars)
+            ra = bernstein.restrict_batch_last(np.take(block.a, chart, axis=-1), lo[:, av], hi[:, av], cache, av)
+            rb = bernstein.restrict_batch_last(np.take(block.b, chart, axis=-1), lo[:, bv], hi[:, bv], cache, bv)
+            cps.append(block.assemble(ra, rb))
+        else:
+            cps.append(bernstein.restrict_batch_last(np.take(block, chart, axis=-1), lo, hi, cache))
     tols = [None if c is None else t[chart].T for c, t in zip(cps, charts.tols)]
     return cps, tols
 

@@ -13,6 +13,7 @@
   their bilinear form (what the solver restricts) equals the dense block at random points.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,7 +21,7 @@ import pytest
 
 from spherekin import bernstein
 from spherekin.closure import ClosureLoop, Unknown
-from spherekin.formulations import FORMULATIONS, embed, formulate
+from spherekin.formulations import FORMULATIONS, ChartBilinear, embed, formulate
 from spherekin.rotations import normalize_polygon, normalized_closure
 from verification.spherical import exterior_angles, random_polygon, side_lengths
 from conftest import wrap
@@ -258,6 +259,34 @@ def test_bilinear_form_equals_the_dense_blocks(formulation):
         assembled = np.zeros_like(dense)
         np.add.at(assembled, e, bil.terms[:, 3, None] * ta[u] * tb[v])
         np.testing.assert_allclose(assembled, dense, atol=1e-12 * block.scale.max())
+
+
+@pytest.mark.parametrize("formulation", ["transversal", "halves"])
+def test_chart_bilinear_assembly_equals_the_reference_assembly_on_sub_boxes(formulation):
+    """ChartBilinear.assemble (the box loop's sparse sums, reordered to the global variables) equals
+    Bilinear.assemble (the dense reference) on halves restricted to random boxes of several charts."""
+    rng = np.random.default_rng(21)
+    loops, unknowns, _ = closed_two_loops(4)
+    n = len(unknowns)
+    for block in formulate(formulation, loops, unknowns):
+        bil = block.bilinear
+        # three "charts": the form and two copies with perturbed halves (same terms and variables)
+        forms = [bil] + [dataclasses.replace(bil, a=bil.a * rng.uniform(0.5, 2.0, bil.a.shape),
+                                             b=bil.b + rng.normal(0, 0.1, bil.b.shape)) for _ in range(2)]
+        stacked = ChartBilinear.stack(forms, n)
+        chart = np.array([0, 2, 1, 2, 0])
+        lo = rng.uniform(0.0, 0.5, (len(chart), n))
+        hi = lo + rng.uniform(0.05, 0.5, (len(chart), n))
+        av, bv = list(bil.a_vars), list(bil.b_vars)
+        ra = bernstein.restrict_batch_last(np.take(stacked.a, chart, axis=-1), lo[:, av], hi[:, av])
+        rb = bernstein.restrict_batch_last(np.take(stacked.b, chart, axis=-1), lo[:, bv], hi[:, bv])
+        fast = stacked.assemble(ra, rb)
+        assert fast.shape == block.coeffs.shape + (len(chart),)
+        for k, c in enumerate(chart):
+            ref = forms[c].assemble(ra[..., k], rb[..., k])             # (E, *dims_a, *dims_b)
+            lv = av + bv
+            ref = np.transpose(ref, (0,) + tuple(1 + int(i) for i in np.argsort(lv))).reshape(block.coeffs.shape)
+            np.testing.assert_allclose(fast[..., k], ref, rtol=1e-13, atol=1e-13 * np.abs(ref).max())
 
 
 def central_jacobian(fun, x, h=FD_STEP):
