@@ -29,7 +29,7 @@ INPUTS = (0.3, -0.2, 0.5)
 
 
 def mechanism_build(mech):
-    names = mech.loop_system(INPUTS, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
 
     def build(chart):
         system = mech.loop_system(INPUTS, chart)
@@ -308,7 +308,7 @@ def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
     from scipy.spatial.transform import Rotation
 
     mech = gosselin()
-    names = mech.loop_system((0.3, -0.2, 0.5), {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     ranges = {n: mech.ranges[n] for n in names}
 
     def build(chart):

@@ -23,7 +23,7 @@ from spherekin.solutions import STATUSES, count_summary, finalize, is_proven
 
 def clusters_of(mech, inputs, **kw):
     """(names, clusters) of the box loop of solve_system, before finalize."""
-    names = mech.loop_system(inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
 
     def build(chart):
         system = mech.loop_system(inputs, chart)

@@ -128,7 +128,7 @@ def regular_root():
     mech = gosselin()
     ik = mech.inverse_kinematics(REGULAR_POSE)[0]
     assert mech.singularity(ik.joint_angles).kind == "regular"
-    names = mech.loop_system(ik.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     return ik.inputs, {n: ik.joint_angles[n] for n in names}
 
 
