@@ -70,7 +70,7 @@ def _system(problem: dict, seed: int):
     make, max_angle = MECHANISMS[problem["mechanism"]]
     mech = make()
     case = random_cases(mech, np.random.default_rng(seed), 1, max_angle)[0]
-    names = mech.loop_system(case.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     w = problem["half_width"]
     ranges = {n: (mech.ranges[n] if w is None else (case.joints[n] - w, case.joints[n] + w)) for n in names}
 

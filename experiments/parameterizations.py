@@ -59,7 +59,7 @@ PI_DRAWS = 200
 
 def chart_summary(mech, inputs, parameterization: str, formulation: str = DEFAULT_FORMULATION) -> dict:
     """Charts and control points of the equation blocks that spherekin builds (no solve)."""
-    names = mech.loop_system(inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     ranges = {n: mech.ranges[n] for n in names}
 
     def build(chart):

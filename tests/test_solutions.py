@@ -117,7 +117,7 @@ def test_clusters_polishing_to_one_root_give_one_solution():
     mech = general_3rrr()
     ik = mech.inverse_kinematics(rot([0.1, 0.2, -0.1]))[0]
     assert mech.singularity(ik.joint_angles).kind == "regular"
-    names = mech.loop_system(ik.inputs, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     root = np.array([ik.joint_angles[n] for n in names])
     sols = finalize(mech, ik.inputs, names, [_cluster_at(root), _cluster_at(root - 1e-6)], 1e-6)
     assert len(sols) == 1 and sols[0].status == "certified"
@@ -128,7 +128,7 @@ def test_distinct_roots_stay_distinct():
     """Two regular roots of the Gosselin platform at the same inputs, from the closed-form solver
     (benchmarks/peers_closed_form.py) and inverse kinematics: two certified solutions, each at its own root."""
     mech = gosselin()
-    names = mech.loop_system(GOSSELIN_INPUTS, {n: (-1.0, 1.0) for n in mech.passive}).names
+    names = mech.loop_unknowns
     roots = [np.array([m.joint_angles[n] for n in names])
              for pose in pcf.direct_kinematics(pcf.geometry_of(mech), GOSSELIN_INPUTS)
              for m in mech.inverse_kinematics(pose)
