@@ -52,6 +52,8 @@ figures: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.bench_solve
 	$(BIN)/python -m benchmarks.bench_certify
+	$(BIN)/python -m benchmarks.bench_many
+	$(BIN)/python -m benchmarks.bench_process
 
 bench-peers: $(STAMP)
 	@command -v phc >/dev/null || { echo "phc not found: installing PHCpack (Debian package phcpack)"; \
