@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spherekin import bernstein
+from spherekin.core import bernstein
 from spherekin.paper_gosselin import paper_gosselin_loops
 
 

@@ -1,8 +1,8 @@
 """Benchmark of certification: the Krawczyk test per Gosselin solution, fast float intervals vs mpmath.
 
-The solutions are those of ``spherekin.solver.solve`` on the Gosselin platform at inputs
+The solutions are those of ``spherekin.search.boxloop.solve`` on the Gosselin platform at inputs
 (0.3, -0.2, 0.5) rad (8 solutions), each certified on the loop system that
-``spherekin.solutions.finalize`` builds for it (a chart of half-width LOCAL_CHART around it).
+``spherekin.trust.solutions.finalize`` builds for it (a chart of half-width LOCAL_CHART around it).
 All in one process, ``--repeats`` runs (>= 5) of each configuration:
 
   * reference: ``certify_reference`` (mpmath ``iv`` for every operation), one call per solution;
@@ -35,10 +35,10 @@ from pathlib import Path
 import mpmath
 import numpy as np
 
-from spherekin import intervals
-from spherekin.krawczyk import certify, certify_many, certify_reference
+from spherekin.core import intervals
+from spherekin.trust.krawczyk import certify, certify_many, certify_reference
 from spherekin.mechanism import gosselin
-from spherekin.solutions import LOCAL_CHART
+from spherekin.trust.solutions import LOCAL_CHART
 from spherekin.problem import solve
 
 INPUTS = (0.3, -0.2, 0.5)

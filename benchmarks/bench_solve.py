@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.mechanism import gosselin
-from spherekin.solver import SolverLimitError, solve_system
+from spherekin.search.boxloop import SolverLimitError, solve_system
 from spherekin.problem import solve
 from spherekin.results import SolveReport
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from benchmarks.reference_roots import reference_roots, singular_input
 from spherekin import solve
-from spherekin.solutions import is_proven
+from spherekin.trust.solutions import is_proven
 
 __all__ = ["MATCH", "FLAG_ALLOWED_WITHIN", "judge", "random_segment"]
 

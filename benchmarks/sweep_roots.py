@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.mechanism import gosselin, three_rrr
-from spherekin.solver import DEFAULT_PARAMETERIZATION, SolverLimitError
+from spherekin.search.boxloop import DEFAULT_PARAMETERIZATION, SolverLimitError
 from spherekin.problem import solve
 
 #: A solution matches the pose when every entry of its rotation is this close to R0's: polished

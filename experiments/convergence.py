@@ -45,8 +45,8 @@ from experiments import _common
 from experiments.reproduction import INPUTS, angle_gap, with_ranges
 
 from spherekin.mechanism import gosselin  # noqa: E402
-from spherekin.parameterizations import make_charts  # noqa: E402
-from spherekin.solver import TRACE_OUTCOMES, SolverLimitError  # noqa: E402
+from spherekin.search.parameterizations import make_charts  # noqa: E402
+from spherekin.search.boxloop import TRACE_OUTCOMES, SolverLimitError  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
 #: The four configurations compared: (name, formulation, pruner, LP backend). HiGHS (highspy) for

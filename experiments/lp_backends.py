@@ -2,7 +2,7 @@
 
 Question (paper Section 4, Eq. 12): the paper reduces every box by linear programs over the convex
 hulls of the equations' control points and solves them with a general LP code. spherekin offers
-several backends (spherekin.lp_backends.LP_BACKENDS: Clarabel and HiGHS through cvxpy, HiGHS
+several backends (spherekin.search.lp_backends.LP_BACKENDS: Clarabel and HiGHS through cvxpy, HiGHS
 directly through highspy), every bound certified by spherekin from the solver's duals. How fast is
 each per LP and in total, and do they give the same boxes and the same solutions?
 
@@ -83,7 +83,7 @@ def _system(problem: dict, seed: int):
 
 def measure(backend: str, probs: list[dict], seed: int, repeats: int) -> list[dict]:
     """Solve every problem with one backend (call it in a fresh process): counts, times, solutions."""
-    from spherekin.solver import solve_system
+    from spherekin.search.boxloop import solve_system
 
     rows = []
     for prob in probs:
@@ -101,7 +101,7 @@ def measure(backend: str, probs: list[dict], seed: int, repeats: int) -> list[di
 
 def bug_demo(seed: int) -> list[dict]:
     """In ONE process: the four-bar with cvxpy's HIGHS, then with highspy (the HiGHS scheduler bug)."""
-    from spherekin.solver import SolverLimitError, solve_system
+    from spherekin.search.boxloop import SolverLimitError, solve_system
 
     build, ranges, _ = _system(dict(mechanism="four_bar", half_width=None), seed)
     rows = []
@@ -137,7 +137,7 @@ def compare(rows: list[dict], reference: str = "highspy") -> None:
 
 def run(quick: bool = True, seed: int = 0, backends=None, repeats: int | None = None, probs=None,
         with_bug_demo: bool = True) -> dict:
-    from spherekin.lp_backends import LP_BACKENDS
+    from spherekin.search.lp_backends import LP_BACKENDS
 
     backends = tuple(backends or LP_BACKENDS)
     probs = probs or problems(quick)

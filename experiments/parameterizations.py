@@ -9,7 +9,7 @@ ground-truth configurations (experiments/_compare.py: a random pose, then invers
 seed fixes them) give the actuator inputs. Each is solved with ``parameterization="tan-half"`` and
 ``"sin-cos"``, everything else at spherekin's defaults (formulation halves, pruner pp, tol 1e-6,
 Krawczyk isolation). Measured: the chart set (charts, control points per equation, read from
-:func:`spherekin.parameterizations.make_charts`), boxes processed, LPs solved, median wall time,
+:func:`spherekin.search.parameterizations.make_charts`), boxes processed, LPs solved, median wall time,
 the solutions found, whether both parameterizations return the same solution set, whether the
 configuration we started from is among them, and the closure error of every solution computed
 independently (each leg's product of Rodrigues rotations must give the same platform pose).
@@ -32,8 +32,8 @@ from experiments._common import median_time, parser, write_results
 from experiments._compare import MATCH_TOL, MECHANISMS, Case, closure_error, contains, random_cases, same_set
 
 from spherekin.mechanism.chains import axis_rotation, serial_ik, wrap  # noqa: E402
-from spherekin.parameterizations import make_charts  # noqa: E402
-from spherekin.solver import DEFAULT_FORMULATION, SolverLimitError  # noqa: E402
+from spherekin.search.parameterizations import make_charts  # noqa: E402
+from spherekin.search.boxloop import DEFAULT_FORMULATION, SolverLimitError  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
 PARAMETERIZATIONS = ("tan-half", "sin-cos")

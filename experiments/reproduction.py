@@ -43,8 +43,8 @@ from experiments import _common
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.paper_gosselin import paper_gosselin_loops  # noqa: E402
-from spherekin.parameterizations import make_charts  # noqa: E402
-from spherekin.solver import SolverLimitError  # noqa: E402
+from spherekin.search.parameterizations import make_charts  # noqa: E402
+from spherekin.search.boxloop import SolverLimitError  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
 #: Actuator inputs (radians) of ``make run`` and of the README; the paper gives none.

@@ -6,7 +6,7 @@ close as spherekin computes them?
 How: a spherical quadrilateral with unequal sides and angles is given by its four vertices p_k
 (unit vectors). Its sides alpha_k (arc p_k -> p_k+1) and exterior angles theta_k (the signed turn
 at p_k about p_k, from the pole n_k-1 of the incoming side to the pole n_k of the outgoing one) are
-measured on the sphere; spherekin.rotations.polygon_closure evaluates Eq. (1),
+measured on the sphere; spherekin.core.rotations.polygon_closure evaluates Eq. (1),
 prod Rx(theta_k) Rz(alpha_k), and normalize_polygon gives the n = 2m angles of Eq. (2) (the
 corrected index rule phi_2k-1 = theta_k + pi, phi_2k = alpha_k + pi), whose product
 normalized_closure(phi) = prod Rx(phi_i) Z is evaluated too. The normalized polygon is drawn by
@@ -28,7 +28,7 @@ import numpy as np
 
 from paper_figures import _figure_tools as ft
 
-from spherekin.rotations import (Z, normalization_conjugator, normalize_polygon, normalized_closure,  # noqa: E402
+from spherekin.core.rotations import (Z, normalization_conjugator, normalize_polygon, normalized_closure,  # noqa: E402
                                  polygon_closure, rx)
 
 NAME = "fig1_polygon"

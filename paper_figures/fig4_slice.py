@@ -9,7 +9,7 @@ fixed, at its value in the assembly nearer the reference configuration, which le
 2-D system: one closure loop F(B, C) = I (three independent equations, two unknowns, consistent
 because D is taken from a solution). Both unknowns range over the full circle, which tan-half
 covers by four charts (B, C each in [-90, 90] or [90, 270] deg). The system is solved twice with
-:func:`spherekin.solver.solve_system` and a ``trace=`` callback that records every processed box
+:func:`spherekin.search.boxloop.solve_system` and a ``trace=`` callback that records every processed box
 and its outcome (discarded / split / reduced again / accepted / isolated):
 
 * left: the paper's formulation (Eq. 10, one scalar equation per loop; ``--paper-pruner`` pp by
@@ -39,9 +39,9 @@ from experiments._common import median_time
 
 from spherekin.closure import ClosureLoop, Term, Unknown  # noqa: E402
 from spherekin.mechanism import presets  # noqa: E402
-from spherekin.parameterizations import charts_for_range  # noqa: E402
-from spherekin.rotations import normalized_closure  # noqa: E402
-from spherekin.solver import DEFAULT_TOL, TRACE_OUTCOMES, solve_system  # noqa: E402
+from spherekin.search.parameterizations import charts_for_range  # noqa: E402
+from spherekin.core.rotations import normalized_closure  # noqa: E402
+from spherekin.search.boxloop import DEFAULT_TOL, TRACE_OUTCOMES, solve_system  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
 NAME = "fig4_slice"
@@ -145,7 +145,7 @@ def chart_ranges(ranges=RANGES) -> list[list[tuple[float, float]]]:
     """For every chart index of solve_system, the (lo, hi) chart range (radians) of each unknown.
 
     Charts are the Cartesian product of each unknown's :func:`charts_for_range`, first unknown
-    slowest (the order of spherekin.parameterizations); :func:`trace_boxes` checks the mapping
+    slowest (the order of spherekin.search.parameterizations); :func:`trace_boxes` checks the mapping
     against the metric widths that the trace records.
     """
     per_name = [charts_for_range(ranges[n]) for n in UNKNOWNS]

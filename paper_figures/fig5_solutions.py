@@ -3,7 +3,7 @@
 Question: what are the assemblies of the paper's Gosselin platform at the inputs that ``make run``
 solves, and which of them are singular?
 
-How: spherekin.solver.solve with its default strategies on the preset
+How: spherekin.search.boxloop.solve with its default strategies on the preset
 spherekin.mechanism.presets.gosselin at beta = INPUTS rad (the paper gives no numeric inputs for
 its example; it states 8 solutions, 4 of them singular, which the figure shows), then
 spherekin.plot.plot_solutions: one panel per solution, titled with its status (certified /

@@ -7,7 +7,7 @@ the entry points (loaded on first use, so that ``import spherekin`` stays cheap)
 __version__ = "0.1.0"
 
 _LAZY = {"solve": ("spherekin.problem", "solve"), "compile": ("spherekin.problem", "compile"),
-         "solve_system": ("spherekin.solver", "solve_system"),
+         "solve_system": ("spherekin.search.boxloop", "solve_system"),
          "load_mechanism": ("spherekin.mechanism", "load_mechanism")}
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bernstein
+from .core import bernstein
 from .paper_gosselin import DEFAULT_PASSIVE_RANGE, paper_gosselin_loops
 
 #: Default actuator angles (radians) of the example: arbitrary, generic values (no symmetry).
@@ -156,11 +156,11 @@ def _verify(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    from .lp_backends import LP_BACKENDS
-    from .parameterizations import PARAMETERIZATIONS
+    from .search.lp_backends import LP_BACKENDS
+    from .search.parameterizations import PARAMETERIZATIONS
     from .problem import DEFAULT_FORMULATION, formulation_choices
-    from .pruners import PRUNERS
-    from .solver import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
+    from .search.pruners import PRUNERS
+    from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
     so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")

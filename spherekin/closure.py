@@ -4,7 +4,7 @@ A loop is the normalized closure equation (Eq. 2) F_n(Phi) = prod_{i=1..n} Rx(ph
 each factor angle phi_i is either a known number (actuator input, link twist) or
 ``offset + sign * theta`` for an unknown passive joint angle theta. Each unknown is parameterized by
 t = tan((theta - shift) / 2) over its range, and t is mapped affinely to x in [0, 1]; the polynomials
-below are tensor-product Bernstein polynomials in those x (see :mod:`spherekin.bernstein`), with
+below are tensor-product Bernstein polynomials in those x (see :mod:`spherekin.core.bernstein`), with
 degree 2 in every unknown and one tensor axis per unknown, in order of first appearance in the loop.
 
 Everything rests on the per-factor univariate polynomials (the "factor polynomials")
@@ -42,8 +42,8 @@ from typing import Sequence, Union
 
 import numpy as np
 
-from . import bernstein
-from .rotations import normalized_closure
+from .core import bernstein
+from .core.rotations import normalized_closure
 
 __all__ = [
     "KNOWN_ANGLE_SNAP",

@@ -172,7 +172,7 @@ def _check_path(path) -> tuple[Path, str]:
 def _check_report(mechanism: SphericalMechanism, values: tuple, report) -> list[np.ndarray]:
     """The solutions' passive angles (radians, report.unknowns order), after consistency checks."""
     if not isinstance(report, SolveReport):
-        raise ValueError(f"report: expected a SolveReport (from spherekin.solver.solve), got {type(report).__name__}")
+        raise ValueError(f"report: expected a SolveReport (from spherekin.search.boxloop.solve), got {type(report).__name__}")
     if sorted(report.unknowns) != sorted(mechanism.passive):
         raise ValueError(f"report: expected a solve of this mechanism, whose passive joints are {mechanism.passive}, "
                          f"got a report whose unknowns are {tuple(report.unknowns)}")
@@ -365,7 +365,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
 
     ``mechanism``: the :class:`SphericalMechanism` solved; ``inputs``: its actuator readings
     (radians, the ones ``report`` was solved at); ``report``: the
-    :class:`~spherekin.results.SolveReport` of :func:`spherekin.solver.solve`; ``path``: the
+    :class:`~spherekin.results.SolveReport` of :func:`spherekin.search.boxloop.solve`; ``path``: the
     output file, whose suffix (.png, .pdf or .svg) picks the format; ``degrees``: show the inputs
     in degrees in the figure title. One panel per solution, in report order (grid of at most
     MAX_COLUMNS columns), titled with the solution's number, status (when the report has one),

@@ -2,13 +2,13 @@
 
 ``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
 on the actuator inputs: the strategy checks, the unknowns and their ranges, and, for the platform
-formulation (:mod:`spherekin.platform_orientation`), Eq. (1)'s control-point tensors on the four
+formulation (:mod:`spherekin.search.platform_orientation`), Eq. (1)'s control-point tensors on the four
 quaternion charts and the pruner (for the LP pruners, the compiled LP models). Then
 ``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
 
-1. the search (:mod:`spherekin.solver`): the box loop of Section 4 on the platform formulation,
+1. the search (:mod:`spherekin.search.boxloop`): the box loop of Section 4 on the platform formulation,
    or on the loop equations (Eq. 2) in a parameterization and formulation of their own;
-2. the trust layer (:func:`spherekin.solutions.finalize`): polishing, certification, statuses and
+2. the trust layer (:func:`spherekin.trust.solutions.finalize`): polishing, certification, statuses and
    the count;
 3. the report (:class:`spherekin.results.SolveReport`).
 
@@ -31,13 +31,13 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .angles import RANGE_TOL
-from .formulations import FORMULATIONS
-from .platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
-from .pruners import make_pruner
+from .core.angles import RANGE_TOL
+from .search.formulations import FORMULATIONS
+from .search.platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
+from .search.pruners import make_pruner
 from .results import AcceptedBox, SearchLimit, SearchReport, Settings, SolveReport, SolverStats
-from .solutions import count_summary, finalize, is_proven
-from .solver import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
+from .trust.solutions import count_summary, finalize, is_proven
+from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                      check_strategy, clusters_in_range, partial_report, search_platform, solve_system)
 
 __all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
@@ -59,7 +59,7 @@ def formulation_choices() -> tuple[str, ...]:
 #: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
 #: the boxes are fine enough to show its shape and estimate its dimension.
 CONTINUUM_TOL = 1e-2
-#: A cluster that :mod:`spherekin.solutions` cannot resolve at tol (two roots closer than the
+#: A cluster that :mod:`spherekin.trust.solutions` cannot resolve at tol (two roots closer than the
 #: boxes can separate, next to a fold) is searched again, its hull only, at tol * REFINE_FACTOR,
 #: down to REFINE_MIN_TOL: roots 1e-5 apart separate at 1e-6, ~1e-8 apart (within ~1e-16 of a
 #: singular input) at 1e-10; below that, Krawczyk tests are swamped by rounding.
@@ -140,7 +140,7 @@ class Problem:
         return self._report(values, report, solutions, refined, t_final, fallback, limit)
 
     def _trust(self, values, report, tol, refine: bool):
-        """(solutions, stats of refined searches, seconds): :func:`spherekin.solutions.finalize` on the
+        """(solutions, stats of refined searches, seconds): :func:`spherekin.trust.solutions.finalize` on the
         clusters of ``report``; with ``refine``, unresolved clusters are searched again, finer."""
         s = self.strategy
         refined: list[SolverStats] = []
@@ -358,12 +358,12 @@ def solve(mechanism, inputs, *, progress: Callable[[dict], None] | None = None,
 
     ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
     (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
-    deduplicated and classified (:func:`spherekin.solutions.finalize`): passive angles, platform
+    deduplicated and classified (:func:`spherekin.trust.solutions.finalize`): passive angles, platform
     rotation, residual, status and its evidence. The strategies are chosen by name:
     ``formulation`` one of :func:`formulation_choices` ("auto": the platform formulation where it
     applies, else "halves"), ``pruner``, ``lp_backend``, ``parameterization`` (of the loop
     equations), ``tol`` (radians), ``isolate``, ``jobs`` (worker processes over the charts of the
-    loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.solver.solve_system`).
+    loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.search.boxloop.solve_system`).
     The paper-faithful configuration is ``formulation="paper", pruner="lp", lp_backend="clarabel",
     isolate=False``. The strategy keywords and their defaults are those of :func:`compile`; for many
     inputs, :func:`compile` once and call :meth:`Problem.solve_many`.

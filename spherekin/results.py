@@ -1,7 +1,7 @@
 """What the stages hand over: frozen dataclasses and enums (no behaviour beyond small derived views).
 
-The box loop (:mod:`spherekin.solver`) hands over :class:`AcceptedBox` es merged into
-:class:`Cluster` s, in a :class:`SearchReport`; the trust layer (:mod:`spherekin.solutions`)
+The box loop (:mod:`spherekin.search.boxloop`) hands over :class:`AcceptedBox` es merged into
+:class:`Cluster` s, in a :class:`SearchReport`; the trust layer (:mod:`spherekin.trust.solutions`)
 turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
 (:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
 :class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost.
@@ -19,7 +19,7 @@ __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "Searc
 
 
 class Status(StrEnum):
-    """What is proven about one entry of a solve (docs/results-format.md; :mod:`spherekin.solutions`).
+    """What is proven about one entry of a solve (docs/results-format.md; :mod:`spherekin.trust.solutions`).
 
     A ``StrEnum``: each member equals its value ("certified", ...) and prints as it, in text and JSON.
     """
@@ -36,7 +36,7 @@ class SolverStats:
     """Counters and timings of a solve (seconds).
 
     ``isolated``: boxes proven by the Krawczyk test to hold exactly one root of the square system
-    (:mod:`spherekin.isolation`); ``spurious``: of those, the ones whose root is not a closure;
+    (:mod:`spherekin.search.isolation`); ``spurious``: of those, the ones whose root is not a closure;
     ``newton_failures``: isolated boxes Newton did not converge in (then subdivided as usual).
     ``time_finalize``: polishing, certification and classification of the solutions.
     """
@@ -98,7 +98,7 @@ class Cluster:
 class Solution:
     """One entry of a solve: a solution, or a region or continuum of them, and what is proven of it.
 
-    ``angles`` (radians, one per passive unknown) are polished (:mod:`spherekin.solutions`);
+    ``angles`` (radians, one per passive unknown) are polished (:mod:`spherekin.trust.solutions`);
     ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull);
     ``n_boxes``: accepted boxes of its cluster; ``platform_rotation``: R with v_i = R v_i^0;
     ``residual``: the largest entry of |F_n - I| over the loops; ``singularity``: the mechanism's
@@ -176,7 +176,7 @@ class Settings:
 
 @dataclass(frozen=True)
 class SearchReport:
-    """What a search of the loop equations (:func:`spherekin.solver.solve_system`) or of the
+    """What a search of the loop equations (:func:`spherekin.search.boxloop.solve_system`) or of the
     platform formulation finds: the unknowns' names, the clusters inside the ranges, the raw
     accepted boxes, statistics and settings. Nothing in it is polished or proven yet."""
 

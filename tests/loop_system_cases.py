@@ -21,9 +21,9 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from spherekin.closure import Term
-from spherekin.krawczyk import certify, certify_reference, krawczyk, krawczyk_reference
+from spherekin.trust.krawczyk import certify, certify_reference, krawczyk, krawczyk_reference
 from spherekin.mechanism import LoopSystem, general_3rrr, gosselin
-from spherekin.transversal import interval_transversal, interval_transversal_reference
+from spherekin.trust.transversal import interval_transversal, interval_transversal_reference
 from conftest import GOSSELIN_INPUTS, rot
 
 #: Half-width (radians) of the passive ranges of the loop systems built around IK solutions.

@@ -1,4 +1,4 @@
-"""Tests of spherekin.bernstein against independent references (sympy, power-basis evaluation)."""
+"""Tests of spherekin.core.bernstein against independent references (sympy, power-basis evaluation)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import sympy as sp
 from hypothesis import given, settings, strategies as st
 from numpy.polynomial import polynomial as P
 
-from spherekin import bernstein as bz
+from spherekin.core import bernstein as bz
 
 FAST = settings(max_examples=50, deadline=None)
 

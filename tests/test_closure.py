@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from spherekin import bernstein
+from spherekin.core import bernstein
 from spherekin import closure as C
 from spherekin.paper_gosselin import paper_gosselin_loops
 

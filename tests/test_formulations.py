@@ -1,4 +1,4 @@
-"""Tests for spherekin.formulations against independent derivations.
+"""Tests for spherekin.search.formulations against independent derivations.
 
 * embed: a random loop tensor evaluated at a loop's own coordinates equals the embedded tensor
   evaluated at global points (the loop's coordinates are a permuted subset of the global ones);
@@ -19,10 +19,10 @@ import math
 import numpy as np
 import pytest
 
-from spherekin import bernstein
+from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Unknown
-from spherekin.formulations import FORMULATIONS, ChartBilinear, embed, formulate
-from spherekin.rotations import normalize_polygon, normalized_closure
+from spherekin.search.formulations import FORMULATIONS, ChartBilinear, embed, formulate
+from spherekin.core.rotations import normalize_polygon, normalized_closure
 from verification.spherical import exterior_angles, random_polygon, side_lengths
 from conftest import wrap
 

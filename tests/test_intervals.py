@@ -1,4 +1,4 @@
-"""Tests for spherekin.intervals (outward-rounded interval arithmetic on float arrays).
+"""Tests for spherekin.core.intervals (outward-rounded interval arithmetic on float arrays).
 
 Independent references:
 * exact rational arithmetic (fractions.Fraction of the float endpoints): every exact result of an
@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mpmath import iv, mp, mpf
 
-from spherekin import intervals as I
+from spherekin.core import intervals as I
 
 #: The computed hull may exceed the exact hull by this many ulps per endpoint: one rounding to
 #: nearest (<= 1/2 ulp) plus the one-ulp widening, for a single operation.

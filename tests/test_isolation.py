@@ -1,4 +1,4 @@
-"""Tests for spherekin.isolation against independent references.
+"""Tests for spherekin.search.isolation against independent references.
 
 * square polynomial systems with KNOWN roots, built in the power basis:
   F_i(x) = sum_k (x_k - r_k) g_ik(x) has the simple root r (random g); a system with two roots a
@@ -14,8 +14,8 @@
 import numpy as np
 import pytest
 
-from spherekin import bernstein
-from spherekin.isolation import (SquareSystem, _derivative_bounds, evaluate_at, jacobian_at, krawczyk_boxes,
+from spherekin.core import bernstein
+from spherekin.search.isolation import (SquareSystem, _derivative_bounds, evaluate_at, jacobian_at, krawczyk_boxes,
                                  newton)
 from conftest import times_linear
 

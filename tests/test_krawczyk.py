@@ -1,4 +1,4 @@
-"""Tests for spherekin.krawczyk (the Krawczyk test in outward-rounded interval arithmetic).
+"""Tests for spherekin.trust.krawczyk (the Krawczyk test in outward-rounded interval arithmetic).
 
 Independent references (see tests/loop_system_cases.py): roots from inverse kinematics, not from
 any solver; regularity and singularity from the mechanism's velocity model (mech.singularity, the
@@ -21,8 +21,8 @@ from mpmath import mpf
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from spherekin import intervals
-from spherekin.krawczyk import (
+from spherekin.core import intervals
+from spherekin.trust.krawczyk import (
     CERTIFY_RADII,
     KrawczykResult,
     _krawczyk_operator,
@@ -35,7 +35,7 @@ from spherekin.krawczyk import (
 )
 from spherekin.mechanism import (Joint, Leg, LoopSystem, SphericalMechanism, five_bar, four_bar, general_3rrr,
                                  gosselin)
-from spherekin.transversal import (enclose_transversal, interval_transversal,
+from spherekin.trust.transversal import (enclose_transversal, interval_transversal,
                                    interval_transversal_reference, transversal_equations, transversal_labels)
 from conftest import rot
 from loop_system_cases import (REGULAR_MARGIN, GOSSELIN_ROOTS, ROOT_SEPARATION, IMPLS, MECHS, system_at, theta_of, poses, mp_entries, gosselin_roots, contains)

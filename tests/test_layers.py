@@ -3,8 +3,9 @@
 Every ``import`` of a spherekin module is collected with ``ast`` (module level and inside
 functions). Layers, lowest first (README's tour):
 
-core -> closure equations -> mechanism model -> hand-over types (results) -> solve -> trust ->
-pipeline -> interfaces.
+core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
+types (results) -> search (spherekin/search/) -> trust (spherekin/trust/) -> pipeline (problem) ->
+interfaces (cli, plot).
 """
 
 from __future__ import annotations
@@ -17,13 +18,12 @@ import pytest
 PACKAGE = Path(__file__).resolve().parent.parent / "spherekin"
 
 LAYERS = [
-    ("core", {"angles", "rotations", "bernstein", "intervals", "trig_enclosure", "registry"}),
+    ("core", {"core"}),
     ("closure equations", {"closure", "paper_gosselin"}),
     ("mechanism model", {"mechanism"}),
     ("hand-over types", {"results"}),
-    ("solve", {"parameterizations", "formulations", "platform_orientation", "pruners", "lp_backends", "isolation",
-               "solver"}),
-    ("trust", {"polish", "transversal", "krawczyk", "solutions"}),
+    ("search", {"search"}),
+    ("trust", {"trust"}),
     ("pipeline", {"problem"}),
     ("interfaces", {"cli", "plot", "__main__"}),
 ]
@@ -31,7 +31,8 @@ LEVEL = {name: k for k, (_, names) in enumerate(LAYERS) for name in names}
 
 
 def unit_of(module: str) -> str:
-    """The layer unit of a dotted module name inside the package: 'mechanism' for spherekin.mechanism.*."""
+    """The layer unit of a dotted module name inside the package: its subpackage ('core' for
+    spherekin.core.bernstein, 'mechanism' for spherekin.mechanism.model) or top-level module."""
     return module.split(".")[1] if module.count(".") else module
 
 

@@ -1,4 +1,4 @@
-"""Tests for spherekin.lp_backends against an independent dense implementation of Eq. (12).
+"""Tests for spherekin.search.lp_backends against an independent dense implementation of Eq. (12).
 
 The reference is written here from the paper: for one box, with the control points v_I =
 (i_1/m_1, ..., i_n/m_n, w_I) of every equation (an axis of degree 0 is first elevated to degree 1,
@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from spherekin import bernstein
-from spherekin.formulations import formulate
-from spherekin.lp_backends import INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, LPStructure, make_backend
+from spherekin.core import bernstein
+from spherekin.search.formulations import formulate
+from spherekin.search.lp_backends import INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, LPStructure, make_backend
 from spherekin.mechanism import gosselin
-from spherekin.solver import ROUNDING_SAFETY
+from spherekin.search.boxloop import ROUNDING_SAFETY
 
 #: No certified bound may lie inside the reference bound by more than this (the reference is HiGHS
 #: simplex at its 1e-7 default tolerances on O(1) data; measured: never more than 5e-16 inside).
@@ -588,7 +588,7 @@ def test_highs_backends_print_nothing_on_stdout():
     import sys
 
     code = ("import numpy as np\n"
-            "from spherekin.lp_backends import make_backend\n"
+            "from spherekin.search.lp_backends import make_backend\n"
             "for name in ('highspy', 'highs'):\n"
             "    b = make_backend(name, [(3, 3), (3, 3)])\n"
             "print('done')\n")

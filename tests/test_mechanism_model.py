@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from spherekin import bernstein
+from spherekin.core import bernstein
 from spherekin.mechanism import (
     SINGULARITY_TOL,
     Joint,
@@ -26,7 +26,7 @@ from spherekin.mechanism import (
     gosselin,
     three_rrr,
 )
-from spherekin.rotations import normalization_conjugator
+from spherekin.core.rotations import normalization_conjugator
 from conftest import rot, unit
 
 

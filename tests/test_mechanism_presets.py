@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 from spherekin.closure import ClosureLoop, Term
 from spherekin.mechanism import PRESETS, gosselin, load_mechanism, preset
 from spherekin.paper_gosselin import paper_gosselin_loops
-from spherekin.rotations import normalized_closure
+from spherekin.core.rotations import normalized_closure
 from conftest import wrap
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

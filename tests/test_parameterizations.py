@@ -1,4 +1,4 @@
-"""Tests for spherekin.parameterizations against independent derivations.
+"""Tests for spherekin.search.parameterizations against independent derivations.
 
 * arc_box against a dense sampling of the arc;
 * sin-cos loop polynomials: the Bernstein tensors evaluated at (c, s) points equal the product of
@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from spherekin import bernstein
+from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Term, Unknown
 from spherekin.mechanism import gosselin, general_3rrr
-from spherekin.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, arc_box, make_charts, sin_cos_loop,
+from spherekin.search.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, arc_box, make_charts, sin_cos_loop,
                                          tan_half_loop)
-from spherekin.rotations import normalized_closure
+from spherekin.core.rotations import normalized_closure
 
 INPUTS = (0.3, -0.2, 0.5)
 
@@ -276,7 +276,7 @@ def test_circle_bounds_against_dense_samples_of_the_circle():
     """circle_bounds(rectangle) vs brute force: 200,000 points of the unit circle, those inside each
     random rectangle, and their bounding box. The bounds must contain every sample (soundness) and
     exceed the samples' box by no more than the sampling gap (tightness); empty iff no sample."""
-    from spherekin.parameterizations import CIRCLE_SLACK, circle_bounds
+    from spherekin.search.parameterizations import CIRCLE_SLACK, circle_bounds
 
     theta = np.linspace(-np.pi, np.pi, 200_001)
     pc, ps = np.cos(theta), np.sin(theta)

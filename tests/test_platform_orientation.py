@@ -1,4 +1,4 @@
-"""Tests for spherekin.platform_orientation (the platform formulation) and its solve path.
+"""Tests for spherekin.search.platform_orientation (the platform formulation) and its solve path.
 
 References: Rodrigues' formula for the quaternion rotation; sympy for the chart polynomials and
 their Bernstein coefficients (exact rationals); the mechanism's own inverse kinematics (Paden-Kahan
@@ -17,11 +17,11 @@ from benchmarks.reference_roots import reference_roots
 from benchmarks.sweep_roots import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
-from spherekin.platform_orientation import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
+from spherekin.search.platform_orientation import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
                                             chart_rotation, form_matrix, not_applicable, passive_names, passive_readings,
                                             passive_readings_many,
                                             quaternion_matrix)
-from spherekin.solutions import is_proven
+from spherekin.trust.solutions import is_proven
 from tests.conftest import rot, unit, wrap
 
 
@@ -148,7 +148,7 @@ def test_residuals_do_not_vanish_off_the_assembly():
 
 def test_control_points_evaluate_to_the_leg_equations():
     """The Bernstein form at a chart point equals |q|^2 times Eq. (1) evaluated from the rotation."""
-    from spherekin.isolation import evaluate_at
+    from spherekin.search.isolation import evaluate_at
 
     mech = general_3rrr()
     system = PlatformSystem.from_mechanism(mech)

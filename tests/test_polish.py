@@ -1,4 +1,4 @@
-"""Tests for spherekin.polish: analytic Jacobian vs finite differences, convergence to IK roots."""
+"""Tests for spherekin.trust.polish: analytic Jacobian vs finite differences, convergence to IK roots."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from spherekin.closure import ClosureLoop, Unknown
 from spherekin.mechanism import general_3rrr, gosselin
-from spherekin.polish import CONVERGED_TOL, closure_residual, polish
+from spherekin.trust.polish import CONVERGED_TOL, closure_residual, polish
 
 
 def random_system(rng):

@@ -1,4 +1,4 @@
-"""Tests for spherekin.pruners against independent derivations.
+"""Tests for spherekin.search.pruners against independent derivations.
 
 * systems with KNOWN roots: polynomials built in the power basis as sums of (x_k - r_k) g_k(x)
   (simple roots) and -sum c_k (x_k - r_k)^2 (a tangential double root, like the scalar closure
@@ -17,12 +17,12 @@ import pytest
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-from spherekin import bernstein
-from spherekin.formulations import formulate
-from spherekin.lp_backends import FEASIBILITY_TOL, LP_BOUND_MARGIN
+from spherekin.core import bernstein
+from spherekin.search.formulations import formulate
+from spherekin.search.lp_backends import FEASIBILITY_TOL, LP_BOUND_MARGIN
 from spherekin.mechanism import gosselin
-from spherekin.pruners import INTERVAL_MARGIN, PRUNERS, excludes_zero, make_pruner, pp_intervals
-from spherekin.solver import ROUNDING_SAFETY
+from spherekin.search.pruners import INTERVAL_MARGIN, PRUNERS, excludes_zero, make_pruner, pp_intervals
+from spherekin.search.boxloop import ROUNDING_SAFETY
 from conftest import times_linear
 
 EPS = np.finfo(float).eps

@@ -8,13 +8,13 @@ import pytest
 
 import spherekin
 from spherekin.cli import build_parser
-from spherekin.formulations import FORMULATIONS, Formulation, Halves
-from spherekin.lp_backends import LP_BACKENDS, LPBackend
+from spherekin.search.formulations import FORMULATIONS, Formulation, Halves
+from spherekin.search.lp_backends import LP_BACKENDS, LPBackend
 from spherekin.mechanism import gosselin
-from spherekin.parameterizations import PARAMETERIZATIONS, LoopParameterization
+from spherekin.search.parameterizations import PARAMETERIZATIONS, LoopParameterization
 from spherekin.problem import formulation_choices
-from spherekin.pruners import PRUNERS, ProjectedPolyhedron, Pruner
-from spherekin.registry import Registry
+from spherekin.search.pruners import PRUNERS, ProjectedPolyhedron, Pruner
+from spherekin.search.registry import Registry
 
 from conftest import GOSSELIN_INPUTS
 

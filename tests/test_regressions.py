@@ -31,8 +31,8 @@ def test_a_box_reduced_to_a_non_root_point_is_not_accepted():
 
     from spherekin.closure import ClosureLoop, Term
     from spherekin.mechanism import four_bar
-    from spherekin.rotations import rx
-    from spherekin.solver import solve_system
+    from spherekin.core.rotations import rx
+    from spherekin.search.boxloop import solve_system
     from spherekin.problem import solve
 
     mech = four_bar()

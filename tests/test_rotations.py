@@ -1,9 +1,9 @@
-"""Tests for spherekin.rotations: closed forms, an independent geometric model of Eq. (1), errata."""
+"""Tests for spherekin.core.rotations: closed forms, an independent geometric model of Eq. (1), errata."""
 
 import numpy as np
 import pytest
 
-from spherekin import rotations as R
+from spherekin.core import rotations as R
 
 
 def random_polygon(rng, m):

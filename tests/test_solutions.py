@@ -1,4 +1,4 @@
-"""spherekin.solutions: from the solver's clusters to entries whose status says what was proven.
+"""spherekin.trust.solutions: from the solver's clusters to entries whose status says what was proven.
 
 finalize is fed clusters made by hand or by solve_system, and judged by reasons outside it: a
 certification function that refuses everything (nothing can then be proven), joint ranges placed
@@ -14,11 +14,11 @@ import pytest
 
 from conftest import GOSSELIN_INPUTS, rot
 from spherekin import solve_system
-from spherekin.krawczyk import certify as real_certify
+from spherekin.trust.krawczyk import certify as real_certify
 from benchmarks import peers_closed_form as pcf
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.results import Cluster, Solution, Status
-from spherekin.solutions import STATUSES, count_summary, finalize, is_proven
+from spherekin.trust.solutions import STATUSES, count_summary, finalize, is_proven
 
 
 def clusters_of(mech, inputs, **kw):

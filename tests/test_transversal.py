@@ -1,4 +1,4 @@
-"""Tests for spherekin.transversal (the transversal closure system and its interval enclosures).
+"""Tests for spherekin.trust.transversal (the transversal closure system and its interval enclosures).
 
 Every enclosure, fast and reference (``IMPLS``), must contain the exact values: F from
 ClosureLoop-independent 40-digit mpmath products of the defining matrices, J from central finite
@@ -11,7 +11,7 @@ import pytest
 from mpmath import mpf
 
 from spherekin.mechanism import general_3rrr, gosselin
-from spherekin.transversal import (ANGLE_TOLERANCE, enclose_transversal, interval_transversal,
+from spherekin.trust.transversal import (ANGLE_TOLERANCE, enclose_transversal, interval_transversal,
                                    interval_transversal_reference, transversal_equations)
 from conftest import rot
 from loop_system_cases import (FLOAT_REF_TOL, FD_STEP, FD_TOL, POINT_WIDTH, IMPLS, MECHS, system_at, theta_of, poses, reference_entries, mp_entries, mp_jacobian, contains)

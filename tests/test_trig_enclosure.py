@@ -1,4 +1,4 @@
-"""Rigorous point enclosures of cos and sin (spherekin.trig_enclosure) against mpmath at 4000 bits."""
+"""Rigorous point enclosures of cos and sin (spherekin.core.trig_enclosure) against mpmath at 4000 bits."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from mpmath import mp, mpf
 
-from spherekin.trig_enclosure import HALF_PI_320, MAX_ANGLE, cos_sin_enclosure, cos_sin_fixed
+from spherekin.core.trig_enclosure import HALF_PI_320, MAX_ANGLE, cos_sin_enclosure, cos_sin_fixed
 
 
 def exact_cos_sin(a: float):

@@ -16,10 +16,10 @@ from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 from spherekin import solve
-from spherekin.angles import RANGE_TOL, in_range
+from spherekin.core.angles import RANGE_TOL, in_range
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.mechanism.chains import axis_rotation, sphere_point
-from spherekin.solver import MAX_TOL
+from spherekin.search.boxloop import MAX_TOL
 
 #: The issue's near-singular inputs of general_3rrr: 8 real assemblies (two 1.48e-5 rad apart), and
 #: 1.2e-10 away on the other side of the parallel singularity, 6.
@@ -212,7 +212,7 @@ def test_a_root_only_a_sub_box_test_can_find_is_found():
     them, where the Jacobian is nearly singular), so both must come from the Krawczyk tests on its
     sub-boxes."""
     from spherekin.results import Cluster
-    from spherekin.solutions import count_summary, finalize
+    from spherekin.trust.solutions import count_summary, finalize
 
     mech, branch = _double_rocker()
     x = (branch - 1e-6,)

@@ -207,8 +207,8 @@ def check_range_shift(quick: bool) -> ClaimResult:
 
 
 def check_impl_rotations(quick: bool) -> ClaimResult:
-    """spherekin.rotations against the geometric model and the verified identities."""
-    from spherekin import rotations as R
+    """spherekin.core.rotations against the geometric model and the verified identities."""
+    from spherekin.core import rotations as R
 
     worst = 0.0
     count = 0
@@ -220,9 +220,9 @@ def check_impl_rotations(quick: bool) -> ClaimResult:
     for a, b in rng.uniform(-4, 4, (10, 2)):
         worst = max(worst, float(np.abs(normalized_product(R.split_angle(a, b)) - rx(a + b) @ Z).max()))
     if worst > CLOSURE_TOL:
-        raise ImplementationMismatch(f"spherekin.rotations disagrees with the geometric model by {worst:.3g}")
+        raise ImplementationMismatch(f"spherekin.core.rotations disagrees with the geometric model by {worst:.3g}")
     return ClaimResult(
-        "impl:rotations", "spherekin.rotations (Eq. 1, Eq. 2 corrected rule, Eq. 6)", VERIFIED,
+        "impl:rotations", "spherekin.core.rotations (Eq. 1, Eq. 2 corrected rule, Eq. 6)", VERIFIED,
         evidence=(f"polygon_closure equals the product of Eq. (1); normalize_polygon + normalized_closure close "
                   f"{count} geometric polygons; split_angle reproduces Eq. (6): max deviation {worst:.1e}."),
         data={"max_deviation": worst},

@@ -26,7 +26,7 @@ Derivation (what :class:`SphericalMechanism` computes once, at construction):
 * the loop's closure equation in the normalized form of Eq. (2): when every side is pi/2 (the
   Gosselin platform) Eq. (1) is already Eq. (2), phi_k = theta_k (the paper's remark after
   Eq. (4); the "compact" form, n = m); otherwise the corrected rule of
-  :func:`spherekin.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi
+  :func:`spherekin.core.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi
   (the "doubled" form, n = 2m, equal to Eq. (1) up to conjugation by Rx(pi/2)).
 * the same :class:`~spherekin.closure.Unknown` object stands for a passive joint in every loop
   where it appears (the reference leg's joints appear in all loops, each loop seeing them with
@@ -49,8 +49,8 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..angles import in_range, into_range
-from ..rotations import normalize_polygon, normalized_closure
+from ..core.angles import in_range, into_range
+from ..core.rotations import normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
 
@@ -185,7 +185,7 @@ class LoopGeometry:
         """The factors of Eq. (2) as (offset, joint name or None, sign): phi = offset + sign * reading.
 
         Compact form (all sides pi/2): phi_k = theta_k. Doubled form: the corrected rule of
-        :func:`spherekin.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi.
+        :func:`spherekin.core.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi.
         """
         if form not in FORMS:
             raise ValueError(f"form: expected one of {FORMS}, got {form!r}")

@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .rotations import Z, rx
+from ..core.rotations import Z, rx
 
 __all__ = ["POLISH_TOL", "POLISH_MAX_ITER", "PolishResult", "closure_residual", "polish"]
 

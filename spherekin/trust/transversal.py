@@ -1,11 +1,11 @@
-"""The transversal closure system and its interval enclosures (the system that :mod:`spherekin.krawczyk` certifies).
+"""The transversal closure system and its interval enclosures (the system that :mod:`spherekin.trust.krawczyk` certifies).
 
 For every loop of a :class:`~spherekin.mechanism.LoopSystem`, the entries (2,1), (3,1), (3,2)
 (1-based) of F_n = prod_i Rx(phi_i) Z (Eq. 2), which vanish at closure (F = I + [w]x near I gives
 (f21, f31, f32) = (w_z, -w_y, w_x): simple roots where the mechanism is regular). The unknowns are
 the passive angles theta (radians), in ``LoopSystem.unknowns`` order; a factor angle is a known
 number or phi = offset + sign * theta. These are the entries of the ``transversal`` formulation
-(:data:`spherekin.formulations.TRANSVERSAL_ENTRIES`) without the tan-half-angle substitution and
+(:data:`spherekin.search.formulations.TRANSVERSAL_ENTRIES`) without the tan-half-angle substitution and
 without the factor q_n, so the Jacobian is taken directly with respect to the joint angles.
 
 Values: :func:`transversal_equations` (floats). Enclosures of F and its Jacobian J over boxes, two
@@ -14,11 +14,11 @@ implementations with the same inputs and results:
 * fast (:func:`enclose_transversal`, :func:`interval_transversal`, and :func:`enclose` on a
   :class:`TransversalPlan` for callers that evaluate one system many times): interval arithmetic
   on float64 arrays, every operation rounded to nearest then widened one ulp outward
-  (:mod:`spherekin.intervals`), vectorized over boxes, loops and factors. A factor angle is
+  (:mod:`spherekin.core.intervals`), vectorized over boxes, loops and factors. A factor angle is
   phi = c + sign * theta, so cos phi = cos c cos theta - sign sin c sin theta and
   sin phi = sin c cos theta + sign cos c sin theta, with cos/sin of each constant c over
-  c +- angle_tolerance and of each unknown over its box from :func:`spherekin.intervals.cos_sin_table`
-  (:mod:`spherekin.trig_enclosure` at the float point, then a rigorous expansion). With P_i the
+  c +- angle_tolerance and of each unknown over its box from :func:`spherekin.core.intervals.cos_sin_table`
+  (:mod:`spherekin.core.trig_enclosure` at the float point, then a rigorous expansion). With P_i the
   product of the factors before factor i (P_0 = I), F = P_n by P_{i+1} = P_i Rx(phi_i) Z, and
   dF/dphi_i = [u_i]x F with u_i = P_i e1, because d/dphi Rx(phi) = [e1]x Rx(phi) and
   P [e1]x P^T = [P e1]x for a rotation P -- an identity of the exact matrices at every point of
@@ -45,11 +45,11 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from . import intervals as iv_ops
-from .closure import KNOWN_ANGLE_SNAP, Term
-from .formulations import TRANSVERSAL_ENTRIES
-from .intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
-from .mechanism import LoopSystem
+from ..core import intervals as iv_ops
+from ..closure import KNOWN_ANGLE_SNAP, Term
+from ..search.formulations import TRANSVERSAL_ENTRIES
+from ..core.intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
+from ..mechanism import LoopSystem
 
 __all__ = [
     "ANGLE_TOLERANCE",
@@ -416,7 +416,7 @@ def interval_eval(system: LoopSystem, xs: list, tol: float, jacobian: bool):
 
 
 # --------------------------------------------------------------------------------------------
-# Argument checks (shared with spherekin.krawczyk)
+# Argument checks (shared with spherekin.trust.krawczyk)
 # --------------------------------------------------------------------------------------------
 
 def _is_numeric(value) -> bool:

@@ -15,7 +15,7 @@ gives infinite endpoints (still an enclosure); callers reject non-finite results
 switch on flush-to-zero, which breaks it); callers must use a different method when it fails.
 
 The only transcendental functions are cos and sin (:func:`cos_sin`, :func:`cos_sin_ball`): at
-a float point a they come from :func:`spherekin.trig_enclosure.cos_sin_enclosure` (fixed-point
+a float point a they come from :func:`spherekin.core.trig_enclosure.cos_sin_enclosure` (fixed-point
 integer arithmetic with a counted error bound, outward-rounded, independent of the FPU), then
 over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
 sin(a + d) = sin a cos d + cos a sin d with cos d in [1 - r^2/2, 1] and |sin d| <= min(r, 1),
@@ -189,7 +189,7 @@ def sum_up(x, axis: int = -1) -> np.ndarray:
 
 # Kernels: the same operations without argument checks, on float64 interval arrays whose shapes
 # broadcast with the endpoint axis first (callers align them); public for the hot loops of
-# spherekin.transversal, which check their arguments once per call, not once per operation.
+# spherekin.trust.transversal, which check their arguments once per call, not once per operation.
 
 def _neg(a: np.ndarray) -> np.ndarray:
     return -a[::-1]
@@ -272,7 +272,7 @@ def magnitude(a) -> np.ndarray:
 def point_cos_sin(a: float) -> tuple[float, float, float, float]:
     """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a``.
 
-    :func:`spherekin.trig_enclosure.cos_sin_enclosure` (normally the two floats adjacent to each
+    :func:`spherekin.core.trig_enclosure.cos_sin_enclosure` (normally the two floats adjacent to each
     exact value), cached: a pure function of a.
     """
     return cos_sin_enclosure(a)

@@ -1,18 +1,18 @@
 """From clusters of accepted boxes to solutions you can trust: polish, separate, prove, classify.
 
-The box loop (:mod:`spherekin.solver`) proves that every root inside the joint ranges lies in one
+The box loop (:mod:`spherekin.search.boxloop`) proves that every root inside the joint ranges lies in one
 of its clusters (unions of touching boxes). A cluster is not one solution by default: next to a
 singularity it may hold two roots 1e-5 apart, or none (two roots that just turned complex). For
 each cluster, :func:`finalize`
 
-1. polishes (Gauss-Newton on the full closure residuals, :mod:`spherekin.polish`) from its centre
+1. polishes (Gauss-Newton on the full closure residuals, :mod:`spherekin.trust.polish`) from its centre
    and from up to :data:`MAX_SEEDS` of its member boxes, and keeps the distinct converged points
    that stay in the cluster (a point that polishing moves out of its cluster is the root of
    another cluster, or of none in the ranges: it is never reported as this cluster's root);
-2. certifies each point by the Krawczyk test (:mod:`spherekin.krawczyk`) at radii below 0.4 times
+2. certifies each point by the Krawczyk test (:mod:`spherekin.trust.krawczyk`) at radii below 0.4 times
    its distance to the nearest other point, so that distinct certified points are distinct roots;
 3. accounts for the whole cluster: a member box inside a certified box holds no other root; the
-   others go through Krawczyk tests on sub-boxes (:func:`spherekin.krawczyk.krawczyk_many`): a box
+   others go through Krawczyk tests on sub-boxes (:func:`spherekin.trust.krawczyk.krawczyk_many`): a box
    whose Krawczyk image misses it holds no root and is dropped, one whose image lies inside it
    holds exactly one (a known root, or a new one, polished and added), any other is bisected, up
    to :data:`MAX_RESOLVE_BOXES` boxes per cluster. Boxes left over make the count a lower bound.
@@ -46,11 +46,11 @@ import math
 
 import numpy as np
 
-from .angles import RANGE_TOL, in_range, into_range, wrap
+from ..core.angles import RANGE_TOL, in_range, into_range, wrap
 from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many
 from .transversal import transversal_equations
 from .polish import polish
-from .results import Cluster, Solution, Status
+from ..results import Cluster, Solution, Status
 
 __all__ = ["DEDUPE_TOL", "MAX_SEEDS", "MAX_RESOLVE_BOXES", "SEPARATION_FRACTION", "SOLUTION_BOUND", "STATUSES",
            "finalize", "count_summary", "is_proven"]
@@ -83,7 +83,7 @@ MAX_RESOLVE_BOXES = 2000
 #: dominated by rounding (~1e-15 relative), so smaller boxes cannot decide anything new.
 MIN_RESOLVE_WIDTH = 1e-13
 #: Bisection point (fraction of the widest side) of a sub-box; off-centre for the same reason as
-#: :data:`spherekin.solver.SPLIT_POINT` (symmetric roots must not stay on box faces).
+#: :data:`spherekin.search.boxloop.SPLIT_POINT` (symmetric roots must not stay on box faces).
 RESOLVE_SPLIT = 0.4917
 #: A singular value of the Jacobian below this fraction of the largest (or of 1) counts as zero
 #: when estimating the dimension of a continuum: on a continuum the polished points reach
@@ -101,7 +101,7 @@ CONTINUUM_MIN_SPREAD = 1e-4
 NEARBY_TOLS = 100.0
 #: A ``singular`` point must be a solution within this bound: the interval bound of the closure
 #: equations at the polished point (certify's ``residual``). Polished points reach ~1e-15; 1e-12 is
-#: polish's own convergence threshold (:data:`spherekin.polish.CONVERGED_TOL`).
+#: polish's own convergence threshold (:data:`spherekin.trust.polish.CONVERGED_TOL`).
 SOLUTION_BOUND = 1e-12
 
 
@@ -219,7 +219,7 @@ def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict
 
 def _certify_with_fallback(certify_fn, system, thetas, radii) -> list:
     """``certify_fn`` on the points ``thetas`` at the default angle tolerance, then, for each whose
-    K(X) was computed but not inside X, at the finer one (:data:`spherekin.krawczyk.FINE_ANGLE_TOLERANCE`;
+    K(X) was computed but not inside X, at the finer one (:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`;
     the evidence records which); one result per point, in order."""
     if not len(thetas):
         return []
@@ -255,7 +255,7 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: :class:`~spherekin.results.Cluster` s of the
     box loop (with their member boxes when known); ``tol``: the solver tolerance (radians);
     ``certify(system, thetas, radii=..., angle_tolerance=...)``: the batch certification function,
-    one result per point (default :func:`spherekin.krawczyk.certify_many`; the points of every
+    one result per point (default :func:`spherekin.trust.krawczyk.certify_many`; the points of every
     cluster are certified together). ``refine(lo, hi, tol)``, optional: the clusters of a new
     search of the box [lo, hi] at a finer tolerance, as ``(clusters, finer_tol)``, or None when
     there is none; a cluster that cannot be resolved is replaced by the clusters of that search

@@ -1,7 +1,7 @@
 """Isolation of simple roots inside the box loop: a Krawczyk test and Newton's method in Bernstein form.
 
 For a box X of the subdivision, the control points of every equation restricted to X are known
-(batch axis last, see :func:`spherekin.bernstein.restrict_batch_last`). On the box's own unit
+(batch axis last, see :func:`spherekin.core.bernstein.restrict_batch_last`). On the box's own unit
 coordinates u in [0, 1]^N, for the *square system* F (N equations of simple roots: the transversal
 entries of every loop, plus the circle equations of the sin-cos parameterization):
 
@@ -26,7 +26,7 @@ Departure from the paper: the paper subdivides every box down to the tolerance; 
 isolating box saves the tail of the subdivision (the paper's Section 5 asks for faster
 convergence). Rounding: F and J are widened by the absolute tolerance of each equation (the same
 rounding model as the pruners), and K by :data:`KRAWCZYK_MARGIN`; the rigorous certificate of each
-final solution is :mod:`spherekin.krawczyk`, in outward-rounded interval arithmetic.
+final solution is :mod:`spherekin.trust.krawczyk`, in outward-rounded interval arithmetic.
 """
 
 from __future__ import annotations

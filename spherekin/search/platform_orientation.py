@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .angles import wrap
-from .mechanism.chains import angle_about, axis_rotation, perpendicular
+from ..core.angles import wrap
+from ..mechanism.chains import angle_about, axis_rotation, perpendicular
 from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
 __all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
@@ -299,7 +299,7 @@ class Quaternion(Parameterization):
 
     Chart coordinates u = CHART_EXTENT (2x - 1) are the metric; a chart point's "angles" are its unit
     coordinates x (the rotation is :func:`chart_rotation`; the joint readings :func:`passive_readings_many`).
-    Not among the loop equations' parameterizations (:data:`spherekin.parameterizations.PARAMETERIZATIONS`):
+    Not among the loop equations' parameterizations (:data:`spherekin.search.parameterizations.PARAMETERIZATIONS`):
     it belongs to the platform formulation, which is chosen as a formulation.
     """
 

@@ -1,7 +1,7 @@
 """Formulations: which polynomial equations of each loop the solver works on (Section 2.2 and beyond).
 
 A formulation turns the loop polynomials of a parameterization (:class:`LoopPolynomials`, built by
-:mod:`spherekin.parameterizations`) into *equation blocks*: for each loop, a stack of Bernstein
+:mod:`spherekin.search.parameterizations`) into *equation blocks*: for each loop, a stack of Bernstein
 tensors over the global unit box [0, 1]^N of all variables. A variable that a loop does not contain
 gets a tensor axis of length 1 (degree 0), so every block has N polynomial axes and the Bernstein
 core can restrict all of them to a batch of boxes in one call.
@@ -33,7 +33,7 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
-from .closure import ClosureLoop, Unknown
+from ..closure import ClosureLoop, Unknown
 from .registry import Registry
 
 __all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "ChartBilinear", "Formulation", "FORMULATIONS", "Paper", "Transversal", "Halves",
@@ -52,7 +52,7 @@ class EquationBlock:
     where the block does not depend on variable k; ``labels`` names the E equations; ``scale`` (E,)
     is max |control point| on the whole unit box, the magnitude that rounding errors of later
     restrictions are relative to; ``square`` lists the equations that belong to the square system
-    of simple roots used by the Krawczyk test (:mod:`spherekin.isolation`); ``loop_index`` is -1
+    of simple roots used by the Krawczyk test (:mod:`spherekin.search.isolation`); ``loop_index`` is -1
     for a side condition such as the sin-cos circle equation. ``bilinear``, when present, gives
     the same equations as sums of outer products of the loop's two halves (:class:`Bilinear`),
     which the solver restricts far more cheaply than ``coeffs``; ``scale`` then also bounds the
@@ -76,7 +76,7 @@ class EquationBlock:
 
 @dataclass(frozen=True)
 class LoopPolynomials:
-    """The polynomials of one loop in some parameterization (:mod:`spherekin.parameterizations`).
+    """The polynomials of one loop in some parameterization (:mod:`spherekin.search.parameterizations`).
 
     ``matrix`` (3, 3, *dims): control points of q F_n (F_n of Eq. 2); ``q`` (*dims): those of the
     cleared denominator (q_n = prod (1 + t_k^2) for tan-half, 1 for sin-cos); ``scalar``: the

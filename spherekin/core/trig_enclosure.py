@@ -1,6 +1,6 @@
 """Rigorous enclosures of cos(a) and sin(a) at a float point a, in fixed-point integer arithmetic.
 
-Every interval enclosure of cos and sin in :mod:`spherekin.intervals` starts from the values at a
+Every interval enclosure of cos and sin in :mod:`spherekin.core.intervals` starts from the values at a
 float point; this module gives them: floats c_lo <= cos(a) <= c_hi and s_lo <= sin(a) <= s_hi,
 normally the two floats adjacent to each exact value (the tightest float enclosure). Python's
 integers are exact, so every error below is counted, not estimated; the default solve path

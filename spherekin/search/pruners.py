@@ -2,7 +2,7 @@
 
 One small interface, chosen by name (:func:`make_pruner`): ``reduce(cps, tols)`` takes, for each
 equation block, the control points restricted to B boxes with the BATCH AXIS LAST, shape
-(E, d_1, ..., d_n, B) (the layout of :func:`spherekin.bernstein.restrict_batch_last`), and the
+(E, d_1, ..., d_n, B) (the layout of :func:`spherekin.core.bernstein.restrict_batch_last`), and the
 absolute tolerances of the test "w = 0", shape (E,) or per box (E, B); it returns ``(lo, hi)`` of
 shape (B, n) in each box's own unit coordinates, with ``lo > hi`` in some coordinate marking a box
 that holds no root.
@@ -11,7 +11,7 @@ that holds no root.
   points (i_k / m_k, w_I) meets the band |w| <= tol on an interval of x_k; intersect over
   equations. No LP; vectorized over boxes. The box it returns contains the Eq. (12) box.
 * ``lp`` -- the Eq. (12) linear programs: min and max of every x_k over the intersection of all
-  equations' hulls with w = 0, solved by an LP backend (:mod:`spherekin.lp_backends`). Every answer
+  equations' hulls with w = 0, solved by an LP backend (:mod:`spherekin.search.lp_backends`). Every answer
   is checked; on any doubt the bound stays at the box face, so a root is never lost.
 * ``hybrid`` -- ``pp`` everywhere, ``lp`` where ``pp`` stalls on a small box (:class:`HybridPruner`).
 

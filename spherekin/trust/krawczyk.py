@@ -1,6 +1,6 @@
 """Certification of solutions: a Krawczyk test in outward-rounded interval arithmetic.
 
-The system certified is the transversal closure system of :mod:`spherekin.transversal` (three
+The system certified is the transversal closure system of :mod:`spherekin.trust.transversal` (three
 entries of F_n per loop, in the passive angles; simple roots where the mechanism is regular).
 Krawczyk's test (Krawczyk 1969; Moore 1977; Rump 1983): for a box X, a point y in X, any real
 matrix C and an enclosure J(X) of the Jacobian over X,
@@ -15,17 +15,17 @@ the point y. C = J(y)^-1 is an ordinary float inverse (any C is valid; a good on
 Two implementations, with the same inputs and results:
 
 * fast (:func:`krawczyk`, :func:`certify`, :func:`certify_many`, :func:`krawczyk_many`): the
-  enclosures of :func:`spherekin.transversal.enclose`, vectorized over points, radii and boxes.
+  enclosures of :func:`spherekin.trust.transversal.enclose`, vectorized over points, radii and boxes.
   K uses (I - C J(X)) (X - y) in [-s, s], s = |I - C J(X)| rho with X - y in [-rho, rho] (a
   superset of the usual evaluation: both conclusions of the test stay valid). Outside the IEEE
-  default floating-point environment (:func:`spherekin.intervals.rounding_environment_ok`) the
+  default floating-point environment (:func:`spherekin.core.intervals.rounding_environment_ok`) the
   fast functions use the reference.
 * reference (:func:`krawczyk_reference`, :func:`certify_reference`): mpmath's ``iv`` context for
   every operation (slow, obviously correct).
 
 Departures from the paper: the paper does not certify its solutions (subdivision returns small
 boxes, not proofs); this module is an addition. Constant angles are intervals of half-width
-``angle_tolerance`` (:data:`spherekin.transversal.ANGLE_TOLERANCE`): a certificate is about the
+``angle_tolerance`` (:data:`spherekin.trust.transversal.ANGLE_TOLERANCE`): a certificate is about the
 mechanism, not one rounding of it.
 """
 
@@ -37,8 +37,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from . import intervals as iv_ops
-from .mechanism import LoopSystem
+from ..core import intervals as iv_ops
+from ..mechanism import LoopSystem
 from .transversal import (ANGLE_TOLERANCE, TransversalPlan, check_system, check_theta, check_tolerance, enclose,
                           interval_eval, plan_of, transversal_equations)
 
@@ -57,7 +57,7 @@ __all__ = [
     "certify_reference",
 ]
 
-#: The tighter angle tolerance (radians) :mod:`spherekin.solutions` retries with when a test at
+#: The tighter angle tolerance (radians) :mod:`spherekin.trust.solutions` retries with when a test at
 #: ANGLE_TOLERANCE fails next to a singularity. Reason: the width of F(y) (~n_factors * the angle
 #: tolerance) divided by the smallest singular value of J bounds how small K(X) can be; for two
 #: roots 1e-5 apart (sigma_min ~5e-6) 2e-14 makes K wider than any box that still contracts. The

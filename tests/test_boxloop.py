@@ -1,4 +1,4 @@
-"""Tests for spherekin.solver against independent references.
+"""Tests for spherekin.search.boxloop against independent references.
 
 * each solution's platform pose satisfies the 3-RRR leg constraints w_i(beta_i) . (R v_i^0) =
   cos(alpha2_i), computed here from the mechanism file with our own Rodrigues formula;
@@ -16,7 +16,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from spherekin.mechanism import gosselin, load_mechanism
-from spherekin.solver import (BoxLimitError, DepthLimitError, SolverLimitError, charts_for_range,
+from spherekin.search.boxloop import (BoxLimitError, DepthLimitError, SolverLimitError, charts_for_range,
                               solve_system)
 from spherekin.problem import solve
 
@@ -192,7 +192,7 @@ def test_jobs_do_not_change_the_result():
 
 
 def test_trace_accounts_for_every_box(regular_root):
-    from spherekin.solver import TRACE_OUTCOMES
+    from spherekin.search.boxloop import TRACE_OUTCOMES
 
     inputs, root = regular_root
     build, ranges = _narrow(gosselin(), root, 0.15, inputs)

@@ -2,11 +2,11 @@
 
 Implements the algorithm of Section 4 with Eq. (12) (or a cheaper pruner) at step 2:
 
-1. map the joint ranges to the unit box of a parameterization (:mod:`spherekin.parameterizations`:
+1. map the joint ranges to the unit box of a parameterization (:mod:`spherekin.search.parameterizations`:
    the paper's tan-half-angle substitution, with charts, or the sin-cos form of Section 5) and
-   compute the control points of every equation (:mod:`spherekin.formulations`);
-2. reduce a box B to a sub-box B' that holds all its roots (:mod:`spherekin.pruners`), and, on
-   small boxes, apply the Krawczyk test of :mod:`spherekin.isolation`, which contracts the box
+   compute the control points of every equation (:mod:`spherekin.search.formulations`);
+2. reduce a box B to a sub-box B' that holds all its roots (:mod:`spherekin.search.pruners`), and, on
+   small boxes, apply the Krawczyk test of :mod:`spherekin.search.isolation`, which contracts the box
    further and may prove that it holds exactly one root;
 3. discard B' if empty, accept it when every side is below the tolerance (radians), set it aside
    when it is isolated (Newton then converges to its root), re-reduce it when the reduction shrank
@@ -40,15 +40,15 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from . import bernstein
-from .angles import RANGE_TOL, in_range
-from .closure import ClosureLoop, Unknown
+from ..core import bernstein
+from ..core.angles import RANGE_TOL, in_range
+from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
 from .isolation import SquareSystem, krawczyk_boxes, newton
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
 from .pruners import check_pruner, excludes_zero, make_pruner
-from .results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
+from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
 __all__ = ["solve_system", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
            "partial_report", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
@@ -61,7 +61,7 @@ DEFAULT_PARAMETERIZATION = "tan-half"
 #: Default tolerance (radians): a box is accepted when every joint angle is known to within it.
 DEFAULT_TOL = 1e-6
 #: Largest tolerance accepted (radians). Reason: a cluster of accepted boxes is polished from its
-#: own boxes and accounted for by Krawczyk tests on them (:mod:`spherekin.solutions`); boxes wider
+#: own boxes and accounted for by Krawczyk tests on them (:mod:`spherekin.trust.solutions`); boxes wider
 #: than ~0.1 rad are wider than the distance between distinct assemblies of real mechanisms
 #: (Gosselin: 0.3 rad) and than any box a Krawczyk test isolates (~0.3 rad), so a coarser tol could
 #: only merge roots. The paper's coarsest run uses 1e-2.
@@ -87,7 +87,7 @@ DEFAULT_MAX_BOXES = 500_000
 #: Accepted boxes closer than this many tolerances (Chebyshev gap, radians modulo 2 pi) form one
 #: cluster. Small on purpose: a cluster is polished from its centre, so merging two roots would
 #: lose one; the stray boxes that unpreconditioned pruning leaves near a root polish to the same
-#: point and are merged after polishing (:mod:`spherekin.solutions`).
+#: point and are merged after polishing (:mod:`spherekin.trust.solutions`).
 MERGE_GAP_TOLS = 2.0
 #: The Krawczyk test runs on boxes whose widest side (metric units: radians, or c/s) is below this.
 #: On wider boxes the enclosure of the Jacobian is too loose for K(X) to fit inside X (measured on
@@ -129,7 +129,7 @@ def _restrict(charts: ChartSet, layout: _Layout, chart, lo, hi, which=None, cach
     (batch last), and their tolerances; None for the blocks not asked for.
 
     Dense blocks are restricted as they are; a bilinear block restricts its two halves and
-    assembles the products (:meth:`spherekin.formulations.ChartBilinear.assemble`), ~20x fewer
+    assembles the products (:meth:`spherekin.search.formulations.ChartBilinear.assemble`), ~20x fewer
     operations. ``cache`` shares restriction matrices between calls on the same boxes.
     """
     cache = {} if cache is None else cache
@@ -327,7 +327,7 @@ class PlatformSearch:
     """What the box loop found on the quaternion charts of the platform formulation.
 
     ``points``: (chart, x) of every isolated root after Newton (x: the chart's unit coordinates,
-    :func:`spherekin.platform_orientation.chart_rotation`); ``unresolved``: boxes that reached the
+    :func:`spherekin.search.platform_orientation.chart_rotation`); ``unresolved``: boxes that reached the
     tolerance without being isolated, plus isolated boxes Newton did not converge in (then the
     points are not the whole answer); ``stats``: the search's counters and timings.
     """
@@ -340,7 +340,7 @@ class PlatformSearch:
 def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
                     progress: Callable[[dict], None] | None = None) -> PlatformSearch:
     """Section 4's loop on the platform formulation's chart set
-    (:meth:`spherekin.platform_orientation.PlatformSystem.charts`), with Krawczyk isolation and
+    (:meth:`spherekin.search.platform_orientation.PlatformSystem.charts`), with Krawczyk isolation and
     Newton; ``pruner`` is built by the caller (once per compiled problem). Caps as in
     :func:`solve_system` (a :class:`SolverLimitError` when reached)."""
     t0 = time.perf_counter()
@@ -398,7 +398,7 @@ def solve_system(
     ``build(chart_ranges)`` returns (loops, unknowns) with every unknown's range set from
     ``chart_ranges`` (name -> (lo, hi) radians, width < 2 pi); ``ranges`` gives each unknown's
     joint range, or None for the full circle. ``tol`` is in radians. ``isolate``: stop subdividing
-    a box once the Krawczyk test proves it holds one root (:mod:`spherekin.isolation`); only with
+    a box once the Krawczyk test proves it holds one root (:mod:`spherekin.search.isolation`); only with
     a formulation that has a square system of simple roots. ``jobs``: worker processes for the
     charts (the solutions do not depend on it). ``progress(counts)`` is called before each batch
     of boxes with the running counters (and "pending": boxes waiting; with ``jobs > 1`` once per
@@ -467,7 +467,7 @@ def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Cluster]:
 
 
 def _within(angles, ranges, tol) -> bool:
-    """Every angle within ``tol`` of its closed range (modulo 2 pi, :func:`spherekin.angles.in_range`)."""
+    """Every angle within ``tol`` of its closed range (modulo 2 pi, :func:`spherekin.core.angles.in_range`)."""
     return all(in_range(a, rng, tol + RANGE_TOL) for a, rng in zip(angles, ranges.values()))
 
 

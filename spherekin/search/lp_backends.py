@@ -9,7 +9,7 @@ the min and max of every x_k over
 where I = (i_1..i_n) runs over the control points and m_k is the degree of x_k (the abscissa
 i_k / m_k of Eq. (12) multiplied out, so that every entry of these rows is an exactly
 representable integer). Departures from the paper: the plane w = 0 is the slab |w| <= tol (see
-:mod:`spherekin.pruners`), and each w_e is divided by its largest |w| on the box so the LP is
+:mod:`spherekin.search.pruners`), and each w_e is divided by its largest |w| on the box so the LP is
 well scaled (the slab is widened by :data:`SLAB_ROUNDING` for the rounding of that division).
 
 In matrix form (:class:`LPStructure`) the LP is  min c.z  s.t.  row_lo <= A z <= row_hi,
@@ -90,7 +90,7 @@ LP_OPTIONS = {"presolve": "off", "solver": "simplex", "simplex_strategy": 4}
 #: multipliers up to ~1e2, left certified bounds up to 1.1e-6 looser than the true optimum
 #: (random boxes of tests/test_lp_backends.py); at 1e-9 at most 1.1e-8, at no measurable cost
 #: (cvxpy's per-solve overhead dominates). At 1e-10 it is no tighter and Clarabel starts to
-#: report "inaccurate" solutions (3 of 122 LPs of the tests/test_solver.py Gosselin case).
+#: report "inaccurate" solutions (3 of 122 LPs of the tests/test_boxloop.py Gosselin case).
 CLARABEL_TOL = 1e-9
 #: On an "infeasible" (or failed) verdict without a dual ray (Farkas certificate) in HiGHS's state,
 #: the direct backend re-runs HiGHS with the dual simplex (strategy 1), warm-started, which returns

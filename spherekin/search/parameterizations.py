@@ -1,7 +1,7 @@
 """Parameterizations: how an unknown joint angle becomes polynomial variables (Section 2.2 and Section 5).
 
 A parameterization turns the closure loops of a mechanism (``build(chart_ranges) -> (loops,
-unknowns)``, see :func:`spherekin.solver.solve_system`) into a :class:`ChartSet`: the unit boxes
+unknowns)``, see :func:`spherekin.search.boxloop.solve_system`) into a :class:`ChartSet`: the unit boxes
 the subdivision searches (one per chart), the Bernstein equation blocks on each of them, and the
 maps between unit-box coordinates and joint angles. Chosen by name (:data:`PARAMETERIZATIONS`):
 
@@ -17,7 +17,7 @@ maps between unit-box coordinates and joint angles. Chosen by name (:data:`PARAM
   at the box corners: products of the factor matrices Rx(phi) Z evaluated at the corners. One chart
   covers any range, the full circle included; no singularity at pi.
 
-Both give the same equations to the formulations (:mod:`spherekin.formulations`): the control
+Both give the same equations to the formulations (:mod:`spherekin.search.formulations`): the control
 points of q F_n for each loop (q = q_n for tan-half, q = 1 for sin-cos).
 """
 
@@ -31,7 +31,7 @@ from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
-from .closure import ClosureLoop, Term, Unknown, snapped_cos_sin
+from ..closure import ClosureLoop, Term, Unknown, snapped_cos_sin
 from .formulations import ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
 
@@ -137,7 +137,7 @@ def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int], scala
     recursion route (Cor. 2; skipped with ``scalar=False``, then read off the matrix when needed);
     both are exact reparameterizations of the same polynomials.
     """
-    from .closure import matrix_control_points, q_control_points, scalar_control_points
+    from ..closure import matrix_control_points, q_control_points, scalar_control_points
 
     fps = loop.factor_polynomials()
     split = _split_point(loop)
@@ -274,7 +274,7 @@ class ChartSet:
     * ``map_lo``, ``map_hi`` (C, N): each variable's metric coordinate (radians for tan-half, c or s
       for sin-cos) is a monotone function of its unit coordinate x between these values;
     * ``accept_width``: a box is accepted when every metric side is below ``tol * accept_width``;
-    * ``bilinear[b]``: None, or the :class:`spherekin.formulations.ChartBilinear` of block b when it
+    * ``bilinear[b]``: None, or the :class:`spherekin.search.formulations.ChartBilinear` of block b when it
       is the bilinear form of a loop's halves on every chart: the box loop then restricts the
       halves and assembles them, not ``coeffs``;
     * ``prune[b]``: whether the pruners use block b (else only the Krawczyk test does).

@@ -3,7 +3,7 @@
 A joint range [lo, hi] (radians, lo <= hi, hi - lo <= 2 pi) is closed at both ends and read modulo
 2 pi: theta is in it when some theta + 2 k pi lies in [lo - RANGE_TOL, hi + RANGE_TOL]. The same
 rule, with the same tolerance, applies to actuator inputs (:mod:`spherekin.mechanism`) and to the
-passive angles of solutions (:mod:`spherekin.solutions`), so that an input equal to a range end
+passive angles of solutions (:mod:`spherekin.trust.solutions`), so that an input equal to a range end
 is accepted and a solution on a range end is kept whichever end it is.
 """
 

@@ -1,0 +1,3 @@
+"""The trust layer: polishing, the transversal system and its enclosures, the Krawczyk test, and the
+resolution of clusters into solutions with statuses.
+"""
