@@ -253,13 +253,18 @@ def embed(loop: ClosureLoop, tensor: np.ndarray, unknowns: Sequence[Unknown]) ->
 
     Axes of absent unknowns get length 1; axes are permuted into global order. Shape (..., n).
     """
+    return embed_axes(tensor, _positions(loop, unknowns), len(unknowns))
+
+
+def _positions(loop: ClosureLoop, unknowns: Sequence[Unknown]) -> list[int]:
+    """The index in ``unknowns`` of each of the loop's unknowns (shared by identity)."""
     pos = []
     for u in loop.unknowns:
         try:
             pos.append(next(i for i, g in enumerate(unknowns) if g is u))
         except StopIteration:
             raise ValueError(f"unknowns: loop unknown {u.name!r} is not among the system's unknowns") from None
-    return embed_axes(tensor, pos, len(unknowns))
+    return pos
 
 
 def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, square=(), terms=None, prune=True) -> EquationBlock:
@@ -378,11 +383,5 @@ def formulate(name: str, loops: Sequence[ClosureLoop], unknowns: Sequence[Unknow
 
     polys = []
     for j, lp in enumerate(loops):
-        pos = []
-        for u in lp.unknowns:
-            try:
-                pos.append(next(i for i, g in enumerate(unknowns) if g is u))
-            except StopIteration:
-                raise ValueError(f"unknowns: loop unknown {u.name!r} is not among the system's unknowns") from None
-        polys.append(tan_half_loop(j, lp, pos))
+        polys.append(tan_half_loop(j, lp, _positions(lp, unknowns)))
     return formulate_polynomials(name, polys, len(unknowns))
