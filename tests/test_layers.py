@@ -1,7 +1,8 @@
 """The package's layers, read from its source: lower layers never import higher ones, no cycles.
 
 Every ``import`` of a spherekin module is collected with ``ast`` (module level and inside
-functions). Layers, lowest first (README's tour):
+functions). No module imports ``verification/``, no private name crosses a module boundary (neither
+imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (README's tour):
 
 core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> trust (spherekin/trust/) -> pipeline (problem) ->
@@ -90,6 +91,41 @@ def test_no_private_name_is_imported_from_another_module(module):
         if target.startswith("spherekin") and target != module:
             private = [n for n in names if n.startswith("_") and not n.startswith("__")]
             assert not private, f"{module} imports private {private} from {target}"
+
+
+def module_aliases(module: str, path: Path) -> dict[str, str]:
+    """Local name -> spherekin module, for the modules bound by name (``from .core import bernstein``,
+    ``import spherekin.core.intervals as iv``)."""
+    tree = ast.parse(path.read_text())
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    out = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            for a in node.names:
+                if f"{target}.{a.name}" in ALL:
+                    out[a.asname or a.name] = f"{target}.{a.name}"
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name in ALL and a.asname:
+                    out[a.asname] = a.name
+    return out
+
+
+@pytest.mark.parametrize("module", sorted(ALL))
+def test_no_private_name_of_another_module_is_used_through_its_module(module):
+    """``bernstein._x(...)`` is the same breach as ``from .bernstein import _x``."""
+    aliases = module_aliases(module, ALL[module])
+    for node in ast.walk(ast.parse(ALL[module].read_text())):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases
+                and node.attr.startswith("_") and not node.attr.startswith("__")
+                and aliases[node.value.id] != module):
+            pytest.fail(f"{module} uses private {node.attr} of {aliases[node.value.id]}")
 
 
 @pytest.mark.parametrize("module", sorted(m for m in ALL if m != "spherekin"))
