@@ -48,6 +48,8 @@ from .core.rotations import normalized_closure
 __all__ = [
     "KNOWN_ANGLE_SNAP",
     "snapped_cos_sin",
+    "tan_half_angle",
+    "tan_half_unit",
     "Unknown",
     "Term",
     "FactorPolynomials",
@@ -74,6 +76,24 @@ ROUTES = ("recursion", "product")
 # --------------------------------------------------------------------------------------------
 # Unknowns and factor terms
 # --------------------------------------------------------------------------------------------
+
+
+def tan_half_angle(x, shift, t_lo, t_hi) -> np.ndarray:
+    """theta = shift + 2 atan(t), t = t_lo + (t_hi - t_lo) x (Section 2.2): the angle (radians) at
+    unit-box coordinate(s) x in [0, 1]; arrays that broadcast together.
+
+    The one place of the tan-half unit-box -> angle map: :meth:`Unknown.to_angle` and the tan-half
+    charts (:class:`spherekin.search.parameterizations.TanHalf`) both call it.
+    """
+    t = t_lo + (t_hi - t_lo) * np.asarray(x, dtype=float)
+    return shift + 2.0 * np.arctan(t)
+
+
+def tan_half_unit(theta, shift, t_lo, t_hi) -> np.ndarray:
+    """The inverse of :func:`tan_half_angle`: unit-box coordinate(s) x of angle(s) theta (radians,
+    taken modulo 2 pi into [shift - pi, shift + pi)); arrays that broadcast together."""
+    rel = np.mod(np.asarray(theta, dtype=float) - shift + np.pi, 2 * np.pi) - np.pi  # in [-pi, pi)
+    return (np.tan(0.5 * rel) - t_lo) / (t_hi - t_lo)
 
 def _finite_float(name: str, value) -> float:
     try:
@@ -173,17 +193,13 @@ class Unknown(_AngleArithmetic):
         return (math.tan(0.5 * (self.lo - self.shift)), math.tan(0.5 * (self.hi - self.shift)))
 
     def to_angle(self, x) -> np.ndarray:
-        """theta (radians) at unit-box coordinate(s) x in [0, 1]."""
-        t_lo, t_hi = self.t_range
-        t = t_lo + (t_hi - t_lo) * np.asarray(x, dtype=float)
-        return self.shift + 2.0 * np.arctan(t)
+        """theta (radians) at unit-box coordinate(s) x in [0, 1] (:func:`tan_half_angle`)."""
+        return tan_half_angle(x, self.shift, *self.t_range)
 
     def to_unit(self, theta) -> np.ndarray:
-        """Unit-box coordinate(s) x of angle(s) theta (radians, taken modulo 2 pi into the range)."""
-        theta = np.asarray(theta, dtype=float)
-        rel = np.mod(theta - self.shift + np.pi, 2 * np.pi) - np.pi  # in [-pi, pi)
-        t_lo, t_hi = self.t_range
-        return (np.tan(0.5 * rel) - t_lo) / (t_hi - t_lo)
+        """Unit-box coordinate(s) x of angle(s) theta (radians, taken modulo 2 pi into the range;
+        :func:`tan_half_unit`)."""
+        return tan_half_unit(theta, self.shift, *self.t_range)
 
     def __repr__(self):
         return f"Unknown({self.name!r}, lo={self.lo!r}, hi={self.hi!r}, shift={self.shift!r})"

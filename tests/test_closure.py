@@ -210,6 +210,20 @@ def test_unknown_range_through_pi_uses_midpoint_shift():
     np.testing.assert_allclose(u.to_unit([2.5, 4.0]), [0.0, 1.0], atol=1e-13)
 
 
+def test_tan_half_maps_are_inverse_and_are_what_unknowns_use():
+    rng = np.random.default_rng(3)
+    shift = np.array([0.0, math.pi, 3.25])
+    t_lo, t_hi = np.tan(-0.5 * np.array([1.0, 1.5, 0.75])), np.tan(0.5 * np.array([1.2, 1.5, 0.75]))
+    x = rng.uniform(0, 1, (50, 3))
+    theta = C.tan_half_angle(x, shift, t_lo, t_hi)
+    assert theta.shape == (50, 3)
+    np.testing.assert_allclose(C.tan_half_unit(theta, shift, t_lo, t_hi), x, atol=1e-13)
+    np.testing.assert_allclose(C.tan_half_unit(theta + 2 * math.pi, shift, t_lo, t_hi), x, atol=1e-12)
+    u = C.Unknown("a", 2.5, 4.0)
+    assert np.array_equal(u.to_angle(x[:, 2]), C.tan_half_angle(x[:, 2], u.shift, *u.t_range))
+    assert np.array_equal(u.to_unit(theta[:, 2]), C.tan_half_unit(theta[:, 2], u.shift, *u.t_range))
+
+
 def test_angle_arithmetic_builds_terms():
     u = C.Unknown("a", -1, 1)
     assert (u + 0.5) == C.Term(u, 0.5, 1)

@@ -21,8 +21,8 @@ import sympy as sp
 from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Term, Unknown
 from spherekin.mechanism import gosselin, general_3rrr
-from spherekin.search.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, arc_box, make_charts, sin_cos_loop,
-                                         tan_half_loop)
+from spherekin.search.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, arc_box, charts_for_range,
+                                                make_charts, sin_cos_loop, tan_half_loop)
 from spherekin.core.rotations import normalized_closure
 
 INPUTS = (0.3, -0.2, 0.5)
@@ -240,6 +240,22 @@ def test_chart_maps_round_trip_and_angle_boxes_enclose(name, preset):
         cs = np.stack([np.cos(theta), np.sin(theta)], -1).ravel()
         x = (cs - charts.map_lo[0]) / (charts.map_hi[0] - charts.map_lo[0])
         np.testing.assert_allclose(charts.angles(np.array([0]), x[None])[0], theta, atol=1e-12)
+
+
+def test_tan_half_chart_angles_are_the_chart_unknowns_angles():
+    """One map from unit box to angle: a tan-half chart's angles are those of the closure Unknown
+    over that chart's range (both call closure.tan_half_angle)."""
+    mech = general_3rrr()
+    build, ranges = mechanism_build(mech)
+    charts = make_charts("tan-half", build, ranges, "halves")
+    per_name = [charts_for_range(ranges[n]) for n in charts.unknowns]
+    combos = list(itertools.product(*per_name))
+    assert len(combos) == charts.n_charts
+    x = np.random.default_rng(8).uniform(0, 1, (charts.n_charts, len(charts.unknowns)))
+    got = charts.angles(np.arange(charts.n_charts), x)
+    want = np.array([[Unknown(n, *rng).to_angle(xi) for n, rng, xi in zip(charts.unknowns, combo, row)]
+                     for combo, row in zip(combos, x)])
+    assert np.array_equal(got, want)
 
 
 def test_sin_cos_has_one_circle_equation_per_unknown():

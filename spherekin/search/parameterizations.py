@@ -31,7 +31,7 @@ from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
-from ..closure import ClosureLoop, Term, Unknown, snapped_cos_sin
+from ..closure import ClosureLoop, Term, Unknown, snapped_cos_sin, tan_half_angle
 from .formulations import ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
 
@@ -399,8 +399,7 @@ class TanHalf(LoopParameterization):
     name = "tan-half"
 
     def metric(self, charts, chart, x):
-        lo, hi = charts.map_lo[chart], charts.map_hi[chart]
-        return charts.shift[chart] + 2.0 * np.arctan(lo + (hi - lo) * x)
+        return tan_half_angle(x, charts.shift[chart], charts.map_lo[chart], charts.map_hi[chart])
 
     def charts(self, build, ranges, formulation) -> ChartSet:
         """2^n-ish charts (:func:`charts_for_range` per unknown). ``build`` is called once: the loops'
