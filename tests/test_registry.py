@@ -58,21 +58,6 @@ def test_the_command_line_choices_are_the_registries():
     assert _choices(parser, "solve", "--formulation") == ["auto", "platform", *FORMULATIONS]
 
 
-@pytest.fixture
-def registered():
-    """Register test strategies; remove them afterwards (the registries are left as found)."""
-    added = []
-
-    def add(registry: Registry, cls):
-        registry.register(cls)
-        added.append((registry, cls.name))
-        return cls
-
-    yield add
-    for registry, name in added:
-        registry.unregister(name)
-
-
 def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
     class CountingPP(ProjectedPolyhedron):
         name = "counting-pp"
