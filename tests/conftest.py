@@ -45,3 +45,19 @@ def gosselin_report():
     from spherekin.mechanism import gosselin
 
     return solve(gosselin(), GOSSELIN_INPUTS)
+
+
+@pytest.fixture
+def registered():
+    """``registered(REGISTRY, cls)`` registers a test strategy; every one is unregistered after the
+    test, so that the registries are left as found (no strategy leaks into other tests)."""
+    added = []
+
+    def add(registry, cls):
+        registry.register(cls)
+        added.append((registry, cls.name))
+        return cls
+
+    yield add
+    for registry, name in reversed(added):
+        registry.unregister(name)

@@ -2,13 +2,17 @@
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from spherekin.cli import main
-from spherekin.problem import DEFAULT_FORMULATION
+from spherekin.problem import DEFAULT_FORMULATION, formulation_choices
+from spherekin.search.lp_backends import LP_BACKENDS
+from spherekin.search.parameterizations import PARAMETERIZATIONS
+from spherekin.search.pruners import PRUNERS, ProjectedPolyhedron
 
 GOSSELIN = str(Path(__file__).resolve().parent.parent / "examples" / "gosselin.toml")
 
@@ -59,6 +63,29 @@ def test_unknown_strategy_name_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as err:
         main(["solve", GOSSELIN, "--inputs", "0,0,0", "--parameterization", "quaternion"])
     assert err.value.code == 2 and "tan-half" in capsys.readouterr().err
+
+
+def _help_choices(capsys) -> dict:
+    """option -> its choices, as ``spherekin solve --help`` prints them ({a,b,c})."""
+    with pytest.raises(SystemExit) as err:
+        main(["solve", "--help"])
+    assert err.value.code == 0
+    text = capsys.readouterr().out
+    return {option: choices.split(",") for option, choices in re.findall(r"(--[a-z-]+) \{([^}]*)\}", text)}
+
+
+def test_help_choices_are_the_registries(capsys):
+    assert _help_choices(capsys) == {"--parameterization": list(PARAMETERIZATIONS),
+                                     "--formulation": list(formulation_choices()),
+                                     "--pruner": list(PRUNERS), "--lp-backend": list(LP_BACKENDS)}
+
+
+def test_help_lists_a_registered_strategy(registered, capsys):
+    class PPAgain(ProjectedPolyhedron):
+        name = "pp-again"
+
+    registered(PRUNERS, PPAgain)
+    assert _help_choices(capsys)["--pruner"] == [*PRUNERS] and "pp-again" in PRUNERS
 
 
 def test_degrees_give_the_same_solutions(tmp_path):

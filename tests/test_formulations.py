@@ -15,13 +15,15 @@
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 
 from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Unknown
-from spherekin.search.formulations import FORMULATIONS, ChartBilinear, embed, formulate
+from spherekin.search.formulations import (FORMULATIONS, ChartBilinear, Formulation, Halves, Paper, Transversal, embed,
+                                          formulate, formulate_polynomials)
 from spherekin.core.rotations import normalize_polygon, normalized_closure
 from verification.spherical import exterior_angles, random_polygon, side_lengths
 from conftest import wrap
@@ -333,6 +335,38 @@ def test_unknown_formulation_name_lists_valid_ones():
     for name in FORMULATIONS:
         assert repr(name) in str(err.value) or name in str(err.value)
     assert "bogus" in str(err.value)
+
+
+def test_the_registry_lists_exactly_the_loop_formulations():
+    assert list(FORMULATIONS) == ["paper", "transversal", "halves"]
+    assert [FORMULATIONS[n] for n in FORMULATIONS] == [Paper, Transversal, Halves]
+    assert all(issubclass(cls, Formulation) for cls in FORMULATIONS.values())
+    # the parameterizations ask the class, not its name, whether Eq. (10) is needed on every loop
+    assert [cls.uses_scalar for cls in FORMULATIONS.values()] == [True, True, False]
+
+
+@pytest.mark.parametrize("call", [lambda: formulate_polynomials("bogus", [], 2),
+                                  lambda: formulate("bogus", *closed_two_loops(0)[:2])],
+                         ids=["formulate_polynomials", "formulate"])
+def test_an_unknown_formulation_is_the_registry_error(call):
+    with pytest.raises(ValueError, match=re.escape(f"formulation: expected one of {list(FORMULATIONS)}, got 'bogus'")):
+        call()
+
+
+def test_a_registered_formulation_is_accepted_by_the_lookup(registered):
+    class ScalarOnly(Formulation):
+        """Eq. (10) alone, as a strategy of its own (the paper's equations by another name)."""
+
+        name = "scalar-only"
+
+        def blocks(self, polys, n_vars):
+            return Paper().blocks(polys, n_vars)
+
+    registered(FORMULATIONS, ScalarOnly)
+    loops, unknowns, _ = closed_two_loops(0)
+    got, want = formulate("scalar-only", loops, unknowns), formulate("paper", loops, unknowns)
+    assert [b.labels for b in got] == [b.labels for b in want]
+    assert all(np.array_equal(g.coeffs, w.coeffs) for g, w in zip(got, want))
 
 
 def test_no_loops_is_an_error():

@@ -16,6 +16,7 @@ when the reference agrees it is empty.
 """
 
 import functools
+import re
 
 from fractions import Fraction
 
@@ -25,7 +26,10 @@ from scipy.optimize import linprog
 
 from spherekin.core import bernstein
 from spherekin.search.formulations import formulate
-from spherekin.search.lp_backends import INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, LPStructure, make_backend
+from spherekin.search.lp_backends import (INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, REJECTED_LP_BACKENDS,
+                                          ClarabelBackend, HighsCvxpyBackend, HighspyBackend, LPBackend, LPStructure,
+                                          backend_class, make_backend)
+from spherekin.search.pruners import check_pruner, make_pruner
 from spherekin.mechanism import gosselin
 from spherekin.search.boxloop import ROUNDING_SAFETY
 
@@ -521,6 +525,34 @@ def test_backend_names():
     with pytest.raises(ValueError) as err:
         make_backend("glpk", SMALL_SHAPES[2])
     assert "glpk" in str(err.value) and all(name in str(err.value) for name in LP_BACKENDS)
+
+
+def test_the_registry_lists_exactly_the_backends():
+    assert list(LP_BACKENDS) == ["clarabel", "highs", "highspy"]
+    assert [LP_BACKENDS[n] for n in LP_BACKENDS] == [ClarabelBackend, HighsCvxpyBackend, HighspyBackend]
+    assert all(issubclass(cls, LPBackend) for cls in LP_BACKENDS.values())
+    assert not set(REJECTED_LP_BACKENDS) & set(LP_BACKENDS)
+
+
+@pytest.mark.parametrize("name", ["glpk", "osqp"])
+@pytest.mark.parametrize("call", [backend_class, lambda name: make_backend(name, SMALL_SHAPES[2])],
+                         ids=["backend_class", "make_backend"])
+def test_an_unknown_backend_is_the_registry_error(call, name):
+    with pytest.raises(ValueError, match=re.escape(f"lp_backend: expected one of {list(LP_BACKENDS)}, got {name!r}")):
+        call(name)
+
+
+def test_a_registered_backend_is_accepted_by_the_lookup(registered):
+    class HighspyAgain(HighspyBackend):
+        name = "highspy-again"
+
+    registered(LP_BACKENDS, HighspyAgain)
+    check_pruner("lp", "highspy-again")
+    pruner = make_pruner("lp", SMALL_SHAPES[2], "highspy-again")
+    assert isinstance(pruner.backend, HighspyAgain)
+    cps, tols = random_boxes(1, 2, 1)[0]
+    got, want = pruner.backend.box_bounds(cps, tols), make_backend("highspy", SMALL_SHAPES[2]).box_bounds(cps, tols)
+    assert got.empty == want.empty and np.array_equal(got.lo, want.lo) and np.array_equal(got.hi, want.hi)
 
 
 def test_structure_rejects_bad_shapes():

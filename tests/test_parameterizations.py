@@ -10,8 +10,10 @@
 * the circle equation's control points.
 """
 
+import dataclasses
 import itertools
 import math
+import re
 from fractions import Fraction
 
 import numpy as np
@@ -21,8 +23,10 @@ import sympy as sp
 from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Term, Unknown
 from spherekin.mechanism import gosselin, general_3rrr
-from spherekin.search.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, arc_box, charts_for_range,
-                                                make_charts, sin_cos_loop, tan_half_loop)
+import spherekin
+from spherekin.search.parameterizations import (ARC_BOX_MARGIN, PARAMETERIZATIONS, LoopParameterization, SinCos,
+                                                TanHalf, arc_box, charts_for_range, make_charts, sin_cos_loop,
+                                                tan_half_loop)
 from spherekin.core.rotations import normalized_closure
 
 INPUTS = (0.3, -0.2, 0.5)
@@ -286,6 +290,41 @@ def test_unknown_parameterization_lists_valid_ones():
     with pytest.raises(ValueError) as err:
         make_charts("quaternion", build, ranges, "halves")
     assert "quaternion" in str(err.value) and all(n in str(err.value) for n in PARAMETERIZATIONS)
+
+
+def test_the_registry_lists_exactly_tan_half_and_sin_cos():
+    assert list(PARAMETERIZATIONS) == ["tan-half", "sin-cos"]
+    assert [PARAMETERIZATIONS[n] for n in PARAMETERIZATIONS] == [TanHalf, SinCos]
+    assert all(issubclass(cls, LoopParameterization) for cls in PARAMETERIZATIONS.values())
+
+
+def test_an_unknown_parameterization_is_the_registry_error():
+    build, ranges = mechanism_build(gosselin())
+    expected = f"parameterization: expected one of {list(PARAMETERIZATIONS)}, got 'quaternion'"
+    with pytest.raises(ValueError, match=re.escape(expected)):
+        make_charts("quaternion", build, ranges, "halves")
+
+
+@pytest.mark.parametrize("name", list(PARAMETERIZATIONS))
+def test_a_chart_set_is_frozen_and_holds_its_parameterization_object(name):
+    build, ranges = mechanism_build(gosselin())
+    charts = make_charts(name, build, ranges, "halves")
+    assert type(charts.parameterization) is PARAMETERIZATIONS[name]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        charts.accept_width = 2.0
+
+
+def test_a_registered_parameterization_is_accepted_by_the_lookup(registered):
+    class TanHalfAgain(TanHalf):
+        name = "tan-half-again"
+
+    registered(PARAMETERIZATIONS, TanHalfAgain)
+    build, ranges = mechanism_build(gosselin())
+    got, want = make_charts("tan-half-again", build, ranges, "halves"), make_charts("tan-half", build, ranges, "halves")
+    assert isinstance(got.parameterization, TanHalfAgain) and got.n_charts == want.n_charts
+    assert all(np.array_equal(g, w) for g, w in zip(got.coeffs, want.coeffs))
+    problem = spherekin.compile(gosselin(), formulation="halves", parameterization="tan-half-again")
+    assert problem.strategy.parameterization == "tan-half-again"
 
 
 def test_circle_bounds_against_dense_samples_of_the_circle():

@@ -10,6 +10,7 @@
 * the LP box (Eq. 12) lies inside the PP box up to the documented margins.
 """
 
+import re
 from fractions import Fraction
 
 import numpy as np
@@ -21,7 +22,9 @@ from spherekin.core import bernstein
 from spherekin.search.formulations import formulate
 from spherekin.search.lp_backends import FEASIBILITY_TOL, LP_BOUND_MARGIN
 from spherekin.mechanism import gosselin
-from spherekin.search.pruners import INTERVAL_MARGIN, PRUNERS, excludes_zero, make_pruner, pp_intervals
+from spherekin.search import lp_backends
+from spherekin.search.pruners import (INTERVAL_MARGIN, PRUNERS, HybridPruner, LinearProgramPruner, ProjectedPolyhedron,
+                                      Pruner, check_pruner, excludes_zero, make_pruner, pp_intervals)
 from spherekin.search.boxloop import ROUNDING_SAFETY
 from conftest import times_linear
 
@@ -324,6 +327,48 @@ def test_pruner_names():
         make_pruner("pp", [(1, 3)], "highs")
     with pytest.raises(ValueError, match="lp_backend"):
         make_pruner("lp", [(1, 3)], "glpk")
+
+
+def test_the_registry_lists_exactly_the_pruners():
+    assert list(PRUNERS) == ["pp", "lp", "hybrid"]
+    assert [PRUNERS[n] for n in PRUNERS] == [ProjectedPolyhedron, LinearProgramPruner, HybridPruner]
+    assert all(issubclass(cls, Pruner) for cls in PRUNERS.values())
+    assert all(cls.default_lp_backend is None or cls.default_lp_backend in lp_backends.LP_BACKENDS
+               for cls in PRUNERS.values())
+
+
+@pytest.mark.parametrize("call", [lambda: make_pruner("simplex", [(1, 3)]), lambda: check_pruner("simplex")],
+                         ids=["make_pruner", "check_pruner"])
+def test_an_unknown_pruner_is_the_registry_error(call):
+    with pytest.raises(ValueError, match=re.escape(f"pruner: expected one of {list(PRUNERS)}, got 'simplex'")):
+        call()
+
+
+def test_check_pruner_builds_no_pruner_and_no_lp_model(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("built")
+
+    for cls in PRUNERS.values():
+        monkeypatch.setattr(cls, "build", classmethod(refuse))
+    for cls in lp_backends.LP_BACKENDS.values():
+        monkeypatch.setattr(cls, "__init__", refuse)
+    for name in PRUNERS:
+        check_pruner(name)
+    check_pruner("lp", "clarabel")
+    check_pruner("hybrid", "highs")
+    with pytest.raises(ValueError, match=re.escape(f"lp_backend: expected one of {list(lp_backends.LP_BACKENDS)}")):
+        check_pruner("lp", "glpk")
+
+
+def test_a_registered_pruner_is_accepted_by_the_lookup(registered):
+    class PPAgain(ProjectedPolyhedron):
+        name = "pp-again"
+
+    registered(PRUNERS, PPAgain)
+    check_pruner("pp-again")
+    assert isinstance(make_pruner("pp-again", [(1, 3)]), PPAgain)
+    with pytest.raises(ValueError, match="solves no LP"):
+        check_pruner("pp-again", "highspy")
 
 
 def test_excludes_zero_keeps_a_box_whose_control_points_clear_zero_by_less_than_their_tolerance():

@@ -58,21 +58,6 @@ def test_the_command_line_choices_are_the_registries():
     assert _choices(parser, "solve", "--formulation") == ["auto", "platform", *FORMULATIONS]
 
 
-@pytest.fixture
-def registered():
-    """Register test strategies; remove them afterwards (the registries are left as found)."""
-    added = []
-
-    def add(registry: Registry, cls):
-        registry.register(cls)
-        added.append((registry, cls.name))
-        return cls
-
-    yield add
-    for registry, name in added:
-        registry.unregister(name)
-
-
 def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
     class CountingPP(ProjectedPolyhedron):
         name = "counting-pp"
@@ -94,8 +79,29 @@ def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
     assert "halves-again" in formulation_choices()
 
 
+def test_compile_checks_names_without_building_and_builds_the_platform_pruner_once(registered):
+    class CountingBuilds(ProjectedPolyhedron):
+        name = "counting-builds"
+        builds = 0
+
+        @classmethod
+        def build(cls, shapes, lp_backend):
+            cls.builds += 1
+            return super().build(shapes, lp_backend)
+
+    registered(PRUNERS, CountingBuilds)
+    spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
+    assert CountingBuilds.builds == 0          # a loop formulation: the checks build nothing
+    problem = spherekin.compile(gosselin(), pruner="counting-builds")
+    assert problem.platform is not None and CountingBuilds.builds == 1
+    for _ in range(2):
+        report = problem.solve(GOSSELIN_INPUTS)
+        assert report.settings.fallback is None and report.proven_count == 8
+    assert CountingBuilds.builds == 1          # the compiled problem's pruner serves every input
+
+
 def test_the_registries_are_left_as_found_by_the_fixture():
-    assert "counting-pp" not in PRUNERS and "halves-again" not in FORMULATIONS
+    assert "counting-pp" not in PRUNERS and "halves-again" not in FORMULATIONS and "counting-builds" not in PRUNERS
 
 
 def test_registry_refuses_a_class_without_a_name_or_a_name_taken():

@@ -297,6 +297,10 @@ class Formulation(ABC):
     """
 
     name: ClassVar[str]
+    #: Whether the blocks use Eq. (10) of every loop: the parameterization then computes it by the
+    #: paper's recursion route (Cor. 2); when False it skips that route and :func:`_scalar` reads the
+    #: same polynomial off the matrix for the loops that need it.
+    uses_scalar: ClassVar[bool] = True
 
     @abstractmethod
     def blocks(self, polys: Sequence[LoopPolynomials], n_vars: int) -> list[EquationBlock]:
@@ -346,6 +350,7 @@ class Halves(Formulation):
     """
 
     name = "halves"
+    uses_scalar = False          # Eq. (10) only on loops with one unknown
 
     def blocks(self, polys, n_vars):
         blocks = []

@@ -614,6 +614,6 @@ def backend_class(name: str) -> type:
     """The class of the LP backend called ``name``; ValueError naming the valid ones (and saying
     why, for a backend of cvxpy's that was measured and rejected) otherwise. Builds nothing."""
     if name in REJECTED_LP_BACKENDS:
-        raise ValueError(f"lp_backend: {name!r} is not supported: {REJECTED_LP_BACKENDS[name]}; "
-                         f"use one of {list(LP_BACKENDS)}")
+        raise ValueError(f"lp_backend: expected one of {list(LP_BACKENDS)}, got {name!r}, which is not supported: "
+                         f"{REJECTED_LP_BACKENDS[name]}")
     return LP_BACKENDS.lookup(name)

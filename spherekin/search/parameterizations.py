@@ -32,7 +32,7 @@ from typing import ClassVar, Mapping, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown, snapped_cos_sin, tan_half_angle
-from .formulations import ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
+from .formulations import FORMULATIONS, ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
 
 __all__ = [
@@ -414,7 +414,7 @@ class TanHalf(LoopParameterization):
             raise ValueError(f"build: expected the unknowns {tuple(names)}, got {tuple(u.name for u in unknowns)}")
         chart_unknowns = [[Unknown(name, *rng) for rng in per_name[k]] for k, name in enumerate(names)]
         cache: dict = {}
-        scalar = formulation != "halves"      # the paper's recursion route, only where Eq. (10) is used
+        scalar = FORMULATIONS.lookup(formulation).uses_scalar   # the paper's recursion route where Eq. (10) is used
         per_chart, t_lo, t_hi, shift = [], [], [], []
         for combo in combos:
             blocks = []
