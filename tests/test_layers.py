@@ -48,6 +48,15 @@ def modules() -> dict[str, Path]:
     return out
 
 
+def import_target(package: str, node: ast.ImportFrom) -> str:
+    """The absolute module a ``from ... import`` statement in ``package`` reads from."""
+    if not node.level:
+        return node.module or ""
+    base = package.split(".")
+    base = base[:len(base) - node.level + 1]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def imports(module: str, path: Path):
     """(target module, imported names, at module level?) for every import of a spherekin module."""
     tree = ast.parse(path.read_text())
@@ -55,12 +64,7 @@ def imports(module: str, path: Path):
     top_level = {id(node) for node in tree.body}
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[:len(base) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module or ""
+            target = import_target(package, node)
             names = [a.name for a in node.names]
             if not node.module and node.level:        # from . import x: the modules x
                 for n in names:
@@ -101,12 +105,7 @@ def module_aliases(module: str, path: Path) -> dict[str, str]:
     out = {}
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[:len(base) - node.level + 1]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module or ""
+            target = import_target(package, node)
             for a in node.names:
                 if f"{target}.{a.name}" in ALL:
                     out[a.asname or a.name] = f"{target}.{a.name}"
