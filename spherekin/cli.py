@@ -2,6 +2,9 @@
 
 Commands:
     solve      direct kinematics of a mechanism file: every solution inside the joint ranges
+    ik         inverse kinematics: every actuator solution (working mode) of a platform pose
+    batch      direct kinematics of many inputs (a CSV or a grid) on Dask, written as they finish
+    map        the number of assembly modes over a 2-D grid of inputs, drawn as a map
     gosselin   summary of the paper's two Gosselin closure loops in Bernstein form (Section 2.1, Eq. 10)
     verify     symbolic verification of every claim of the paper; writes verification/REPORT.md
 """
@@ -11,6 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -134,6 +138,209 @@ def _solve(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ families of inputs
+
+#: Seconds between progress lines of a batch when stderr is not a terminal (a log): often enough to
+#: see a job move, rarely enough that a run of hours leaves a log of a few hundred lines.
+PROGRESS_INTERVAL = 10.0
+
+
+class _BatchProgress:
+    """Inputs done, rate and time left: one line redrawn on a terminal, a line every PROGRESS_INTERVAL
+    seconds otherwise (a log)."""
+
+    def __init__(self, terminal: bool):
+        self.terminal, self.t0, self.last, self.start_done = terminal, time.perf_counter(), 0.0, None
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if self.start_done is None:
+            self.start_done = done
+        due = (now - self.last > 0.2) if self.terminal else (now - self.last >= PROGRESS_INTERVAL)
+        if not due and done < total:
+            return
+        self.last = now
+        elapsed = now - self.t0
+        rate = (done - self.start_done) / elapsed if elapsed > 0 else 0.0
+        eta = f"{(total - done) / rate:6.0f} s left" if rate > 0 and done < total else ""
+        width = 30
+        bar = "#" * int(width * done / max(total, 1))
+        line = f"  [{bar:<{width}s}] {done}/{total} inputs ({100 * done / max(total, 1):5.1f}%)  {rate:7.1f}/s  {eta}"
+        if self.terminal:
+            print("\r" + line, end="", file=sys.stderr, flush=True)
+        else:
+            print(line.rstrip(), file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.terminal and self.last:
+            print(file=sys.stderr)
+
+
+def _strategy(args) -> dict:
+    return dict(formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
+                parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate)
+
+
+def _family_inputs(mech, args):
+    from .batch import grid_inputs, read_inputs_csv
+
+    if getattr(args, "inputs", None) and args.grid:
+        raise ValueError("--inputs and --grid: expected one of them (a CSV file of inputs, or a grid)")
+    if getattr(args, "inputs", None):
+        if args.fix:
+            raise ValueError("--fix: only with --grid (a CSV file gives every actuated joint a column)")
+        return read_inputs_csv(mech, args.inputs, degrees=args.degrees)
+    if not args.grid:
+        raise ValueError("expected the inputs: --inputs FILE.csv or --grid name=lo:hi:n (with --fix for the others)")
+    return grid_inputs(mech, args.grid, args.fix or (), degrees=args.degrees)
+
+
+def _engine_note(summary) -> str:
+    where = "in this process" if not summary.workers else f"on {summary.workers} Dask worker(s)"
+    rate = summary.solved / summary.seconds if summary.seconds > 0 else 0.0
+    return f"{summary.solved} input(s) solved {where} in {summary.seconds:.1f} s ({rate:.1f} per second)"
+
+
+def _batch(args) -> int:
+    from .batch import solve_to_file
+    from .batch.sinks import check_output_path
+    from .mechanism import load_mechanism
+
+    mech = load_mechanism(args.file)
+    inputs = _family_inputs(mech, args)
+    check_output_path(args.out, args.resume, args.overwrite)
+    print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}")
+    progress = _BatchProgress(sys.stderr.isatty())
+    try:
+        summary = solve_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite,
+                                scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                                progress=progress, **_strategy(args))
+    finally:
+        progress.close()
+    if summary.skipped:
+        print(f"{summary.skipped} input(s) were already in {args.out} (resumed)")
+    print(f"{_engine_note(summary)}; {summary.written} row(s) written to {args.out}")
+    if summary.interrupted:
+        print(f"interrupted: {summary.skipped + summary.solved} of {summary.total} inputs are in {args.out}; "
+              "run the same command with --resume to complete it", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _map(args) -> int:
+    from .batch import assembly_map
+    from .batch.sinks import check_output_path
+    from .mechanism import load_mechanism
+
+    mech = load_mechanism(args.file)
+    if len(args.grid or ()) != 2:
+        raise ValueError(f"--grid: a map needs exactly two grid axes (x, then y), got {len(args.grid or ())}")
+    inputs = _family_inputs(mech, args)                     # every spec and range checked here
+    if args.plot:
+        from .plot import check_plot_path
+
+        check_plot_path(args.plot)
+    if args.out:
+        check_output_path(args.out, args.resume, args.overwrite)
+    if args.table and not str(args.table).lower().endswith(".csv"):
+        raise ValueError(f"--table {args.table}: expected a .csv path")
+    if args.table and not Path(args.table).resolve().parent.is_dir():
+        raise ValueError(f"--table {args.table}: the directory does not exist")
+    x, y = inputs.axes
+    print(f"{mech.name or args.file}: assembly-mode map over {x.name} x {y.name} "
+          f"({len(x.values)} x {len(y.values)} inputs)")
+    progress = _BatchProgress(sys.stderr.isatty())
+    try:
+        amap = assembly_map(mech, x, y, inputs.fixed, out=args.out, resume=args.resume, overwrite=args.overwrite,
+                            scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                            progress=progress, **_strategy(args))
+    finally:
+        progress.close()
+    print(amap.table())
+    if args.table:
+        amap.frame().to_csv(args.table, index=False)
+        print(f"wrote {args.table}")
+    if args.plot:
+        from .plot import plot_assembly_map
+
+        plot_assembly_map(amap, args.plot, degrees=args.degrees, measure=args.singularity)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _parse_numbers(key: str, text: str, n: int) -> list[float]:
+    try:
+        values = [float(v) for v in text.replace(" ", ",").split(",") if v]
+    except ValueError:
+        raise ValueError(f"{key}: expected {n} comma-separated numbers, got {text!r}") from None
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{key}: expected {n} finite comma-separated numbers, got {text!r}")
+    return values
+
+
+def _ik(args) -> int:
+    from .core.orientation import quaternions_from_rotations, rotation_from_euler, rotation_from_quaternion
+    from .mechanism import load_mechanism
+    from .mechanism.checks import check_rotation
+
+    given = [k for k in ("rotation", "quaternion", "euler") if getattr(args, k) is not None]
+    if len(given) != 1:
+        raise ValueError("expected the pose as exactly one of --rotation, --quaternion, --euler")
+    if args.convention and args.euler is None:
+        raise ValueError("--convention: only with --euler")
+    mech = load_mechanism(args.file)
+    if args.rotation is not None:
+        rot = check_rotation("--rotation", np.array(_parse_numbers("--rotation", args.rotation, 9)).reshape(3, 3))
+    elif args.quaternion is not None:
+        rot = rotation_from_quaternion(_parse_numbers("--quaternion", args.quaternion, 4), "--quaternion")
+    else:
+        angles = _parse_numbers("--euler", args.euler, 3)
+        if args.degrees:
+            angles = [math.radians(a) for a in angles]
+        rot = rotation_from_euler(angles, args.convention or "ZYX", "--euler")
+    sols = mech.inverse_kinematics(rot, only_in_range=args.in_range)
+    scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
+    q = quaternions_from_rotations(rot)
+    print(f"{mech.name or args.file}: inverse kinematics at the platform pose with quaternion "
+          f"w, x, y, z = {q[0]:+.6f}, {q[1]:+.6f}, {q[2]:+.6f}, {q[3]:+.6f}")
+    names = list(mech.actuated) + list(mech.passive)
+    n_in = sum(s.in_range for s in sols)
+    print(f"{len(sols)} solution(s) (working modes), {n_in} inside every joint range; joint angles in {unit}:")
+    print("  #  mode  " + " ".join(f"{n:>11s}" for n in names) + "  in range")
+    for k, s in enumerate(sols, start=1):
+        mode = "".join("+" if m > 0 else "-" if m < 0 else "0" for m in s.working_mode)
+        print(f"{k:3d}  {mode:>4s}  " + " ".join(f"{s.joint_angles[n] * scale:+11.6f}" for n in names)
+              + f"  {'yes' if s.in_range else 'no'}")
+    if args.json:
+        import json
+
+        out = {"schema": "spherekin.ik/1", "mechanism": mech.name, "platform_rotation": rot.tolist(),
+               "quaternion": q.tolist(),
+               "solutions": [{"working_mode": list(s.working_mode), "inputs": dict(zip(mech.actuated, s.inputs)),
+                              "joint_angles": dict(s.joint_angles), "in_range": s.in_range} for s in sols]}
+        Path(args.json).write_text(json.dumps(out, indent=2))
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _add_engine_options(p) -> None:
+    p.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://HOST:8786); default: an "
+                                       "embedded local cluster (in this process for a handful of inputs)")
+    p.add_argument("--workers", type=int, help="worker processes of the embedded cluster (default: one per core; "
+                                               "0: in this process)")
+    p.add_argument("--chunk-size", type=int, help="inputs per Dask task (default: up to 64)")
+    p.add_argument("--resume", action="store_true", help="complete a partial output without redoing finished inputs")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output")
+
+
+def _add_grid_options(p) -> None:
+    p.add_argument("--grid", action="append", metavar="NAME=LO:HI:N",
+                   help="sweep an actuated joint over N points from LO to HI (both included; e.g. beta1=-pi:pi:64); "
+                        "repeat for each swept joint, the first varies slowest")
+    p.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold an actuated joint at VALUE")
+    p.add_argument("--degrees", action="store_true", help="input angles (and printed angles) in degrees")
+
+
 def _verify(args) -> int:
     """Run ``python -m verification`` of the source checkout this package lives in.
 
@@ -153,19 +360,14 @@ def _verify(args) -> int:
     return subprocess.run([sys.executable, "-m", "verification", *argv], cwd=root).returncode
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+def _add_strategy_options(so) -> None:
+    """The strategy options of solve, batch and map (choices read from the registries)."""
     from .search.lp_backends import LP_BACKENDS
     from .search.parameterizations import PARAMETERIZATIONS
     from .problem import DEFAULT_FORMULATION, formulation_choices
     from .search.pruners import PRUNERS
     from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
-    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
-    so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
-    so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
-    so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
     so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=list(PARAMETERIZATIONS),
                     help="variables of the loop equations: tan-half: t = tan(theta/2), the paper's (charts for "
                          "full ranges); sin-cos: c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). "
@@ -183,10 +385,52 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
     so.add_argument("--no-isolate", action="store_true",
                     help="subdivide every box down to the tolerance (no Krawczyk isolation; the paper's behaviour)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
+    so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
+    so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
+    _add_strategy_options(so)
     so.add_argument("--jobs", type=int, default=1, help="worker processes for the charts (default %(default)s)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)
+    ik = sub.add_parser("ik", help="inverse kinematics: every actuator solution of a platform pose")
+    ik.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    ik.add_argument("--rotation", help="the platform rotation R, 9 numbers row-major (v_i = R v_i^0)")
+    ik.add_argument("--quaternion", help="the platform rotation as a quaternion w,x,y,z (normalized first)")
+    ik.add_argument("--euler", help="the platform rotation as three Euler angles a,b,c (radians unless --degrees)")
+    ik.add_argument("--convention", help="Euler convention: upper case intrinsic (ZYX, the default; ZYZ, ...), "
+                                         "lower case extrinsic (xyz, ...)")
+    ik.add_argument("--degrees", action="store_true", help="Euler angles and printed angles in degrees")
+    ik.add_argument("--in-range", action="store_true", help="only the solutions inside every joint range")
+    ik.add_argument("--json", help="write the solutions as JSON")
+    ik.set_defaults(func=_ik)
+    b = sub.add_parser("batch", help="direct kinematics of many inputs (CSV or grid), on Dask, to Parquet or CSV")
+    b.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    b.add_argument("--inputs", help="CSV file of inputs: a header naming the actuated joints, one row per input")
+    _add_grid_options(b)
+    b.add_argument("--out", required=True, help="results: a .parquet dataset (directory) or a .csv file, one row "
+                                                "per solution (docs/results-format.md)")
+    _add_engine_options(b)
+    _add_strategy_options(b)
+    b.set_defaults(func=_batch)
+    mp = sub.add_parser("map", help="number of assembly modes over a 2-D grid of inputs, drawn as a map")
+    mp.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    _add_grid_options(mp)
+    mp.add_argument("--plot", help="draw the map (.png, .pdf or .svg)")
+    mp.add_argument("--singularity", action="store_true",
+                    help="second panel: the smallest normalized parallel-singularity measure over the solutions")
+    mp.add_argument("--table", help="write the map, one row per grid point, as CSV")
+    mp.add_argument("--out", help="also write the results table (one row per solution; .parquet or .csv)")
+    _add_engine_options(mp)
+    _add_strategy_options(mp)
+    mp.set_defaults(func=_map)
     g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians (default: %(default)s)")
@@ -202,14 +446,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: An option's value that argparse would take for an option (it starts with "-") but is a number,
+#: a list of numbers or an angle: -0.3,0.2 / -pi/2 / -1e-3 / -.5
+_NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d|pi)")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``--opt -0.3,0.2`` -> ``--opt=-0.3,0.2``: argparse takes a value starting with "-" (other than a
+    plain negative number) for an option of its own and stops with "expected one argument"; negative
+    angles are the common case, so an option followed by one gets it as its value."""
+    out: list[str] = []
+    for tok in argv:
+        if out and _NEGATIVE_VALUE.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out
+
+
 def main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     try:
         return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback
         print(f"spherekin: error: {exc}", file=sys.stderr)
         return 2
+    except RuntimeError as exc:  # a solve that failed on a worker: what was written stays
+        print(f"spherekin: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("\nspherekin: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:      # the reader went away (spherekin ... | head): nothing left to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 def run() -> None:

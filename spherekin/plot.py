@@ -45,6 +45,8 @@ __all__ = [
     "great_circle_arc",
     "current_joint_axes",
     "plot_solutions",
+    "check_plot_path",
+    "plot_assembly_map",
 ]
 
 #: Points per link arc. Reason: a chord of an arc of at most pi split into 63 pieces deviates from
@@ -154,7 +156,8 @@ def current_joint_axes(mechanism: SphericalMechanism, inputs, passive_angles: Ma
 # Checks
 # --------------------------------------------------------------------------------------------
 
-def _check_path(path) -> tuple[Path, str]:
+def check_plot_path(path) -> tuple[Path, str]:
+    """(path, format) of a figure file, checked before any work: an existing directory, a suffix of PLOT_FORMATS."""
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise ValueError(f"path: expected a file name such as out.png, got {path!r}")
     out = Path(path)
@@ -377,7 +380,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
     values = mechanism.check_inputs(inputs)
     if not isinstance(degrees, (bool, np.bool_)):
         raise ValueError(f"degrees: expected true or false, got {degrees!r}")
-    out, fmt = _check_path(path)
+    out, fmt = check_plot_path(path)
     solutions = _check_report(mechanism, values, report)
     configs = [current_joint_axes(mechanism, values, dict(zip(report.unknowns, a))) for a in solutions]
 
@@ -423,3 +426,75 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
                bbox_to_anchor=(0.5, 0.5 * LEGEND_MARGIN_INCHES / height))
     fig.savefig(out, format=fmt, dpi=DPI)
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# Assembly-mode maps
+# --------------------------------------------------------------------------------------------
+
+#: Smallest parallel measure drawn on the map's second panel (log scale): below it a point is, for
+#: the picture, on the singularity (the measure of a grid point next to one is ~ the grid step).
+MEASURE_FLOOR = 1e-3
+#: Size of one map panel (inches).
+MAP_PANEL_INCHES = 5.0
+
+
+def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool = False):
+    """Draw an assembly-mode map (:class:`spherekin.batch.AssemblyMap`): the number of solutions
+    at each grid point as a discrete colour (the boundaries are where assembly modes appear or
+    vanish: parallel singularities), grid points whose count is not fully certified marked with a
+    black x; with ``measure``, a second panel with the smallest normalized parallel-singularity
+    measure over the solutions (log scale; dark curves are the singularities). Axes in the swept
+    joints' names and units (``degrees``). Returns the matplotlib Figure; with ``path`` (.png,
+    .pdf or .svg) it is also written there.
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm
+    from matplotlib.figure import Figure
+
+    out = fmt = None
+    if path is not None:
+        out, fmt = check_plot_path(path)
+    scale, unit = (180.0 / math.pi, "deg") if degrees else (1.0, "rad")
+    xs, ys = amap.x.values * scale, amap.y.values * scale
+    dx = (xs[1] - xs[0]) / 2 if len(xs) > 1 else 0.5
+    dy = (ys[1] - ys[0]) / 2 if len(ys) > 1 else 0.5
+    extent = (xs[0] - dx, xs[-1] + dx, ys[0] - dy, ys[-1] + dy)
+    panels = 2 if measure else 1
+    fig = Figure(figsize=(MAP_PANEL_INCHES * panels + 0.8 * panels, MAP_PANEL_INCHES + 0.6), dpi=DPI)
+    top = max(int(amap.solutions.max()), 1)
+    levels = np.arange(top + 1)
+    base = ["#f0f0f0", "#4c72b0", "#55a868", "#c44e52", "#8172b2", "#ccb974", "#64b5cd", "#dd8452", "#937860",
+            "#da8bc3"]
+    # grey for no solution; the colours cycle for counts beyond len(base) - 1 (never back to grey)
+    cmap = ListedColormap([base[0] if k == 0 else base[1 + (k - 1) % (len(base) - 1)] for k in levels])
+    norm = BoundaryNorm(np.arange(-0.5, top + 1.5), cmap.N)
+    ax = fig.add_subplot(1, panels, 1)
+    im = ax.imshow(amap.solutions.T, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
+                   interpolation="nearest")
+    bar = fig.colorbar(im, ax=ax, ticks=levels, fraction=0.05, pad=0.03)
+    bar.set_label("real solutions (assembly modes) in range")
+    doubt = ~amap.proven
+    if doubt.any():
+        ii, jj = np.nonzero(doubt)
+        ax.plot(xs[ii], ys[jj], "x", color="black", markersize=4, linestyle="none",
+                label="count not fully certified")
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.8)
+    ax.set_xlabel(f"{amap.x.name} ({unit})")
+    ax.set_ylabel(f"{amap.y.name} ({unit})")
+    ax.set_title("number of assembly modes", fontsize=11)
+    if measure:
+        ax2 = fig.add_subplot(1, panels, 2)
+        vals = np.clip(amap.measure, MEASURE_FLOOR, 1.0)          # NaN (no solution) stays blank
+        im2 = ax2.imshow(vals.T, origin="lower", extent=extent, aspect="auto", cmap="magma",
+                         norm=LogNorm(vmin=MEASURE_FLOOR, vmax=1.0), interpolation="nearest")
+        bar2 = fig.colorbar(im2, ax=ax2, fraction=0.05, pad=0.03)
+        bar2.set_label("min over solutions of sigma_min/sigma_max (K_p)")
+        ax2.set_xlabel(f"{amap.x.name} ({unit})")
+        ax2.set_ylabel(f"{amap.y.name} ({unit})")
+        ax2.set_title("distance to a parallel singularity", fontsize=11)
+    fixed = ", ".join(f"{n} = {v * scale:.4g} {unit}" for n, v in amap.fixed.items())
+    fig.suptitle(f"{amap.mechanism}" + (f" ({fixed})" if fixed else ""), fontsize=12)
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
+    if out is not None:
+        fig.savefig(out, format=fmt, dpi=DPI)
+    return fig

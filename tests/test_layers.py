@@ -6,7 +6,7 @@ imported nor reached as ``module._name``), and the module-level import graph has
 
 core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> trust (spherekin/trust/) -> pipeline (problem) ->
-interfaces (cli, plot).
+families of inputs (spherekin/batch/) -> interfaces (cli, plot).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ LAYERS = [
     ("search", {"search"}),
     ("trust", {"trust"}),
     ("pipeline", {"problem"}),
+    ("families of inputs", {"batch"}),
     ("interfaces", {"cli", "plot", "__main__"}),
 ]
 LEVEL = {name: k for k, (_, names) in enumerate(LAYERS) for name in names}

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "into_range"]
+__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "in_range_many", "into_range"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -39,6 +39,15 @@ def in_range(theta: float, rng, tol: float = RANGE_TOL) -> bool:
         return True
     lo, hi = float(rng[0]), float(rng[1])
     return float(np.mod(float(theta) - (lo - tol), TWO_PI)) <= (hi - lo) + 2.0 * tol
+
+
+def in_range_many(theta, rng, tol: float = RANGE_TOL) -> np.ndarray:
+    """:func:`in_range` of every entry of the array ``theta`` (radians): a boolean array of its shape."""
+    theta = np.asarray(theta, dtype=float)
+    if rng is None:
+        return np.ones(theta.shape, dtype=bool)
+    lo, hi = float(rng[0]), float(rng[1])
+    return np.mod(theta - (lo - tol), TWO_PI) <= (hi - lo) + 2.0 * tol
 
 
 def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:

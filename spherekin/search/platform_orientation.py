@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.angles import wrap
+from ..core.orientation import quaternion_matrix
 from ..mechanism.chains import angle_about, axis_rotation, perpendicular
 from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
@@ -62,19 +63,6 @@ ACCEPT_WIDTH = 1.0 / (2.0 * math.sqrt(3.0))
 # Bernstein coefficients (degree 2 on x in [0, 1]) of u^e, u = 2x - 1, for e = 0, 1, 2:
 # 1 = (1, 1, 1); u = (-1, 0, 1); u^2 = (1, -1, 1) (u^2 at x = 1/2 is 0 = (1 + 2 b1 + 1) / 4).
 _POWERS = np.array([[1.0, 1.0, 1.0], [-1.0, 0.0, 1.0], [1.0, -1.0, 1.0]])
-
-
-def quaternion_matrix(q) -> np.ndarray:
-    """S(q) (3, 3): the rotation of the quaternion q = (w, x, y, z) times |q|^2 (quadratic in q).
-
-    S(q) / |q|^2 is the right-handed rotation by 2 acos(w / |q|) about (x, y, z).
-    """
-    w, x, y, z = (float(v) for v in q)
-    return np.array([
-        [w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-        [2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)],
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z],
-    ])
 
 
 def _quadratic_tensor() -> np.ndarray:

@@ -1,0 +1,122 @@
+"""Families of inputs: many actuator inputs of one mechanism solved at once, on Dask.
+
+``solve_many(mechanism, inputs)`` returns the results table (pandas, one row per solution, see
+:mod:`spherekin.batch.rows`) of every input; ``solve_to_file(mechanism, inputs, out)`` writes it to
+a Parquet dataset or CSV file as it is computed (``resume=True`` completes a partial one);
+``assembly_map(mechanism, x, y, fixed)`` counts the solutions over a 2-D grid (:class:`AssemblyMap`).
+Inputs: an array (K, A) in radians, a DataFrame with a column per actuated joint, or an
+:class:`InputSet` (:func:`grid_inputs`, :func:`read_inputs_csv`). Where it runs: ``client`` (a
+``distributed.Client``), ``scheduler`` (an address), or an embedded local cluster of ``workers``
+processes (one per core by default; in this process for a handful of inputs), see
+:mod:`spherekin.batch.engine`. The strategy keywords are those of :func:`spherekin.compile`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, parse_grid, read_inputs_csv
+from .maps import AssemblyMap, aggregate
+from .sinks import Sink, check_output_path, open_sink, read_results
+
+__all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "GridAxis", "InputSet", "grid_inputs",
+           "read_inputs_csv", "read_results", "RunSummary"]
+
+
+def __getattr__(name):
+    if name == "RunSummary":
+        from .engine import RunSummary
+
+        return RunSummary
+    raise AttributeError(f"module 'spherekin.batch' has no attribute {name!r}")
+
+
+class _MemorySink(Sink):
+    """Chunks kept in memory, concatenated in input order at the end (for :func:`solve_many`)."""
+
+    def __init__(self, mechanism, inputs):
+        from pathlib import Path
+
+        super().__init__(Path("<memory>"), mechanism, inputs)
+        self.frames: dict[int, object] = {}
+
+    def write(self, first, end, frame):
+        self.frames[first] = frame
+
+    def frame(self):
+        import pandas as pd
+
+        from .rows import empty_frame
+
+        parts = [self.frames[k] for k in sorted(self.frames)]
+        return pd.concat(parts, ignore_index=True) if parts else empty_frame(self.mechanism)
+
+
+def _prepare(mechanism, inputs, strategy):
+    """The checked inputs and the job (the strategy compiled once here: a bad name fails now)."""
+    from .engine import Job
+
+    inputs = array_inputs(mechanism, inputs)
+    job = Job.of(mechanism, strategy)
+    job.compile()
+    return inputs, job
+
+
+def solve_many(mechanism, inputs, *, client=None, scheduler: str | None = None, workers: int | None = None,
+               chunk_size: int | None = None, progress: Callable[[int, int], None] | None = None, **strategy):
+    """The results table (a pandas DataFrame, :mod:`spherekin.batch.rows`) of every input, ordered by input.
+
+    Held in memory: for a large family use :func:`solve_to_file`. Ctrl-C raises KeyboardInterrupt
+    (nothing is returned); ``progress(done, total)`` is called after each chunk.
+    """
+    from .engine import connect, run
+
+    inputs, job = _prepare(mechanism, inputs, strategy)
+    sink = _MemorySink(mechanism, inputs.values)
+    with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
+        summary = run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
+    if summary.interrupted:
+        raise KeyboardInterrupt
+    return sink.frame()
+
+
+def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bool = False, client=None,
+                  scheduler: str | None = None, workers: int | None = None, chunk_size: int | None = None,
+                  progress: Callable[[int, int], None] | None = None, **strategy):
+    """Solve every input and write the results table to ``out`` (.parquet: a dataset directory;
+    .csv) as chunks finish; returns the :class:`~spherekin.batch.engine.RunSummary`.
+
+    Everything (inputs, strategy, the output path, the scheduler) is checked before the first solve.
+    With ``resume`` only the inputs ``out`` does not hold yet are solved; ``overwrite`` replaces it.
+    On Ctrl-C the finished chunks stay written and the summary says ``interrupted``.
+    """
+    from .engine import connect, run
+
+    inputs, job = _prepare(mechanism, inputs, strategy)
+    path = check_output_path(out, resume, overwrite)
+    with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
+        sink = open_sink(path, mechanism, inputs.values, resume)
+        return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
+
+
+def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping[str, float] | Sequence[str] = (),
+                 *, out=None, resume: bool = False, overwrite: bool = False, client=None,
+                 scheduler: str | None = None, workers: int | None = None, chunk_size: int | None = None,
+                 progress: Callable[[int, int], None] | None = None, **strategy) -> AssemblyMap:
+    """The assembly-mode map over the grid ``x`` by ``y`` (GridAxis or "name=lo:hi:n"), the other
+    actuated joints at ``fixed`` (name -> radians, or "name=value"); with ``out`` the results table
+    is also written there (and ``resume`` completes it). Ctrl-C raises KeyboardInterrupt."""
+    inputs = grid_inputs(mechanism, [x, y], fixed)
+    x, y = inputs.axes
+    if out is None:
+        frame = solve_many(mechanism, inputs, client=client, scheduler=scheduler, workers=workers,
+                           chunk_size=chunk_size, progress=progress, **strategy)
+    else:
+        summary = solve_to_file(mechanism, inputs, out, resume=resume, overwrite=overwrite, client=client,
+                                scheduler=scheduler, workers=workers, chunk_size=chunk_size, progress=progress,
+                                **strategy)
+        if summary.interrupted:
+            raise KeyboardInterrupt
+        frame = read_results(out)
+    return aggregate(frame, x, y, inputs.fixed, mechanism.name)

@@ -1,0 +1,313 @@
+"""The engine of a batch: chunks of inputs solved on Dask workers, each with the problem compiled once.
+
+Where a job runs (:func:`connect`):
+
+* a handful of inputs (at most IN_PROCESS_MAX_INPUTS, or ``workers=0``): in this process, no cluster;
+* otherwise, with no address: an embedded ``distributed.LocalCluster`` on 127.0.0.1, one
+  single-threaded worker process per core (or ``workers``), closed when the job ends;
+* ``scheduler="tcp://HOST:8786"``: an existing Dask cluster (``dask scheduler`` + ``dask worker``,
+  spherekin installed on the workers), unchanged; or ``client=``: a ``distributed.Client`` of the
+  caller's, left open.
+
+How: the mechanism and the strategy go to every worker once, as a worker plugin
+(:class:`CompiledProblem`) that compiles the problem when the worker starts it; then every task is
+a chunk of consecutive inputs, solved with ``Problem.solve_many`` and turned into rows of the
+results table on the worker (:func:`spherekin.batch.rows.report_rows`). At most
+WINDOW_PER_WORKER chunks per worker are in flight, so the inputs and results held at any time are
+bounded whatever the job's size. Each finished chunk goes to the sink (a file or memory) as it
+arrives, or, for a sink that needs input order (CSV), as soon as every earlier chunk is there. The
+rows of an input do not depend on where or with what else it was solved, so the table is the same,
+row for row, for any number of workers.
+
+Ctrl-C (KeyboardInterrupt) stops the job: the chunks in flight are cancelled, every finished chunk
+that can be written is written, and the summary says how far it got (``interrupted``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import math
+import os
+import pickle
+import time
+from collections import deque
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Callable, Iterator, Mapping
+
+import numpy as np
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from .rows import report_rows
+
+__all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "WINDOW_PER_WORKER", "CONNECT_TIMEOUT", "Job", "RunSummary",
+           "CompiledProblem", "solve_chunk", "chunks", "connect", "run"]
+
+#: Jobs of at most this many inputs run in this process, without a cluster. Reason: starting an
+#: embedded cluster (worker processes that import numpy, pandas and spherekin) costs ~2-4 s, the
+#: time of ~150-250 solves; for fewer inputs the cluster would only slow the job down.
+IN_PROCESS_MAX_INPUTS = 64
+#: Inputs per task, at most. Reason: a solve takes ~5-30 ms and a Dask task costs ~1 ms of
+#: scheduling and transfer, so 64 inputs keep that overhead near 0.1%, while a chunk still finishes
+#: in about a second: progress stays live, Ctrl-C is quick, and a resumed job redoes little.
+CHUNK_INPUTS = 64
+#: Chunks in flight per worker. Reason: 2 keep a worker busy while its next chunk travels; 4 also
+#: absorb uneven chunks, and the results held back for input order stay a few chunks per worker.
+WINDOW_PER_WORKER = 4
+#: Log level of an embedded cluster's scheduler and workers. Reason: at shutdown (the end of a job,
+#: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
+#: job; a failure that matters reaches the job as the exception of a task (a worker that dies: KilledWorker).
+QUIET_LOGS = logging.CRITICAL
+#: Seconds to wait for a scheduler given by address before saying it cannot be reached.
+CONNECT_TIMEOUT = 10.0
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every worker needs: the mechanism and the strategy keywords of :func:`spherekin.compile`."""
+
+    mechanism: object
+    strategy: tuple[tuple[str, object], ...]
+
+    @classmethod
+    def of(cls, mechanism, strategy: Mapping) -> "Job":
+        return cls(mechanism, tuple(sorted(strategy.items())))
+
+    def compile(self):
+        from ..problem import compile as compile_problem
+
+        return compile_problem(self.mechanism, **dict(self.strategy))
+
+    @property
+    def token(self) -> str:
+        """A name for the job's worker plugin: the same mechanism and strategy give the same one."""
+        return "spherekin-" + hashlib.sha1(pickle.dumps((self.mechanism, self.strategy))).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """How a job ended: ``total`` inputs, ``skipped`` (finished by an earlier run, resumed), ``solved``
+    now, ``written`` rows, ``workers`` (0: in this process), ``seconds``, and whether it was
+    ``interrupted`` (Ctrl-C)."""
+
+    total: int
+    skipped: int
+    solved: int
+    written: int
+    workers: int
+    seconds: float
+    interrupted: bool = False
+
+    @property
+    def complete(self) -> bool:
+        return self.skipped + self.solved == self.total
+
+
+class CompiledProblem(WorkerPlugin):
+    """A Dask worker plugin holding the job's compiled problem, made when a worker sets it up (the
+    plugin travels as the mechanism and strategy; every worker, also one that joins later, compiles
+    once)."""
+
+    idempotent = True
+
+    def __init__(self, job: Job):
+        self.job = job
+        self.name = job.token
+        self.problem = None
+
+    def setup(self, worker=None):
+        self.problem = self.job.compile()
+
+    def teardown(self, worker=None):
+        self.problem = None
+
+
+def dask_setup(worker=None) -> None:
+    """Run by every worker of an embedded cluster as it starts (Dask's ``preload`` of this module):
+    ignore SIGINT. Ctrl-C in a terminal reaches the whole process group; the job's process handles it
+    (cancels, writes what is done, closes the cluster), and the workers would only print tracebacks."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
+    """The task: the results table of inputs ``first ... first + len(rows) - 1`` on this worker."""
+    from distributed import get_worker
+
+    problem = get_worker().plugins[plugin_name].problem
+    return report_rows(problem.mechanism, problem.solve_many(rows), first, rows)
+
+
+def chunks(todo: np.ndarray, size: int) -> list[tuple[int, int]]:
+    """[first, end) ranges of at most ``size`` consecutive inputs covering the True entries of ``todo``."""
+    out = []
+    idx = np.flatnonzero(todo)
+    if not len(idx):
+        return out
+    breaks = np.flatnonzero(np.diff(idx) != 1) + 1
+    for run_ in np.split(idx, breaks):
+        lo, hi = int(run_[0]), int(run_[-1]) + 1
+        out += [(a, min(a + size, hi)) for a in range(lo, hi, size)]
+    return out
+
+
+def default_workers() -> int:
+    """Worker processes of an embedded cluster: the cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:                  # not on Linux
+        return os.cpu_count() or 1
+
+
+@contextmanager
+def connect(n_inputs: int, *, client=None, scheduler: str | None = None,
+            workers: int | None = None) -> Iterator[object | None]:
+    """The Dask client a job runs on (None: in this process); see the module doc. ValueError for an
+    address that cannot be reached or a worker count < 0, before any work."""
+    if client is not None and scheduler is not None:
+        raise ValueError("client and scheduler: expected at most one of them")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise ValueError(f"workers: expected a whole number >= 0 (0: in this process), got {workers!r}")
+    if client is not None:
+        yield client
+        return
+    if scheduler is not None:
+        yield from _remote(scheduler)
+        return
+    if workers == 0 or (workers is None and n_inputs <= IN_PROCESS_MAX_INPUTS):
+        yield None
+        return
+    from distributed import Client, LocalCluster
+
+    n = workers or default_workers()
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None, silence_logs=QUIET_LOGS, preload=[__name__])
+    try:
+        with Client(cluster) as c:
+            yield c
+    finally:
+        cluster.close()
+
+
+def _remote(address: str):
+    from distributed import Client
+
+    if not isinstance(address, str) or "://" not in address and ":" not in address:
+        raise ValueError(f"--scheduler: expected an address such as tcp://HOST:8786, got {address!r}")
+    try:
+        c = Client(address, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
+                         f"({type(exc).__name__}: {exc})") from None
+    try:
+        if not c.scheduler_info().get("workers"):
+            c.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as exc:
+        c.close()
+        raise ValueError(f"--scheduler {address}: the scheduler has no workers ({exc})") from None
+    try:
+        yield c
+    finally:
+        c.close()
+
+
+def n_workers(client) -> int:
+    return max(1, len(client.scheduler_info().get("workers", {}))) if client is not None else 0
+
+
+def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | None = None,
+        progress: Callable[[int, int], None] | None = None) -> RunSummary:
+    """Solve every input of ``inputs`` (K, A) that ``sink.done`` does not mark, writing to ``sink``.
+
+    ``client`` None: in this process. ``progress(done, total)`` after each chunk written.
+    """
+    t0 = time.perf_counter()
+    total = len(inputs)
+    skipped = int(sink.done.sum())
+    workers = n_workers(client)
+    if chunk_size is None:
+        per = max(1, workers) * WINDOW_PER_WORKER
+        chunk_size = max(1, min(CHUNK_INPUTS, math.ceil((total - skipped) / per)))
+    elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
+        raise ValueError(f"chunk_size: expected a whole number >= 1, got {chunk_size!r}")
+    todo = chunks(~sink.done, chunk_size)
+    state = {"solved": skipped, "rows": 0}
+
+    def emit(first, end, frame):
+        sink.write(first, end, frame)
+        state["solved"] += end - first
+        state["rows"] += len(frame)
+        if progress is not None:
+            progress(state["solved"], total)
+
+    if progress is not None:
+        progress(skipped, total)
+    interrupted = False
+    try:
+        if client is None:
+            _run_here(job, inputs, todo, emit)
+        else:
+            _run_dask(job, inputs, todo, emit, client, workers, sink.ordered)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        sink.close()
+    return RunSummary(total, skipped, state["solved"] - skipped, state["rows"], workers,
+                      time.perf_counter() - t0, interrupted)
+
+
+def _run_here(job: Job, inputs, todo, emit) -> None:
+    problem = job.compile()
+    for first, end in todo:
+        rows = inputs[first:end]
+        emit(first, end, report_rows(problem.mechanism, problem.solve_many(rows), first, rows))
+
+
+def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
+    from distributed import as_completed
+
+    plugin = CompiledProblem(job)
+    client.register_plugin(plugin, name=plugin.name)
+    queue = deque(todo)
+    window = max(1, workers) * WINDOW_PER_WORKER
+    futures = {}
+    held = {}                                   # finished out of order (ordered sinks)
+    order = deque(todo)                         # the next chunk to write, for an ordered sink
+
+    def submit(pool):
+        while queue and len(futures) < window:
+            first, end = queue.popleft()
+            fut = client.submit(solve_chunk, plugin.name, first, inputs[first:end], pure=False)
+            futures[fut] = (first, end)
+            pool.add(fut)
+
+    pool = as_completed([])
+    try:
+        submit(pool)
+        for fut in pool:
+            first, end = futures.pop(fut)
+            try:
+                frame = fut.result()
+            except Exception as exc:            # a solve that raised on a worker: stop, keep what is written
+                raise RuntimeError(f"inputs {first}..{end - 1}: the solve failed on a worker "
+                                   f"({type(exc).__name__}: {exc})") from exc
+            if not ordered:
+                emit(first, end, frame)
+            else:
+                held[first] = (end, frame)
+                while order and order[0][0] in held:
+                    a, _ = order.popleft()
+                    b, fr = held.pop(a)
+                    emit(a, b, fr)
+            submit(pool)
+    finally:
+        if futures:
+            client.cancel(list(futures))
+        try:
+            client.unregister_worker_plugin(plugin.name)
+        except Exception:                       # a cluster going down with Ctrl-C: nothing left to clean
+            pass

@@ -1,0 +1,93 @@
+"""Assembly-mode maps: how many solutions, and of which status, over a 2-D grid of actuator inputs.
+
+The number of real assemblies changes only where the actuator inputs cross a parallel singularity
+(two assembly modes meet and vanish, or appear), so the colour boundaries of the count drawn over a
+grid are those singularity curves, sampled at the grid's resolution. Each grid point also carries how
+many of its entries are certified, singular, or flagged (unverified, cluster, continuum: the count
+there is not proven), and the smallest normalized parallel-singularity measure over its solutions
+(:func:`spherekin.batch.rows.parallel_measure`: 0 on a singularity).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from .inputs import GridAxis
+
+__all__ = ["FLAGGED", "AssemblyMap", "aggregate"]
+
+#: Statuses whose entries leave the count unproven (docs/results-format.md).
+FLAGGED = ("unverified", "cluster", "continuum")
+
+
+@dataclass(frozen=True, eq=False)
+class AssemblyMap:
+    """Per grid point (arrays of shape (len(x.values), len(y.values)), x first): ``solutions`` (the
+    number of entries), ``certified``, ``singular``, ``flagged`` (module doc), ``measure`` (smallest
+    parallel measure over the solutions; NaN without solution). ``fixed``: the other actuated joints
+    (radians); ``mechanism``: its name."""
+
+    x: GridAxis
+    y: GridAxis
+    fixed: Mapping[str, float]
+    mechanism: str
+    solutions: np.ndarray = field(repr=False)
+    certified: np.ndarray = field(repr=False)
+    singular: np.ndarray = field(repr=False)
+    flagged: np.ndarray = field(repr=False)
+    measure: np.ndarray = field(repr=False)
+
+    @property
+    def proven(self) -> np.ndarray:
+        """Whether every entry of a grid point is certified (its count carries a proof)."""
+        return self.certified == self.solutions
+
+    def histogram(self) -> dict[int, int]:
+        """Number of grid points per number of solutions."""
+        values, counts = np.unique(self.solutions, return_counts=True)
+        return {int(v): int(c) for v, c in zip(values, counts)}
+
+    def table(self) -> str:
+        """A summary: grid points per number of solutions, with how many of them are fully certified."""
+        rows = ["  solutions  grid points  of which every entry certified"]
+        for n, c in self.histogram().items():
+            proven = int(np.sum(self.proven & (self.solutions == n)))
+            rows.append(f"  {n:9d}  {c:11d}  {proven:30d}")
+        rows.append(f"  entries: {int(self.certified.sum())} certified, {int(self.singular.sum())} singular, "
+                    f"{int(self.flagged.sum())} flagged (unverified, cluster or continuum)")
+        return "\n".join(rows)
+
+    def frame(self):
+        """The map as a table: one row per grid point (x, y, solutions, certified, singular, flagged, measure)."""
+        import pandas as pd
+
+        xx, yy = np.meshgrid(self.x.values, self.y.values, indexing="ij")
+        return pd.DataFrame({self.x.name: xx.ravel(), self.y.name: yy.ravel(), "solutions": self.solutions.ravel(),
+                             "certified": self.certified.ravel(), "singular": self.singular.ravel(),
+                             "flagged": self.flagged.ravel(), "parallel_measure": self.measure.ravel()})
+
+
+def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mechanism: str) -> AssemblyMap:
+    """The map of a results table (:mod:`spherekin.batch.rows`) of the grid x by y (input k = i * ny + j)."""
+    shape = (len(x.values), len(y.values))
+    size = shape[0] * shape[1]
+    idx = frame["input"].to_numpy()
+    if len(idx) and (idx.min() < 0 or idx.max() >= size):
+        raise ValueError(f"results: input {int(idx.max())} is outside the {shape[0]} x {shape[1]} grid")
+    has = frame["solution"].notna().to_numpy()
+    status = frame["status"].astype("string").fillna("").to_numpy()
+
+    def count(mask):
+        return np.bincount(idx[mask], minlength=size).reshape(shape)
+
+    measure = np.full(size, np.inf)
+    m = frame["parallel_measure"].to_numpy(dtype=float)
+    ok = has & np.isfinite(m)
+    np.minimum.at(measure, idx[ok], m[ok])
+    measure[np.isinf(measure)] = np.nan
+    return AssemblyMap(x, y, dict(fixed), mechanism, count(has), count(has & (status == "certified")),
+                       count(has & (status == "singular")), count(has & np.isin(status, FLAGGED)),
+                       measure.reshape(shape))

@@ -1,0 +1,195 @@
+"""Where a batch's results go as they arrive: a partitioned Parquet dataset or an appended CSV file.
+
+Neither holds the table in memory. A **Parquet dataset** is a directory (``results.parquet/``) of
+files ``part-<first>-<end>.parquet``, one per chunk of inputs [first, end), each written to a
+temporary name and renamed, so a file that exists is complete; chunks are written in the order they
+finish. A **CSV file** gets one block of lines per chunk, appended in input order (the engine holds
+back a chunk that finishes before an earlier one); a run stopped mid-write leaves at most the last
+input's rows incomplete.
+
+``--resume`` (``resume=True``) reads what an earlier run wrote: the inputs it finished (for a CSV,
+every input before the last one present; the last one's rows are cut off and solved again), after
+checking that the file is a results table of this mechanism (its columns) and of these inputs (the
+actuator values of every finished input, exactly as written). Then only the rest is solved.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .rows import columns
+
+__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "read_results"]
+
+#: The output formats, by the output path's suffix.
+SUFFIXES = (".parquet", ".csv")
+#: Largest difference (radians) between an input as a resumed file holds it and as the job gives it.
+#: Reason: Parquet stores float64 exactly and pandas writes CSV floats in their shortest round-trip
+#: form, so the two are equal; 1e-12 only absorbs a file written by another CSV writer.
+RESUME_MATCH = 1e-12
+
+
+def check_output_path(path, resume: bool, overwrite: bool) -> Path:
+    """The output path, checked before any work: a known suffix, an existing writable directory to
+    hold it, and no earlier output unless ``resume`` or ``overwrite`` says what to do with it."""
+    path = Path(path)
+    if path.suffix.lower() not in SUFFIXES:
+        raise ValueError(f"--out {path}: expected a .parquet (a partitioned dataset, a directory) or .csv path, "
+                         f"got suffix {path.suffix or '(none)'!r}")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"--out {path}: the directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"--out {path}: the directory {parent} is not writable")
+    if resume and overwrite:
+        raise ValueError("--resume and --overwrite: expected at most one of them")
+    is_parquet = path.suffix.lower() == ".parquet"
+    if path.exists():
+        if is_parquet and not path.is_dir():
+            raise ValueError(f"--out {path}: exists and is a file; a .parquet output is a directory (a dataset)")
+        if not is_parquet and path.is_dir():
+            raise ValueError(f"--out {path}: is a directory; expected a CSV file path")
+        if not (resume or overwrite):
+            raise ValueError(f"--out {path}: already exists; pass --resume to complete it or --overwrite to replace it")
+    elif resume:
+        raise ValueError(f"--out {path}: --resume, but there is no earlier output to complete")
+    return path
+
+
+class Sink:
+    """A results writer. ``ordered``: chunks must be written in input order. ``done``: a boolean
+    mask over the job's inputs of those already written (by an earlier run, with resume)."""
+
+    ordered = False
+
+    def __init__(self, path: Path, mechanism, inputs: np.ndarray):
+        self.path, self.mechanism, self.inputs = path, mechanism, inputs
+        self.columns = list(columns(mechanism))
+        self.done = np.zeros(len(inputs), dtype=bool)
+
+    def write(self, first: int, end: int, frame) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Flush and release the output (every written chunk stays)."""
+
+    def _check_resumed(self, frame) -> None:
+        """ValueError unless ``frame`` (rows of an earlier run) is of this mechanism and these inputs."""
+        if list(frame.columns) != self.columns:
+            raise ValueError(f"--resume {self.path}: its columns are not those of this mechanism's results "
+                             f"({', '.join(self.columns[:6])}, ...); it cannot be completed by this job")
+        if not len(frame):
+            return
+        idx = frame["input"].to_numpy()
+        if idx.min() < 0 or idx.max() >= len(self.inputs):
+            raise ValueError(f"--resume {self.path}: it holds input {int(idx.max())}, beyond this job's "
+                             f"{len(self.inputs)} inputs; it cannot be completed by this job")
+        got = frame[list(self.mechanism.actuated)].to_numpy(dtype=float)
+        bad = np.abs(got - self.inputs[idx]).max(axis=1) > RESUME_MATCH
+        if bad.any():
+            k = int(idx[np.flatnonzero(bad)[0]])
+            raise ValueError(f"--resume {self.path}: input {k} there is {got[np.flatnonzero(bad)[0]].tolist()}, in "
+                             f"this job {self.inputs[k].tolist()}; the file is the output of other inputs")
+        self.done[np.unique(idx)] = True
+
+
+class ParquetSink(Sink):
+    """A partitioned Parquet dataset (module doc)."""
+
+    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool):
+        super().__init__(path, mechanism, inputs)
+        if path.exists() and not resume:          # --overwrite
+            for part in path.glob("part-*.parquet"):
+                part.unlink()
+        path.mkdir(exist_ok=True)
+        for tmp in path.glob("*.tmp"):            # a write cut short by an earlier run
+            tmp.unlink()
+        if resume:
+            import pandas as pd
+
+            parts = sorted(path.glob("part-*.parquet"))
+            if parts:
+                frame = pd.concat([pd.read_parquet(p, columns=None) for p in parts], ignore_index=True)
+                self._check_resumed(frame)
+
+    def write(self, first: int, end: int, frame) -> None:
+        final = self.path / f"part-{first:09d}-{end:09d}.parquet"
+        tmp = final.with_suffix(".tmp")
+        frame.to_parquet(tmp, index=False)
+        os.replace(tmp, final)
+
+
+class CsvSink(Sink):
+    """An appended CSV file (module doc)."""
+
+    ordered = True
+
+    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool):
+        super().__init__(path, mechanism, inputs)
+        if resume:
+            self._truncate_last_input()
+            import pandas as pd
+
+            frame = read_results(path) if path.stat().st_size else pd.DataFrame(columns=self.columns)
+            if len(frame.columns):
+                self._check_resumed(frame)
+            self._file = open(path, "a", newline="")
+            if not path.stat().st_size:
+                self._file.write(",".join(self.columns) + "\n")
+        else:
+            self._file = open(path, "w", newline="")
+            self._file.write(",".join(self.columns) + "\n")
+        self._file.flush()
+
+    def _truncate_last_input(self) -> None:
+        """Cut the file before the first line of the last input it holds (and any partial line):
+        only that input can have been written in part."""
+        with open(self.path, "rb+") as f:
+            data = f.read()
+            end = data.rfind(b"\n") + 1          # complete lines only
+            lines = data[:end].split(b"\n")[:-1]
+            if len(lines) <= 1:                   # a header (or nothing) only
+                f.truncate(end)
+                return
+            last = lines[-1].split(b",", 1)[0]
+            offset = end
+            for line in reversed(lines[1:]):
+                if line.split(b",", 1)[0] != last:
+                    break
+                offset -= len(line) + 1
+            f.truncate(offset)
+
+    def write(self, first: int, end: int, frame) -> None:
+        frame.to_csv(self._file, header=False, index=False, lineterminator="\n")
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        if not self._file.closed:
+            self._file.close()
+
+
+def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False) -> Sink:
+    """The sink of ``path`` (checked with :func:`check_output_path` first)."""
+    path = Path(path)
+    cls = ParquetSink if path.suffix.lower() == ".parquet" else CsvSink
+    return cls(path, mechanism, inputs, resume)
+
+
+def read_results(path):
+    """A results table written by a batch (.parquet dataset or .csv), ordered by input and solution."""
+    import pandas as pd
+
+    path = Path(path)
+    if path.suffix.lower() == ".parquet":
+        parts = sorted(path.glob("part-*.parquet")) if path.is_dir() else [path]
+        if not parts:
+            raise ValueError(f"{path}: no results in it (no part-*.parquet files)")
+        frame = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+    else:
+        frame = pd.read_csv(path, dtype={"solution": "Int64", "status": "string", "singularity": "string"})
+    frame = frame.sort_values(["input", "solution"], kind="stable", na_position="first").reset_index(drop=True)
+    return frame
