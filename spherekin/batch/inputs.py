@@ -232,11 +232,11 @@ def check_inputs(mechanism, inputs: InputSet) -> None:
     bad = ~np.isfinite(inputs.values)
     if bad.any():
         k, j = np.argwhere(bad)[0]
-        raise ValueError(f"{inputs.where(int(k))}: {inputs.names[j]} is {inputs.values[k, j]}; expected a finite angle")
+        raise ValueError(f"{inputs.where(int(k))}: {inputs.names[j]} is {float(inputs.values[k, j])}; expected a finite angle")
     for j, name in enumerate(inputs.names):
         rng = mechanism.joint(name).range
         ok = in_range_many(inputs.values[:, j], rng)
         if not ok.all():
             k = int(np.flatnonzero(~ok)[0])
-            raise ValueError(f"{inputs.where(k)}: {name} = {inputs.values[k, j]!r} is outside its joint range "
+            raise ValueError(f"{inputs.where(k)}: {name} = {float(inputs.values[k, j])!r} is outside its joint range "
                              f"[{rng[0]!r}, {rng[1]!r}]")

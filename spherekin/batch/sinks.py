@@ -130,12 +130,17 @@ class CsvSink(Sink):
     def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool):
         super().__init__(path, mechanism, inputs)
         if resume:
-            self._truncate_last_input()
-            import pandas as pd
-
-            frame = read_results(path) if path.stat().st_size else pd.DataFrame(columns=self.columns)
-            if len(frame.columns):
-                self._check_resumed(frame)
+            with open(path, newline="") as f:
+                header = f.readline().rstrip("\r\n").split(",")
+            if header != [""] and header != self.columns:
+                raise ValueError(f"--resume {self.path}: its columns are not those of this mechanism's results "
+                                 f"({', '.join(self.columns[:6])}, ...); it cannot be completed by this job")
+            offset = self._complete_prefix()
+            if offset:                                # validated first: a refused resume leaves the file as it was
+                with open(path, "rb") as f:
+                    self._check_resumed(_read_csv(f.read(offset)))
+            with open(path, "rb+") as f:
+                f.truncate(offset)
             self._file = open(path, "a", newline="")
             if not path.stat().st_size:
                 self._file.write(",".join(self.columns) + "\n")
@@ -144,23 +149,22 @@ class CsvSink(Sink):
             self._file.write(",".join(self.columns) + "\n")
         self._file.flush()
 
-    def _truncate_last_input(self) -> None:
-        """Cut the file before the first line of the last input it holds (and any partial line):
-        only that input can have been written in part."""
-        with open(self.path, "rb+") as f:
+    def _complete_prefix(self) -> int:
+        """The byte length of the file without the last input it holds (and any partial line): only
+        that input can have been written in part. 0 for a file without a complete header line."""
+        with open(self.path, "rb") as f:
             data = f.read()
-            end = data.rfind(b"\n") + 1          # complete lines only
-            lines = data[:end].split(b"\n")[:-1]
-            if len(lines) <= 1:                   # a header (or nothing) only
-                f.truncate(end)
-                return
-            last = lines[-1].split(b",", 1)[0]
-            offset = end
-            for line in reversed(lines[1:]):
-                if line.split(b",", 1)[0] != last:
-                    break
-                offset -= len(line) + 1
-            f.truncate(offset)
+        end = data.rfind(b"\n") + 1                  # complete lines only
+        lines = data[:end].split(b"\n")[:-1]
+        if len(lines) <= 1:                           # a header (or nothing) only
+            return end
+        last = lines[-1].split(b",", 1)[0]
+        offset = end
+        for line in reversed(lines[1:]):
+            if line.split(b",", 1)[0] != last:
+                break
+            offset -= len(line) + 1
+        return offset
 
     def write(self, first: int, end: int, frame) -> None:
         frame.to_csv(self._file, header=False, index=False, lineterminator="\n")
@@ -179,6 +183,17 @@ def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False) -> Sink
     return cls(path, mechanism, inputs, resume)
 
 
+def _read_csv(source):
+    """A results CSV (a path, or its bytes) as a DataFrame with the table's column types."""
+    import io
+
+    import pandas as pd
+
+    if isinstance(source, bytes):
+        source = io.BytesIO(source)
+    return pd.read_csv(source, dtype={"solution": "Int64", "status": "string", "singularity": "string"})
+
+
 def read_results(path):
     """A results table written by a batch (.parquet dataset or .csv), ordered by input and solution."""
     import pandas as pd
@@ -190,6 +205,8 @@ def read_results(path):
             raise ValueError(f"{path}: no results in it (no part-*.parquet files)")
         frame = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
     else:
-        frame = pd.read_csv(path, dtype={"solution": "Int64", "status": "string", "singularity": "string"})
+        frame = _read_csv(path)
+    if not {"input", "solution"} <= set(frame.columns):
+        raise ValueError(f"{path}: not a results table of spherekin (no input and solution columns)")
     frame = frame.sort_values(["input", "solution"], kind="stable", na_position="first").reset_index(drop=True)
     return frame

@@ -1,0 +1,114 @@
+"""spherekin.batch.sinks: output paths checked before work, chunks written as they come, resume."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from spherekin import compile as compile_problem
+from spherekin.batch.rows import report_rows
+from spherekin.batch.sinks import check_output_path, open_sink, read_results
+from spherekin.mechanism import general_3rrr
+
+INPUTS = np.array([[0.3, -0.2, 0.5], [-2.5, 2.9, 0.1], [0.1, 0.2, 0.3], [1.0, 0.0, -1.0], [0.2, 0.2, 0.2]])
+
+
+@pytest.fixture(scope="module")
+def mech():
+    return general_3rrr()
+
+
+@pytest.fixture(scope="module")
+def frames(mech):
+    """The rows of each input, solved one by one (the reference the files must hold)."""
+    problem = compile_problem(mech)
+    return [report_rows(mech, [problem.solve(row)], k, INPUTS[k:k + 1]) for k, row in enumerate(INPUTS)]
+
+
+@pytest.mark.parametrize("name, match", [("out.txt", "expected a .parquet"), ("out", "suffix '\\(none\\)'"),
+                                         ("nodir/out.csv", "does not exist")])
+def test_bad_output_paths_are_refused(tmp_path, name, match):
+    with pytest.raises(ValueError, match=match):
+        check_output_path(tmp_path / name, resume=False, overwrite=False)
+
+
+def test_existing_output_needs_resume_or_overwrite(tmp_path):
+    p = tmp_path / "r.csv"
+    p.write_text("x\n")
+    with pytest.raises(ValueError, match="already exists; pass --resume"):
+        check_output_path(p, False, False)
+    assert check_output_path(p, True, False) == p
+    with pytest.raises(ValueError, match="at most one"):
+        check_output_path(p, True, True)
+    with pytest.raises(ValueError, match="no earlier output"):
+        check_output_path(tmp_path / "new.csv", True, False)
+    (tmp_path / "f.parquet").write_text("")
+    with pytest.raises(ValueError, match="is a file"):
+        check_output_path(tmp_path / "f.parquet", False, True)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_chunks_in_any_order_read_back_in_input_order(tmp_path, mech, frames, suffix):
+    path = tmp_path / f"r{suffix}"
+    sink = open_sink(path, mech, INPUTS)
+    order = [0, 1, 2, 3, 4] if sink.ordered else [3, 0, 4, 2, 1]
+    for k in order:
+        sink.write(k, k + 1, frames[k])
+    sink.close()
+    got = read_results(path)
+    pd.testing.assert_frame_equal(got, pd.concat(frames, ignore_index=True))
+
+
+def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, mech, frames):
+    path = tmp_path / "r.csv"
+    sink = open_sink(path, mech, INPUTS)
+    for k in range(3):
+        sink.write(k, k + 1, frames[k])
+    sink.close()
+    text = path.read_text()
+    lines = text.splitlines(keepends=True)
+    n2 = len(frames[2])
+    assert n2 >= 2
+    # a run killed while writing input 2: its last row is cut in the middle
+    path.write_text("".join(lines[:-1]) + lines[-1][:17])
+    resumed = open_sink(path, mech, INPUTS, resume=True)
+    assert list(resumed.done) == [True, True, False, False, False]
+    for k in (2, 3, 4):
+        resumed.write(k, k + 1, frames[k])
+    resumed.close()
+    pd.testing.assert_frame_equal(read_results(path), pd.concat(frames, ignore_index=True))
+
+
+def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tmp_path, mech, frames):
+    path = tmp_path / "r.parquet"
+    sink = open_sink(path, mech, INPUTS)
+    sink.write(1, 2, frames[1])
+    sink.write(3, 4, frames[3])
+    (path / "part-000000004-000000005.tmp").write_bytes(b"cut")
+    resumed = open_sink(path, mech, INPUTS, resume=True)
+    assert list(resumed.done) == [False, True, False, True, False]
+    assert not list(path.glob("*.tmp"))
+
+
+def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, frames):
+    path = tmp_path / "r.csv"
+    sink = open_sink(path, mech, INPUTS)
+    for k in range(3):
+        sink.write(k, k + 1, frames[k])
+    sink.close()
+    before = path.read_bytes()
+    other = INPUTS.copy()
+    other[0, 1] += 1e-6
+    with pytest.raises(ValueError, match="input 0 there is .* in this job .*output of other inputs"):
+        open_sink(path, mech, other, resume=True)
+    assert path.read_bytes() == before          # a refused resume changes nothing
+    with pytest.raises(ValueError, match="beyond this job's 1 inputs"):
+        open_sink(path, mech, INPUTS[:1], resume=True)
+
+
+def test_resume_refuses_a_file_of_another_mechanism(tmp_path, mech):
+    path = tmp_path / "r.csv"
+    path.write_text("input,a,b\n0,1,2\n1,1,2\n")
+    with pytest.raises(ValueError, match="columns are not those of this mechanism"):
+        open_sink(path, mech, INPUTS, resume=True)
