@@ -61,3 +61,19 @@ def registered():
     yield add
     for registry, name in reversed(added):
         registry.unregister(name)
+
+
+@pytest.fixture(scope="session")
+def dask_client():
+    """A real Dask cluster for the tests: a LocalCluster of 2 single-threaded worker processes on
+    127.0.0.1 (started once per session, closed at its end)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None, silence_logs=logging.CRITICAL)
+    client = Client(cluster)
+    yield client
+    client.close()
+    cluster.close()

@@ -198,6 +198,7 @@ def _remote(address: str):
 
     if not isinstance(address, str) or "://" not in address and ":" not in address:
         raise ValueError(f"--scheduler: expected an address such as tcp://HOST:8786, got {address!r}")
+    _probe(address)
     try:
         c = Client(address, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError, ValueError) as exc:
@@ -213,6 +214,24 @@ def _remote(address: str):
         yield c
     finally:
         c.close()
+
+
+def _probe(address: str) -> None:
+    """For a tcp:// address, one plain TCP connection first: a port nobody listens on is refused at
+    once, where Dask's client would retry for CONNECT_TIMEOUT seconds before saying so."""
+    import socket
+
+    if not address.startswith("tcp://"):
+        return
+    host, _, port = address[len("tcp://"):].rpartition(":")
+    try:
+        port_number = int(port)
+    except ValueError:
+        raise ValueError(f"--scheduler {address}: expected tcp://HOST:PORT with a port number") from None
+    try:
+        socket.create_connection((host.strip("[]") or "127.0.0.1", port_number), timeout=CONNECT_TIMEOUT).close()
+    except OSError as exc:
+        raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler there ({exc})") from None
 
 
 def n_workers(client) -> int:
