@@ -149,3 +149,30 @@ def test_ctrl_c_keeps_what_is_written_and_resume_completes_it(tmp_path):
     whole = spherekin("batch", EXAMPLE, *grid, "--out", str(full), "--workers", "0")
     assert whole.returncode == 0
     pd.testing.assert_frame_equal(batch.read_results(out), batch.read_results(full))
+
+
+class _RecordingSink:
+    """A sink that needs input order (as CSV) and records what it is given."""
+
+    ordered = True
+
+    def __init__(self, n):
+        self.done = np.zeros(n, dtype=bool)
+        self.writes = []
+
+    def write(self, first, end, frame):
+        self.writes.append((first, end, sorted(set(frame["input"]))))
+
+    def close(self):
+        pass
+
+
+def test_an_ordered_sink_gets_the_chunks_in_input_order_whatever_order_they_finish(mech, dask_client):
+    from spherekin.batch.engine import Job, run
+
+    inputs = np.random.default_rng(3).uniform(-np.pi, np.pi, (24, 3))
+    sink = _RecordingSink(len(inputs))
+    summary = run(Job.of(mech, {}), inputs, sink, client=dask_client, chunk_size=1)
+    assert summary.complete and summary.workers == 2
+    assert [w[0] for w in sink.writes] == list(range(24))
+    assert all(w[2] in ([w[0]], []) for w in sink.writes)
