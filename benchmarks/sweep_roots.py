@@ -30,11 +30,11 @@ import os
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
+from spherekin.cluster import connect, map_in_order
 from spherekin.mechanism import gosselin, three_rrr
 from spherekin.search.boxloop import DEFAULT_PARAMETERIZATION, SolverLimitError
 from spherekin.problem import solve
@@ -138,8 +138,8 @@ def near_singular_main(args) -> int:
     seeds = range(args.seed, args.seed + n_segments)
     t0 = time.perf_counter()
     rows = []
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        for i, part in enumerate(pool.map(near_singular_segment, seeds), start=1):
+    with connect(workers=args.jobs if args.jobs > 1 else 0) as client:      # Dask: a local cluster of --jobs workers
+        for i, part in enumerate(map_in_order(client, near_singular_segment, seeds), start=1):
             rows += part
             for r in part:
                 if r["wrong"]:
@@ -180,7 +180,8 @@ def near_singular_main(args) -> int:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=1000)
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="Dask worker processes of a local cluster (1: in this process; default: one per core)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION,
                         help="tan-half or sin-cos (default %(default)s)")
@@ -197,8 +198,9 @@ def main(argv=None) -> int:
     seeds = range(args.seed, args.seed + args.poses)
     t0 = time.perf_counter()
     rows = []
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        for i, row in enumerate(pool.map(functools.partial(trial, parameterization=args.parameterization), seeds, chunksize=4), start=1):
+    with connect(workers=args.jobs if args.jobs > 1 else 0) as client:      # Dask: a local cluster of --jobs workers
+        for i, row in enumerate(map_in_order(client, functools.partial(trial, parameterization=args.parameterization),
+                                             seeds), start=1):
             rows.append(row)
             if row["miss"] or row["spurious"]:
                 print(f"  seed {row['seed']} ({row['kind']}): miss={row['miss']} spurious={row['spurious']} "

@@ -4,7 +4,7 @@ Every ``import`` of a spherekin module is collected with ``ast`` (module level a
 functions). No module imports ``verification/``, no private name crosses a module boundary (neither
 imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (README's tour):
 
-core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
+where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> trust (spherekin/trust/) -> pipeline (problem) ->
 families of inputs (spherekin/batch/) -> interfaces (cli, plot).
 """
@@ -19,6 +19,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parent.parent / "spherekin"
 
 LAYERS = [
+    ("where work runs", {"cluster"}),
     ("core", {"core"}),
     ("closure equations", {"closure", "paper_gosselin"}),
     ("mechanism model", {"mechanism"}),

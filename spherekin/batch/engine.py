@@ -1,19 +1,14 @@
 """The engine of a batch: chunks of inputs solved on Dask workers, each with the problem compiled once.
 
-Where a job runs (:func:`connect`):
-
-* a handful of inputs (at most IN_PROCESS_MAX_INPUTS, or ``workers=0``): in this process, no cluster;
-* otherwise, with no address: an embedded ``distributed.LocalCluster`` on 127.0.0.1, one
-  single-threaded worker process per core (or ``workers``), closed when the job ends;
-* ``scheduler="tcp://HOST:8786"``: an existing Dask cluster (``dask scheduler`` + ``dask worker``,
-  spherekin installed on the workers), unchanged; or ``client=``: a ``distributed.Client`` of the
-  caller's, left open.
+Where a job runs (:func:`connect`): a handful of inputs (at most IN_PROCESS_MAX_INPUTS, or
+``workers=0``) in this process, no cluster; otherwise where :func:`spherekin.cluster.connect` says:
+an embedded local cluster, an existing one by ``scheduler`` address, or the caller's ``client``.
 
 How: the mechanism and the strategy go to every worker once, as a worker plugin
 (:class:`CompiledProblem`) that compiles the problem when the worker starts it; then every task is
 a chunk of consecutive inputs, solved with ``Problem.solve_many`` and turned into rows of the
 results table on the worker (:func:`spherekin.batch.rows.report_rows`). At most
-WINDOW_PER_WORKER chunks per worker are in flight, so the inputs and results held at any time are
+TASKS_PER_WORKER chunks per worker are in flight, so the inputs and results held at any time are
 bounded whatever the job's size. Each finished chunk goes to the sink (a file or memory) as it
 arrives, or, for a sink that needs input order (CSV), as soon as every earlier chunk is there. The
 rows of an input do not depend on where or with what else it was solved, so the table is the same,
@@ -26,9 +21,7 @@ that can be written is written, and the summary says how far it got (``interrupt
 from __future__ import annotations
 
 import hashlib
-import logging
 import math
-import os
 import pickle
 import time
 from collections import deque
@@ -39,9 +32,11 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 from distributed.diagnostics.plugin import WorkerPlugin
 
+from ..cluster import connect as cluster_connect
+from ..cluster import TASKS_PER_WORKER, n_workers
 from .rows import report_rows
 
-__all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "WINDOW_PER_WORKER", "CONNECT_TIMEOUT", "Job", "RunSummary",
+__all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
            "CompiledProblem", "solve_chunk", "chunks", "connect", "run"]
 
 #: Jobs of at most this many inputs run in this process, without a cluster. Reason: starting an
@@ -52,15 +47,6 @@ IN_PROCESS_MAX_INPUTS = 64
 #: scheduling and transfer, so 64 inputs keep that overhead near 0.1%, while a chunk still finishes
 #: in about a second: progress stays live, Ctrl-C is quick, and a resumed job redoes little.
 CHUNK_INPUTS = 64
-#: Chunks in flight per worker. Reason: 2 keep a worker busy while its next chunk travels; 4 also
-#: absorb uneven chunks, and the results held back for input order stay a few chunks per worker.
-WINDOW_PER_WORKER = 4
-#: Log level of an embedded cluster's scheduler and workers. Reason: at shutdown (the end of a job,
-#: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
-#: job; a failure that matters reaches the job as the exception of a task (a worker that dies: KilledWorker).
-QUIET_LOGS = logging.CRITICAL
-#: Seconds to wait for a scheduler given by address before saying it cannot be reached.
-CONNECT_TIMEOUT = 10.0
 
 
 @dataclass(frozen=True)
@@ -123,17 +109,6 @@ class CompiledProblem(WorkerPlugin):
         self.problem = None
 
 
-def dask_setup(worker=None) -> None:
-    """Run by every worker of an embedded cluster as it starts (Dask's ``preload`` of this module):
-    ignore SIGINT. Ctrl-C in a terminal reaches the whole process group; the job's process handles it
-    (cancels, writes what is done, closes the cluster), and the workers would only print tracebacks."""
-    import signal
-    import threading
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
     """The task: the results table of inputs ``first ... first + len(rows) - 1`` on this worker."""
     from distributed import get_worker
@@ -155,87 +130,14 @@ def chunks(todo: np.ndarray, size: int) -> list[tuple[int, int]]:
     return out
 
 
-def default_workers() -> int:
-    """Worker processes of an embedded cluster: the cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:                  # not on Linux
-        return os.cpu_count() or 1
-
-
 @contextmanager
 def connect(n_inputs: int, *, client=None, scheduler: str | None = None,
             workers: int | None = None) -> Iterator[object | None]:
-    """The Dask client a job runs on (None: in this process); see the module doc. ValueError for an
-    address that cannot be reached or a worker count < 0, before any work."""
-    if client is not None and scheduler is not None:
-        raise ValueError("client and scheduler: expected at most one of them")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise ValueError(f"workers: expected a whole number >= 0 (0: in this process), got {workers!r}")
-    if client is not None:
-        yield client
-        return
-    if scheduler is not None:
-        yield from _remote(scheduler)
-        return
-    if workers == 0 or (workers is None and n_inputs <= IN_PROCESS_MAX_INPUTS):
-        yield None
-        return
-    from distributed import Client, LocalCluster
-
-    n = workers or default_workers()
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=QUIET_LOGS, preload=[__name__])
-    try:
-        with Client(cluster) as c:
-            yield c
-    finally:
-        cluster.close()
-
-
-def _remote(address: str):
-    from distributed import Client
-
-    if not isinstance(address, str) or "://" not in address and ":" not in address:
-        raise ValueError(f"--scheduler: expected an address such as tcp://HOST:8786, got {address!r}")
-    _probe(address)
-    try:
-        c = Client(address, timeout=CONNECT_TIMEOUT)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler there "
-                         f"({type(exc).__name__}: {exc})") from None
-    try:
-        if not c.scheduler_info().get("workers"):
-            c.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
-    except (OSError, TimeoutError) as exc:
-        c.close()
-        raise ValueError(f"--scheduler {address}: the scheduler has no workers ({exc})") from None
-    try:
+    """The Dask client a job of ``n_inputs`` runs on (None: in this process, for at most
+    IN_PROCESS_MAX_INPUTS inputs or ``workers=0``); see :func:`spherekin.cluster.connect`."""
+    small = workers is None and client is None and scheduler is None and n_inputs <= IN_PROCESS_MAX_INPUTS
+    with cluster_connect(client=client, scheduler=scheduler, workers=0 if small else workers) as c:
         yield c
-    finally:
-        c.close()
-
-
-def _probe(address: str) -> None:
-    """For a tcp:// address, one plain TCP connection first: a port nobody listens on is refused at
-    once, where Dask's client would retry for CONNECT_TIMEOUT seconds before saying so."""
-    import socket
-
-    if not address.startswith("tcp://"):
-        return
-    host, _, port = address[len("tcp://"):].rpartition(":")
-    try:
-        port_number = int(port)
-    except ValueError:
-        raise ValueError(f"--scheduler {address}: expected tcp://HOST:PORT with a port number") from None
-    try:
-        socket.create_connection((host.strip("[]") or "127.0.0.1", port_number), timeout=CONNECT_TIMEOUT).close()
-    except OSError as exc:
-        raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler there ({exc})") from None
-
-
-def n_workers(client) -> int:
-    return max(1, len(client.scheduler_info().get("workers", {}))) if client is not None else 0
 
 
 def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | None = None,
@@ -249,7 +151,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     skipped = int(sink.done.sum())
     workers = n_workers(client)
     if chunk_size is None:
-        per = max(1, workers) * WINDOW_PER_WORKER
+        per = max(1, workers) * TASKS_PER_WORKER
         chunk_size = max(1, min(CHUNK_INPUTS, math.ceil((total - skipped) / per)))
     elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise ValueError(f"chunk_size: expected a whole number >= 1, got {chunk_size!r}")
@@ -292,7 +194,7 @@ def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool)
     plugin = CompiledProblem(job)
     client.register_plugin(plugin, name=plugin.name)
     queue = deque(todo)
-    window = max(1, workers) * WINDOW_PER_WORKER
+    window = max(1, workers) * TASKS_PER_WORKER
     futures = {}
     held = {}                                   # finished out of order (ordered sinks)
     order = deque(todo)                         # the next chunk to write, for an ordered sink
