@@ -396,7 +396,9 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
     _add_strategy_options(so)
-    so.add_argument("--jobs", type=int, default=1, help="worker processes for the charts (default %(default)s)")
+    so.add_argument("--jobs", type=int, default=1,
+                    help="Dask worker processes over the charts of the loop equations, on a local cluster "
+                         "(~2-3 s to start: for long solves; default %(default)s)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)

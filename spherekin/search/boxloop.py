@@ -399,8 +399,9 @@ def solve_system(
     ``chart_ranges`` (name -> (lo, hi) radians, width < 2 pi); ``ranges`` gives each unknown's
     joint range, or None for the full circle. ``tol`` is in radians. ``isolate``: stop subdividing
     a box once the Krawczyk test proves it holds one root (:mod:`spherekin.search.isolation`); only with
-    a formulation that has a square system of simple roots. ``jobs``: worker processes for the
-    charts (the solutions do not depend on it). ``progress(counts)`` is called before each batch
+    a formulation that has a square system of simple roots. ``jobs``: Dask worker processes for
+    the charts, on a local cluster started for the search (:mod:`spherekin.cluster`; ~2-3 s to
+    start, worth it for searches of many seconds; the solutions do not depend on it). ``progress(counts)`` is called before each batch
     of boxes with the running counters (and "pending": boxes waiting; with ``jobs > 1`` once per
     finished worker). ``max_boxes`` (per worker) and ``max_depth`` (default DEPTH_PER_UNKNOWN per
     variable) cap the search; reaching a cap raises a :class:`SolverLimitError` subclass.
@@ -427,14 +428,13 @@ def solve_system(
     if len(groups) == 1:
         results = [_run_group(charts, spec, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
     else:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
+        from ..cluster import connect, map_in_order
 
-        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
-        with ProcessPoolExecutor(len(groups), mp_context=ctx) as pool:
-            args = [(charts, spec, tol, max_boxes, max_depth, isolate, g) for g in groups]
-            results = []
-            for res in pool.map(_worker, args):
+        # the chart groups on a local Dask cluster of len(groups) worker processes (spherekin.cluster)
+        args = [(charts, spec, tol, max_boxes, max_depth, isolate, g) for g in groups]
+        results = []
+        with connect(workers=len(groups)) as client:
+            for res in map_in_order(client, _worker, args):
                 results.append(res)
                 if progress is not None:
                     progress({**res[2], "pending": 0})
