@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, parse_grid, read_inputs_csv
-from .maps import AssemblyMap, aggregate
+from .maps import MAP_COLUMNS, AssemblyMap, aggregate
 from .sinks import Sink, check_output_path, open_sink, read_results
 
 __all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "GridAxis", "InputSet", "grid_inputs",
@@ -118,5 +118,5 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
                                 **strategy)
         if summary.interrupted:
             raise KeyboardInterrupt
-        frame = read_results(out)
+        frame = read_results(out, columns=MAP_COLUMNS)
     return aggregate(frame, x, y, inputs.fixed, mechanism.name)

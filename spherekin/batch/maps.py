@@ -17,8 +17,10 @@ import numpy as np
 
 from .inputs import GridAxis
 
-__all__ = ["FLAGGED", "AssemblyMap", "aggregate"]
+__all__ = ["MAP_COLUMNS", "FLAGGED", "AssemblyMap", "aggregate"]
 
+#: The columns of a results table a map reads.
+MAP_COLUMNS = ("input", "solution", "status", "parallel_measure")
 #: Statuses whose entries leave the count unproven (docs/results-format.md).
 FLAGGED = ("unverified", "cluster", "continuum")
 

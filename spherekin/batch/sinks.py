@@ -76,9 +76,15 @@ class Sink:
     def close(self) -> None:
         """Flush and release the output (every written chunk stays)."""
 
-    def _check_resumed(self, frame) -> None:
-        """ValueError unless ``frame`` (rows of an earlier run) is of this mechanism and these inputs."""
-        if list(frame.columns) != self.columns:
+    @property
+    def key_columns(self) -> list[str]:
+        """The columns a resume reads back: ``input`` and the actuated joints (not the whole table)."""
+        return ["input", *self.mechanism.actuated]
+
+    def _check_resumed(self, columns: list[str], frame) -> None:
+        """ValueError unless an earlier run's output, with ``columns`` and the rows ``frame`` (its
+        key columns), is of this mechanism and these inputs."""
+        if list(columns) != self.columns:
             raise ValueError(f"--resume {self.path}: its columns are not those of this mechanism's results "
                              f"({', '.join(self.columns[:6])}, ...); it cannot be completed by this job")
         if not len(frame):
@@ -112,8 +118,10 @@ class ParquetSink(Sink):
 
             parts = sorted(path.glob("part-*.parquet"))
             if parts:
-                frame = pd.concat([pd.read_parquet(p, columns=None) for p in parts], ignore_index=True)
-                self._check_resumed(frame)
+                import pyarrow.parquet as pq
+
+                for part in parts:
+                    self._check_resumed(pq.read_schema(part).names, pd.read_parquet(part, columns=self.key_columns))
 
     def write(self, first: int, end: int, frame) -> None:
         final = self.path / f"part-{first:09d}-{end:09d}.parquet"
@@ -138,7 +146,7 @@ class CsvSink(Sink):
             offset = self._complete_prefix()
             if offset:                                # validated first: a refused resume leaves the file as it was
                 with open(path, "rb") as f:
-                    self._check_resumed(_read_csv(f.read(offset)))
+                    self._check_resumed(header, _read_csv(f.read(offset), usecols=self.key_columns))
             with open(path, "rb+") as f:
                 f.truncate(offset)
             self._file = open(path, "a", newline="")
@@ -183,7 +191,7 @@ def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False) -> Sink
     return cls(path, mechanism, inputs, resume)
 
 
-def _read_csv(source):
+def _read_csv(source, usecols=None):
     """A results CSV (a path, or its bytes) as a DataFrame with the table's column types."""
     import io
 
@@ -191,21 +199,25 @@ def _read_csv(source):
 
     if isinstance(source, bytes):
         source = io.BytesIO(source)
-    return pd.read_csv(source, dtype={"solution": "Int64", "status": "string", "singularity": "string"})
+    return pd.read_csv(source, usecols=usecols,
+                       dtype={"solution": "Int64", "status": "string", "singularity": "string"})
 
 
-def read_results(path):
-    """A results table written by a batch (.parquet dataset or .csv), ordered by input and solution."""
+def read_results(path, columns=None):
+    """A results table written by a batch (.parquet dataset or .csv), ordered by input and solution;
+    ``columns``: only those (``input`` and ``solution`` are always read, to order the rows)."""
     import pandas as pd
 
     path = Path(path)
+    if columns is not None:
+        columns = list(dict.fromkeys(["input", "solution", *columns]))
     if path.suffix.lower() == ".parquet":
         parts = sorted(path.glob("part-*.parquet")) if path.is_dir() else [path]
         if not parts:
             raise ValueError(f"{path}: no results in it (no part-*.parquet files)")
-        frame = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+        frame = pd.concat([pd.read_parquet(p, columns=columns) for p in parts], ignore_index=True)
     else:
-        frame = _read_csv(path)
+        frame = _read_csv(path, usecols=columns)
     if not {"input", "solution"} <= set(frame.columns):
         raise ValueError(f"{path}: not a results table of spherekin (no input and solution columns)")
     frame = frame.sort_values(["input", "solution"], kind="stable", na_position="first").reset_index(drop=True)
