@@ -26,6 +26,15 @@ def frames(mech):
     return [report_rows(mech, [problem.solve(row)], k, INPUTS[k:k + 1]) for k, row in enumerate(INPUTS)]
 
 
+def written(path, mech, frames, inputs):
+    """``path`` after a run that wrote the rows of ``inputs`` (one chunk each) and stopped."""
+    sink = open_sink(path, mech, INPUTS)
+    for k in inputs:
+        sink.write(k, k + 1, frames[k])
+    sink.close()
+    return path
+
+
 @pytest.mark.parametrize("name, match", [("out.txt", "expected a .parquet"), ("out", "suffix '\\(none\\)'"),
                                          ("nodir/out.csv", "does not exist")])
 def test_bad_output_paths_are_refused(tmp_path, name, match):
@@ -61,11 +70,7 @@ def test_chunks_in_any_order_read_back_in_input_order(tmp_path, mech, frames, su
 
 
 def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, mech, frames):
-    path = tmp_path / "r.csv"
-    sink = open_sink(path, mech, INPUTS)
-    for k in range(3):
-        sink.write(k, k + 1, frames[k])
-    sink.close()
+    path = written(tmp_path / "r.csv", mech, frames, range(3))
     text = path.read_text()
     lines = text.splitlines(keepends=True)
     n2 = len(frames[2])
@@ -92,11 +97,7 @@ def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tm
 
 
 def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, frames):
-    path = tmp_path / "r.csv"
-    sink = open_sink(path, mech, INPUTS)
-    for k in range(3):
-        sink.write(k, k + 1, frames[k])
-    sink.close()
+    path = written(tmp_path / "r.csv", mech, frames, range(3))
     before = path.read_bytes()
     other = INPUTS.copy()
     other[0, 1] += 1e-6
