@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from spherekin import compile as compile_problem
-from spherekin.batch.rows import columns, empty_frame, parallel_measure, report_rows
+from spherekin.batch.rows import columns, empty_frame, report_rows
 from spherekin.mechanism import general_3rrr
 
 
@@ -51,33 +51,3 @@ def test_one_row_per_solution_and_one_empty_row_for_an_input_without_any(mech, s
         # the quaternion is the rotation (scipy, scalar last)
         np.testing.assert_allclose(Rotation.from_quat(np.roll(q, -1)).as_matrix(), rot, atol=1e-12)
         assert row["status"] == str(sol.status) and row["residual"] == sol.residual
-
-
-def _leg_pose_jacobian_kp(mech, joints, h=1e-6):
-    """K_p by central differences of the leg poses (mechanism.forward), independent of mechanism.jacobians:
-    column j = vee(d(R_up R_down^T)/d theta_j) per loop."""
-    def loop_products(angles):
-        res = mech.forward(angles)
-        poses = dict(zip([leg.name for leg in mech.legs], res.leg_poses))
-        return [poses[up] @ poses[down].T for up, down in res.loop_legs]
-
-    base = loop_products(joints)
-    cols = []
-    for name in mech.passive:
-        plus, minus = dict(joints), dict(joints)
-        plus[name] += h
-        minus[name] -= h
-        col = []
-        for p, m, b in zip(loop_products(plus), loop_products(minus), base):
-            w = (p - m) / (2 * h) @ b.T
-            col += [w[2, 1], w[0, 2], w[1, 0]]
-        cols.append(col)
-    return np.array(cols).T
-
-
-def test_parallel_measure_is_the_condition_of_an_independent_jacobian(mech, solved):
-    rows, reports = solved
-    for sol in reports[0].solutions[:4]:
-        joints = {**dict(zip(mech.actuated, rows[0])), **dict(zip(reports[0].unknowns, sol.angles))}
-        s = np.linalg.svd(_leg_pose_jacobian_kp(mech, joints), compute_uv=False)
-        assert parallel_measure(mech, joints) == pytest.approx(s[-1] / s[0], rel=1e-6)

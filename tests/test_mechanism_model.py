@@ -468,3 +468,38 @@ def test_sphere_point_meets_both_angles_on_the_asked_side():
         assert abs(math.acos(np.clip(c @ q, -1, 1)) - ang_q) < 1e-6
         assert branch * (c @ np.cross(p, q)) >= -1e-12
     assert hits > 50
+
+
+def _leg_pose_jacobian_kp(mech, joints, h=1e-6):
+    """K_p by central differences of the leg poses (mechanism.forward), independent of mechanism.jacobians:
+    column j = vee(d(R_up R_down^T)/d theta_j) per loop."""
+    def loop_products(angles):
+        res = mech.forward(angles)
+        poses = dict(zip([leg.name for leg in mech.legs], res.leg_poses))
+        return [poses[up] @ poses[down].T for up, down in res.loop_legs]
+
+    base = loop_products(joints)
+    cols = []
+    for name in mech.passive:
+        plus, minus = dict(joints), dict(joints)
+        plus[name] += h
+        minus[name] -= h
+        col = []
+        for p, m, b in zip(loop_products(plus), loop_products(minus), base):
+            w = (p - m) / (2 * h) @ b.T
+            col += [w[2, 1], w[0, 2], w[1, 0]]
+        cols.append(col)
+    return np.array(cols).T
+
+
+def test_parallel_measure_is_the_condition_of_an_independent_jacobian():
+    from spherekin import compile as compile_problem
+    from spherekin.mechanism import general_3rrr
+
+    mech = general_3rrr()
+    rows = np.array([[0.3, -0.2, 0.5]])
+    reports = compile_problem(mech).solve_many(rows)
+    for sol in reports[0].solutions[:4]:
+        joints = {**dict(zip(mech.actuated, rows[0])), **dict(zip(reports[0].unknowns, sol.angles))}
+        s = np.linalg.svd(_leg_pose_jacobian_kp(mech, joints), compute_uv=False)
+        assert mech.parallel_measure(joints) == pytest.approx(s[-1] / s[0], rel=1e-6)

@@ -5,7 +5,7 @@ The number of real assemblies changes only where the actuator inputs cross a par
 grid are those singularity curves, sampled at the grid's resolution. Each grid point also carries how
 many of its entries are certified, singular, or flagged (unverified, cluster, continuum: the count
 there is not proven), and the smallest normalized parallel-singularity measure over its solutions
-(:func:`spherekin.batch.rows.parallel_measure`: 0 on a singularity).
+(:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`: 0 on a singularity).
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ as a matrix ``r11 ... r33`` (row-major; v_i = R v_i^0), ``residual`` (largest |F
 ``singularity`` (the mechanism's classification) and ``parallel_measure``: the normalized distance
 to a parallel singularity, sigma_min / sigma_max of the passive-joint Jacobian K_p of the loop
 constraints (1 for an isotropic configuration, 0 at a parallel singularity, where assembly modes
-meet; see :meth:`spherekin.mechanism.SphericalMechanism.jacobians`). An input with no solution has
+meet; :meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`). An input with no solution has
 one row whose solution columns are empty (null).
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core.orientation import quaternions_from_rotations
 
-__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "parallel_measure", "report_rows", "empty_frame"]
+__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "empty_frame"]
 
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
@@ -29,21 +29,6 @@ def columns(mechanism) -> tuple[str, ...]:
     """The column names of the results table of ``mechanism`` (module doc)."""
     return ("input", *mechanism.actuated, "solution", "status", *mechanism.loop_unknowns, *QUATERNION_COLUMNS,
             *ROTATION_COLUMNS, "residual", "singularity", "parallel_measure")
-
-
-def parallel_measure(mechanism, joint_angles) -> float:
-    """sigma_min / sigma_max of K_p at ``joint_angles`` (name -> radians): 0 at a parallel singularity.
-
-    K_p's columns are the passive joints' current axes (unit vectors) combined loop by loop, so its
-    singular values are dimensionless; the ratio makes the measure independent of the number of loops.
-    """
-    kp = mechanism.jacobians(joint_angles)["K_p"]
-    if kp.shape[1] == 0:
-        return float("nan")
-    s = np.linalg.svd(kp, compute_uv=False)
-    if kp.shape[1] > kp.shape[0] or s[0] == 0.0:
-        return 0.0
-    return float(s[-1] / s[0])
 
 
 def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
@@ -83,7 +68,7 @@ def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
             rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
             joints = {**dict(zip(actuated, (float(v) for v in inputs[k]))), **dict(zip(names, (float(v) for v in a)))}
             try:
-                measure.append(parallel_measure(mechanism, joints))
+                measure.append(mechanism.parallel_measure(joints))
             except ValueError:             # a joint the loop equations do not carry: no Jacobian
                 measure.append(np.nan)
     rots = np.array(rots).reshape(-1, 3, 3)

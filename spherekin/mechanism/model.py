@@ -694,6 +694,20 @@ class SphericalMechanism:
         pas = [names.index(n) for n in self.passive]
         return {"legs": leg_j, "constraints": k_mat, "K_a": k_mat[:, act], "K_p": k_mat[:, pas]}
 
+    def parallel_measure(self, joint_angles: Mapping[str, float]) -> float:
+        """The normalized distance to a parallel singularity at ``joint_angles`` (name -> radians):
+        sigma_min / sigma_max of K_p (:meth:`jacobians`), 1 for an isotropic configuration, 0 at a
+        parallel singularity (where assembly modes meet). K_p's columns are the passive joints'
+        current axes (unit vectors) combined loop by loop, so the ratio is dimensionless and does not
+        depend on the number of loops. NaN without passive joints; 0 with more of them than rows."""
+        kp = self.jacobians(joint_angles)["K_p"]
+        if kp.shape[1] == 0:
+            return float("nan")
+        s = np.linalg.svd(kp, compute_uv=False)
+        if kp.shape[1] > kp.shape[0] or s[0] == 0.0:
+            return 0.0
+        return float(s[-1] / s[0])
+
     def singularity(self, joint_angles: Mapping[str, float], tol: float = SINGULARITY_TOL) -> SingularityReport:
         """Classify a configuration as regular, serial-, parallel- or doubly singular (see
         :class:`SingularityReport`; tolerance SINGULARITY_TOL by default)."""
