@@ -583,7 +583,7 @@ def test_box_bounds_rejects_bad_input():
 
 @pytest.mark.parametrize("name", ["osqp", "scs"])
 def test_rejected_backends_explain_why(name):
-    with pytest.raises(ValueError, match=f"{name}.*not supported.*doubts"):
+    with pytest.raises(ValueError, match=f"{name}.*not supported.*valid certified bounds.*slower"):
         make_backend(name, SMALL_SHAPES[2])
 
 
