@@ -602,7 +602,9 @@ class HighspyBackend(LPBackend):
 #: eps 1e-3, the fastest of those measured (cvxpy's default 1e-5 and 1e-4, 1e-7 were slower per LP
 #: and, hitting OSQP's iteration cap, left more LPs without duals: 22 of 84 at 1e-5, 64 of 84 at 1e-7
 #: on the Gosselin +-0.3 rad boxes), and its bounds are certified however loose its duals are.
-OSQP_OPTIONS = {"polish": True, "eps_abs": 1e-3, "eps_rel": 1e-3}
+#: The polishing switch itself is set in OsqpBackend.__init__: OSQP >= 1 calls it "polishing" ("polish"
+#: before), and cvxpy turns it off on a warm-started re-solve unless it is given under the right name.
+OSQP_OPTIONS = {"eps_abs": 1e-3, "eps_rel": 1e-3}
 #: SCS's settings in :class:`ScsBackend` (measured, not offered): eps 1e-3, the fastest measured
 #: (30 ms per LP on the Gosselin +-1 rad problem against 59 ms at cvxpy's default 1e-5), with the
 #: same boxes and solutions as HiGHS; its bounds are certified however loose its duals are.
@@ -631,6 +633,13 @@ class OsqpBackend(CvxpyBackend):
     name = "osqp"
     solver = "OSQP"
     options: ClassVar[dict] = OSQP_OPTIONS
+
+    def __init__(self, shapes):
+        super().__init__(shapes)
+        import osqp
+
+        major = int(getattr(osqp, "__version__", "0").split(".")[0])
+        self._options["polishing" if major >= 1 else "polish"] = True
 
 
 class ScsBackend(CvxpyBackend):
