@@ -658,13 +658,14 @@ class ScsBackend(CvxpyBackend):
 #: reason (experiments/lp_backends.py, experiments/README.md Q7; every bound from a checked dual
 #: certificate). Their classes are in :data:`REJECTED_BACKEND_CLASSES`, for that experiment only.
 REJECTED_LP_BACKENDS = {
-    "osqp": "OSQP (ADMM, polishing on, eps 1e-3) gives valid certified bounds but is far slower than every "
-            "offered backend: Gosselin +-1 rad (halves, pruner lp): 147 ms per LP, 261 boxes and 276 s "
-            "(highspy 2.5 ms, 119 boxes, 2.2 s; clarabel ~18 ms); at OSQP's default accuracy 1e-5 26% of its "
-            "LPs end at its iteration cap without duals (no bound) (experiments/lp_backends.py)",
-    "scs": "SCS (first-order conic, eps 1e-3) gives valid certified bounds and the same boxes, but is slower "
-           "than every offered backend: Gosselin +-1 rad (halves, pruner lp): 30 ms per LP, 27 s (highspy "
-           "2.5 ms, 2.2 s; clarabel ~18 ms), so it offers nothing clarabel does not (experiments/lp_backends.py)",
+    "osqp": "OSQP (ADMM, polishing on, eps 1e-3) gives valid certified bounds (94-100% of its LPs give one, median "
+            "3.5e-3 looser than HiGHS's in box coordinates) but is far slower than every offered backend: Gosselin "
+            "+-1 rad (halves, pruner lp): 188 ms per LP, 261 boxes, 353 s, against highspy's 2.5 ms, 119 boxes, "
+            "3.6 s (97x) and clarabel's 26 s (experiments/lp_backends.py, full run)",
+    "scs": "SCS (first-order conic, eps 1e-3) gives valid certified bounds (100% of its LPs, median 1.1e-3 looser "
+           "than HiGHS's) and the same solutions, but is slower than highspy and no faster than clarabel, with looser "
+           "bounds: Gosselin +-1 rad (halves, pruner lp): 29 ms per LP, 25 s, against highspy's 2.5 ms, 3.6 s (6.8x) "
+           "and clarabel's 26 s (experiments/lp_backends.py, full run)",
 }
 REJECTED_BACKEND_CLASSES = {"osqp": OsqpBackend, "scs": ScsBackend}
 
