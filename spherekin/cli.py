@@ -88,10 +88,25 @@ class _Progress:
             print(file=sys.stderr)
 
 
+class _Choices(list):
+    """argparse choices that show ``names`` (in --help and argparse's "invalid choice" error) and also
+    let ``refused`` through: names spherekin knows and refuses with a measured reason (an LP backend
+    of REJECTED_LP_BACKENDS), which the strategy check then gives as the one-line error, exit 2."""
+
+    def __init__(self, names, refused):
+        super().__init__(names)
+        self.refused = tuple(refused)
+
+    def __contains__(self, name) -> bool:
+        return list.__contains__(self, name) or name in self.refused
+
+
 def _solve(args) -> int:
     from .mechanism import load_mechanism
     from .problem import solve
+    from .search.pruners import check_pruner
 
+    check_pruner(args.pruner, args.lp_backend)   # a refused LP backend's reason, before any output
     mech = load_mechanism(args.file)
     inputs = _parse_inputs(args.inputs, args.degrees)
     if len(inputs) != len(mech.actuated):
@@ -362,7 +377,7 @@ def _verify(args) -> int:
 
 def _add_strategy_options(so) -> None:
     """The strategy options of solve, batch and map (choices read from the registries)."""
-    from .search.lp_backends import LP_BACKENDS
+    from .search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
     from .search.parameterizations import PARAMETERIZATIONS
     from .problem import DEFAULT_FORMULATION, formulation_choices
     from .search.pruners import PRUNERS
@@ -380,8 +395,10 @@ def _add_strategy_options(so) -> None:
     so.add_argument("--pruner", default=DEFAULT_PRUNER, choices=list(PRUNERS),
                     help="pp: projected polyhedron, no LP; hybrid: pp, LPs where it stalls; "
                          "lp: the Eq. (12) linear programs on every box. Default %(default)s")
-    so.add_argument("--lp-backend", default=None, choices=list(LP_BACKENDS),
-                    help=f"LP backend ({'; '.join(f'{n}: default {c.default_lp_backend}' for n, c in PRUNERS.items() if c.default_lp_backend)}); paper-faithful: clarabel")
+    so.add_argument("--lp-backend", default=None, choices=_Choices(LP_BACKENDS, REJECTED_LP_BACKENDS),
+                    help=f"LP backend ({'; '.join(f'{n}: default {c.default_lp_backend}' for n, c in PRUNERS.items() if c.default_lp_backend)}); paper-faithful: clarabel"
+                         + (f"; {', '.join(REJECTED_LP_BACKENDS)}: measured and refused (the error says why)"
+                            if REJECTED_LP_BACKENDS else ""))
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
     so.add_argument("--no-isolate", action="store_true",
                     help="subdivide every box down to the tolerance (no Krawczyk isolation; the paper's behaviour)")

@@ -10,7 +10,7 @@ import pytest
 
 from spherekin.cli import main
 from spherekin.problem import DEFAULT_FORMULATION, formulation_choices
-from spherekin.search.lp_backends import LP_BACKENDS
+from spherekin.search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
 from spherekin.search.parameterizations import PARAMETERIZATIONS
 from spherekin.search.pruners import PRUNERS, ProjectedPolyhedron
 
@@ -63,6 +63,18 @@ def test_unknown_strategy_name_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as err:
         main(["solve", GOSSELIN, "--inputs", "0,0,0", "--parameterization", "quaternion"])
     assert err.value.code == 2 and "tan-half" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", sorted(REJECTED_LP_BACKENDS))
+def test_a_refused_lp_backend_is_one_line_with_its_measured_reason(name, capsys):
+    """Not argparse's "invalid choice": spherekin knows the name and says why it refuses it (exit 2,
+    nothing on stdout, no traceback); --help still lists only the offered backends."""
+    assert main(["solve", GOSSELIN, "--inputs=0.3,-0.2,0.5", "--pruner", "lp", "--lp-backend", name]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"spherekin: error: lp_backend: expected one of {list(LP_BACKENDS)}, got {name!r}")
+    assert REJECTED_LP_BACKENDS[name] in err
+    assert name not in _help_choices(capsys)["--lp-backend"]
 
 
 def _help_choices(capsys) -> dict:

@@ -128,6 +128,20 @@ def test_lp_backends_same_boxes_and_truth():
         assert 0 < r["lps"] <= 2 * (2 * n) * r["boxes"]
 
 
+def test_lp_backends_measures_a_refused_backend_in_its_own_process():
+    """The experiment reports osqp and scs although spherekin refuses them: each is registered only in
+    its own fresh process (this one still refuses it); its per-LP bounds are certified and never
+    tighter than HiGHS's certified bounds beyond HiGHS's own dual slack (both are lower bounds of
+    the same LP optimum; measured: highspy's lies within 1e-7 of it). One process: ~3 s."""
+    from spherekin.search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
+
+    prob = dict(problem="gosselin small", mechanism="gosselin", formulation="halves", half_width=0.2)
+    (q,) = lpx._in_fresh_process(lpx.bound_quality, "osqp", [prob], 0, 2)
+    assert "osqp" in REJECTED_LP_BACKENDS and "osqp" not in LP_BACKENDS
+    assert q["backend"] == "osqp" and q["boxes"] == 2 and q["lps"] >= 4
+    assert q["certified_share"] > 0 and q["loose_median"] > -1e-6
+
+
 def test_scaling_structure_and_small_run():
     red = scaling.structure(_compare.four_rrr(4))
     assert (red["legs"], red["loops"], red["unknowns"], red["equations"], red["inputs"]) == (4, 3, 8, 9, 4)

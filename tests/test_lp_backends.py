@@ -26,7 +26,8 @@ from scipy.optimize import linprog
 
 from spherekin.core import bernstein
 from spherekin.search.formulations import formulate
-from spherekin.search.lp_backends import (INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, REJECTED_LP_BACKENDS,
+from spherekin.search.lp_backends import (INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, REJECTED_BACKEND_CLASSES,
+                                          REJECTED_LP_BACKENDS,
                                           ClarabelBackend, HighsCvxpyBackend, HighspyBackend, LPBackend, LPStructure,
                                           backend_class, make_backend)
 from spherekin.search.pruners import check_pruner, make_pruner
@@ -583,8 +584,29 @@ def test_box_bounds_rejects_bad_input():
 
 @pytest.mark.parametrize("name", ["osqp", "scs"])
 def test_rejected_backends_explain_why(name):
-    with pytest.raises(ValueError, match=f"{name}.*not supported.*doubts"):
+    with pytest.raises(ValueError, match=f"{name}.*not supported.*valid certified bounds.*slower"):
         make_backend(name, SMALL_SHAPES[2])
+
+
+@pytest.mark.parametrize("name", sorted(REJECTED_BACKEND_CLASSES))
+def test_refused_first_order_backends_still_give_valid_certified_bounds(name):
+    """The refusal is for speed, not soundness (issue 18): OSQP's and SCS's approximate duals,
+    through certified_min, never cut into the reference box of the exact LP (HiGHS via linprog),
+    and a box is empty only when the reference says so. Small boxes only (~10-30 ms per LP)."""
+    cls = REJECTED_BACKEND_CLASSES[name]
+    assert cls.name == name and name not in LP_BACKENDS
+    backend = cls(SMALL_SHAPES[2])
+    kinds = {"empty": 0, "cut": 0}
+    for cps, tols in random_boxes(12, 2, 6):
+        ref = reference_bounds(cps, tols)
+        res = backend.box_bounds(cps, tols)
+        if res.empty:
+            assert ref is None
+            kinds["empty"] += 1
+        elif ref is not None:
+            assert_valid(res, ref)
+            kinds["cut"] += bool(np.any(res.lo > 1e-3) or np.any(res.hi < 1 - 1e-3))   # and useful
+    assert kinds["empty"] >= 1 and kinds["cut"] >= 2
 
 
 def test_cvxpy_invalid_solution_is_a_doubt_not_a_crash(monkeypatch):
