@@ -5,6 +5,7 @@ Commands:
     ik         inverse kinematics: every actuator solution (working mode) of a platform pose
     batch      direct kinematics of many inputs (a CSV or a grid) on Dask, written as they finish
     map        the number of assembly modes over a 2-D grid of inputs, drawn as a map
+    track      follow one assembly mode along a path of inputs, every step proven
     gosselin   summary of the paper's two Gosselin closure loops in Bernstein form (Section 2.1, Eq. 10)
     verify     symbolic verification of every claim of the paper; writes verification/REPORT.md
 """
@@ -155,6 +156,9 @@ def _solve(args) -> int:
 
 # ------------------------------------------------------------------ families of inputs
 
+#: A tracked pose and a solution of the full solve are the same assembly when their rotations agree to
+#: this (largest entry): both are Newton limits accurate to ~1e-14 (as problem.POSE_MATCH).
+CHECK_MATCH = 1e-8
 #: Seconds between progress lines of a batch when stderr is not a terminal (a log): often enough to
 #: see a job move, rarely enough that a run of hours leaves a log of a few hundred lines.
 PROGRESS_INTERVAL = 10.0
@@ -338,6 +342,108 @@ def _ik(args) -> int:
     return 0
 
 
+def _track(args) -> int:
+    from .batch import read_inputs_csv
+    from .batch.sinks import check_output_path
+    from .core.orientation import quaternions_from_rotations, rotation_from_quaternion
+    from .mechanism import load_mechanism
+    from .mechanism.checks import check_rotation
+    from .problem import compile as compile_problem
+
+    given = [k for k in ("start_rotation", "start_quaternion", "start_solution") if getattr(args, k) is not None]
+    if len(given) != 1:
+        raise ValueError("expected the start as exactly one of --start-rotation, --start-quaternion, --start-solution")
+    mech = load_mechanism(args.file)
+    path = read_inputs_csv(mech, args.path, degrees=args.degrees)
+    if args.start_rotation is not None:
+        start = check_rotation("--start-rotation",
+                               np.array(_parse_numbers("--start-rotation", args.start_rotation, 9)).reshape(3, 3))
+    elif args.start_quaternion is not None:
+        start = rotation_from_quaternion(_parse_numbers("--start-quaternion", args.start_quaternion, 4),
+                                         "--start-quaternion")
+    else:
+        if args.start_solution < 1:
+            raise ValueError(f"--start-solution: expected a solution number >= 1 (as solve prints them), "
+                             f"got {args.start_solution}")
+        start = args.start_solution - 1
+    if args.out:
+        check_output_path(args.out, False, True)
+    if args.plot:
+        from .plot import check_plot_path
+
+        check_plot_path(args.plot)
+    if args.check is not None and args.check < 1:
+        raise ValueError(f"--check: expected every N-th row with N >= 1, got {args.check}")
+    problem = compile_problem(mech)
+    print(f"{mech.name or args.file}: tracking one assembly mode along {len(path)} input(s) of {args.path}")
+    t0 = time.perf_counter()
+    track = problem.track(path.values, start=start)
+    seconds = time.perf_counter() - t0
+    scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
+    names = list(mech.actuated) + list(track.names)
+    print(f"{len(track.poses)} of {len(path)} row(s) tracked, {track.steps} proven step(s) ({track.rejected} "
+          f"halved), {seconds:.3f} s; joint angles in {unit}:")
+    print("  row  " + " ".join(f"{n:>11s}" for n in names) + "   qw        qx        qy        qz     measure")
+    quats = quaternions_from_rotations(np.array([p.rotation for p in track.poses]))
+    for p, q in zip(track.poses, quats):
+        vals = list(p.inputs) + p.passive.tolist()
+        print(f"{p.row:5d}  " + " ".join(f"{v * scale:+11.6f}" for v in vals)
+              + "  " + " ".join(f"{c:+.6f}" for c in q) + f"  {p.measure:9.2e}")
+    st = track.stop
+    if st is not None:
+        print(f"stopped between rows {st.row} and {st.row + 1}: {st.reason}. Last proven input "
+              f"{', '.join(f'{v * scale:+.9g}' for v in st.last_inputs)} ({st.fraction:.6g} of the way); the "
+              f"singular input, located by bisection to {st.bracket:.1e} rad: "
+              f"{', '.join(f'{v * scale:+.12g}' for v in st.singular_inputs)} ({st.distance:.2e} rad further); "
+              f"parallel measure at the last proven pose {st.measure:.2e}")
+    code = 0
+    if args.check is not None:
+        rows = sorted({*range(0, len(track.poses), args.check), len(track.poses) - 1})
+        bad = []
+        for k in rows:
+            report = problem.solve(track.poses[k].inputs)
+            if not any(s.platform_rotation is not None and np.abs(s.platform_rotation - track.poses[k].rotation).max()
+                       <= CHECK_MATCH for s in report.solutions):
+                bad.append(k)
+        if bad:
+            print(f"check: the tracked pose is NOT among the solutions of the full solve at row(s) "
+                  f"{', '.join(map(str, bad))}", file=sys.stderr)
+            code = 1
+        else:
+            print(f"check: at {len(rows)} row(s) the tracked pose is one of the solutions of the full solve")
+    if args.json:
+        import json
+
+        out = {"schema": "spherekin.track/1", "mechanism": mech.name, "actuated": list(mech.actuated),
+               "steps": track.steps, "halved": track.rejected,
+               "rows": [{"row": p.row, "inputs": dict(zip(mech.actuated, p.inputs)),
+                         "passive_angles": dict(zip(track.names, p.passive.tolist())),
+                         "platform_rotation": p.rotation.tolist(), "residual": p.residual,
+                         "parallel_measure": p.measure, "proven_steps": p.steps} for p in track.poses],
+               "stop": None if st is None else {
+                   "between_rows": [st.row, st.row + 1], "fraction": st.fraction,
+                   "last_proven_inputs": dict(zip(mech.actuated, st.last_inputs)),
+                   "singular_inputs": dict(zip(mech.actuated, st.singular_inputs)),
+                   "distance": st.distance, "bracket": st.bracket, "parallel_measure": st.measure,
+                   "reason": st.reason}}
+        Path(args.json).write_text(json.dumps(out, indent=2))
+        print(f"wrote {args.json}")
+    if args.out:
+        from .batch.rows import track_rows
+        from .batch.sinks import open_sink
+
+        sink = open_sink(args.out, mech, path.values[:len(track.poses)], resume=False)
+        sink.write(0, len(track.poses), track_rows(mech, track))
+        sink.close()
+        print(f"wrote {args.out}")
+    if args.plot:
+        from .plot import plot_track
+
+        plot_track(mech, track, args.plot, degrees=args.degrees)
+        print(f"wrote {args.plot}")
+    return code
+
+
 def _add_engine_options(p) -> None:
     p.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://HOST:8786); default: an "
                                        "embedded local cluster (in this process for a handful of inputs)")
@@ -450,6 +556,20 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(mp)
     _add_strategy_options(mp)
     mp.set_defaults(func=_map)
+    tk = sub.add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")
+    tk.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    tk.add_argument("--path", required=True, help="CSV of inputs (a header naming the actuated joints, one row each)")
+    tk.add_argument("--start-rotation", help="the platform rotation R at the first input, 9 numbers row-major")
+    tk.add_argument("--start-quaternion", help="the platform rotation at the first input as w,x,y,z")
+    tk.add_argument("--start-solution", type=int, help="start from solution K (as solve numbers them, from 1) of "
+                                                       "the full solve at the first input")
+    tk.add_argument("--degrees", action="store_true", help="path inputs and printed angles in degrees")
+    tk.add_argument("--check", type=int, metavar="N", help="also solve fully at every N-th row (and the last) and "
+                                                          "confirm the tracked pose is one of the solutions")
+    tk.add_argument("--json", help="write one entry per path row (and the stop) as JSON")
+    tk.add_argument("--out", help="write the rows as a results table (.csv or .parquet, the columns of batch)")
+    tk.add_argument("--plot", help="draw the orientation along the path and the singularity measure (.png, .pdf, .svg)")
+    tk.set_defaults(func=_track)
     g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians (default: %(default)s)")

@@ -47,6 +47,7 @@ __all__ = [
     "plot_solutions",
     "check_plot_path",
     "plot_assembly_map",
+    "plot_track",
 ]
 
 #: Points per link arc. Reason: a chord of an arc of at most pi split into 63 pieces deviates from
@@ -495,6 +496,52 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
     fixed = ", ".join(f"{n} = {v * scale:.4g} {unit}" for n, v in amap.fixed.items())
     fig.suptitle(f"{amap.mechanism}" + (f" ({fixed})" if fixed else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
+    if out is not None:
+        fig.savefig(out, format=fmt, dpi=DPI)
+    return fig
+
+
+def plot_track(mechanism, track, path=None, *, degrees: bool = False):
+    """Draw a tracked path (:class:`spherekin.trust.continuation.Track`): top, the platform's
+    orientation along the path (the unit quaternion's components, w >= 0 at the start, kept
+    continuous); below, the parallel-singularity measure (log scale), with the singular input where
+    the track stopped marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
+    from matplotlib.figure import Figure
+
+    from .core.orientation import quaternions_from_rotations
+
+    out = fmt = None
+    if path is not None:
+        out, fmt = check_plot_path(path)
+    rows = np.array([p.row for p in track.poses], dtype=float)
+    q = quaternions_from_rotations(np.array([p.rotation for p in track.poses]))
+    for k in range(1, len(q)):                   # q and -q are one rotation: keep the curve continuous
+        if q[k] @ q[k - 1] < 0:
+            q[k] = -q[k]
+    fig = Figure(figsize=(8.0, 6.0), dpi=DPI)
+    ax, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    for j, label in enumerate(("qw", "qx", "qy", "qz")):
+        ax.plot(rows, q[:, j], label=label, lw=1.5)
+    ax.set_ylabel("platform orientation (quaternion)")
+    ax.legend(loc="best", fontsize=8, ncol=4)
+    ax.grid(alpha=0.3)
+    st = track.stop
+    where = None if st is None else st.row + st.fraction
+    m_rows = list(rows) + ([] if st is None else [where])            # the last proven pose, where it stopped
+    m_vals = [p.measure for p in track.poses] + ([] if st is None else [st.measure])
+    ax2.semilogy(m_rows, np.maximum(m_vals, 1e-16), color="black", lw=1.2)
+    ax2.set_ylabel("parallel measure\n(sigma_min / sigma_max of K_p)")
+    ax2.set_xlabel("path row")
+    ax2.grid(alpha=0.3, which="both")
+    title = f"{mechanism.name}: one assembly mode tracked over {len(track.poses)} row(s)"
+    if st is not None:
+        for a in (ax, ax2):
+            a.axvline(where, color="tab:red", ls="--", lw=1)
+        ax2.annotate("parallel singularity:\nthe mode ends", (where, max(st.measure, 1e-16)), color="tab:red",
+                     fontsize=8, xytext=(-6, 0), textcoords="offset points", ha="right", va="bottom")
+        title += f"\nstopped at a parallel singularity between rows {st.row} and {st.row + 1}"
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig

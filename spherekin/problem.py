@@ -206,6 +206,50 @@ class Problem:
                 progress(k + 1, len(rows))
         return tuple(out)
 
+    # ------------------------------------------------------------------ a path
+
+    def track(self, path, *, start):
+        """Follow one assembly mode along ``path`` (K inputs, shape (K, number of actuated joints),
+        radians), every step proven (:mod:`spherekin.trust.continuation`): a
+        :class:`~spherekin.trust.continuation.Track` with the pose at each row reached, and where it
+        stopped when the mode ends at a parallel singularity.
+
+        ``start``: the platform rotation R (3x3) of an assembly at path[0], or an int K: solution K
+        (0-based) of the full solve at path[0], which must be proven (certified). For mechanisms the
+        platform formulation applies to (three R-R-R legs with the base joints actuated).
+        """
+        from .trust.continuation import track
+
+        rows = np.asarray(path, dtype=float) if not isinstance(path, np.ndarray) else path
+        if rows.ndim != 2 or rows.shape[1] != len(self.mechanism.actuated) or not len(rows):
+            raise ValueError(f"path: expected an array of shape (K, {len(self.mechanism.actuated)}) "
+                             f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), got shape {rows.shape}")
+        for k, row in enumerate(rows):
+            try:
+                self.mechanism.check_inputs(row)
+            except ValueError as exc:
+                raise ValueError(f"path row {k}: {exc}") from None
+        why = not_applicable(self.mechanism)
+        if why is not None:
+            raise ValueError(f"track: follows the platform's orientation, which needs three R-R-R legs with "
+                             f"the base joint actuated; {why}")
+        if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
+            report = self.solve(rows[0])
+            n = len(report.solutions)
+            if not 0 <= int(start) < n:
+                raise ValueError(f"start: expected a solution index 0..{n - 1} of the solve at the first input "
+                                 f"({n} solution(s)), got {int(start)}")
+            sol = report.solutions[int(start)]
+            if sol.status != "certified" or sol.platform_rotation is None:
+                raise ValueError(f"start: solution {int(start)} at the first input is {sol.status}, not certified; "
+                                 "a track starts from a proven, isolated assembly")
+            start = sol.platform_rotation
+        else:
+            from .mechanism.checks import check_rotation
+
+            start = check_rotation("start", start)
+        return track(self.mechanism, rows, start)
+
     # ------------------------------------------------------------------ stages
 
     @property

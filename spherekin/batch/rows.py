@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core.orientation import quaternions_from_rotations
 
-__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "empty_frame"]
+__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows", "empty_frame"]
 
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
@@ -34,21 +34,39 @@ def columns(mechanism) -> tuple[str, ...]:
 def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
     """The results table (a pandas DataFrame, module doc) of ``reports`` (SolveReport of inputs
     ``first``, ``first + 1``, ...; ``inputs`` their rows, radians)."""
+    return solution_rows(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
+
+
+def track_rows(mechanism, track):
+    """The results table of a tracked path (:class:`spherekin.trust.continuation.Track`): one row per
+    path row reached, its one solution the tracked assembly (status certified: every step proven)."""
+    from ..results import Solution, Status
+
+    items = []
+    for p in track.poses:
+        joints = {**dict(zip(mechanism.actuated, p.inputs)), **dict(zip(track.names, p.passive.tolist()))}
+        sol = Solution(p.passive, p.passive, p.passive, 0, p.rotation, p.residual,
+                       mechanism.singularity(joints).kind, Status.CERTIFIED)
+        items.append((p.row, np.asarray(p.inputs), track.names, (sol,)))
+    return solution_rows(mechanism, items)
+
+
+def solution_rows(mechanism, items):
+    """The results table of ``items``: (input index, its inputs (radians), the unknowns' names, its
+    solutions) each; an input without solutions gets one row with empty solution columns."""
     import pandas as pd
 
     names = list(mechanism.loop_unknowns)
     actuated = list(mechanism.actuated)
     idx, sol, status, sing, resid, measure, angles, rots, inp = [], [], [], [], [], [], [], [], []
     nan_rot = np.full((3, 3), np.nan)
-    for k, report in enumerate(reports):
-        if tuple(report.unknowns) != tuple(names):
-            order = [list(report.unknowns).index(n) for n in names]
-        else:
-            order = None
-        entries = report.solutions or (None,)
+    for index, row, unknowns, solutions in items:
+        row = np.asarray(row, dtype=float)
+        order = None if tuple(unknowns) == tuple(names) else [list(unknowns).index(n) for n in names]
+        entries = solutions or (None,)
         for j, s in enumerate(entries):
-            idx.append(first + k)
-            inp.append(inputs[k])
+            idx.append(index)
+            inp.append(row)
             if s is None:
                 sol.append(pd.NA)
                 status.append(None)
@@ -66,7 +84,7 @@ def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
             resid.append(np.nan if s.residual is None else float(s.residual))
             angles.append(a)
             rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
-            joints = {**dict(zip(actuated, (float(v) for v in inputs[k]))), **dict(zip(names, (float(v) for v in a)))}
+            joints = {**dict(zip(actuated, (float(v) for v in row))), **dict(zip(names, (float(v) for v in a)))}
             try:
                 measure.append(mechanism.parallel_measure(joints))
             except ValueError:             # a joint the loop equations do not carry: no Jacobian
