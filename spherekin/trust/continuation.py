@@ -58,10 +58,12 @@ POINT_RADIUS = 1e-10
 #: image needs some slack inside W; 10 POINT_RADIUS + 5% of the step does both.
 MARGIN = 10 * POINT_RADIUS
 MARGIN_RELATIVE = 0.05
-#: A step (largest input change, radians) below this that still cannot be proven ends the track:
-#: next to a fold the provable step shrinks like the distance to it, so the track has reached the
-#: singularity to about this distance (then located further by bisection).
-MIN_STEP = 1e-9
+#: A step (largest input change, radians) below this that still cannot be proven ends the track.
+#: Reason: next to a fold the provable step shrinks like the distance d to it, while the two modes
+#: that meet there are ~sqrt(d) apart; 1e-13 follows a mode to within ~1e-12 of its end (the modes
+#: then ~1e-6 apart, the Jacobian's condition ~1e6, still well inside double precision), so two
+#: modes that only come close (1e-4 apart: d ~ 1e-9) are followed through, never stopped at.
+MIN_STEP = 1e-13
 #: Width (radians of input) to which the bisection locates the singular input where a track stops.
 LOCATE_TOL = 1e-12
 #: Newton on h(w, beta) = 0: stop when the step is below this (|w| ~ radians) ...

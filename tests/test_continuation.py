@@ -1,0 +1,191 @@
+"""spherekin.trust.continuation: certified tracking, against the poses that generated the path, the
+degree-8 eigenvalue reference (benchmarks/peers_closed_form.py) and scipy's rotations."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from benchmarks.peers_closed_form import direct_kinematics, geometry_of, leg_residuals
+from benchmarks.sweep_roots import random_3rrr
+from spherekin import compile as compile_problem
+from spherekin.core import intervals as iv
+from spherekin.mechanism import five_bar, general_3rrr
+from spherekin.search.platform_orientation import platform_legs
+from spherekin.trust.continuation import LegEquations, cayley, track
+
+
+@pytest.fixture(scope="module")
+def mech():
+    return general_3rrr()
+
+
+def test_cayley_is_the_rotation_by_twice_atan_half_the_norm():
+    rng = np.random.default_rng(1)
+    for w in rng.normal(size=(20, 3)):
+        n = np.linalg.norm(w)
+        ref = Rotation.from_rotvec(2 * np.arctan(n / 2) * w / n).as_matrix()
+        np.testing.assert_allclose(cayley(w), ref, atol=1e-14)
+
+
+def test_leg_equations_are_eq_1_times_a_positive_factor_with_their_jacobian(mech):
+    eqs = LegEquations(platform_legs(mech))
+    ref = np.array(mech.platform_reference_matrix)
+    rng = np.random.default_rng(2)
+    geometry = geometry_of(mech)
+    for _ in range(10):
+        dc = Rotation.random(random_state=rng).as_matrix()
+        w, beta = rng.normal(scale=0.3, size=3), rng.uniform(-3, 3, 3)
+        h, jac = eqs.values(dc, w, beta)
+        rot = dc @ cayley(w) @ ref
+        # the independent leg constraints |w_i(beta_i) . (R v_i^0) - cos(alpha2_i)| of the reference
+        np.testing.assert_allclose(np.abs(h) / (1 + w @ w / 4), leg_residuals(geometry, beta, rot), atol=1e-13)
+        fd = np.array([(eqs.values(dc, w + 1e-6 * e, beta)[0] - eqs.values(dc, w - 1e-6 * e, beta)[0]) / 2e-6
+                       for e in np.eye(3)]).T
+        np.testing.assert_allclose(jac, fd, atol=1e-8)
+        d = 1e-6
+        rate = (eqs.values(dc, w, beta + d)[0] - eqs.values(dc, w, beta - d)[0]) / (2 * d)   # legs are independent
+        r_box, _ = eqs.enclose(dc, iv.point(w), iv.point(beta), rate=True)
+        assert np.all(r_box[0] - 1e-8 <= rate) and np.all(rate <= r_box[1] + 1e-8)
+
+
+def test_interval_enclosures_hold_every_sampled_value(mech):
+    eqs = LegEquations(platform_legs(mech))
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        dc = Rotation.random(random_state=rng).as_matrix()
+        c, r = rng.normal(scale=0.3, size=3), rng.uniform(0, 0.2, 3)
+        b, rb = rng.uniform(-3, 3, 3), rng.uniform(0, 0.3, 3)
+        h_box, j_box = eqs.enclose(dc, iv.from_bounds(c - r, c + r), iv.from_bounds(b - rb, b + rb))
+        for _ in range(50):
+            w = c + rng.uniform(-1, 1, 3) * r
+            beta = b + rng.uniform(-1, 1, 3) * rb
+            h, jac = eqs.values(dc, w, beta)
+            assert np.all(h_box[0] <= h) and np.all(h <= h_box[1])
+            assert np.all(j_box[0] <= jac) and np.all(jac <= j_box[1])
+
+
+def ik_path(mech, rots, mode):
+    """The inputs of working mode ``mode`` along the poses ``rots`` (None where a leg cannot reach)."""
+    out = []
+    for r in rots:
+        sols = [s for s in mech.inverse_kinematics(r) if s.working_mode == mode]
+        if not sols:
+            return None
+        out.append(sols[0].inputs)
+    return np.array(out)
+
+
+#: A pose curve generates a test path only when, at every row, every other assembly of the reference
+#: is at least this far (largest entry) from the generating pose. Reason: near a parallel singularity
+#: the straight input segments between rows (what is tracked) can pass on the other side of the
+#: singularity than the smooth curve, and then legitimately continue to the other assembly mode.
+SEPARATION = 0.05
+
+
+@pytest.mark.parametrize("which", ["general_3rrr", "random"])
+def test_tracked_poses_are_the_poses_that_generated_the_path(which, mech):
+    if which == "random":
+        rng = np.random.default_rng(7)
+        m, _ = random_3rrr(rng)
+    else:
+        m, rng = mech, np.random.default_rng(8)
+    geometry = geometry_of(m)
+    for _ in range(100):                                         # a smooth pose curve every leg reaches
+        axis0, axis1 = rng.normal(scale=0.5, size=3), rng.normal(scale=0.6, size=3)
+        ts = np.linspace(0.0, 1.0, 120)
+        rots = Rotation.from_rotvec(axis0 + np.outer(ts, axis1) + 0.1 * np.outer(np.sin(3 * ts), [1, -1, 0.5])).as_matrix()
+        modes = m.inverse_kinematics(rots[0])
+        path = ik_path(m, rots, modes[0].working_mode) if modes else None
+        if path is None or np.abs(np.diff(path, axis=0)).max() > 0.3:
+            continue
+        gaps = [sorted(np.abs(r - rot).max() for r in direct_kinematics(geometry, x))[1:2] or [np.inf]
+                for x, rot in zip(path, rots)]
+        if min(g[0] for g in gaps) > SEPARATION:
+            break
+    else:
+        pytest.fail("no pose curve away from parallel singularities found")
+    tr = track(m, path, rots[0])
+    assert tr.complete and len(tr.poses) == len(path)
+    for p, r in zip(tr.poses, rots):
+        np.testing.assert_allclose(p.rotation, r, atol=1e-12)
+    assert tr.steps >= len(path) - 1
+
+
+def _singular_input(geometry, lo, hi, n_lo):
+    """Bisection on beta1 (beta2 = 0, beta3 = 0.5) for where the reference's count drops from n_lo."""
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if len(direct_kinematics(geometry, (mid, 0.0, 0.5))) == n_lo:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def test_a_path_into_a_parallel_singularity_stops_there_on_its_own_branch(mech):
+    geometry = geometry_of(mech)
+    # the reference has 6 assemblies at beta1 = -2.72 and 4 at -2.71 (beta2 = 0, beta3 = 0.5): two meet between
+    assert len(direct_kinematics(geometry, (-2.72, 0.0, 0.5))) == 6
+    assert len(direct_kinematics(geometry, (-2.71, 0.0, 0.5))) == 4
+    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    path = np.column_stack([np.linspace(-3.0, -2.6, 17), np.zeros(17), np.full(17, 0.5)])
+    stopped = 0
+    for start in direct_kinematics(geometry, path[0]):
+        tr = track(mech, path, start)
+        previous = start
+        for p in tr.poses:                      # every reported pose: a reference pose of the same branch
+            ref = direct_kinematics(geometry, p.inputs)
+            dist = sorted(np.abs(r - p.rotation).max() for r in ref)
+            assert dist[0] < 1e-9
+            nearest = min(ref, key=lambda r: np.abs(r - previous).max())
+            np.testing.assert_allclose(p.rotation, nearest, atol=1e-9)
+            previous = p.rotation
+        if tr.stop is not None:
+            stopped += 1
+            assert abs(tr.stop.singular_inputs[0] - x_star) < 1e-6
+            assert abs(tr.stop.last_inputs[0] - x_star) < 1e-6
+            assert tr.stop.last_inputs[0] <= x_star + 1e-9            # nothing proven beyond it
+            assert all(p.inputs[0] < x_star for p in tr.poses)
+    assert stopped == 2                         # exactly the two modes that meet end there
+
+
+def test_two_modes_1e_4_apart_without_a_singularity_do_not_swap(mech):
+    geometry = geometry_of(mech)
+    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    # go towards the singularity until the two modes that meet are ~1e-4 apart, then back
+    for d in np.logspace(-6, -10, 41):
+        poses = direct_kinematics(geometry, (x_star - d, 0.0, 0.5))
+        gap = min(np.abs(a - b).max() for a, b in itertools.combinations(poses, 2))
+        if gap < 1e-4:
+            break
+    assert 5e-5 < gap < 1e-4
+    turn = x_star - d
+    xs = np.concatenate([np.linspace(-2.8, turn, 12), np.linspace(turn, -2.8, 12)[1:]])
+    path = np.column_stack([xs, np.zeros(len(xs)), np.full(len(xs), 0.5)])
+    starts = direct_kinematics(geometry, path[0])
+    for start in starts:
+        tr = track(mech, path, start)
+        assert tr.complete
+        np.testing.assert_allclose(tr.poses[-1].rotation, start, atol=1e-9)     # back where it started: no swap
+        at_turn = tr.poses[11].rotation
+        assert min(np.abs(r - at_turn).max() for r in poses) < 1e-9
+
+
+def test_start_errors_are_named(mech):
+    path = np.array([[0.3, -0.2, 0.5], [0.31, -0.2, 0.5]])
+    with pytest.raises(ValueError, match="does not close the legs"):
+        track(mech, path, np.eye(3))
+    problem = compile_problem(mech)
+    with pytest.raises(ValueError, match="start: expected a solution index 0..7"):
+        problem.track(path, start=8)
+    with pytest.raises(ValueError, match="track: follows the platform's orientation"):
+        compile_problem(five_bar()).track([[0.1, 0.2]], start=0)
+    with pytest.raises(ValueError, match="path: expected an array of shape"):
+        problem.track([[0.1, 0.2]], start=0)
+    tr = problem.track(path, start=3)
+    report = problem.solve(path[0])
+    np.testing.assert_allclose(tr.poses[0].rotation, report.solutions[3].platform_rotation, atol=1e-13)
