@@ -129,3 +129,59 @@ def test_map_bad_arguments_are_refused_before_any_solve(tmp_path, capsys, monkey
     err = capsys.readouterr().err
     assert match in err
     assert "grid points" not in err
+
+
+def _write_path(tmp_path, xs):
+    p = tmp_path / "path.csv"
+    p.write_text("beta1,beta2,beta3\n" + "".join(f"{float(x)!r},0,0.5\n" for x in xs))
+    return p
+
+
+def test_track_writes_the_rows_json_and_checks_against_full_solves(tmp_path, capsys):
+    xs = np.linspace(-3.0, -2.8, 9)
+    path = _write_path(tmp_path, xs)
+    out, js = tmp_path / "t.csv", tmp_path / "t.json"
+    assert main(["track", EXAMPLE, "--path", str(path), "--start-solution", "2", "--check", "4",
+                 "--out", str(out), "--json", str(js)]) == 0
+    text = capsys.readouterr().out
+    assert "9 of 9 row(s) tracked" in text and "check: at 3 row(s) the tracked pose is one of the solutions" in text
+    from spherekin.batch.rows import columns
+
+    frame = pd.read_csv(out)
+    assert list(frame.columns) == list(columns(general_3rrr()))
+    assert list(frame["input"]) == list(range(9)) and (frame["status"] == "certified").all()
+    data = json.loads(js.read_text())
+    assert data["stop"] is None and len(data["rows"]) == 9
+    # the same start by rotation gives the same rows
+    rot = np.array(data["rows"][0]["platform_rotation"])
+    assert main(["track", EXAMPLE, "--path", str(path), "--start-rotation",
+                 ",".join(repr(float(v)) for v in rot.ravel()), "--json", str(js)]) == 0
+    again = json.loads(js.read_text())
+    np.testing.assert_allclose([r["platform_rotation"] for r in again["rows"]],
+                               [r["platform_rotation"] for r in data["rows"]], atol=1e-13)
+
+
+def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
+    path = _write_path(tmp_path, np.linspace(-3.0, -2.6, 9))
+    stops = 0
+    for k in range(1, 7):
+        assert main(["track", EXAMPLE, "--path", str(path), "--start-solution", str(k)]) == 0
+        text = capsys.readouterr().out
+        if "stopped between rows" in text:
+            stops += 1
+            assert "a parallel singularity" in text and "-2.7141013" in text
+    assert stops == 2
+
+
+@pytest.mark.parametrize("args, match", [
+    ([], "exactly one of --start-rotation"),
+    (["--start-solution", "0"], "solution number >= 1"),
+    (["--start-solution", "9"], "expected a solution index 0..7"),
+    (["--start-quaternion", "1,0,0,0"], "does not close the legs"),
+    (["--start-solution", "1", "--plot", "x.gif"], "expected a file name ending"),
+])
+def test_track_bad_starts_are_one_clear_error(tmp_path, capsys, monkeypatch, args, match):
+    monkeypatch.chdir(tmp_path)
+    path = _write_path(tmp_path, [0.3, 0.35])
+    assert main(["track", EXAMPLE, "--path", str(path), *args]) == 2
+    assert match in capsys.readouterr().err

@@ -189,3 +189,63 @@ def test_start_errors_are_named(mech):
     tr = problem.track(path, start=3)
     report = problem.solve(path[0])
     np.testing.assert_allclose(tr.poses[0].rotation, report.solutions[3].platform_rotation, atol=1e-13)
+
+
+def _root_near(eqs, dc, beta):
+    """The root of the leg equations at ``beta`` near w = 0, by plain Newton (30 steps)."""
+    w = np.zeros(3)
+    for _ in range(30):
+        h, jac = eqs.values(dc, w, beta)
+        w = w - np.linalg.solve(jac, h)
+    return w
+
+
+def test_krawczyk_step_refuses_a_box_that_misses_the_root_at_an_end_of_the_step(mech):
+    from spherekin.trust.continuation import krawczyk_step
+
+    eqs = LegEquations(platform_legs(mech))
+    report = compile_problem(mech).solve([0.3, -0.2, 0.5])
+    dc = report.solutions[0].platform_rotation @ np.array(mech.platform_reference_matrix).T
+    b0, b1 = np.array([0.3, -0.2, 0.5]), np.array([0.32, -0.2, 0.5])
+    w1 = _root_near(eqs, dc, b1)
+    mid = _root_near(eqs, dc, 0.5 * (b0 + b1))
+    r = 0.2 * np.abs(w1).max()                 # holds the middle root, not the roots at the ends (w = 0, w1)
+    assert np.abs(w1 - mid).max() > r and np.abs(mid).max() > r
+    assert krawczyk_step(eqs, dc, mid - r, mid + r, 0.5 * (b0 + b1), 0.5 * (b0 + b1))     # at the middle input: proven
+    assert not krawczyk_step(eqs, dc, mid - r, mid + r, b0, b1)                          # over the step: it cannot be
+    pad = 0.1 * np.abs(w1).max()
+    assert krawczyk_step(eqs, dc, np.minimum(0, w1) - pad, np.maximum(0, w1) + pad, b0, b1)
+
+
+def test_krawczyk_step_refuses_a_box_holding_two_modes(mech):
+    from spherekin.trust.continuation import krawczyk_step
+
+    geometry = geometry_of(mech)
+    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    beta = np.array([x_star - 1e-6, 0.0, 0.5])
+    poses = direct_kinematics(geometry, beta)
+    a, b = min(itertools.combinations(poses, 2), key=lambda p: np.abs(p[0] - p[1]).max())
+    eqs = LegEquations(platform_legs(mech))
+    dc = a @ np.array(mech.platform_reference_matrix).T
+    # b in the coordinates around a: w with D_c C(w) = b R_ref^T (Cayley: w = 2 vee(C - C^T) / (1 + tr C))
+    c = dc.T @ (b @ np.array(mech.platform_reference_matrix).T)
+    w_b = 2 * np.array([c[2, 1] - c[1, 2], c[0, 2] - c[2, 0], c[1, 0] - c[0, 1]]) / (1 + np.trace(c))
+    np.testing.assert_allclose(cayley(w_b), c, atol=1e-12)
+    for pad in (1e-6, 1e-5, 1e-4):
+        lo, hi = np.minimum(0, w_b) - pad, np.maximum(0, w_b) + pad
+        assert not krawczyk_step(eqs, dc, lo, hi, beta, beta)
+
+
+def test_krawczyk_step_refuses_a_box_that_misses_the_root_in_one_coordinate(mech):
+    from spherekin.trust.continuation import krawczyk_step
+
+    eqs = LegEquations(platform_legs(mech))
+    beta = np.array([0.3, -0.2, 0.5])
+    report = compile_problem(mech).solve(beta)
+    dc = report.solutions[0].platform_rotation @ np.array(mech.platform_reference_matrix).T
+    r = 1e-4
+    assert krawczyk_step(eqs, dc, np.full(3, -r), np.full(3, r), beta, beta)          # the root w = 0: proven
+    for k in range(3):                           # shifted off the root along one axis only: refused
+        shift = np.zeros(3)
+        shift[k] = 3 * r
+        assert not krawczyk_step(eqs, dc, shift - r, shift + r, beta, beta)

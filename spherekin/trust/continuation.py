@@ -47,7 +47,7 @@ from ..core import intervals as iv
 from ..search.platform_orientation import passive_names, passive_readings_many, platform_legs
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
-           "SingularStop", "Track", "LegEquations", "cayley", "track"]
+           "SingularStop", "Track", "LegEquations", "cayley", "krawczyk_step", "track"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -228,7 +228,7 @@ def _cross_float_interval(b: np.ndarray, a: np.ndarray) -> np.ndarray:
 SIGMA = 1.0 + 1e-12
 
 
-def _krawczyk(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> bool:
+def krawczyk_step(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> bool:
     """Whether the Krawczyk operator maps the box [w_lo, w_hi] into its interior for every input on
     the segment from beta0 to beta1 (then each has exactly one root in the box; module doc).
 
@@ -302,9 +302,9 @@ def _prove_step(eqs: LegEquations, dc, beta0, beta1):
         return None
     pad = MARGIN_RELATIVE * float(np.abs(w1).max()) + MARGIN
     lo, hi = np.minimum(0.0, w1) - pad, np.maximum(0.0, w1) + pad
-    if not _krawczyk(eqs, dc, lo, hi, beta0, beta1):
+    if not krawczyk_step(eqs, dc, lo, hi, beta0, beta1):
         return None
-    if not _krawczyk(eqs, dc, w1 - POINT_RADIUS, w1 + POINT_RADIUS, beta1, beta1):
+    if not krawczyk_step(eqs, dc, w1 - POINT_RADIUS, w1 + POINT_RADIUS, beta1, beta1):
         return None
     return w1
 
@@ -360,7 +360,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                          f"(largest residual {res0:.3g} > {start_tol:g}); give the pose of an assembly at "
                          f"{path[0].tolist()}")
     w0, ok = _newton(eqs, dc, np.zeros(3), path[0])
-    if not ok or not _krawczyk(eqs, dc, w0 - POINT_RADIUS, w0 + POINT_RADIUS, path[0], path[0]):
+    if not ok or not krawczyk_step(eqs, dc, w0 - POINT_RADIUS, w0 + POINT_RADIUS, path[0], path[0]):
         raise ValueError("start: the start pose could not be proven an isolated assembly at the first input "
                          "(it is at or next to a parallel singularity)")
     dc = dc @ cayley(w0)
