@@ -213,7 +213,9 @@ def test_krawczyk_step_refuses_a_box_that_misses_the_root_at_an_end_of_the_step(
     assert np.abs(w1 - mid).max() > r and np.abs(mid).max() > r
     assert krawczyk_step(eqs, dc, mid - r, mid + r, 0.5 * (b0 + b1), 0.5 * (b0 + b1))     # at the middle input: proven
     assert not krawczyk_step(eqs, dc, mid - r, mid + r, b0, b1)                          # over the step: it cannot be
-    pad = 0.1 * np.abs(w1).max()
+    assert krawczyk_step(eqs, dc, w1 - r, w1 + r, b1, b1)                                # the same at the end input
+    assert not krawczyk_step(eqs, dc, w1 - r, w1 + r, b0, b1)
+    pad = 0.25 * np.abs(w1).max()
     assert krawczyk_step(eqs, dc, np.minimum(0, w1) - pad, np.maximum(0, w1) + pad, b0, b1)
 
 

@@ -133,6 +133,12 @@ def test_batch_passive_readings_equal_the_reference_at_any_pose(preset):
         ref = passive_readings(system.legs, inputs, r, system.platform_reference)
         assert list(ref) == list(passive_names(system.legs))
         assert max(abs(wrap(a - b)) for a, b in zip(row, ref.values())) < 1e-12
+    # one input row per pose (a tracked path): the same as the reference pose by pose
+    rows = rng.uniform(-np.pi, np.pi, (40, 3))
+    batch = passive_readings_many(system.legs, rows, poses, system.platform_reference)
+    for r, x, row in zip(poses, rows, batch):
+        ref = passive_readings(system.legs, x, r, system.platform_reference)
+        assert max(abs(wrap(a - b)) for a, b in zip(row, ref.values())) < 1e-12
 
 
 def test_residuals_do_not_vanish_off_the_assembly():

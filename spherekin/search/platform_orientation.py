@@ -205,14 +205,22 @@ def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.nda
     """Passive joint readings (K, 2 x legs; radians, wrapped to [-pi, pi)) at K platform poses.
 
     The batch form of :func:`passive_readings` (its slow, readable reference), columns in the order
-    of :func:`passive_names`. ``rotations`` (K, 3, 3); ``inputs``: the actuated readings, one per leg.
+    of :func:`passive_names`. ``rotations`` (K, 3, 3); ``inputs``: the actuated readings, one per leg
+    (shared by every pose), or one row of them per pose (K, legs).
     With M = Rot(a1, -d1) D: d2 = the angle about a2 from a3 to M a3; then Rot(a2, -d2) M p, for a
     fixed p normal to a3, written out by Rodrigues, gives d3 about a3.
     """
     d = np.asarray(rotations, dtype=float) @ np.asarray(platform_reference, dtype=float).T     # (K, 3, 3)
+    inputs = np.asarray(inputs, dtype=float)
     cols = []
-    for leg, beta in zip(legs, inputs):
-        m = axis_rotation(leg.a1, -(float(beta) - leg.reference[0])) @ d
+    for i, leg in enumerate(legs):
+        if inputs.ndim == 1:
+            m = axis_rotation(leg.a1, -(float(inputs[i]) - leg.reference[0])) @ d
+        else:                                   # one input row per pose: Rot(a1, -d1) by Rodrigues, batched
+            k1 = np.array([[0.0, -leg.a1[2], leg.a1[1]], [leg.a1[2], 0.0, -leg.a1[0]], [-leg.a1[1], leg.a1[0], 0.0]])
+            t = -(inputs[:, i] - leg.reference[0])
+            rot = np.eye(3) + np.sin(t)[:, None, None] * k1 + (1.0 - np.cos(t))[:, None, None] * (k1 @ k1)
+            m = rot @ d
         ma3 = m @ leg.a3
         d2 = _angles_about(leg.a2, np.broadcast_to(leg.a3, ma3.shape), ma3)
         p = perpendicular(leg.a3)

@@ -66,8 +66,10 @@ MARGIN_RELATIVE = 0.05
 MIN_STEP = 1e-13
 #: Width (radians of input) to which the bisection locates the singular input where a track stops.
 LOCATE_TOL = 1e-12
-#: Newton on h(w, beta) = 0: stop when the step is below this (|w| ~ radians) ...
-NEWTON_TOL = 1e-15
+#: Newton on h(w, beta) = 0: stop after a step below this (|w| ~ radians). Reason: convergence is
+#: quadratic, so after a step of 1e-9 the error is ~1e-18 (times a constant of order 1-10 away from
+#: a singularity): far below POINT_RADIUS, which the point Krawczyk test then proves anyway ...
+NEWTON_TOL = 1e-9
 #: ... or after this many iterations (quadratic convergence from the predictor needs ~4).
 NEWTON_ITERATIONS = 12
 #: Largest number of steps (proven or rejected) of one track. Reason: a smooth path of N inputs
@@ -152,116 +154,145 @@ class LegEquations:
         self.axial = np.array([c * leg.a1 for leg, c in zip(legs, c1)])
         self.b = np.array([leg.a3 for leg in legs])
         self.c = np.array([float(leg.a2 @ leg.a3) for leg in legs])
+        # [b_i]x: b_i x v = b_cross[i] @ v
+        self.b_cross = np.array([[[0.0, -b[2], b[1]], [b[2], 0.0, -b[0]], [-b[1], b[0], 0.0]] for b in self.b])
 
     # ---------------------------------------------------------------- floats
 
     def elbow(self, beta) -> np.ndarray:
-        """e_i(beta_i) (3 legs, 3)."""
+        """e_i(beta_i) (..., 3 legs, 3) for inputs beta (..., 3)."""
         d = np.asarray(beta, dtype=float) - self.ref
-        return np.cos(d)[:, None] * self.perp + np.sin(d)[:, None] * self.side + self.axial
+        return np.cos(d)[..., None] * self.perp + np.sin(d)[..., None] * self.side + self.axial
 
     def elbow_rate(self, beta) -> np.ndarray:
-        """d e_i / d beta_i (3 legs, 3)."""
+        """d e_i / d beta_i (..., 3 legs, 3)."""
         d = np.asarray(beta, dtype=float) - self.ref
-        return -np.sin(d)[:, None] * self.perp + np.cos(d)[:, None] * self.side
+        return -np.sin(d)[..., None] * self.perp + np.cos(d)[..., None] * self.side
 
     def values(self, dc, w, beta) -> tuple[np.ndarray, np.ndarray]:
-        """(h (3,), J = dh/dw (3, 3)) at w near the displacement ``dc`` and inputs ``beta``."""
+        """(h (..., 3), J = dh/dw (..., 3, 3)) at w (..., 3) near the displacements ``dc`` (..., 3, 3)
+        and inputs ``beta`` (..., 3); leading axes broadcast (one step, or many at once)."""
         a = self.elbow(beta) @ dc                     # rows a_i = D_c^T e_i
         w = np.asarray(w, dtype=float)
-        n = float(w @ w)
-        ab = np.einsum("ij,ij->i", a, self.b)
-        bxa = np.cross(self.b, a)
-        aw, bw = a @ w, self.b @ w
-        h = (1 - n / 4) * ab + bxa @ w + 0.5 * aw * bw - self.c * (1 + n / 4)
-        jac = (-0.5 * ab[:, None] * w[None, :] + bxa + 0.5 * (aw[:, None] * self.b + bw[:, None] * a)
-               - 0.5 * self.c[:, None] * w[None, :])
+        wc = w[..., None]
+        n = (w * w).sum(axis=-1)[..., None]
+        ab = (a * self.b).sum(axis=-1)
+        bxa = np.einsum("ijk,...ik->...ij", self.b_cross, a)           # rows b_i x a_i
+        aw = (a @ wc)[..., 0]
+        bw = w @ self.b.T
+        h = (1 - n / 4) * ab + (bxa @ wc)[..., 0] + 0.5 * aw * bw - self.c * (1 + n / 4)
+        wi = w[..., None, :]
+        jac = (-0.5 * ab[..., None] * wi + bxa + 0.5 * (aw[..., None] * self.b + bw[..., None] * a)
+               - 0.5 * self.c[:, None] * wi)
         return h, jac
 
     def residual(self, d, beta) -> np.ndarray:
-        """Eq. (1) at the displacement D: e_i . (D a3_i) - c_i per leg."""
-        return np.einsum("ij,ij->i", self.elbow(beta), (d @ self.b.T).T) - self.c
+        """Eq. (1) at the displacements D (..., 3, 3): e_i . (D a3_i) - c_i per leg (..., 3)."""
+        return np.einsum("...ij,...ij->...i", self.elbow(beta), np.swapaxes(d @ self.b.T, -1, -2)) - self.c
+
+    def measure(self, dc, beta) -> np.ndarray:
+        """sigma_min / sigma_max of the Jacobian of Eq. (1) in the platform's rotation, its rows
+        (the legs' constraint normals (D a3_i) x e_i) normalized: 0 at a parallel singularity, where
+        the assembly meets another. Shape (...,) for displacements (..., 3, 3) and inputs (..., 3)."""
+        _, jac = self.values(dc, np.zeros(np.shape(beta)), beta)
+        norms = np.linalg.norm(jac, axis=-1, keepdims=True)
+        s = np.linalg.svd(jac / np.where(norms > 0, norms, 1.0), compute_uv=False)
+        return np.where(s[..., 0] > 0, s[..., -1] / np.where(s[..., 0] > 0, s[..., 0], 1.0), 0.0)
 
     # ---------------------------------------------------------------- intervals
 
     def enclose(self, dc, w_box, beta_box, rate: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """Interval enclosures (2, 3) of h and (2, 3, 3) of J over the box ``w_box`` (2, 3) for every
-        beta in ``beta_box`` (2, 3 legs), outward-rounded (module doc). With ``rate``: of dh_i/dbeta_i
-        and its w-Jacobian instead (a replaced by D_c^T e_i'(beta), no constant term)."""
+        """Interval enclosures (2, ..., 3) of h and (2, ..., 3, 3) of J over the boxes ``w_box``
+        (2, ..., 3) for every beta in ``beta_box`` (2, ..., 3 legs), with displacements ``dc``
+        (..., 3, 3); outward-rounded (module doc). With ``rate``: of dh_i/dbeta_i and its w-Jacobian
+        instead (a replaced by D_c^T e_i'(beta), no constant term)."""
         cos_d, sin_d = iv.cos_sin(iv.sub(beta_box, iv.point(self.ref)))
         if rate:      # e' = -sin d perp + cos d side
-            e = iv.add(iv.scale(-self.perp, sin_d[:, :, None]), iv.scale(self.side, cos_d[:, :, None]))
+            e = iv.add(iv.scale(-self.perp, sin_d[..., None]), iv.scale(self.side, cos_d[..., None]))
             c = np.zeros(3)
         else:         # e = cos d perp + sin d side + c1 a1
-            e = iv.add(iv.add(iv.scale(self.perp, cos_d[:, :, None]), iv.scale(self.side, sin_d[:, :, None])),
-                       iv.point(self.axial))                              # (2, 3 legs, 3)
+            e = iv.add(iv.add(iv.scale(self.perp, cos_d[..., None]), iv.scale(self.side, sin_d[..., None])),
+                       iv.point(self.axial))                              # (2, ..., 3 legs, 3)
             c = self.c
-        a = iv.matmul(e, iv.point(dc))                                    # rows D_c^T e_i
+        a = iv.matmul(e, iv.point(np.broadcast_to(dc, e.shape[1:])))     # rows D_c^T e_i
         b = self.b
-        ab = iv.isum(iv.scale(b, a), -1)                                  # (2, 3)
-        bxa = _cross_float_interval(b, a)                                 # (2, 3, 3)
-        w = w_box[:, None, :]                                             # (2, 1, 3)
-        n = iv.isum(iv.mul(w, w), -1)                                     # (2, 1) |w|^2 (loose: a product, not a square)
-        aw = iv.isum(iv.mul(a, w), -1)                                    # (2, 3)
-        bw = iv.isum(iv.scale(b, w), -1)                                  # (2, 3)
+        ab = iv.isum(iv.scale(b, a), -1)                                  # (2, ..., 3)
+        bxa = _cross_float_interval(b, a)                                 # (2, ..., 3, 3)
+        w = w_box[..., None, :]                                           # (2, ..., 1, 3)
+        n = iv.isum(iv.mul(w, w), -1)                                     # (2, ..., 1) |w|^2 (loose: a product)
+        aw = iv.isum(iv.mul(a, w), -1)                                    # (2, ..., 3)
+        bw = iv.isum(iv.scale(b, w), -1)                                  # (2, ..., 3)
         quarter = iv.scale(0.25, n)
-        one_minus = iv.sub(iv.point(1.0), quarter)
-        one_plus = iv.add(iv.point(1.0), quarter)
+        one_minus = iv.sub(iv.point(np.ones(n.shape[1:])), quarter)
+        one_plus = iv.add(iv.point(np.ones(n.shape[1:])), quarter)
         h = iv.add(iv.add(iv.mul(one_minus, ab), iv.isum(iv.mul(bxa, w), -1)), iv.scale(0.5, iv.mul(aw, bw)))
         h = iv.sub(h, iv.scale(c, one_plus))
-        jac = iv.add(iv.scale(-0.5, iv.mul(ab[:, :, None], w)), bxa)
-        jac = iv.add(jac, iv.scale(0.5, iv.add(iv.scale(b, aw[:, :, None]), iv.mul(bw[:, :, None], a))))
-        jac = iv.sub(jac, iv.scale(0.5 * c[:, None], iv.mul(iv.point(np.ones((3, 1))), w)))
+        jac = iv.add(iv.scale(-0.5, iv.mul(ab[..., None], w)), bxa)
+        jac = iv.add(jac, iv.scale(0.5, iv.add(iv.scale(b, aw[..., None]), iv.mul(bw[..., None], a))))
+        jac = iv.sub(jac, iv.scale(0.5 * c[:, None], iv.mul(iv.point(np.ones(w.shape[1:-2] + (3, 1))), w)))
         return h, jac
 
 
 def _cross_float_interval(b: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """b x a for float rows b (3, 3) and interval rows a (2, 3, 3), outward-rounded."""
+    """b x a for float rows b (3, 3) and interval rows a (2, ..., 3, 3), outward-rounded."""
     comps = []
     for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        comps.append(iv.sub(iv.scale(b[:, j], a[:, :, k]), iv.scale(b[:, k], a[:, :, j])))
+        comps.append(iv.sub(iv.scale(b[:, j], a[..., k]), iv.scale(b[:, k], a[..., j])))
     return np.stack(comps, axis=-1)
 
 
-#: The inputs of a step are beta_mid + sigma delta, sigma in [-SIGMA, SIGMA]: 1 + 1e-12 so that
-#: the float ends beta0, beta1 are inside whatever the rounding of beta_mid and delta (~1e-16).
+#: The inputs of a step are beta1 + sigma delta, sigma in [-SIGMA, SIGMA - 1]: 1 + 1e-12 so that
+#: beta0 is inside whatever the rounding of delta = beta1 - beta0 (~1e-16 relative).
 SIGMA = 1.0 + 1e-12
 
 
 def krawczyk_step(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> bool:
     """Whether the Krawczyk operator maps the box [w_lo, w_hi] into its interior for every input on
-    the segment from beta0 to beta1 (then each has exactly one root in the box; module doc).
+    the segment from beta0 to beta1 (then each has exactly one root in the box; module doc). The
+    one-step form of :func:`krawczyk_steps`."""
+    return bool(krawczyk_steps(eqs, np.asarray(dc)[None], np.asarray(w_lo)[None], np.asarray(w_hi)[None],
+                               np.asarray(beta0)[None], np.asarray(beta1)[None])[0])
 
-    The segment is beta(sigma) = beta_mid + sigma delta; h(m, beta(sigma)) is enclosed in the
-    mean-value form h(m, beta_mid) + (dh/dbeta (m, B) delta) sigma with one sigma shared by the
-    three legs, so that Y h keeps the legs' correlation (a box of beta per leg would not: the roots
-    over a box of inputs fill a parallelepiped far wider than the curve of the segment's roots).
+
+def krawczyk_steps(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> np.ndarray:
+    """:func:`krawczyk_step` of N steps at once: displacements ``dc`` (N, 3, 3), boxes [w_lo, w_hi]
+    (N, 3 each), segments beta0 -> beta1 (N, 3 each); a boolean per step.
+
+    Each segment is beta(sigma) = beta1 + sigma delta, delta = beta1 - beta0, sigma in [-1, 0]
+    (widened by SIGMA - 1 at both ends); h(m, beta(sigma)) is enclosed in the mean-value form
+    h(m, beta1) + (dh/dbeta (m, B) delta) sigma with one sigma shared by the three legs, so that Y h
+    keeps the legs' correlation (a box of beta per leg would not: the roots over a box of inputs fill
+    a parallelepiped far wider than the curve of the segment's roots). Expanding about the end
+    beta1 rather than the middle gives an enclosure of the same width and lets the point test at
+    beta1, and the next step's, reuse the cos/sin enclosures of beta1 (cached).
     """
+    w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
+    beta0, beta1 = np.asarray(beta0, dtype=float), np.asarray(beta1, dtype=float)
     m = 0.5 * (w_lo + w_hi)
-    beta_mid = 0.5 * (beta0 + beta1)
-    delta = 0.5 * (beta1 - beta0)
-    _, j_mid = eqs.values(dc, m, beta_mid)
-    try:
-        y = np.linalg.inv(j_mid)
-    except np.linalg.LinAlgError:
-        return False
-    if not np.all(np.isfinite(y)):
-        return False
-    spread = SIGMA * np.abs(delta)
-    beta_box = iv.from_bounds(beta_mid - spread, beta_mid + spread)
-    beta_box = iv.outward(beta_box)
+    delta = beta1 - beta0
+    _, j_mid = eqs.values(dc, m, 0.5 * (beta0 + beta1))
+    ok = np.isfinite(j_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(j_mid)) > 0)
+    y = np.zeros_like(j_mid)
+    if ok.any():
+        y[ok] = np.linalg.inv(j_mid[ok])
+    ok &= np.isfinite(y).all(axis=(1, 2))
+    sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0]))
+    spread = iv.scale(np.abs(delta), sigma.reshape(2, 1, 1))                 # |delta| [-SIGMA, SIGMA - 1]
+    lo_b = np.minimum(iv.add(iv.point(beta1), spread)[0], iv.sub(iv.point(beta1), spread)[0])
+    hi_b = np.maximum(iv.add(iv.point(beta1), spread)[1], iv.sub(iv.point(beta1), spread)[1])
+    beta_box = iv.from_bounds(lo_b, hi_b)                                   # holds beta1 + sigma delta
     point_m = iv.point(m)
-    h_m, _ = eqs.enclose(dc, point_m, iv.point(beta_mid))
+    h_m, _ = eqs.enclose(dc, point_m, iv.point(beta1))
     rate, _ = eqs.enclose(dc, point_m, beta_box, rate=True)              # dh_i/dbeta_i at m over the segment
     _, j_box = eqs.enclose(dc, iv.from_bounds(w_lo, w_hi), beta_box)
-    y_h = iv.fmatmul(y, h_m[:, :, None])[:, :, 0]
-    y_rate = iv.fmatmul(y, iv.scale(delta, rate)[:, :, None])[:, :, 0]   # Y dh/dsigma
-    sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA]))
+    y_h = iv.fmatmul(y, h_m[..., None])[..., 0]
+    y_rate = iv.fmatmul(y, iv.scale(delta, rate)[..., None])[..., 0]     # Y dh/dsigma
     center = iv.sub(iv.sub(point_m, y_h), iv.mul(y_rate, sigma))
     slope = iv.sub(iv.point(np.eye(3)), iv.fmatmul(y, j_box))
     dev = iv.sub(iv.from_bounds(w_lo, w_hi), point_m)
-    k = iv.add(center, iv.matmul(slope, dev[:, :, None])[:, :, 0])
-    return bool(np.all(np.isfinite(k)) and np.all(k[0] > w_lo) and np.all(k[1] < w_hi))
+    k = iv.add(center, iv.matmul(slope, dev[..., None])[..., 0])
+    inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
+    return ok & inside
 
 
 def _newton(eqs: LegEquations, dc, w, beta):
@@ -276,7 +307,7 @@ def _newton(eqs: LegEquations, dc, w, beta):
         w = w - dw
         if not np.all(np.isfinite(w)):
             return w, False
-        if np.abs(dw).max() <= NEWTON_TOL * max(1.0, np.abs(w).max()):
+        if np.abs(dw).max() <= NEWTON_TOL:
             return w, True
     h, _ = eqs.values(dc, w, beta)
     return w, bool(np.abs(h).max() < 1e-13)
@@ -338,12 +369,49 @@ def _locate(eqs: LegEquations, dc, beta0, direction, lo: float, hi: float) -> tu
     return lo, hi
 
 
+def _predict(eqs: LegEquations, dc, beta0, beta1):
+    """Newton's root at beta1 from the tangent predictor at w = 0 (beta0), or None (not proven)."""
+    guess = _tangent(eqs, dc, beta0, beta1 - beta0)
+    if guess is None:
+        return None
+    w1, ok = _newton(eqs, dc, guess, beta1)
+    return w1 if ok else None
+
+
+def _boxes(w1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The step boxes hull(0, w1) widened by the margin (module doc), for rows of w1 (N, 3)."""
+    pad = MARGIN_RELATIVE * np.abs(w1).max(axis=-1, keepdims=True) + MARGIN
+    return np.minimum(0.0, w1) - pad, np.maximum(0.0, w1) + pad
+
+
+def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> np.ndarray:
+    """Which of N predicted steps are proven: the step box over the segment, then the point box of
+    radius POINT_RADIUS around the new root at beta1 (module doc)."""
+    lo, hi = _boxes(w1)
+    ok = krawczyk_steps(eqs, dcs, lo, hi, beta0, beta1)
+    if ok.any():
+        ok[ok] = krawczyk_steps(eqs, dcs[ok], w1[ok] - POINT_RADIUS, w1[ok] + POINT_RADIUS, beta1[ok], beta1[ok])
+    return ok
+
+
+#: Segments predicted (Newton, in floats) and then certified together, at most. Reason: one batch of
+#: interval arithmetic over many steps costs little more than over one (numpy's per-call overhead
+#: dominates a 3 x 3 system); a prediction that goes wrong wastes at most this many steps' work.
+BATCH = 256
+
+
 def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     """Follow the assembly at pose ``start_rotation`` (R, 3x3) along ``path`` (K, 3 inputs, radians).
 
     ``mechanism``: one the platform formulation applies to (three R-R-R legs, base joints
     actuated; ValueError otherwise). The start pose must close the legs at path[0] to ``start_tol``
     (largest |Eq. (1)|); it is polished by Newton and proven (a point Krawczyk test) first.
+
+    How: segments are predicted in floats (tangent + Newton, one step per path segment) up to
+    BATCH at a time, then all their steps are proven in one batch of interval arithmetic; from the
+    first segment whose step is not proven, that segment is walked in adaptive proven steps (halved
+    on failure, grown after success), and prediction resumes after it. Every accepted step has its
+    own proof; none depends on the prediction being right.
     """
     legs = platform_legs(mechanism)
     eqs = LegEquations(legs)
@@ -363,56 +431,95 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     if not ok or not krawczyk_step(eqs, dc, w0 - POINT_RADIUS, w0 + POINT_RADIUS, path[0], path[0]):
         raise ValueError("start: the start pose could not be proven an isolated assembly at the first input "
                          "(it is at or next to a parallel singularity)")
-    dc = dc @ cayley(w0)
-    names = tuple(mechanism.loop_unknowns)
-    order = [passive_names(legs).index(n) for n in names]
-    actuated = tuple(mechanism.actuated)
-
-    def pose(row: int, d: np.ndarray, steps: int) -> TrackedPose:
-        rot = d @ ref
-        x = path[row]
-        passive = passive_readings_many(legs, x, rot[None], ref)[0, order]
-        joints = {**dict(zip(actuated, x.tolist())), **dict(zip(names, passive.tolist()))}
-        return TrackedPose(row, tuple(float(v) for v in x), rot, passive, float(np.abs(eqs.residual(d, x)).max()),
-                           mechanism.parallel_measure(joints), steps)
-
-    poses = [pose(0, dc, 0)]
+    n = len(path)
+    dcs = np.empty((n, 3, 3))
+    dcs[0] = dc @ cayley(w0)
+    steps_of = np.zeros(n, dtype=int)
     n_steps = rejected = 0
-    budget = MAX_STEPS + STEPS_PER_INPUT * len(path)
-    for row in range(len(path) - 1):
-        x0, x1 = path[row], path[row + 1]
-        direction = x1 - x0
-        span = float(np.abs(direction).max())
-        s, h = 0.0, 1.0 if span <= FIRST_STEP else FIRST_STEP / span
-        steps_here = 0
-        while s < 1.0:
-            if n_steps + rejected > budget:
-                raise RuntimeError(f"track: more than {budget} steps (MAX_STEPS) on a path of {len(path)} inputs")
-            t = min(1.0, s + h)
-            b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
-            w1 = _prove_step(eqs, dc, b0, b1)
-            if w1 is not None:
-                dc = dc @ cayley(w1)
-                s, h = t, h * STEP_GROWTH
-                n_steps += 1
-                steps_here += 1
-                continue
-            rejected += 1
-            h *= 0.5
-            if h * span < MIN_STEP:
-                lo, hi = _locate(eqs, dc, b0, direction, 0.0, 1.0 - s)
-                last = poses[-1]
-                here = x0 + s * direction
-                rot = dc @ ref
-                passive = passive_readings_many(legs, here, rot[None], ref)[0, order]
-                joints = {**dict(zip(actuated, here.tolist())), **dict(zip(names, passive.tolist()))}
-                singular = b0 + 0.5 * (lo + hi) * direction
-                stop = SingularStop(row, float(s), tuple(float(v) for v in here), tuple(float(v) for v in singular),
-                                    float(np.abs(singular - here).max()), float((hi - lo) * span),
-                                    mechanism.parallel_measure(joints),
-                                    "no step longer than MIN_STEP could be proven: the assembly mode meets another "
-                                    "(a parallel singularity) and ends")
-                del last
-                return Track(names, tuple(poses), stop, n_steps, rejected)
-        poses.append(pose(row + 1, dc, steps_here))
-    return Track(names, tuple(poses), None, n_steps, rejected)
+    budget = MAX_STEPS + STEPS_PER_INPUT * n
+    stop = None
+    k = 0
+    while k < n - 1:
+        pred_dc, pred_w = [], []
+        d = dcs[k]
+        last = min(n - 1, k + BATCH)                 # predict segments k .. last - 1
+        for j in range(k, last):
+            w1 = _predict(eqs, d, path[j], path[j + 1])
+            if w1 is None:
+                break
+            pred_dc.append(d)
+            pred_w.append(w1)
+            d = d @ cayley(w1)
+        m = len(pred_w)
+        good = 0
+        if m:
+            dc_m, w_m = np.array(pred_dc), np.array(pred_w)
+            ok = _certify_steps(eqs, dc_m, w_m, path[k:k + m], path[k + 1:k + m + 1])
+            good = m if ok.all() else int(np.argmin(ok))
+            for j in range(good):
+                dcs[k + j + 1] = dc_m[j] @ cayley(w_m[j])
+                steps_of[k + j + 1] = 1
+            n_steps += good
+            rejected += int(good < m)
+            k += good
+            if good == m and k == last:
+                continue                             # every predicted step proven: predict the next batch
+        if k >= n - 1:
+            break
+        d, steps, rej, stop = _adaptive_segment(eqs, dcs[k], path[k], path[k + 1], budget - n_steps - rejected)
+        n_steps += steps
+        rejected += rej
+        if stop is not None:
+            stop = dict(stop, row=k)
+            break
+        dcs[k + 1] = d
+        steps_of[k + 1] = steps
+        k += 1
+    reached = k + 1
+    rotations = dcs[:reached] @ ref
+    names = tuple(mechanism.loop_unknowns)
+    order = [passive_names(legs).index(nm) for nm in names]
+    passive = passive_readings_many(legs, path[:reached], rotations, ref)[:, order]
+    residuals = np.abs(eqs.residual(dcs[:reached], path[:reached])).max(axis=1)
+    measures = eqs.measure(dcs[:reached], path[:reached])
+    poses = tuple(TrackedPose(r, tuple(float(v) for v in path[r]), rotations[r], passive[r], float(residuals[r]),
+                              float(measures[r]), int(steps_of[r])) for r in range(reached))
+    if stop is not None:
+        row = stop["row"]
+        x0, direction = path[row], path[row + 1] - path[row]
+        here = x0 + stop["s"] * direction
+        singular = stop["b0"] + 0.5 * (stop["lo"] + stop["hi"]) * direction
+        stop = SingularStop(row, float(stop["s"]), tuple(float(v) for v in here), tuple(float(v) for v in singular),
+                            float(np.abs(singular - here).max()),
+                            float((stop["hi"] - stop["lo"]) * np.abs(direction).max()),
+                            float(eqs.measure(stop["dc"], here)),
+                            "no step longer than MIN_STEP could be proven: the assembly mode meets another "
+                            "(a parallel singularity) and ends")
+    return Track(names, poses, stop, n_steps, rejected)
+
+
+def _adaptive_segment(eqs: LegEquations, dc, x0, x1, budget: int):
+    """Walk the segment x0 -> x1 in proven steps (halved on failure, grown after success):
+    (displacement at x1, steps, rejected, None), or (None, steps, rejected, where it stopped) when
+    no step of MIN_STEP can be proven (module doc)."""
+    direction = x1 - x0
+    span = float(np.abs(direction).max())
+    s, h = 0.0, 1.0 if span <= FIRST_STEP else FIRST_STEP / span
+    steps = rejected = 0
+    while s < 1.0:
+        if steps + rejected > budget:
+            raise RuntimeError(f"track: more than MAX_STEPS + STEPS_PER_INPUT per input steps ({budget} left)")
+        t = min(1.0, s + h)
+        b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
+        w1 = _predict(eqs, dc, b0, b1)
+        if w1 is not None and _certify_steps(eqs, dc[None], w1[None], b0[None], b1[None])[0]:
+            dc = dc @ cayley(w1)
+            s, h = t, h * STEP_GROWTH
+            steps += 1
+            continue
+        rejected += 1
+        h *= 0.5
+        if h * span < MIN_STEP:
+            lo, hi = _locate(eqs, dc, b0, direction, 0.0, 1.0 - s)
+            return None, steps, rejected, {"s": s, "b0": b0, "lo": lo, "hi": hi, "dc": dc}
+    return dc, steps, rejected, None
