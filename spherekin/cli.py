@@ -395,7 +395,7 @@ def _track(args) -> int:
               f"{', '.join(f'{v * scale:+.9g}' for v in st.last_inputs)} ({st.fraction:.6g} of the way); the "
               f"singular input, located by bisection to {st.bracket:.1e} rad: "
               f"{', '.join(f'{v * scale:+.12g}' for v in st.singular_inputs)} ({st.distance:.2e} rad further); "
-              f"parallel measure at the last proven pose {st.measure:.2e}")
+              f"singularity measure at the last proven pose {st.measure:.2e}")
     code = 0
     if args.check is not None:
         rows = sorted({*range(0, len(track.poses), args.check), len(track.poses) - 1})
@@ -419,12 +419,12 @@ def _track(args) -> int:
                "rows": [{"row": p.row, "inputs": dict(zip(mech.actuated, p.inputs)),
                          "passive_angles": dict(zip(track.names, p.passive.tolist())),
                          "platform_rotation": p.rotation.tolist(), "residual": p.residual,
-                         "parallel_measure": p.measure, "proven_steps": p.steps} for p in track.poses],
+                         "singularity_measure": p.measure, "proven_steps": p.steps} for p in track.poses],
                "stop": None if st is None else {
                    "between_rows": [st.row, st.row + 1], "fraction": st.fraction,
                    "last_proven_inputs": dict(zip(mech.actuated, st.last_inputs)),
                    "singular_inputs": dict(zip(mech.actuated, st.singular_inputs)),
-                   "distance": st.distance, "bracket": st.bracket, "parallel_measure": st.measure,
+                   "distance": st.distance, "bracket": st.bracket, "singularity_measure": st.measure,
                    "reason": st.reason}}
         Path(args.json).write_text(json.dumps(out, indent=2))
         print(f"wrote {args.json}")

@@ -504,7 +504,7 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
 def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     """Draw a tracked path (:class:`spherekin.trust.continuation.Track`): top, the platform's
     orientation along the path (the unit quaternion's components, w >= 0 at the start, kept
-    continuous); below, the parallel-singularity measure (log scale), with the singular input where
+    continuous); below, the singularity measure of the tracker (log scale; 0 at a parallel singularity), with the singular input where
     the track stopped marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
     from matplotlib.figure import Figure
 
@@ -530,7 +530,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     m_rows = list(rows) + ([] if st is None else [where])            # the last proven pose, where it stopped
     m_vals = [p.measure for p in track.poses] + ([] if st is None else [st.measure])
     ax2.semilogy(m_rows, np.maximum(m_vals, 1e-16), color="black", lw=1.2)
-    ax2.set_ylabel("parallel measure\n(sigma_min / sigma_max of K_p)")
+    ax2.set_ylabel("singularity measure\n(sigma_min / sigma_max, leg normals)")
     ax2.set_xlabel("path row")
     ax2.grid(alpha=0.3, which="both")
     title = f"{mechanism.name}: one assembly mode tracked over {len(track.poses)} row(s)"

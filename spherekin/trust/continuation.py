@@ -86,8 +86,8 @@ STEP_GROWTH = 1.5
 class TrackedPose:
     """The tracked assembly at path row ``row``: ``inputs`` (radians), platform ``rotation`` R (3, 3),
     ``passive`` angles (radians, in ``Track.names`` order), ``residual`` (largest |Eq. (1)| over the
-    legs), ``measure`` (:meth:`SphericalMechanism.parallel_measure`), ``steps``: proven steps from
-    the previous row."""
+    legs), ``measure``: the singularity measure (:meth:`LegEquations.measure`: 0 at a parallel
+    singularity), ``steps``: proven steps from the previous row."""
 
     row: int
     inputs: tuple
@@ -105,7 +105,7 @@ class SingularStop:
     ``fraction``: how far along that segment the last proven pose is (0..1); ``last_inputs``: its
     inputs; ``singular_inputs``: the singular input located by bisection (the branch exists up to
     it), with ``distance`` = largest |last_inputs - singular_inputs| (radians) and ``bracket`` the
-    width of the final bisection interval; ``measure``: the parallel measure at the last proven pose.
+    width of the final bisection interval; ``measure``: the singularity measure at the last proven pose.
     """
 
     row: int
