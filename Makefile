@@ -54,6 +54,8 @@ bench: $(STAMP)
 	$(BIN)/python -m benchmarks.bench_certify
 	$(BIN)/python -m benchmarks.bench_many
 	$(BIN)/python -m benchmarks.bench_process
+	$(BIN)/python -m benchmarks.bench_batch
+	$(BIN)/python -m benchmarks.bench_track
 
 bench-peers: $(STAMP)
 	@command -v phc >/dev/null || { echo "phc not found: installing PHCpack (Debian package phcpack)"; \
