@@ -42,7 +42,9 @@ def main(argv=None) -> dict:
     report = data["report"]
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [plot_solutions(data["mechanism"], data["inputs"], report, out / f"{NAME}.{fmt}") for fmt in ("png", "pdf")]
+    paths = [out / f"{NAME}.{fmt}" for fmt in ("png", "pdf")]
+    for path in paths:
+        plot_solutions(data["mechanism"], data["inputs"], report, path)
     counts = Counter(s.status for s in report.solutions)
     print(f"{len(report.solutions)} solutions at inputs {data['inputs']} rad: {dict(counts)}; "
           f"max residual {max(s.residual for s in report.solutions):.1e}; solve {report.stats.time_total:.2f} s")

@@ -150,7 +150,8 @@ def _solve(args) -> int:
     if args.plot:
         from .plot import plot_solutions  # matplotlib: imported only when a plot is asked for
 
-        print(f"wrote {plot_solutions(mech, inputs, report, args.plot, degrees=args.degrees)}")
+        plot_solutions(mech, inputs, report, args.plot, degrees=args.degrees)
+        print(f"wrote {args.plot}")
     return 0
 
 

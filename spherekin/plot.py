@@ -363,25 +363,26 @@ def _legend_layout(labels: Sequence[str], width: float) -> tuple[int, list[int]]
     return 1, list(range(n))
 
 
-def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, path, *,
-                   degrees: bool = False) -> Path:
-    """Draw the mechanism on the unit sphere in every solution of ``report``; write the figure to ``path``.
+def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, path=None, *,
+                   degrees: bool = False):
+    """Draw the mechanism on the unit sphere in every solution of ``report``: the matplotlib Figure,
+    also written to ``path`` when one is given (a notebook shows the returned Figure).
 
     ``mechanism``: the :class:`SphericalMechanism` solved; ``inputs``: its actuator readings
     (radians, the ones ``report`` was solved at); ``report``: the
-    :class:`~spherekin.results.SolveReport` of :func:`spherekin.search.boxloop.solve`; ``path``: the
-    output file, whose suffix (.png, .pdf or .svg) picks the format; ``degrees``: show the inputs
+    :class:`~spherekin.results.SolveReport` of :func:`spherekin.solve`; ``path``: the output file
+    (optional), whose suffix (.png, .pdf or .svg) picks the format; ``degrees``: show the inputs
     in degrees in the figure title. One panel per solution, in report order (grid of at most
     MAX_COLUMNS columns), titled with the solution's number, status (when the report has one),
     singularity kind and closure residual. A report without solutions gives a figure saying
-    "no solution in range". Returns the path written. Bad input raises ValueError.
+    "no solution in range". Returns the Figure. Bad input raises ValueError, before anything is drawn.
     """
     if not isinstance(mechanism, SphericalMechanism):
         raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
     values = mechanism.check_inputs(inputs)
     if not isinstance(degrees, (bool, np.bool_)):
         raise ValueError(f"degrees: expected true or false, got {degrees!r}")
-    out, fmt = check_plot_path(path)
+    out, fmt = check_plot_path(path) if path is not None else (None, None)
     solutions = _check_report(mechanism, values, report)
     configs = [current_joint_axes(mechanism, values, dict(zip(report.unknowns, a))) for a in solutions]
 
@@ -393,8 +394,9 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
         fig = Figure(figsize=(MIN_COLUMNS * PANEL_INCHES, PANEL_INCHES), dpi=DPI)
         fig.suptitle(title, fontsize=11)
         fig.text(0.5, 0.45, "no solution in range", ha="center", va="center", fontsize=16, color="0.25")
-        fig.savefig(out, format=fmt, dpi=DPI)
-        return out
+        if out is not None:
+            fig.savefig(out, format=fmt, dpi=DPI)
+        return fig
 
     n = len(configs)
     ncols = min(n, MAX_COLUMNS)
@@ -425,8 +427,9 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
         ax.set_title(_panel_title(k + 1, sol), fontsize=9.5, pad=-4)
     fig.legend(handles=handles, loc="lower center", ncol=legend_ncol, fontsize=9, frameon=False,
                bbox_to_anchor=(0.5, 0.5 * LEGEND_MARGIN_INCHES / height))
-    fig.savefig(out, format=fmt, dpi=DPI)
-    return out
+    if out is not None:
+        fig.savefig(out, format=fmt, dpi=DPI)
+    return fig
 
 
 # --------------------------------------------------------------------------------------------

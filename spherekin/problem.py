@@ -179,7 +179,9 @@ class Problem:
             stats = stats + dataclasses.replace(extra, time_total=0.0, time_setup=0.0, time_restrict=0.0,
                                                 time_prune=0.0, time_isolate=0.0)
         stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
-        return SolveReport(report.unknowns, tuple(solutions), report.boxes, stats, settings, proven, exact)
+        inputs = dict(zip(self.mechanism.actuated, (float(v) for v in values)))
+        named = tuple(dataclasses.replace(s, unknowns=tuple(report.unknowns), actuated=inputs) for s in solutions)
+        return SolveReport(report.unknowns, named, report.boxes, stats, settings, proven, exact)
 
     # ------------------------------------------------------------------ many inputs
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
+from typing import Mapping
 
 import numpy as np
 
@@ -115,6 +116,45 @@ class Solution:
     singularity: str | None = None
     status: Status = Status.UNVERIFIED
     evidence: dict = field(default_factory=dict)
+    unknowns: tuple = field(default=(), compare=False)
+    actuated: Mapping = field(default_factory=dict, compare=False)
+
+    @property
+    def passive_angles(self) -> dict[str, float]:
+        """The passive angles by joint name (radians), as ``passive_angles`` of the JSON."""
+        return {n: float(a) for n, a in zip(self.unknowns, self.angles)}
+
+    @property
+    def joint_angles(self) -> dict[str, float]:
+        """Every joint angle by name (radians): the actuator inputs, then the passive angles (the JSON's
+        ``joint_angles``)."""
+        return {**{n: float(v) for n, v in self.actuated.items()}, **self.passive_angles}
+
+    @property
+    def quaternion(self) -> np.ndarray | None:
+        """The platform rotation as a unit quaternion (w, x, y, z), w >= 0 (None without a rotation)."""
+        if self.platform_rotation is None:
+            return None
+        from .core.orientation import quaternions_from_rotations
+
+        return quaternions_from_rotations(self.platform_rotation)
+
+    def euler(self, convention: str = "ZYX") -> np.ndarray | None:
+        """The platform rotation as Euler angles (radians) in ``convention`` (upper case intrinsic,
+        lower case extrinsic; see :mod:`spherekin.core.orientation`), or None without a rotation."""
+        if self.platform_rotation is None:
+            return None
+        from scipy.spatial.transform import Rotation
+
+        from .core.orientation import check_euler_convention
+
+        return Rotation.from_matrix(self.platform_rotation).as_euler(check_euler_convention(convention))
+
+    def __repr__(self) -> str:
+        angles = ", ".join(f"{n}={a:+.6f}" for n, a in self.passive_angles.items()) or \
+            ", ".join(f"{a:+.6f}" for a in self.angles)
+        res = "" if self.residual is None else f", residual={self.residual:.1e}"
+        return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
 
 
 @dataclass(frozen=True)
@@ -206,6 +246,23 @@ class SolveReport:
     settings: Settings
     proven_count: int
     count_exact: bool
+
+    def __repr__(self) -> str:
+        return (f"SolveReport({self.count_text()}; {len(self.solutions)} entries over {', '.join(self.unknowns)}; "
+                f"{self.settings.formulation}, {self.stats.time_total:.3f} s)")
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the count and one table row per solution."""
+        from html import escape
+
+        head = "".join(f"<th>{escape(n)}</th>" for n in ("#", *self.unknowns, "status", "residual", "singularity"))
+        rows = []
+        for i, s in enumerate(self.solutions, start=1):
+            cells = [str(i), *(f"{a:+.6f}" for a in s.angles), str(s.status),
+                     "-" if s.residual is None else f"{s.residual:.1e}", s.singularity or "-"]
+            rows.append("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
+        return (f"<p><b>{escape(self.count_text())}</b> (radians)</p><table><thead><tr>{head}</tr></thead>"
+                f"<tbody>{''.join(rows)}</tbody></table>")
 
     def count_text(self) -> str:
         """"8 solutions (count proven)" or "at least 6 solutions (2 entries unresolved)"."""
