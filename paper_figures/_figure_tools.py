@@ -36,27 +36,35 @@ def parser(description: str):
     return p
 
 
-def experiment_data(name: str, path: Path | None = None) -> dict:
-    """The data of experiments/<name>.py: ``path`` if given, else its latest run --
+def experiment_data(name: str, path: Path | None = None) -> tuple[dict, bool]:
+    """(data, quick) of experiments/<name>.py: ``path`` if given, else its latest run --
     experiments/results/<name>.json (``make experiments FULL=1``), else results/quick/<name>.json
-    (``make experiments``), else a quick run made now (written to results/quick/). The JSON files
-    are generated and not committed; the committed PNGs of Figs. 3, 6, 7 come from full runs.
+    (``make experiments``), else a quick run made now (written to results/quick/). ``quick`` says
+    the data is a quick run. The JSON files are generated and not committed; the committed PNGs of
+    Figs. 3, 6, 7 come from full runs, and :func:`save` never replaces them with a quick run's.
     """
     import importlib
     import json
 
     if path is not None:
-        return json.loads(Path(path).read_text())
-    for candidate in (_common.RESULTS / f"{name}.json", _common.RESULTS / "quick" / f"{name}.json"):
-        if candidate.exists():
-            return json.loads(candidate.read_text())
-    importlib.import_module(name).main(["--quick"])
-    return json.loads((_common.RESULTS / "quick" / f"{name}.json").read_text())
+        return json.loads(Path(path).read_text()), "quick" in Path(path).parts
+    full, quick = _common.RESULTS / f"{name}.json", _common.RESULTS / "quick" / f"{name}.json"
+    if full.exists():
+        return json.loads(full.read_text()), False
+    if not quick.exists():
+        importlib.import_module(name).main(["--quick"])
+    return json.loads(quick.read_text()), True
 
 
-def save(fig, out_dir, name: str) -> list[Path]:
-    """Write ``<out_dir>/<name>.png`` and ``.pdf``; return both paths."""
+def save(fig, out_dir, name: str, *, quick: bool = False) -> list[Path]:
+    """Write ``<out_dir>/<name>.png`` and ``.pdf``; return both paths. A figure of ``quick`` data is
+    not written over the committed figures of paper_figures/ (they come from full runs): it goes to
+    paper_figures/quick/ instead, and a line says so."""
     out = Path(out_dir)
+    if quick and out.resolve() == HERE:
+        out = HERE / "quick"
+        print(f"note: {name} is drawn from a quick run of its experiment; written to {out.relative_to(ROOT)}/, "
+              f"not over the committed figure (run 'make experiments FULL=1', then 'make figures', to redraw it)")
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for fmt in ("png", "pdf"):

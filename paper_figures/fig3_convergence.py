@@ -90,8 +90,8 @@ def main(argv=None):
     p.add_argument("--results", type=Path, default=None,
                    help="convergence.json to plot (default: the latest run, see _figure_tools.experiment_data)")
     args = p.parse_args(argv)
-    fig = draw(experiment_data("convergence", args.results))
-    paths = save(fig, args.out_dir, "fig3_convergence")
+    data, quick = experiment_data("convergence", args.results)
+    paths = save(draw(data), args.out_dir, "fig3_convergence", quick=quick)
     plt.close(fig)
     return paths
 

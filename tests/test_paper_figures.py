@@ -223,3 +223,21 @@ def test_fig5_eight_solutions_four_singular_each_closing(fig5):
         for leg, beta in zip(("leg1", "leg2", "leg3"), data["inputs"]):
             w = rot(base[leg], beta) @ np.array(elbow0[leg], dtype=float)
             assert float(w @ (r @ np.array(platform0[leg], dtype=float))) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_quick_run_never_replaces_a_committed_figure(capsys):
+    from matplotlib.figure import Figure
+
+    from paper_figures import _figure_tools as ft
+
+    name = "zz_quick_probe"
+    try:
+        paths = ft.save(Figure(figsize=(1, 1)), ft.HERE, name, quick=True)
+        assert all(p.parent == ft.HERE / "quick" and p.exists() for p in paths)
+        assert not (ft.HERE / f"{name}.png").exists()
+        assert "drawn from a quick run" in capsys.readouterr().out
+        full = ft.save(Figure(figsize=(1, 1)), ft.HERE / "quick", name, quick=False)
+        assert full[0].parent == ft.HERE / "quick"
+    finally:
+        for suffix in ("png", "pdf"):
+            (ft.HERE / "quick" / f"{name}.{suffix}").unlink(missing_ok=True)
