@@ -182,3 +182,35 @@ def test_coaxial_platform_joints_use_the_fallback_direction():
             w = Rotation.from_rotvec(s.joint_angles["beta1"] * x).apply(y)
             expected = signed_angle(pose @ z, w, pose @ x)
             assert math.remainder(s.joint_angles["delta1"] - expected, 2 * math.pi) == pytest.approx(0, abs=1e-12)
+
+
+def test_joint_offsets_move_the_zero_of_the_readings_and_nothing_else():
+    import tomllib
+
+    from spherekin import solve
+    from spherekin.mechanism import general_3rrr, mechanism_from_dict
+    from spherekin.mechanism.io import dumps_mechanism
+
+    g = general_3rrr().geometry
+    plain = three_rrr(g.base_axes, g.elbow_axes_at_zero, g.platform_axes, g.distal_link_angles)
+    offsets = {"gamma1": 1.0, "delta2": "-pi/2", "beta3": 0.25}
+    moved = three_rrr(g.base_axes, g.elbow_axes_at_zero, g.platform_axes, g.distal_link_angles, joint_offsets=offsets)
+    shift = {"gamma1": 1.0, "delta2": -np.pi / 2, "beta3": 0.25}
+    # the same physical configuration reads (geometric angle) - offset
+    for p, m in zip(plain.joints, moved.joints):
+        assert m.reference_angle == pytest.approx(p.reference_angle - shift.get(p.name, 0.0), abs=1e-15)
+    inputs = (0.3, -0.2, 0.5)
+    a = solve(plain, inputs)
+    b = solve(moved, (0.3, -0.2, 0.5 - 0.25))          # beta3's reading moved by its offset: the same actuators
+    assert len(a.solutions) == len(b.solutions) == 8
+    for sa in a.solutions:
+        sb = min(b.solutions, key=lambda s: np.abs(s.platform_rotation - sa.platform_rotation).max())
+        np.testing.assert_allclose(sb.platform_rotation, sa.platform_rotation, atol=1e-12)
+        for n in a.unknowns:
+            diff = sa.passive_angles[n] - sb.passive_angles[n] - shift.get(n, 0.0)
+            assert abs(np.mod(diff + np.pi, 2 * np.pi) - np.pi) < 1e-10, n
+    again = mechanism_from_dict(tomllib.loads(dumps_mechanism(moved)))
+    assert [j.reference_angle for j in again.joints] == pytest.approx([j.reference_angle for j in moved.joints], abs=1e-15)
+    assert "[joint_offsets]" not in dumps_mechanism(plain)
+    with pytest.raises(ValueError, match="joint_offsets: unknown joint 'gamma4'"):
+        three_rrr(g.base_axes, g.elbow_axes_at_zero, g.platform_axes, g.distal_link_angles, joint_offsets={"gamma4": 1})

@@ -29,7 +29,7 @@ from .rrr import THREE_RRR_KEYS, three_rrr
 __all__ = ["MechanismFileError", "KINDS", "load_mechanism", "mechanism_from_dict", "dumps_mechanism"]
 
 KINDS = ("3-RRR", "general")
-_RRR_OPTIONAL = ("name", "reference_leg", "joint_ranges")
+_RRR_OPTIONAL = ("name", "reference_leg", "joint_ranges", "joint_offsets")
 _GENERAL_REQUIRED = ("legs",)
 _GENERAL_OPTIONAL = ("name", "reference_leg", "platform_reference")
 _LEG_KEYS = ("name", "joints")
@@ -100,6 +100,7 @@ def _build(data) -> SphericalMechanism:
         return three_rrr(
             body["base_axes"], body["elbow_axes_at_zero"], body["platform_axes"], body["distal_link_angles"],
             body.get("joint_ranges"), name=body.get("name", "3-RRR"), reference_leg=body.get("reference_leg", "leg1"),
+            joint_offsets=body.get("joint_offsets"),
         )
     _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
     legs_raw = body["legs"]
@@ -141,6 +142,12 @@ def _build(data) -> SphericalMechanism:
 # Writing
 # --------------------------------------------------------------------------------------------
 
+#: A joint offset of a 3-RRR is written to a file only above this (radians). Reason: the offsets are
+#: recovered as differences of reference readings computed twice from axes normalized twice, which
+#: agree to a few ulps (~1e-16) without any offset; no one states an offset of 1e-12 rad.
+OFFSET_ROUNDING = 1e-12
+
+
 def _num(x: float) -> str:
     return repr(float(x))
 
@@ -167,6 +174,11 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
         ranged = [j for j in mech.joints if j.range is not None]
         if ranged:
             lines += ["", "[joint_ranges]"] + [f"{j.name} = {_vec(j.range)}" for j in ranged]
+        plain = three_rrr(g.base_axes, g.elbow_axes_at_zero, g.platform_axes, g.distal_link_angles)
+        moved = [(j.name, p.reference_angle - j.reference_angle) for j, p in zip(mech.joints, plain.joints)
+                 if abs(p.reference_angle - j.reference_angle) > OFFSET_ROUNDING]
+        if moved:
+            lines += ["", "[joint_offsets]"] + [f"{n} = {_num(v)}" for n, v in moved]
         return "\n".join(lines) + "\n"
     lines += ['kind = "general"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
     if not np.array_equal(mech.platform_reference_matrix, np.eye(3)):

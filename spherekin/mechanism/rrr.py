@@ -211,12 +211,16 @@ def _reference_beta(u, w0, v, alpha2) -> float:
 
 
 def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, joint_ranges=None, *,
-              name: str = "3-RRR", reference_leg: str = "leg1") -> SphericalMechanism:
+              name: str = "3-RRR", reference_leg: str = "leg1", joint_offsets=None) -> SphericalMechanism:
     """A 3-RRR spherical parallel manipulator as a :class:`SphericalMechanism` (semantics in the module doc).
 
     ``joint_ranges``: optional mapping joint name (see :func:`rrr_joint_names`) -> (lo, hi) in
     radians; joints not listed are unlimited (the full circle). ``reference_leg``: the leg shared
-    by the two loops ("leg1", "leg2" or "leg3"). Bad input raises ValueError naming the argument.
+    by the two loops ("leg1", "leg2" or "leg3"). ``joint_offsets``: optional mapping joint name ->
+    radians moving the zero of that joint's reading: the joint then reads (geometric angle of the
+    module doc) - offset, and its range and every reported angle are in that reading (e.g. an offset
+    equal to a joint's angle at a home pose makes it read 0 there). Bad input raises ValueError
+    naming the argument.
     """
     u = _three_vectors("base_axes", base_axes)
     w0 = _three_vectors("elbow_axes_at_zero", elbow_axes_at_zero)
@@ -237,6 +241,14 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
             if n not in names:
                 raise ValueError(f"joint_ranges: unknown joint {n!r}; valid names: {', '.join(names)}")
             ranges[n] = check_range(f"joint_ranges.{n}", r)
+    offsets = {}
+    if joint_offsets is not None:
+        if not isinstance(joint_offsets, Mapping):
+            raise ValueError(f"joint_offsets: expected a table joint name -> angle, got {joint_offsets!r}")
+        for n, v in joint_offsets.items():
+            if n not in names:
+                raise ValueError(f"joint_offsets: unknown joint {n!r}; valid names: {', '.join(names)}")
+            offsets[n] = parse_angle(f"joint_offsets.{n}", v)
     geom = ThreeRRRGeometry(u, w0, v0, alpha2)
     rot = find_reference_pose(geom)
     if rot is None:
@@ -253,11 +265,10 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
         wi = axis_rotation(ui, beta) @ np.array(w0[i])
         ri = rot @ np.array(geom.platform_directions[i])
         k = i + 1
-        legs.append(Leg(f"leg{k}", (
-            Joint(f"beta{k}", ui, True, ranges.get(f"beta{k}"), beta),
-            Joint(f"gamma{k}", wi, False, ranges.get(f"gamma{k}"), elbow_angle(ui, wi, vi)),
-            Joint(f"delta{k}", vi, False, ranges.get(f"delta{k}"), platform_joint_angle(wi, vi, ri)),
-        )))
+        readings = (beta, elbow_angle(ui, wi, vi), platform_joint_angle(wi, vi, ri))
+        legs.append(Leg(f"leg{k}", tuple(
+            Joint(f"{j}{k}", axis, j == "beta", ranges.get(f"{j}{k}"), reading - offsets.get(f"{j}{k}", 0.0))
+            for j, axis, reading in zip(("beta", "gamma", "delta"), (ui, wi, vi), readings))))
     return SphericalMechanism(
         legs=tuple(legs), name=name, reference_leg=reference_leg, platform_reference=rot,
         kind="3-RRR", geometry=geom,
