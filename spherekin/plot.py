@@ -87,6 +87,9 @@ ZOOM = 1.35
 VIEW_CANDIDATES = 2000
 VISIBLE_DOT = 0.2
 
+#: Joint names are written at this radial factor from their axis point, just off the sphere, so that
+#: they sit beside the dot and not on the arcs.
+LABEL_OFFSET = 1.12
 #: Colours: legs cycle through these (distinct from the base's black and the platform's red).
 LEG_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:cyan", "tab:pink",
                "tab:olive")
@@ -292,6 +295,10 @@ def _draw_configuration(ax, mechanism: SphericalMechanism, axes: Mapping[str, np
         colour = LEG_COLOURS[i % len(LEG_COLOURS)]
         for joint, p in zip(leg.joints, axes[leg.name]):
             _draw_point(ax, p, view, colour, "s" if joint.actuated else "o")
+            if float(p @ view) >= 0.0:           # the joint's name beside its axis (near side: readable)
+                q = p * LABEL_OFFSET
+                ax.text(q[0], q[1], q[2], joint.name, fontsize=7, color=colour, ha="center", va="center",
+                        zorder=31)
 
 
 def _fibonacci_directions(n: int) -> np.ndarray:
