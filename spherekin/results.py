@@ -15,8 +15,8 @@ from typing import Mapping
 
 import numpy as np
 
-__all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "SearchLimit", "Settings", "SearchReport",
-           "SolveReport"]
+__all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
+           "SearchReport", "SolveReport"]
 
 
 class Status(StrEnum):
@@ -155,6 +155,15 @@ class Solution:
             ", ".join(f"{a:+.6f}" for a in self.angles)
         res = "" if self.residual is None else f", residual={self.residual:.1e}"
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
+
+
+def box_near(sol: Solution) -> tuple[np.ndarray, np.ndarray]:
+    """The box (lo, hi) of ``sol`` moved by whole turns, per angle, next to the solution's angle (a
+    box found on a chart centred at pi may be stored around 3.44 for an angle reported as -2.84:
+    the same set of orientations, shown where the reader looks for it)."""
+    lo, hi = np.asarray(sol.lo, dtype=float), np.asarray(sol.hi, dtype=float)
+    turns = np.round((0.5 * (lo + hi) - np.asarray(sol.angles, dtype=float)) / (2 * np.pi))
+    return lo - 2 * np.pi * turns, hi - 2 * np.pi * turns
 
 
 @dataclass(frozen=True)
@@ -312,7 +321,7 @@ class SolveReport:
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
                  "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
-                 "box_lo": arr(s.lo), "box_hi": arr(s.hi), "n_boxes": s.n_boxes}
+                 "box_lo": arr(box_near(s)[0]), "box_hi": arr(box_near(s)[1]), "n_boxes": s.n_boxes}
                 for s in self.solutions],
             "statistics": self.stats.as_dict(),
         }

@@ -44,3 +44,17 @@ def test_reprs_are_short_and_the_notebook_view_is_a_table(report):
     assert all(len(repr(s)) < 250 and "gamma1=" in repr(s) for s in report.solutions)
     html = report._repr_html_()
     assert html.count("<tr>") == 1 + 8 and "delta3" in html and "certified" in html
+
+
+def test_json_boxes_are_moved_next_to_their_angles():
+    import dataclasses
+
+    from spherekin.results import Solution, box_near
+
+    sol = Solution(np.array([-2.84, 0.5]), np.array([3.43, 0.49]), np.array([3.45, 0.51]), 1)
+    lo, hi = box_near(sol)
+    np.testing.assert_allclose(lo, [3.43 - 2 * np.pi, 0.49])
+    np.testing.assert_allclose(hi, [3.45 - 2 * np.pi, 0.51])
+    assert lo[0] <= -2.84 <= hi[0]
+    same = dataclasses.replace(sol, lo=np.array([-2.85, 0.49]), hi=np.array([-2.83, 0.51]))
+    np.testing.assert_array_equal(box_near(same)[0], same.lo)
