@@ -153,8 +153,37 @@ def _verify(args) -> int:
     return subprocess.run([sys.executable, "-m", "verification", *argv], cwd=root).returncode
 
 
+def _terminal_columns(fallback: int = 80) -> int:
+    """Columns of the terminal, as :func:`shutil.get_terminal_size` reads them: $COLUMNS, else the
+    terminal of ``sys.__stdout__``, else ``fallback``."""
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns or fallback
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help formatter with the width read by :func:`_terminal_columns`.
+
+    argparse builds a formatter for every option added (to check its metavar), and its default
+    width imports shutil (with bz2, lzma, zlib: ~1.5 ms, paid by every process, benchmarks/bench_process.py)
+    only to read the terminal's width; the help printed is the same.
+    """
+
+    def __init__(self, prog, indent_increment=2, max_help_position=24, width=None):
+        super().__init__(prog, indent_increment, max_help_position,
+                         _terminal_columns() - 2 if width is None else width)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0],
+                                     formatter_class=_HelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
     from .search.lp_backends import LP_BACKENDS
     from .search.parameterizations import PARAMETERIZATIONS
@@ -162,7 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
     from .search.pruners import PRUNERS
     from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
-    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
+    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)",
+                        formatter_class=_HelpFormatter)
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
@@ -187,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)
-    g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
+    g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations", formatter_class=_HelpFormatter)
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians (default: %(default)s)")
     g.add_argument("--range", type=float, nargs=2, default=list(DEFAULT_PASSIVE_RANGE), metavar=("LO", "HI"),
@@ -195,7 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--samples", type=int, default=10000, help="random points for the sampled range")
     g.add_argument("--seed", type=int, default=0, help="seed of the random sample")
     g.set_defaults(func=_gosselin)
-    v = sub.add_parser("verify", help="verify every claim of the paper and write the errata report")
+    v = sub.add_parser("verify", help="verify every claim of the paper and write the errata report",
+                       formatter_class=_HelpFormatter)
     v.add_argument("--quick", action="store_true", help="small sizes, as in the test suite")
     v.add_argument("--report", help="where to write the markdown report (default: verification/REPORT.md)")
     v.set_defaults(func=_verify)

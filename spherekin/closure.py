@@ -234,7 +234,6 @@ class Term(_AngleArithmetic):
 # Factor polynomials (pure functions, any dtype)
 # --------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
 class FactorPolynomials:
     """q = (1+t^2), c = (1+t^2) cos phi, s = (1+t^2) sin phi of one factor of Eq. (2).
 
@@ -242,9 +241,16 @@ class FactorPolynomials:
     in x on [0, 1]); for a known factor each is a 0-d array (the constants 1, cos phi, sin phi).
     """
 
+    __slots__ = ("q", "c", "s")
+
     q: np.ndarray
     c: np.ndarray
     s: np.ndarray
+
+    def __init__(self, q, c, s):
+        self.q = q
+        self.c = c
+        self.s = s
 
     @property
     def is_variable(self) -> bool:

@@ -33,7 +33,6 @@ w = 0 at one point where the equation does not vanish).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from typing import Callable, Mapping, Sequence
@@ -322,7 +321,6 @@ def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, p
     return accepted, points, counts, times
 
 
-@dataclasses.dataclass(frozen=True)
 class PlatformSearch:
     """What the box loop found on the quaternion charts of the platform formulation.
 
@@ -332,9 +330,16 @@ class PlatformSearch:
     points are not the whole answer); ``stats``: the search's counters and timings.
     """
 
+    __slots__ = ("points", "unresolved", "stats")
+
     points: tuple
     unresolved: int
     stats: SolverStats
+
+    def __init__(self, points, unresolved, stats):
+        self.points = points
+        self.unresolved = unresolved
+        self.stats = stats
 
 
 def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,

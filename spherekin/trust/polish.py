@@ -14,7 +14,6 @@ polishing turns each box into a point to ~1e-15 so that it can be certified and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -33,14 +32,21 @@ POLISH_MAX_ITER = 60
 CONVERGED_TOL = 1e-12
 
 
-@dataclass(frozen=True)
 class PolishResult:
     """Polished passive angles (radians), largest residual entry, steps taken, convergence flag."""
+
+    __slots__ = ("theta", "residual", "iterations", "converged")
 
     theta: np.ndarray
     residual: float
     iterations: int
     converged: bool
+
+    def __init__(self, theta, residual, iterations, converged):
+        self.theta = theta
+        self.residual = residual
+        self.iterations = iterations
+        self.converged = converged
 
 
 def _factor_map(loops: Sequence, unknowns: Sequence) -> list[list[tuple[float, int, int]]]:

@@ -105,17 +105,27 @@ NEARBY_TOLS = 100.0
 SOLUTION_BOUND = 1e-12
 
 
-@dataclasses.dataclass
 class _Point:
     """A polished point of a cluster (angles unwrapped next to the cluster) and what is known of it."""
+
+    __slots__ = ("theta", "polished", "seed_moved", "cert", "box", "enc", "evidence")
 
     theta: np.ndarray
     polished: object
     seed_moved: float
-    cert: object = None
-    box: tuple | None = None          # (lo, hi) holding exactly this root, when certified
-    enc: tuple | None = None          # (lo, hi) a tight enclosure of that root: K(box), inside box
-    evidence: dict = dataclasses.field(default_factory=dict)
+    cert: object                      # the Krawczyk result at the point, or None
+    box: tuple | None                 # (lo, hi) holding exactly this root, when certified
+    enc: tuple | None                 # (lo, hi) a tight enclosure of that root: K(box), inside box
+    evidence: dict
+
+    def __init__(self, theta, polished, seed_moved, cert=None, box=None, enc=None, evidence=None):
+        self.theta = theta
+        self.polished = polished
+        self.seed_moved = seed_moved
+        self.cert = cert
+        self.box = box
+        self.enc = enc
+        self.evidence = {} if evidence is None else evidence
 
 
 def is_proven(sol: Solution) -> bool:

@@ -40,7 +40,6 @@ angles (pi/2, pi, ...) that the floats round.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -119,7 +118,6 @@ _QUAD_CONST = np.array([0, 1, 1, 0])[:, None, None, None]
 _STEP_COLS = np.array([1, 2, 2, 1])
 
 
-@dataclass(frozen=True)
 class TransversalPlan:
     """The factors of a LoopSystem as index arrays (L loops padded to n factors, M unknowns, T terms).
 
@@ -133,6 +131,9 @@ class TransversalPlan:
       unknown; ``term_rows`` (T, 3): its rows of J; ``jac_u``, ``jac_f_col``, ``jac_f_row``
       (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose).
     """
+
+    __slots__ = ("n_loops", "n_factors", "const", "padding", "theta_slot", "theta_rows", "const_cols",
+                 "term_loop", "term_pos", "term_var", "term_rows", "jac_u", "jac_f_col", "jac_f_row")
 
     n_loops: int
     n_factors: int
@@ -148,6 +149,23 @@ class TransversalPlan:
     jac_u: np.ndarray
     jac_f_col: np.ndarray
     jac_f_row: np.ndarray
+
+    def __init__(self, n_loops, n_factors, const, padding, theta_slot, theta_rows, const_cols,
+                 term_loop, term_pos, term_var, term_rows, jac_u, jac_f_col, jac_f_row):
+        self.n_loops = n_loops
+        self.n_factors = n_factors
+        self.const = const
+        self.padding = padding
+        self.theta_slot = theta_slot
+        self.theta_rows = theta_rows
+        self.const_cols = const_cols
+        self.term_loop = term_loop
+        self.term_pos = term_pos
+        self.term_var = term_var
+        self.term_rows = term_rows
+        self.jac_u = jac_u
+        self.jac_f_col = jac_f_col
+        self.jac_f_row = jac_f_row
 
 
 def plan_of(system: LoopSystem) -> TransversalPlan:
