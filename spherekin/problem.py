@@ -111,6 +111,10 @@ class Problem:
     platform: PlatformSystem | None
     platform_pruner: object
     not_platform: str | None
+    #: The loop equations' pruners, built on first use once per chart layout and kept for every
+    #: input (:func:`spherekin.search.boxloop.pruner_for`): for the LP pruners, the LP model is
+    #: compiled once, not per input.
+    loop_pruners: dict = dataclasses.field(default_factory=dict)
 
     # ------------------------------------------------------------------ one input
 
@@ -155,7 +159,8 @@ class Problem:
                 sub = solve_system(self._builder(values), box, formulation=self._loop_formulation,
                                    pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
                                    tol=finer, isolate=s.isolate, jobs=1,
-                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth)
+                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth,
+                                   pruners=self.loop_pruners)
             except SolverLimitError:
                 return None
             refined.append(sub.stats)
@@ -265,7 +270,7 @@ class Problem:
             return solve_system(self._builder(values), self.ranges, formulation=self._loop_formulation,
                                 pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
                                 tol=t, isolate=s.isolate, jobs=s.jobs, max_boxes=s.max_boxes,
-                                max_depth=s.max_depth, progress=progress, trace=trace)
+                                max_depth=s.max_depth, progress=progress, trace=trace, pruners=self.loop_pruners)
 
         try:
             return run(tol), None, tol
