@@ -40,7 +40,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..core import bernstein
-from ..core.angles import RANGE_TOL, in_range
+from ..core.angles import RANGE_TOL, in_range, near_groups
 from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
 from .isolation import SquareSystem, krawczyk_boxes, newton
@@ -505,25 +505,8 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Cluster]:
     lo = np.array([b.lo for b in boxes])
     hi = np.array([b.hi for b in boxes])
     mid = 0.5 * (lo + hi)
-    half = 0.5 * (hi - lo)
-    parent = list(range(len(boxes)))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(len(boxes)):
-        d = np.abs(np.mod(mid[i + 1:] - mid[i] + math.pi, 2 * math.pi) - math.pi)
-        close = np.all(d <= half[i + 1:] + half[i] + MERGE_GAP_TOLS * tol, axis=1)
-        for j in np.flatnonzero(close) + i + 1:
-            parent[find(j)] = find(i)
-    groups: dict[int, list[int]] = {}
-    for i in range(len(boxes)):
-        groups.setdefault(find(i), []).append(i)
     out = []
-    for members in groups.values():
+    for members in near_groups(lo, hi, MERGE_GAP_TOLS * tol):
         ref = mid[members[0]]
         # unwrap every member next to the first one, then take the hull
         shift = np.round((mid[members] - ref) / (2 * math.pi)) * 2 * math.pi
