@@ -9,22 +9,27 @@ Commands:
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import os
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-from .core import bernstein
-from .paper_gosselin import DEFAULT_PASSIVE_RANGE, paper_gosselin_loops
+# numpy and the package's modules are imported by the functions that use them (build_parser imports
+# every strategy module): importing this module stays light, so that run() can pause the garbage
+# collector before the heavy imports.
 
 #: Default actuator angles (radians) of the example: arbitrary, generic values (no symmetry).
 DEFAULT_BETAS = (0.3, -0.2, 0.5)
 
 
 def _gosselin(args) -> int:
+    import numpy as np
+
+    from .core import bernstein
+    from .paper_gosselin import paper_gosselin_loops
+
     t0 = time.perf_counter()
     loops = paper_gosselin_loops(args.beta, tuple(args.range), corrected=True)
     rng = np.random.default_rng(args.seed)
@@ -190,6 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .problem import DEFAULT_FORMULATION, formulation_choices
     from .search.pruners import PRUNERS
     from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
+    from .paper_gosselin import DEFAULT_PASSIVE_RANGE
 
     so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)",
                         formatter_class=_HelpFormatter)
@@ -233,8 +239,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv=None) -> int:
-    parser = build_parser()
+def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
+    """Run the command ``argv`` (default: sys.argv[1:]); ``parser``: one :func:`build_parser` made."""
+    parser = parser or build_parser()
     args = parser.parse_args(argv)
     try:
         return args.func(args)
@@ -244,14 +251,28 @@ def main(argv=None) -> int:
 
 
 def run() -> None:
-    """The console entry point (``spherekin ...`` and ``python -m spherekin``): :func:`main`, then a fast exit.
+    """The console entry point (``spherekin ...`` and ``python -m spherekin``): the imports with the
+    garbage collector paused, :func:`main`, then a fast exit.
+
+    Importing numpy and the package allocates ~10^5 objects that live as long as the process and
+    hold no garbage, and the cyclic collector's passes over them cost ~4 ms per process
+    (benchmarks/bench_process.py). So the collector is paused while :func:`build_parser` imports
+    every module a command uses, those objects are then moved out of its reach (``gc.freeze``: later
+    passes do not walk them) and it is enabled again before the command does any work: a long
+    solve collects as before.
 
     Once main has returned (every file written and closed, every worker stopped), the output is
     flushed and the process ends with ``os._exit``: Python's interpreter teardown (finalizing
     numpy's and every module's objects) costs ~20 ms per process (benchmarks/bench_process.py)
     and changes nothing a command produced. An exception or Ctrl-C leaves by the normal path.
     """
-    code = main()
+    gc.disable()
+    try:
+        parser = build_parser()
+        gc.freeze()
+    finally:
+        gc.enable()
+    code = main(parser=parser)
     try:
         sys.stdout.flush()
         sys.stderr.flush()

@@ -204,3 +204,27 @@ def test_the_default_solve_imports_only_what_it_uses():
     unused = {"cvxpy", "highspy", "clarabel", "scipy", "matplotlib", "mpmath", "sympy", "fractions", "json",
               "shutil", "multiprocessing", "concurrent"}
     assert loaded & unused == set()
+
+
+def test_the_console_entry_collects_garbage_while_it_solves():
+    """run() pauses the garbage collector only while the modules are imported: importing the CLI
+    module imports no numpy (so the pause covers it), and during the solve the collector is on."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    code = ("import sys, gc\n"
+            "import spherekin.cli\n"
+            "print('numpy at import:', 'numpy' in sys.modules, file=sys.stderr)\n"
+            "import spherekin.problem as p\n"
+            "solve = p.Problem.solve\n"
+            "def spy(self, *a, **k):\n"
+            "    print('gc during solve:', gc.isenabled(), file=sys.stderr)\n"
+            "    return solve(self, *a, **k)\n"
+            "p.Problem.solve = spy\n"
+            "sys.argv = ['spherekin', 'solve', sys.argv[1], '--inputs', '0.3,-0.2,0.5']\n"
+            "spherekin.cli.run()\n")
+    proc = subprocess.run([sys.executable, "-c", code, GOSSELIN], capture_output=True, text=True, cwd=root, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "numpy at import: False" in proc.stderr and "gc during solve: True" in proc.stderr
+    assert "8 solutions (count proven" in proc.stdout
