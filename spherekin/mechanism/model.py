@@ -50,7 +50,7 @@ import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
 from ..core.angles import in_range, into_range
-from ..core.rotations import normalize_polygon, normalized_closure
+from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
 
@@ -140,7 +140,7 @@ class Leg:
                 raise ValueError(f"joints[{k}]: expected a Joint, got {j!r}")
         for k in range(len(joints) - 1):
             a, b = np.array(joints[k].axis), np.array(joints[k + 1].axis)
-            if np.linalg.norm(np.cross(a, b)) < PARALLEL_TOL:
+            if np.linalg.norm(cross(a, b)) < PARALLEL_TOL:
                 raise ValueError(
                     f"joints[{k}], joints[{k + 1}] ({joints[k].name!r}, {joints[k + 1].name!r}): inconsistent "
                     "geometry: consecutive axes of a leg are parallel (link twist 0 or pi); two coaxial joints "
@@ -152,7 +152,7 @@ class Leg:
     def twists(self) -> tuple[float, ...]:
         """Link twist angles (radians, in (0, pi)) between consecutive joint axes of the leg."""
         return tuple(
-            math.atan2(float(np.linalg.norm(np.cross(a.axis, b.axis))), float(np.dot(a.axis, b.axis)))
+            math.atan2(float(np.linalg.norm(cross(a.axis, b.axis))), float(np.dot(a.axis, b.axis)))
             for a, b in zip(self.joints, self.joints[1:])
         )
 
@@ -406,14 +406,14 @@ class SphericalMechanism:
         verts = [(j, 1) for j in up.joints] + [(j, -1) for j in reversed(down.joints)]
         p = np.array([j.axis for j, _ in verts])
         nxt = np.roll(p, -1, axis=0)
-        cross = np.cross(p, nxt)
-        sines = np.linalg.norm(cross, axis=1)
+        normals = cross(p, nxt)
+        sines = np.linalg.norm(normals, axis=1)
         sides = np.arctan2(sines, np.sum(p * nxt, axis=1))
         poles = np.empty_like(p)
         names = [j.name for j, _ in verts]
         for k in range(len(verts)):
             if sines[k] >= PARALLEL_TOL:
-                poles[k] = cross[k] / sines[k]
+                poles[k] = normals[k] / sines[k]
             elif np.array_equal(p[k], nxt[k]) or np.array_equal(p[k], -nxt[k]):
                 poles[k] = perpendicular(p[k])  # coaxial base or platform joints: any fixed normal
             else:
@@ -423,7 +423,7 @@ class SphericalMechanism:
                     "write them identical (coaxial joints) or separate them"
                 )
         prev = np.roll(poles, 1, axis=0)
-        exterior = np.arctan2(np.sum(p * np.cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
+        exterior = np.arctan2(np.sum(p * cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
         vertices = tuple(
             LoopVertex(j.name, s, wrap(float(th) - s * j.reference_angle), j.actuated)
             for (j, s), th in zip(verts, exterior)

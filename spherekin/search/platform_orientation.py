@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from ..core.angles import wrap
+from ..core.rotations import cross
 from ..mechanism.chains import angle_about, axis_rotation, perpendicular
 from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
@@ -269,7 +270,7 @@ class PlatformSystem:
         mats = []
         for leg in legs:
             c1 = float(leg.a1 @ leg.a2)
-            perp, side = leg.a2 - c1 * leg.a1, np.cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
+            perp, side = leg.a2 - c1 * leg.a1, cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
             cos_twist = float(leg.a2 @ leg.a3)
             mats.append([form_matrix(perp, leg.a3, 0.0), form_matrix(side, leg.a3, 0.0),
                          form_matrix(c1 * leg.a1, leg.a3, cos_twist)])
