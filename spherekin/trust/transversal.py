@@ -27,8 +27,9 @@ implementations with the same inputs and results:
   context for every operation (slow, obviously correct). F = P_n with prefix products as above
   and, since an unknown appears at most once per loop, dF/dtheta = sign * P_{i-1} (dRx(phi_i)/dphi Z)
   S_{i+1} with suffix products S_i = Rx(phi_i) Z S_{i+1}, using Rx(phi) Z = [[0,-1,0],[c,0,-s],[s,0,c]]
-  and d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]]; one routine does this in floats
-  (:func:`transversal_equations`) and in intervals.
+  and d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]], in intervals. The float values
+  (:func:`transversal_equations`) are the transversal entries of
+  :func:`spherekin.closure.closure_at`, the package's one float evaluation of F_n and dF_n/dtheta.
 
 Known factor angles and term offsets are floats rounded from the geometry; the enclosures treat
 each as an interval of half-width ``angle_tolerance`` (default :data:`ANGLE_TOLERANCE`), so they
@@ -45,7 +46,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..core import intervals as iv_ops
-from ..closure import KNOWN_ANGLE_SNAP, Term
+from ..closure import KNOWN_ANGLE_SNAP, Term, closure_at
 from ..search.formulations import TRANSVERSAL_ENTRIES
 from ..core.intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
 from ..mechanism import LoopSystem
@@ -90,13 +91,13 @@ def transversal_equations(system: LoopSystem, theta) -> tuple[np.ndarray, np.nda
     """Float values F (E,) and Jacobian J (E, M) = dF/dtheta of the transversal system at ``theta``.
 
     ``theta``: passive angles (radians), a sequence in ``system.unknowns`` order or a mapping
-    name -> angle. E = 3 * number of loops, M = number of unknowns. (The float twin of the
-    reference evaluation.)
+    name -> angle. E = 3 * number of loops, M = number of unknowns: the transversal entries of
+    :func:`spherekin.closure.closure_at` (the interval reference below is an independent evaluation).
     """
     check_system(system)
     y = check_theta(system, theta)
-    f, j = _evaluate(system, list(y), float, math.cos, math.sin)
-    return np.array(f, dtype=float), np.array(j, dtype=float).reshape(len(f), len(y))
+    f, j = closure_at(system.loops, system.unknowns, y, jacobian=True, loop_indices=system.loop_indices)
+    return f[:, _ENTRY_ROWS, _ENTRY_COLS].reshape(-1), j[:, _ENTRY_ROWS, _ENTRY_COLS, :].reshape(-1, len(y))
 
 
 # --------------------------------------------------------------------------------------------
