@@ -80,7 +80,8 @@ def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
     assert "halves-again" in formulation_choices()
 
 
-def test_compile_checks_names_without_building_and_builds_the_platform_pruner_once(registered):
+def counting_pruner() -> type:
+    """A new projected-polyhedron pruner class, "counting-builds", that counts its builds (``builds``)."""
     class CountingBuilds(ProjectedPolyhedron):
         name = "counting-builds"
         builds = 0
@@ -90,6 +91,11 @@ def test_compile_checks_names_without_building_and_builds_the_platform_pruner_on
             cls.builds += 1
             return super().build(shapes, lp_backend)
 
+    return CountingBuilds
+
+
+def test_compile_checks_names_without_building_and_builds_the_platform_pruner_once(registered):
+    CountingBuilds = counting_pruner()
     registered(PRUNERS, CountingBuilds)
     spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
     assert CountingBuilds.builds == 0          # a loop formulation: the checks build nothing
@@ -105,15 +111,7 @@ def test_a_compiled_loop_formulation_builds_its_pruner_and_lp_model_once_for_eve
     """solve_many over the loop equations (halves): the pruner, and the LP backend's model inside a
     hybrid pruner, are built once per chart layout (the blocks' shapes do not depend on the inputs),
     not once per input; the reports are those of independent one-call solves."""
-    class CountingBuilds(ProjectedPolyhedron):
-        name = "counting-builds"
-        builds = 0
-
-        @classmethod
-        def build(cls, shapes, lp_backend):
-            cls.builds += 1
-            return super().build(shapes, lp_backend)
-
+    CountingBuilds = counting_pruner()
     class CountingModels(HighspyBackend):
         name = "counting-models"
         models = 0
