@@ -3,7 +3,8 @@
 ``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
 on the actuator inputs: the strategy checks, the unknowns and their ranges, and, for the platform
 formulation (:mod:`spherekin.search.platform_orientation`), Eq. (1)'s control-point tensors on the four
-quaternion charts and the pruner (for the LP pruners, the compiled LP models). Then
+quaternion charts and the pruner (for the LP pruners, the compiled LP models); the loop equations'
+pruner (and its LP model) is built at its first use, once per chart layout, and kept. Then
 ``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
 
 1. the search (:mod:`spherekin.search.boxloop`): the box loop of Section 4 on the platform formulation,
