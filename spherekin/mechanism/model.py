@@ -44,7 +44,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -62,6 +62,7 @@ __all__ = [
     "Joint",
     "Leg",
     "LoopVertex",
+    "FactorSpec",
     "LoopGeometry",
     "LoopSystem",
     "IKSolution",
@@ -167,6 +168,17 @@ class LoopVertex:
     actuated: bool
 
 
+class FactorSpec(NamedTuple):
+    """One factor of Eq. (2) as the geometry gives it, before its unknown exists: phi = offset +
+    sign * (reading of ``joint``), radians; a known angle ``offset`` when ``joint`` is None (sign 0).
+    :meth:`SphericalMechanism.loop_system` turns it into a known angle or a
+    :class:`spherekin.closure.Term` (offset, Unknown, sign) of the loop's unknowns."""
+
+    offset: float
+    joint: str | None
+    sign: int
+
+
 @dataclass(frozen=True)
 class LoopGeometry:
     """The spherical polygon of one independent loop (Eq. 1): up ``legs[0]``, down ``legs[1]``.
@@ -181,8 +193,8 @@ class LoopGeometry:
     sides: tuple
     right_angled: bool
 
-    def factor_specs(self, form: str = "auto") -> tuple[tuple[float, str | None, int], ...]:
-        """The factors of Eq. (2) as (offset, joint name or None, sign): phi = offset + sign * reading.
+    def factor_specs(self, form: str = "auto") -> tuple[FactorSpec, ...]:
+        """The factors of Eq. (2) as :class:`FactorSpec` (offset, joint name or None, sign): phi = offset + sign * reading.
 
         Compact form (all sides pi/2): phi_k = theta_k. Doubled form: the corrected rule of
         :func:`spherekin.core.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi.
@@ -195,18 +207,18 @@ class LoopGeometry:
                 f"{[round(s, 6) for s in self.sides]}; use 'auto' or 'doubled'"
             )
         if form == "compact" or (form == "auto" and self.right_angled):
-            return tuple((v.offset, v.joint, v.sign) for v in self.vertices)
+            return tuple(FactorSpec(v.offset, v.joint, v.sign) for v in self.vertices)
         phis = normalize_polygon(np.array(self.sides), np.array([v.offset for v in self.vertices]))
         specs = []
         for k, v in enumerate(self.vertices):
-            specs.append((wrap(float(phis[2 * k])), v.joint, v.sign))
-            specs.append((float(phis[2 * k + 1]), None, 0))
+            specs.append(FactorSpec(wrap(float(phis[2 * k])), v.joint, v.sign))
+            specs.append(FactorSpec(float(phis[2 * k + 1]), None, 0))
         return tuple(specs)
 
     def factor_angles(self, readings: Mapping[str, float], form: str = "auto") -> np.ndarray:
         """The angles phi_1..phi_n of Eq. (2) at the given joint readings (radians), shape (n,)."""
-        return np.array([off + (sgn * readings[name] if name is not None else 0.0)
-                         for off, name, sgn in self.factor_specs(form)])
+        return np.array([f.offset + (f.sign * readings[f.joint] if f.joint is not None else 0.0)
+                         for f in self.factor_specs(form)])
 
 
 @dataclass(frozen=True)
@@ -554,13 +566,13 @@ class SphericalMechanism:
         order = list(unknowns)
         for g in self.loop_geometry:
             factors = []
-            for off, name, sgn in g.factor_specs(form):
-                if name is None:
-                    factors.append(off)
-                elif name in known:
-                    factors.append(wrap(off + sgn * known[name]))
+            for spec in g.factor_specs(form):
+                if spec.joint is None:
+                    factors.append(spec.offset)
+                elif spec.joint in known:
+                    factors.append(wrap(spec.offset + spec.sign * known[spec.joint]))
                 else:
-                    factors.append(Term(unknowns[name], off, sgn))
+                    factors.append(Term(unknowns[spec.joint], spec.offset, spec.sign))
             loop = ClosureLoop(factors)
             loops.append(loop)
             indices.append(tuple(order.index(u.name) for u in loop.unknowns))
