@@ -13,6 +13,7 @@ Commands:
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import os
 import re
@@ -20,16 +21,20 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-from .core import bernstein
-from .paper_gosselin import DEFAULT_PASSIVE_RANGE, paper_gosselin_loops
+# numpy and the package's modules are imported by the functions that use them (build_parser imports
+# every strategy module): importing this module stays light, so that run() can pause the garbage
+# collector before the heavy imports.
 
 #: Default actuator angles (radians) of the example: arbitrary, generic values (no symmetry).
 DEFAULT_BETAS = (0.3, -0.2, 0.5)
 
 
 def _gosselin(args) -> int:
+    import numpy as np
+
+    from .core import bernstein
+    from .paper_gosselin import paper_gosselin_loops
+
     t0 = time.perf_counter()
     loops = paper_gosselin_loops(args.beta, tuple(args.range), corrected=True)
     rng = np.random.default_rng(args.seed)
@@ -299,6 +304,8 @@ def _parse_numbers(key: str, text: str, n: int) -> list[float]:
 
 
 def _ik(args) -> int:
+    import numpy as np
+
     from .core.orientation import quaternions_from_rotations, rotation_from_euler, rotation_from_quaternion
     from .mechanism import load_mechanism
     from .mechanism.checks import check_rotation
@@ -344,6 +351,8 @@ def _ik(args) -> int:
 
 
 def _track(args) -> int:
+    import numpy as np
+
     from .batch import read_inputs_csv
     from .batch.sinks import check_output_path
     from .core.orientation import quaternions_from_rotations, rotation_from_quaternion
@@ -482,6 +491,34 @@ def _verify(args) -> int:
     return subprocess.run([sys.executable, "-m", "verification", *argv], cwd=root).returncode
 
 
+def _terminal_columns(fallback: int = 80) -> int:
+    """Columns of the terminal, as :func:`shutil.get_terminal_size` reads them: $COLUMNS, else the
+    terminal of ``sys.__stdout__``, else ``fallback``."""
+    try:
+        columns = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(sys.__stdout__.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns or fallback
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help formatter with the width read by :func:`_terminal_columns`.
+
+    argparse builds a formatter for every option added (to check its metavar), and its default
+    width imports shutil (with bz2, lzma, zlib: ~1.5 ms, paid by every process, benchmarks/bench_process.py)
+    only to read the terminal's width; the help printed is the same.
+    """
+
+    def __init__(self, prog, indent_increment=2, max_help_position=24, width=None):
+        super().__init__(prog, indent_increment, max_help_position,
+                         _terminal_columns() - 2 if width is None else width)
+
+
 def _add_strategy_options(so) -> None:
     """The strategy options of solve, batch and map (choices read from the registries)."""
     from .search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
@@ -512,10 +549,18 @@ def _add_strategy_options(so) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    from . import __version__
+    from .paper_gosselin import DEFAULT_PASSIVE_RANGE
 
-    so = sub.add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
+    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0],
+                                     formatter_class=_HelpFormatter)
+    parser.add_argument("--version", action="version", version=f"spherekin {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    def sub_add_parser(name, **kw):
+        return commands.add_parser(name, formatter_class=_HelpFormatter, **kw)
+
+    so = sub_add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
@@ -526,7 +571,7 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.set_defaults(func=_solve)
-    ik = sub.add_parser("ik", help="inverse kinematics: every actuator solution of a platform pose")
+    ik = sub_add_parser("ik", help="inverse kinematics: every actuator solution of a platform pose")
     ik.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     ik.add_argument("--rotation", help="the platform rotation R, 9 numbers row-major (v_i = R v_i^0)")
     ik.add_argument("--quaternion", help="the platform rotation as a quaternion w,x,y,z (normalized first)")
@@ -537,7 +582,7 @@ def build_parser() -> argparse.ArgumentParser:
     ik.add_argument("--in-range", action="store_true", help="only the solutions inside every joint range")
     ik.add_argument("--json", help="write the solutions as JSON")
     ik.set_defaults(func=_ik)
-    b = sub.add_parser("batch", help="direct kinematics of many inputs (CSV or grid), on Dask, to Parquet or CSV")
+    b = sub_add_parser("batch", help="direct kinematics of many inputs (CSV or grid), on Dask, to Parquet or CSV")
     b.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     b.add_argument("--inputs", help="CSV file of inputs: a header naming the actuated joints, one row per input")
     _add_grid_options(b)
@@ -546,7 +591,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(b)
     _add_strategy_options(b)
     b.set_defaults(func=_batch)
-    mp = sub.add_parser("map", help="number of assembly modes over a 2-D grid of inputs, drawn as a map")
+    mp = sub_add_parser("map", help="number of assembly modes over a 2-D grid of inputs, drawn as a map")
     mp.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     _add_grid_options(mp)
     mp.add_argument("--plot", help="draw the map (.png, .pdf or .svg)")
@@ -557,7 +602,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(mp)
     _add_strategy_options(mp)
     mp.set_defaults(func=_map)
-    tk = sub.add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")
+    tk = sub_add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")
     tk.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     tk.add_argument("--path", required=True, help="CSV of inputs (a header naming the actuated joints, one row each)")
     tk.add_argument("--start-rotation", help="the platform rotation R at the first input, 9 numbers row-major")
@@ -571,7 +616,7 @@ def build_parser() -> argparse.ArgumentParser:
     tk.add_argument("--out", help="write the rows as a results table (.csv or .parquet, the columns of batch)")
     tk.add_argument("--plot", help="draw the orientation along the path and the singularity measure (.png, .pdf, .svg)")
     tk.set_defaults(func=_track)
-    g = sub.add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
+    g = sub_add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians (default: %(default)s)")
     g.add_argument("--range", type=float, nargs=2, default=list(DEFAULT_PASSIVE_RANGE), metavar=("LO", "HI"),
@@ -579,7 +624,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--samples", type=int, default=10000, help="random points for the sampled range")
     g.add_argument("--seed", type=int, default=0, help="seed of the random sample")
     g.set_defaults(func=_gosselin)
-    v = sub.add_parser("verify", help="verify every claim of the paper and write the errata report")
+    v = sub_add_parser("verify", help="verify every claim of the paper and write the errata report")
     v.add_argument("--quick", action="store_true", help="small sizes, as in the test suite")
     v.add_argument("--report", help="where to write the markdown report (default: verification/REPORT.md)")
     v.set_defaults(func=_verify)
@@ -604,8 +649,9 @@ def join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
-def main(argv=None) -> int:
-    parser = build_parser()
+def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
+    """Run the command ``argv`` (default: sys.argv[1:]); ``parser``: one :func:`build_parser` made."""
+    parser = parser or build_parser()
     args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     try:
         return args.func(args)
@@ -624,14 +670,28 @@ def main(argv=None) -> int:
 
 
 def run() -> None:
-    """The console entry point (``spherekin ...`` and ``python -m spherekin``): :func:`main`, then a fast exit.
+    """The console entry point (``spherekin ...`` and ``python -m spherekin``): the imports with the
+    garbage collector paused, :func:`main`, then a fast exit.
+
+    Importing numpy and the package allocates ~10^5 objects that live as long as the process and
+    hold no garbage, and the cyclic collector's passes over them cost ~4 ms per process
+    (benchmarks/bench_process.py). So the collector is paused while :func:`build_parser` imports
+    every module a command uses, those objects are then moved out of its reach (``gc.freeze``: later
+    passes do not walk them) and it is enabled again before the command does any work: a long
+    solve collects as before.
 
     Once main has returned (every file written and closed, every worker stopped), the output is
     flushed and the process ends with ``os._exit``: Python's interpreter teardown (finalizing
     numpy's and every module's objects) costs ~20 ms per process (benchmarks/bench_process.py)
     and changes nothing a command produced. An exception or Ctrl-C leaves by the normal path.
     """
-    code = main()
+    gc.disable()
+    try:
+        parser = build_parser()
+        gc.freeze()
+    finally:
+        gc.enable()
+    code = main(parser=parser)
     try:
         sys.stdout.flush()
         sys.stderr.flush()

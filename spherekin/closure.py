@@ -43,7 +43,7 @@ from typing import Sequence, Union
 import numpy as np
 
 from .core import bernstein
-from .core.rotations import normalized_closure
+from .core.rotations import Z, normalized_closure, rx
 
 __all__ = [
     "KNOWN_ANGLE_SNAP",
@@ -62,6 +62,7 @@ __all__ = [
     "scalar_control_points",
     "ClosureLoop",
     "ROUTES",
+    "closure_at",
 ]
 
 #: |cos| or |sin| of a known angle below this is taken as exactly 0 (and the other as +-1).
@@ -234,7 +235,6 @@ class Term(_AngleArithmetic):
 # Factor polynomials (pure functions, any dtype)
 # --------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
 class FactorPolynomials:
     """q = (1+t^2), c = (1+t^2) cos phi, s = (1+t^2) sin phi of one factor of Eq. (2).
 
@@ -242,9 +242,16 @@ class FactorPolynomials:
     in x on [0, 1]); for a known factor each is a 0-d array (the constants 1, cos phi, sin phi).
     """
 
+    __slots__ = ("q", "c", "s")
+
     q: np.ndarray
     c: np.ndarray
     s: np.ndarray
+
+    def __init__(self, q, c, s):
+        self.q = q
+        self.c = c
+        self.s = s
 
     @property
     def is_variable(self) -> bool:
@@ -515,3 +522,60 @@ class ClosureLoop:
             "n_control_points": int(np.size(c)),
             "enclosure": (float(lo), float(hi)),
         }
+
+
+# --------------------------------------------------------------------------------------------
+# F_n and dF_n/dtheta at angles (floats)
+# --------------------------------------------------------------------------------------------
+
+def _derivative_factor(phi: float) -> np.ndarray:
+    """(d/dphi Rx(phi)) Z."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]]) @ Z
+
+
+def closure_at(loops: Sequence["ClosureLoop"], unknowns: Sequence[Unknown], theta, jacobian: bool = False,
+               loop_indices: Sequence[Sequence[int]] | None = None):
+    """F_n = prod_i Rx(phi_i) Z of Eq. (2) for every loop at the passive angles ``theta`` (radians,
+    one per entry of ``unknowns``), shape (L, 3, 3); with ``jacobian``, also dF_n/dtheta, shape
+    (L, 3, 3, M), as ``(F, J)``.
+
+    A factor is a known angle or a :class:`Term` offset + sign * theta_k: k is the position of the
+    term's unknown among ``unknowns`` (by identity), or, given ``loop_indices`` (as
+    :attr:`spherekin.mechanism.LoopSystem.loop_indices`), ``loop_indices[l][j]`` for the j-th term
+    of loop l. With M_i = Rx(phi_i) Z, the derivative is the sum over the factors of
+    unknown k of sign_i M_1 ... M_{i-1} (dRx/dphi)(phi_i) Z M_{i+1} ... M_n (prefix and suffix
+    products). The one float evaluation of the closure equations at angles: polishing
+    (:mod:`spherekin.trust.polish`) and the transversal system (:mod:`spherekin.trust.transversal`)
+    call it.
+    """
+    theta = np.asarray(theta, dtype=float)
+    fs, js = [], []
+    for li, loop in enumerate(loops):
+        row = []
+        for f in loop.factors:
+            if isinstance(f, Term):
+                j = sum(k >= 0 for _, k, _ in row)
+                k = (loop_indices[li][j] if loop_indices is not None
+                     else next(i for i, u in enumerate(unknowns) if u is f.unknown))
+                row.append((f.offset, k, f.sign))
+            else:
+                row.append((float(f), -1, 1))
+        phis = np.array([off + (sg * theta[k] if k >= 0 else 0.0) for off, k, sg in row])
+        mats = rx(phis) @ Z
+        n = len(mats)
+        prefix = [np.eye(3)]
+        for m in mats:
+            prefix.append(prefix[-1] @ m)
+        fs.append(prefix[-1])
+        if jacobian:
+            suffix = [np.eye(3)] * (n + 1)
+            for i in range(n - 1, -1, -1):
+                suffix[i] = mats[i] @ suffix[i + 1]
+            block = np.zeros((3, 3, len(theta)))
+            for i, (off, k, sg) in enumerate(row):
+                if k >= 0:
+                    block[:, :, k] += sg * (prefix[i] @ _derivative_factor(phis[i]) @ suffix[i + 1])
+            js.append(block)
+    f_all = np.array(fs).reshape(len(fs), 3, 3)
+    return (f_all, np.array(js).reshape(len(fs), 3, 3, len(theta))) if jacobian else f_all

@@ -3,7 +3,8 @@
 ``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
 on the actuator inputs: the strategy checks, the unknowns and their ranges, and, for the platform
 formulation (:mod:`spherekin.search.platform_orientation`), Eq. (1)'s control-point tensors on the four
-quaternion charts and the pruner (for the LP pruners, the compiled LP models). Then
+quaternion charts and the pruner (for the LP pruners, the compiled LP models); the loop equations'
+pruner (and its LP model) is built at its first use, once per chart layout, and kept. Then
 ``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
 
 1. the search (:mod:`spherekin.search.boxloop`): the box loop of Section 4 on the platform formulation,
@@ -111,6 +112,10 @@ class Problem:
     platform: PlatformSystem | None
     platform_pruner: object
     not_platform: str | None
+    #: The loop equations' pruners, built on first use once per chart layout and kept for every
+    #: input (:func:`spherekin.search.boxloop.pruner_for`): for the LP pruners, the LP model is
+    #: compiled once, not per input.
+    loop_pruners: dict = dataclasses.field(default_factory=dict)
 
     # ------------------------------------------------------------------ one input
 
@@ -155,7 +160,8 @@ class Problem:
                 sub = solve_system(self._builder(values), box, formulation=self._loop_formulation,
                                    pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
                                    tol=finer, isolate=s.isolate, jobs=1,
-                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth)
+                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth,
+                                   pruners=self.loop_pruners)
             except SolverLimitError:
                 return None
             refined.append(sub.stats)
@@ -311,7 +317,7 @@ class Problem:
             return solve_system(self._builder(values), self.ranges, formulation=self._loop_formulation,
                                 pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
                                 tol=t, isolate=s.isolate, jobs=s.jobs, max_boxes=s.max_boxes,
-                                max_depth=s.max_depth, progress=progress, trace=trace)
+                                max_depth=s.max_depth, progress=progress, trace=trace, pruners=self.loop_pruners)
 
         try:
             return run(tol), None, tol

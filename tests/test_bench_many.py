@@ -5,7 +5,7 @@ current API and that its own consistency columns (poses equal to the baseline's,
 come out right on inputs whose assemblies are known from inverse kinematics.
 """
 
-from benchmarks.bench_many import ik_inputs, run
+from benchmarks.bench_many import ik_inputs, run, run_lp
 from spherekin.mechanism import general_3rrr
 
 
@@ -16,3 +16,11 @@ def test_bench_many_runs_and_every_method_finds_the_baselines_poses():
     assert [r["method"] for r in out] == ["loop of solve (halves)", "loop of solve (default)", "solve_many"]
     assert all(r["inputs"] == 3 and r["agree"] == 3 for r in out)
     assert len({r["solutions"] for r in out}) == 1 and out[0]["solutions"] >= 3     # each input assembles
+
+
+def test_bench_many_lp_rows_run_and_agree():
+    """The rows of the loop equations with LP models: the compiled problem finds what the loop of solve finds."""
+    mech = general_3rrr()
+    out = run_lp(mech, ik_inputs(mech, 1, seed=5))
+    assert [r["inputs"] for r in out] == [1, 1] and out[1]["agree"] == 1
+    assert out[0]["solutions"] == out[1]["solutions"] >= 1

@@ -177,3 +177,66 @@ def test_verify_without_a_checkout_says_where_the_verification_lives(tmp_path):
                           cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "source checkout" in proc.stderr and "make verify" in proc.stderr
+
+
+@pytest.mark.parametrize("columns", ["50", "200"])
+def test_help_is_argparses_own_at_the_terminal_width(monkeypatch, columns):
+    """The parser's formatter reads the terminal width without importing shutil; the help it prints
+    is exactly what argparse's stock formatter (which asks shutil) prints, for every command."""
+    import argparse
+
+    from spherekin.cli import build_parser
+
+    monkeypatch.setenv("COLUMNS", columns)
+    parser = build_parser()
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    for p in (parser, *sub.choices.values()):
+        ours = p.format_help()
+        p.formatter_class = argparse.HelpFormatter
+        assert ours == p.format_help()
+    assert max(len(line) for line in ours.splitlines()) <= int(columns)
+
+
+def test_the_default_solve_imports_only_what_it_uses():
+    """spherekin solve with the defaults (platform formulation, pp pruner) imports no LP solver, no
+    plotting, no exact arithmetic and no JSON: each import is paid by every process (issue 14:
+    import time counts). Checked in a fresh process, by the modules it holds at the end."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    code = ("import io, sys, contextlib; from spherekin.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert main(['solve', {GOSSELIN!r}, '--inputs', '0.3,-0.2,0.5']) == 0\n"
+            "print(' '.join(sorted(sys.modules)))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    loaded = {name.split(".")[0] for name in proc.stdout.split()}
+    assert "spherekin" in loaded and "numpy" in loaded
+    unused = {"cvxpy", "highspy", "clarabel", "scipy", "matplotlib", "mpmath", "sympy", "fractions", "json",
+              "shutil", "multiprocessing", "concurrent"}
+    assert loaded & unused == set()
+
+
+def test_the_console_entry_collects_garbage_while_it_solves():
+    """run() pauses the garbage collector only while the modules are imported: importing the CLI
+    module imports no numpy (so the pause covers it), and during the solve the collector is on."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    code = ("import sys, gc\n"
+            "import spherekin.cli\n"
+            "print('numpy at import:', 'numpy' in sys.modules, file=sys.stderr)\n"
+            "import spherekin.problem as p\n"
+            "solve = p.Problem.solve\n"
+            "def spy(self, *a, **k):\n"
+            "    print('gc during solve:', gc.isenabled(), file=sys.stderr)\n"
+            "    return solve(self, *a, **k)\n"
+            "p.Problem.solve = spy\n"
+            "sys.argv = ['spherekin', 'solve', sys.argv[1], '--inputs', '0.3,-0.2,0.5']\n"
+            "spherekin.cli.run()\n")
+    proc = subprocess.run([sys.executable, "-c", code, GOSSELIN], capture_output=True, text=True, cwd=root, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "numpy at import: False" in proc.stderr and "gc during solve: True" in proc.stderr
+    assert "8 solutions (count proven" in proc.stdout

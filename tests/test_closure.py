@@ -277,3 +277,31 @@ def test_unknown_twice_in_a_loop_is_rejected():
     u = C.Unknown("a", 0, 1)
     with pytest.raises(ValueError, match="appears twice"):
         C.ClosureLoop([u, 0.3, u + 1.0])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_closure_at_is_the_product_of_rotations_and_its_derivative(seed):
+    """closure_at: F_n against the product of Rx(phi_i) Z built here with sympy-free numpy (one
+    rotation at a time), and dF/dtheta against central differences of that product."""
+    rng = np.random.default_rng(seed)
+    a, b, c = (C.Unknown(n, -3.0, 3.0) for n in "abc")
+    loops = [C.ClosureLoop([0.4, a, np.pi / 2 - b, 1.1, c + 0.3]), C.ClosureLoop([b, -0.7, c, a + np.pi])]
+    theta = rng.uniform(-3.0, 3.0, 3)
+
+    def product(th):
+        out = []
+        for phis in ([0.4, th[0], np.pi / 2 - th[1], 1.1, th[2] + 0.3], [th[1], -0.7, th[2], th[0] + np.pi]):
+            m = np.eye(3)
+            for phi in phis:
+                rx = np.array([[1, 0, 0], [0, math.cos(phi), -math.sin(phi)], [0, math.sin(phi), math.cos(phi)]])
+                m = m @ rx @ np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+            out.append(m)
+        return np.array(out)
+
+    f, j = C.closure_at(loops, [a, b, c], theta, jacobian=True)
+    assert f.shape == (2, 3, 3) and j.shape == (2, 3, 3, 3)
+    np.testing.assert_allclose(f, product(theta), atol=1e-14)
+    np.testing.assert_array_equal(C.closure_at(loops, [a, b, c], theta), f)
+    h = 1e-6
+    fd = np.stack([(product(theta + h * e) - product(theta - h * e)) / (2 * h) for e in np.eye(3)], axis=-1)
+    np.testing.assert_allclose(j, fd, atol=1e-8)

@@ -503,3 +503,26 @@ def test_parallel_measure_is_the_condition_of_an_independent_jacobian():
         joints = {**dict(zip(mech.actuated, rows[0])), **dict(zip(reports[0].unknowns, sol.angles))}
         s = np.linalg.svd(_leg_pose_jacobian_kp(mech, joints), compute_uv=False)
         assert mech.parallel_measure(joints) == pytest.approx(s[-1] / s[0], rel=1e-6)
+
+
+def test_factor_specs_are_the_terms_of_the_loop_system():
+    """Each factor of Eq. (2) is one FactorSpec (offset, joint or None, sign) at the geometry level;
+    the loop system turns the passive ones into Terms with the same offset, sign and joint, and
+    the actuated ones into known angles offset + sign * input."""
+    from spherekin.closure import Term
+    from spherekin.mechanism import FactorSpec
+
+    for mech in (gosselin(), general_3rrr()):
+        inputs = (0.3, -0.2, 0.5)
+        system = mech.loop_system(inputs, {n: (-3.0, 3.0) for n in mech.passive})
+        known = dict(zip(mech.actuated, inputs))
+        for g, loop in zip(mech.loop_geometry, system.loops):
+            specs = g.factor_specs()
+            assert all(isinstance(s, FactorSpec) for s in specs) and len(specs) == len(loop.factors)
+            for spec, factor in zip(specs, loop.factors):
+                if spec.joint is None or spec.joint in known:
+                    want = spec.offset + (spec.sign * known[spec.joint] if spec.joint else 0.0)
+                    assert not isinstance(factor, Term)
+                    assert math.remainder(float(factor) - want, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
+                else:
+                    assert (factor.unknown.name, factor.offset, factor.sign) == (spec.joint, spec.offset, spec.sign)

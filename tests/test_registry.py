@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
 import pytest
 
 import spherekin
 from spherekin.cli import build_parser
 from spherekin.search.formulations import FORMULATIONS, Formulation, Halves
-from spherekin.search.lp_backends import LP_BACKENDS, LPBackend
+from spherekin.search.lp_backends import LP_BACKENDS, HighspyBackend, LPBackend
 from spherekin.mechanism import gosselin
 from spherekin.search.parameterizations import PARAMETERIZATIONS, LoopParameterization
 from spherekin.problem import formulation_choices
@@ -79,7 +80,8 @@ def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
     assert "halves-again" in formulation_choices()
 
 
-def test_compile_checks_names_without_building_and_builds_the_platform_pruner_once(registered):
+def counting_pruner() -> type:
+    """A new projected-polyhedron pruner class, "counting-builds", that counts its builds (``builds``)."""
     class CountingBuilds(ProjectedPolyhedron):
         name = "counting-builds"
         builds = 0
@@ -89,6 +91,11 @@ def test_compile_checks_names_without_building_and_builds_the_platform_pruner_on
             cls.builds += 1
             return super().build(shapes, lp_backend)
 
+    return CountingBuilds
+
+
+def test_compile_checks_names_without_building_and_builds_the_platform_pruner_once(registered):
+    CountingBuilds = counting_pruner()
     registered(PRUNERS, CountingBuilds)
     spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
     assert CountingBuilds.builds == 0          # a loop formulation: the checks build nothing
@@ -98,6 +105,37 @@ def test_compile_checks_names_without_building_and_builds_the_platform_pruner_on
         report = problem.solve(GOSSELIN_INPUTS)
         assert report.settings.fallback is None and report.proven_count == 8
     assert CountingBuilds.builds == 1          # the compiled problem's pruner serves every input
+
+
+def test_a_compiled_loop_formulation_builds_its_pruner_and_lp_model_once_for_every_input(registered):
+    """solve_many over the loop equations (halves): the pruner, and the LP backend's model inside a
+    hybrid pruner, are built once per chart layout (the blocks' shapes do not depend on the inputs),
+    not once per input; the reports are those of independent one-call solves."""
+    CountingBuilds = counting_pruner()
+    class CountingModels(HighspyBackend):
+        name = "counting-models"
+        models = 0
+
+        def __init__(self, *args, **kwargs):
+            type(self).models += 1
+            super().__init__(*args, **kwargs)
+
+    registered(PRUNERS, CountingBuilds)
+    registered(LP_BACKENDS, CountingModels)
+    rows = [GOSSELIN_INPUTS, (0.1, 0.4, -0.3), (-0.5, 0.2, 0.6)]
+    problem = spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
+    reports = problem.solve_many(rows)
+    assert CountingBuilds.builds == 1
+    assert reports[0].proven_count == 8 and reports[0].count_exact
+    for row, report in zip(rows, reports):
+        alone = spherekin.solve(gosselin(), row, formulation="halves", pruner="counting-builds")
+        assert [s.status for s in report.solutions] == [s.status for s in alone.solutions]
+        assert all(np.allclose(a.angles, b.angles, atol=1e-12) for a, b in zip(report.solutions, alone.solutions))
+    assert CountingBuilds.builds == 1 + len(rows)     # each one-call solve compiles its own
+    hybrid = spherekin.compile(gosselin(), pruner="hybrid", lp_backend="counting-models", formulation="halves")
+    assert CountingModels.models == 0                 # compile checks the names, builds no model
+    hybrid.solve_many(rows[:2])
+    assert CountingModels.models == 1
 
 
 def test_the_registries_are_left_as_found_by_the_fixture():

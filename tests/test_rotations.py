@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from spherekin.core import rotations as R
+from spherekin.core.rotations import cross
 
 
 def random_polygon(rng, m):
@@ -112,3 +113,13 @@ def test_batch_closure_equals_loop():
 def test_bad_input_names_argument(call, name):
     with pytest.raises(ValueError, match=name):
         call()
+
+
+@pytest.mark.parametrize("shape_a, shape_b", [((3,), (3,)), ((7, 3), (7, 3)), ((7, 3), (3,)), ((2, 1, 3), (4, 3))])
+def test_cross_is_numpys_bit_for_bit(shape_a, shape_b):
+    """rotations.cross: the same value as np.cross, exactly, for single vectors and broadcast batches."""
+    rng = np.random.default_rng(len(shape_a) * 10 + len(shape_b))
+    a, b = rng.normal(size=shape_a), rng.normal(size=shape_b)
+    got = cross(a, b)
+    assert got.shape == np.cross(a, b).shape and np.array_equal(got, np.cross(a, b))
+    assert np.array_equal(cross([1, 0, 0], [0, 1, 0]), [0.0, 0.0, 1.0])

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "in_range_many", "into_range"]
+__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "in_range_many", "into_range", "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -56,3 +56,32 @@ def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:
         return float(theta)
     lo = float(rng[0])
     return lo - tol + float(np.mod(float(theta) - (lo - tol), TWO_PI))
+
+
+def near_groups(lo, hi, gap: float) -> list[list[int]]:
+    """The boxes [lo_k, hi_k] (K, M; radians) grouped by nearness modulo 2 pi, transitively.
+
+    Boxes j and k are near when on every coordinate their gap modulo 2 pi is at most ``gap``:
+    |wrap(c_j - c_k)| <= r_j + r_k + gap, with c the centres and r the half-widths. The groups are
+    the connected components of that relation (union-find): lists of indices, each in increasing
+    order, the groups in the order of their first index. The search merges accepted boxes into
+    clusters with it, the trust layer unproven entries next to each other.
+    """
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    parent = list(range(len(lo)))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(len(lo)):
+        close = np.all(np.abs(wrap(mid[i + 1:] - mid[i])) <= half[i + 1:] + half[i] + gap, axis=1)
+        for j in np.flatnonzero(close) + i + 1:
+            parent[find(j)] = find(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(len(lo)):
+        groups.setdefault(find(i), []).append(i)
+    return list(groups.values())

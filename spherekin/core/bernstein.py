@@ -21,7 +21,6 @@ beside the fast routines (:func:`evaluate_de_casteljau`, :func:`restrict_referen
 
 from __future__ import annotations
 
-from fractions import Fraction
 from math import comb
 
 import numpy as np
@@ -72,6 +71,8 @@ def _mat_dtype(*arrays: np.ndarray):
 def _to_exact(v):
     """Exact number: floats by their exact binary value, ints as Fractions (so / stays exact)."""
     if isinstance(v, (bool, int, float, np.integer, np.floating, np.bool_)):
+        from fractions import Fraction  # here: the float path never needs it (each import is paid by every process)
+
         return Fraction(v.item() if isinstance(v, np.generic) else v)
     return v
 
@@ -193,6 +194,8 @@ def from_power(a, nvars=None) -> np.ndarray:
     """
     a = _coeffs(a, "a")
     n = _check_nvars(a, nvars, "a")
+    from fractions import Fraction  # here, not at the top: see _to_exact
+
     for var, m in enumerate(degrees(a, n)):
         mat = [[Fraction(comb(k, i), comb(m, i)) for i in range(m + 1)] for k in range(m + 1)]
         a = _apply_along(a, var, _matrix(mat, _mat_dtype(a)), n)
@@ -412,6 +415,8 @@ def multiply(c1, c2, nvars=None) -> np.ndarray:
     for idx in np.ndindex(*(mk + 1 for mk in m)):
         window = tuple(slice(i, i + pk + 1) for i, pk in zip(idx, p))
         out[(Ellipsis,) + window] += d1[(Ellipsis,) + idx + (None,) * n] * d2
+    from fractions import Fraction  # here, not at the top: see _to_exact
+
     inv = [_matrix([Fraction(1, comb(mk + pk, k)) for k in range(mk + pk + 1)], dt)
            for mk, pk in zip(m, p)]
     return _scale_axes(out, inv, n)
@@ -428,6 +433,8 @@ def elevate(c, var, r=1, nvars=None) -> np.ndarray:
     var = _check_int("var", var, 0, n)
     r = _check_int("r", r, 0)
     m = degrees(c, n)[var]
+    from fractions import Fraction  # here, not at the top: see _to_exact
+
     mat = [[Fraction(comb(m, j) * comb(r, i - j), comb(m + r, i)) if 0 <= i - j <= r else 0
             for j in range(m + 1)] for i in range(m + r + 1)]
     return _apply_along(c, var, _matrix(mat, _mat_dtype(c)), n)

@@ -33,7 +33,6 @@ Angles beyond :data:`MAX_ANGLE` are refused (no joint angle is one; pi/2 would n
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 __all__ = ["WORK_BITS", "MAX_ANGLE", "HALF_PI_320", "FixedCosSin", "cos_sin_fixed", "cos_sin_enclosure"]
 
@@ -84,14 +83,21 @@ def _float_above(n: int, w: int) -> float:
     return f
 
 
-@dataclass(frozen=True)
 class FixedCosSin:
     """cos a and sin a as integers in units of 2^-bits: |cos a - cos 2^-bits| <= error 2^-bits, the same for sin."""
+
+    __slots__ = ("cos", "sin", "error", "bits")
 
     cos: int
     sin: int
     error: int
     bits: int
+
+    def __init__(self, cos, sin, error, bits):
+        self.cos = cos
+        self.sin = sin
+        self.error = error
+        self.bits = bits
 
 
 def cos_sin_fixed(a: float) -> FixedCosSin:

@@ -39,6 +39,7 @@ from .model import (
     LoopGeometry,
     LoopSystem,
     LoopVertex,
+    FactorSpec,
     SingularityReport,
     SphericalMechanism,
 )
@@ -57,7 +58,7 @@ from .rrr import (
 
 __all__ = [
     "FORMS", "IK_TOL", "PARALLEL_TOL", "RIGHT_ANGLE_TOL", "ROTATION_TOL", "SINGULARITY_TOL", "UNIT_TOL",
-    "ForwardResult", "IKSolution", "Joint", "Leg", "LoopGeometry", "LoopSystem", "LoopVertex",
+    "ForwardResult", "IKSolution", "Joint", "Leg", "FactorSpec", "LoopGeometry", "LoopSystem", "LoopVertex",
     "SingularityReport", "SphericalMechanism", "angle_about", "axis_rotation", "parse_angle",
     "PLATFORM_DIRECTION_MIN_SINE", "REFERENCE_MARGIN", "THREE_RRR_KEYS", "ThreeRRRGeometry", "elbow_angle",
     "find_reference_pose", "platform_joint_angle", "rrr_joint_names", "three_rrr",

@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from ..core.rotations import cross
+
 __all__ = ["IK_TOL", "axis_rotation", "angle_about", "least_aligned_basis", "perpendicular", "wrap", "chain_rotation",
            "current_axes", "serial_ik", "sphere_point"]
 
@@ -45,7 +47,7 @@ def angle_about(axis, x, y) -> float:
     y = np.asarray(y, dtype=float)
     xp = x - a * (a @ x)
     yp = y - a * (a @ y)
-    return math.atan2(float(a @ np.cross(xp, yp)), float(xp @ yp))
+    return math.atan2(float(a @ cross(xp, yp)), float(xp @ yp))
 
 
 def least_aligned_basis(p) -> np.ndarray:
@@ -57,7 +59,7 @@ def least_aligned_basis(p) -> np.ndarray:
 
 def perpendicular(p: np.ndarray) -> np.ndarray:
     """A fixed unit vector normal to p: p x e / |.| for e = least_aligned_basis(p)."""
-    n = np.cross(p, least_aligned_basis(p))
+    n = cross(p, least_aligned_basis(p))
     return n / np.linalg.norm(n)
 
 
@@ -119,7 +121,7 @@ def serial_ik(axes: np.ndarray, target: np.ndarray) -> list[tuple[float, ...]]:
     den = c12 * c12 - 1.0
     alpha = (c12 * (a2 @ p) - a1 @ q) / den
     beta = (c12 * (a1 @ q) - a2 @ p) / den
-    n12 = np.cross(a1, a2)
+    n12 = cross(a1, a2)
     g2 = (1.0 - alpha**2 - beta**2 - 2.0 * alpha * beta * c12) / (n12 @ n12)
     if g2 < -IK_TOL:
         return []
@@ -145,7 +147,7 @@ def sphere_point(p, q, ang_p: float, ang_q: float, branch: float) -> np.ndarray 
     den = 1.0 - cpq * cpq
     a = (math.cos(ang_p) - cpq * math.cos(ang_q)) / den
     b = (math.cos(ang_q) - cpq * math.cos(ang_p)) / den
-    n = np.cross(p, q)
+    n = cross(p, q)
     g2 = (1.0 - a * a - b * b - 2 * a * b * cpq) / float(n @ n)
     if g2 < 0:
         return None

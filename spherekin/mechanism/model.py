@@ -44,13 +44,13 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
 from ..core.angles import in_range, into_range
-from ..core.rotations import normalize_polygon, normalized_closure
+from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
 
@@ -62,6 +62,7 @@ __all__ = [
     "Joint",
     "Leg",
     "LoopVertex",
+    "FactorSpec",
     "LoopGeometry",
     "LoopSystem",
     "IKSolution",
@@ -140,7 +141,7 @@ class Leg:
                 raise ValueError(f"joints[{k}]: expected a Joint, got {j!r}")
         for k in range(len(joints) - 1):
             a, b = np.array(joints[k].axis), np.array(joints[k + 1].axis)
-            if np.linalg.norm(np.cross(a, b)) < PARALLEL_TOL:
+            if np.linalg.norm(cross(a, b)) < PARALLEL_TOL:
                 raise ValueError(
                     f"joints[{k}], joints[{k + 1}] ({joints[k].name!r}, {joints[k + 1].name!r}): inconsistent "
                     "geometry: consecutive axes of a leg are parallel (link twist 0 or pi); two coaxial joints "
@@ -152,7 +153,7 @@ class Leg:
     def twists(self) -> tuple[float, ...]:
         """Link twist angles (radians, in (0, pi)) between consecutive joint axes of the leg."""
         return tuple(
-            math.atan2(float(np.linalg.norm(np.cross(a.axis, b.axis))), float(np.dot(a.axis, b.axis)))
+            math.atan2(float(np.linalg.norm(cross(a.axis, b.axis))), float(np.dot(a.axis, b.axis)))
             for a, b in zip(self.joints, self.joints[1:])
         )
 
@@ -165,6 +166,17 @@ class LoopVertex:
     sign: int
     offset: float
     actuated: bool
+
+
+class FactorSpec(NamedTuple):
+    """One factor of Eq. (2) as the geometry gives it, before its unknown exists: phi = offset +
+    sign * (reading of ``joint``), radians; a known angle ``offset`` when ``joint`` is None (sign 0).
+    :meth:`SphericalMechanism.loop_system` turns it into a known angle or a
+    :class:`spherekin.closure.Term` (offset, Unknown, sign) of the loop's unknowns."""
+
+    offset: float
+    joint: str | None
+    sign: int
 
 
 @dataclass(frozen=True)
@@ -181,8 +193,8 @@ class LoopGeometry:
     sides: tuple
     right_angled: bool
 
-    def factor_specs(self, form: str = "auto") -> tuple[tuple[float, str | None, int], ...]:
-        """The factors of Eq. (2) as (offset, joint name or None, sign): phi = offset + sign * reading.
+    def factor_specs(self, form: str = "auto") -> tuple[FactorSpec, ...]:
+        """The factors of Eq. (2) as :class:`FactorSpec` (offset, joint name or None, sign): phi = offset + sign * reading.
 
         Compact form (all sides pi/2): phi_k = theta_k. Doubled form: the corrected rule of
         :func:`spherekin.core.rotations.normalize_polygon`, phi_{2k-1} = theta_k + pi, phi_{2k} = alpha_k + pi.
@@ -195,18 +207,18 @@ class LoopGeometry:
                 f"{[round(s, 6) for s in self.sides]}; use 'auto' or 'doubled'"
             )
         if form == "compact" or (form == "auto" and self.right_angled):
-            return tuple((v.offset, v.joint, v.sign) for v in self.vertices)
+            return tuple(FactorSpec(v.offset, v.joint, v.sign) for v in self.vertices)
         phis = normalize_polygon(np.array(self.sides), np.array([v.offset for v in self.vertices]))
         specs = []
         for k, v in enumerate(self.vertices):
-            specs.append((wrap(float(phis[2 * k])), v.joint, v.sign))
-            specs.append((float(phis[2 * k + 1]), None, 0))
+            specs.append(FactorSpec(wrap(float(phis[2 * k])), v.joint, v.sign))
+            specs.append(FactorSpec(float(phis[2 * k + 1]), None, 0))
         return tuple(specs)
 
     def factor_angles(self, readings: Mapping[str, float], form: str = "auto") -> np.ndarray:
         """The angles phi_1..phi_n of Eq. (2) at the given joint readings (radians), shape (n,)."""
-        return np.array([off + (sgn * readings[name] if name is not None else 0.0)
-                         for off, name, sgn in self.factor_specs(form)])
+        return np.array([f.offset + (f.sign * readings[f.joint] if f.joint is not None else 0.0)
+                         for f in self.factor_specs(form)])
 
 
 @dataclass(frozen=True)
@@ -406,14 +418,14 @@ class SphericalMechanism:
         verts = [(j, 1) for j in up.joints] + [(j, -1) for j in reversed(down.joints)]
         p = np.array([j.axis for j, _ in verts])
         nxt = np.roll(p, -1, axis=0)
-        cross = np.cross(p, nxt)
-        sines = np.linalg.norm(cross, axis=1)
+        normals = cross(p, nxt)
+        sines = np.linalg.norm(normals, axis=1)
         sides = np.arctan2(sines, np.sum(p * nxt, axis=1))
         poles = np.empty_like(p)
         names = [j.name for j, _ in verts]
         for k in range(len(verts)):
             if sines[k] >= PARALLEL_TOL:
-                poles[k] = cross[k] / sines[k]
+                poles[k] = normals[k] / sines[k]
             elif np.array_equal(p[k], nxt[k]) or np.array_equal(p[k], -nxt[k]):
                 poles[k] = perpendicular(p[k])  # coaxial base or platform joints: any fixed normal
             else:
@@ -423,7 +435,7 @@ class SphericalMechanism:
                     "write them identical (coaxial joints) or separate them"
                 )
         prev = np.roll(poles, 1, axis=0)
-        exterior = np.arctan2(np.sum(p * np.cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
+        exterior = np.arctan2(np.sum(p * cross(prev, poles), axis=1), np.sum(prev * poles, axis=1))
         vertices = tuple(
             LoopVertex(j.name, s, wrap(float(th) - s * j.reference_angle), j.actuated)
             for (j, s), th in zip(verts, exterior)
@@ -554,13 +566,13 @@ class SphericalMechanism:
         order = list(unknowns)
         for g in self.loop_geometry:
             factors = []
-            for off, name, sgn in g.factor_specs(form):
-                if name is None:
-                    factors.append(off)
-                elif name in known:
-                    factors.append(wrap(off + sgn * known[name]))
+            for spec in g.factor_specs(form):
+                if spec.joint is None:
+                    factors.append(spec.offset)
+                elif spec.joint in known:
+                    factors.append(wrap(spec.offset + spec.sign * known[spec.joint]))
                 else:
-                    factors.append(Term(unknowns[name], off, sgn))
+                    factors.append(Term(unknowns[spec.joint], spec.offset, spec.sign))
             loop = ClosureLoop(factors)
             loops.append(loop)
             indices.append(tuple(order.index(u.name) for u in loop.unknowns))

@@ -38,6 +38,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..core.rotations import cross
 from .chains import angle_about, axis_rotation, least_aligned_basis
 from .checks import check_range, check_unit_vector, parse_angle
 from .model import PARALLEL_TOL, Joint, Leg, SphericalMechanism
@@ -75,7 +76,7 @@ def rrr_joint_names() -> tuple[str, ...]:
 
 def _angle(a, b) -> float:
     """Unsigned angle between unit vectors (atan2 form, accurate near 0 and pi)."""
-    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(np.dot(a, b)))
+    return math.atan2(float(np.linalg.norm(cross(a, b))), float(np.dot(a, b)))
 
 
 def elbow_angle(u, w, v) -> float:
@@ -108,7 +109,7 @@ class ThreeRRRGeometry:
         out = []
         for i, v in enumerate(self.platform_axes):
             nxt = self.platform_axes[(i + 1) % 3]
-            if np.linalg.norm(np.cross(v, nxt)) >= PLATFORM_DIRECTION_MIN_SINE:
+            if np.linalg.norm(cross(v, nxt)) >= PLATFORM_DIRECTION_MIN_SINE:
                 out.append(tuple(nxt))
             else:
                 out.append(tuple(float(c) for c in least_aligned_basis(v)))
@@ -200,7 +201,7 @@ def _reference_beta(u, w0, v, alpha2) -> float:
     u, w0, v = (np.asarray(x, dtype=float) for x in (u, w0, v))
     w_par = (u @ w0) * u
     a = float((w0 - w_par) @ v)
-    b = float(np.cross(u, w0) @ v)
+    b = float(cross(u, w0) @ v)
     e = math.cos(alpha2) - float(w_par @ v)
     rho = math.hypot(a, b)
     if rho < PARALLEL_TOL:  # v along u: every beta assembles (alpha1 = alpha2)
@@ -227,7 +228,7 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
     v0 = _three_vectors("platform_axes", platform_axes)
     alpha2 = _three_angles("distal_link_angles", distal_link_angles)
     for i in range(3):
-        if np.linalg.norm(np.cross(u[i], w0[i])) < PARALLEL_TOL:
+        if np.linalg.norm(cross(u[i], w0[i])) < PARALLEL_TOL:
             raise ValueError(
                 f"elbow_axes_at_zero[{i}]: inconsistent geometry: parallel to base_axes[{i}] "
                 "(a proximal link angle of 0 or pi makes the two joints coaxial)"

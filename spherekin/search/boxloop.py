@@ -33,7 +33,6 @@ w = 0 at one point where the equation does not vanish).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from typing import Callable, Mapping, Sequence
@@ -41,7 +40,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..core import bernstein
-from ..core.angles import RANGE_TOL, in_range
+from ..core.angles import RANGE_TOL, in_range, near_groups
 from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
 from .isolation import SquareSystem, krawczyk_boxes, newton
@@ -50,7 +49,7 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
 from .pruners import check_pruner, excludes_zero, make_pruner
 from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
-__all__ = ["solve_system", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
+__all__ = ["solve_system", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
            "partial_report", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
            "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
@@ -301,10 +300,27 @@ def _solve_isolated(charts: ChartSet, isolated):
     return points, spurious, failed
 
 
-def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, progress=None, trace=None):
-    """The box loop on the charts of ``group`` (a worker's share), then Newton on its isolated boxes."""
-    name, shapes, backend = pruner_spec
-    pruner = make_pruner(name, [sh for sh, p in zip(shapes, charts.prune) if p], backend)
+def pruner_for(charts: ChartSet, pruner: str, lp_backend: str | None, built: dict | None = None):
+    """The pruner ``pruner`` for the pruned blocks of ``charts`` (:func:`spherekin.search.pruners.make_pruner`).
+
+    The blocks' coefficient shapes (E, d_1..d_n) depend on the formulation, parameterization and
+    unknowns, not on the actuator inputs or the ranges: with ``built`` (a dict kept by the caller,
+    keyed by pruner, backend and shapes) a pruner, and for the LP pruners its compiled LP model, is
+    built once per chart layout and reused for every input.
+    """
+    shapes = tuple(tuple(c.shape[1:]) for c, p in zip(charts.coeffs, charts.prune) if p)
+    if built is None:
+        return make_pruner(pruner, shapes, lp_backend)
+    key = (pruner, lp_backend, shapes)
+    if key not in built:
+        built[key] = make_pruner(pruner, shapes, lp_backend)
+    return built[key]
+
+
+def _run_group(charts, pruner, tol, max_boxes, max_depth, isolate, group, progress=None, trace=None):
+    """The box loop on the charts of ``group`` (a worker's share), then Newton on its isolated boxes;
+    ``pruner``: built (it may have been used before: its LP counters are read as differences)."""
+    lp0, doubts0 = getattr(pruner, "lp_count", 0), getattr(pruner, "doubts", 0)
     n = len(charts.variables)
     group = np.asarray(group, dtype=int)
     start = (group, np.zeros((len(group), n)), np.ones((len(group), n)))
@@ -318,11 +334,10 @@ def _run_group(charts, pruner_spec, tol, max_boxes, max_depth, isolate, group, p
         counts = {k: (max(counts[k], counts2[k]) if k == "max_depth" else counts[k] + counts2[k]) for k in counts}
         times = tuple(x + y for x, y in zip(times, times2))
     counts.update(spurious=spurious, newton_failures=len(failed),
-                  lps_solved=getattr(pruner, "lp_count", 0), lp_doubts=getattr(pruner, "doubts", 0))
+                  lps_solved=getattr(pruner, "lp_count", 0) - lp0, lp_doubts=getattr(pruner, "doubts", 0) - doubts0)
     return accepted, points, counts, times
 
 
-@dataclasses.dataclass(frozen=True)
 class PlatformSearch:
     """What the box loop found on the quaternion charts of the platform formulation.
 
@@ -332,9 +347,16 @@ class PlatformSearch:
     points are not the whole answer); ``stats``: the search's counters and timings.
     """
 
+    __slots__ = ("points", "unresolved", "stats")
+
     points: tuple
     unresolved: int
     stats: SolverStats
+
+    def __init__(self, points, unresolved, stats):
+        self.points = points
+        self.unresolved = unresolved
+        self.stats = stats
 
 
 def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
@@ -358,7 +380,8 @@ def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOX
 
 
 def _worker(args):
-    return _run_group(*args)
+    charts, (pruner, lp_backend), *rest = args
+    return _run_group(charts, pruner_for(charts, pruner, lp_backend), *rest)   # each worker builds its own
 
 
 def check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs):
@@ -392,6 +415,7 @@ def solve_system(
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
     trace: Callable[[dict], None] | None = None,
+    pruners: dict | None = None,
 ) -> SearchReport:
     """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
 
@@ -413,25 +437,28 @@ def solve_system(
     reduction ``reduced_lo``, ``reduced_hi`` (B, N) in the chart's unit coordinates, its sides in
     metric units ``metric_width`` (B, N; radians for tan-half) and ``outcome`` (B,): an index
     into :data:`TRACE_OUTCOMES`.
+
+    ``pruners``: a dict the caller keeps across calls (a compiled :class:`spherekin.problem.Problem`
+    keeps one for all its inputs), in which the pruner is built once per chart layout
+    (:func:`pruner_for`) instead of once per call; with ``jobs > 1`` each worker builds its own.
     """
     check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs)
     if trace is not None and jobs != 1:
         raise ValueError(f"trace: only available with jobs=1, got jobs={jobs}")
     t0 = time.perf_counter()
     charts = make_charts(parameterization, build, ranges, formulation)
-    shapes = [c.shape[1:] for c in charts.coeffs]
-    spec = (pruner, shapes, lp_backend)
     t_setup = time.perf_counter() - t0
     if max_depth is None:
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
     groups = [list(range(i, charts.n_charts, jobs)) for i in range(min(jobs, charts.n_charts))]
     if len(groups) == 1:
-        results = [_run_group(charts, spec, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
+        built = pruner_for(charts, pruner, lp_backend, pruners)
+        results = [_run_group(charts, built, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
     else:
         from ..cluster import connect, map_in_order
 
         # the chart groups on a local Dask cluster of len(groups) worker processes (spherekin.cluster)
-        args = [(charts, spec, tol, max_boxes, max_depth, isolate, g) for g in groups]
+        args = [(charts, (pruner, lp_backend), tol, max_boxes, max_depth, isolate, g) for g in groups]
         results = []
         with connect(workers=len(groups)) as client:
             for res in map_in_order(client, _worker, args):
@@ -478,25 +505,8 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Cluster]:
     lo = np.array([b.lo for b in boxes])
     hi = np.array([b.hi for b in boxes])
     mid = 0.5 * (lo + hi)
-    half = 0.5 * (hi - lo)
-    parent = list(range(len(boxes)))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i in range(len(boxes)):
-        d = np.abs(np.mod(mid[i + 1:] - mid[i] + math.pi, 2 * math.pi) - math.pi)
-        close = np.all(d <= half[i + 1:] + half[i] + MERGE_GAP_TOLS * tol, axis=1)
-        for j in np.flatnonzero(close) + i + 1:
-            parent[find(j)] = find(i)
-    groups: dict[int, list[int]] = {}
-    for i in range(len(boxes)):
-        groups.setdefault(find(i), []).append(i)
     out = []
-    for members in groups.values():
+    for members in near_groups(lo, hi, MERGE_GAP_TOLS * tol):
         ref = mid[members[0]]
         # unwrap every member next to the first one, then take the hull
         shift = np.round((mid[members] - ref) / (2 * math.pi)) * 2 * math.pi

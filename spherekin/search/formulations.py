@@ -44,7 +44,6 @@ __all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "ChartBilinear", "For
 TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))
 
 
-@dataclass(frozen=True)
 class EquationBlock:
     """Equations of one loop (or one side condition), each = 0 at a solution, on the unit box.
 
@@ -60,13 +59,24 @@ class EquationBlock:
     marks a block that only serves the Krawczyk test (the pruners do not see it).
     """
 
+    __slots__ = ("loop_index", "labels", "coeffs", "scale", "square", "bilinear", "prune")
+
     loop_index: int
     labels: tuple[str, ...]
     coeffs: np.ndarray
     scale: np.ndarray
-    square: tuple[int, ...] = ()
-    bilinear: "Bilinear | None" = None
-    prune: bool = True
+    square: tuple[int, ...]
+    bilinear: "Bilinear | None"
+    prune: bool
+
+    def __init__(self, loop_index, labels, coeffs, scale, square=(), bilinear=None, prune=True):
+        self.loop_index = loop_index
+        self.labels = labels
+        self.coeffs = coeffs
+        self.scale = scale
+        self.square = square
+        self.bilinear = bilinear
+        self.prune = prune
 
     @property
     def variables(self) -> tuple[int, ...]:
@@ -74,7 +84,6 @@ class EquationBlock:
         return tuple(k for k, d in enumerate(self.coeffs.shape[1:]) if d > 1)
 
 
-@dataclass(frozen=True)
 class LoopPolynomials:
     """The polynomials of one loop in some parameterization (:mod:`spherekin.search.parameterizations`).
 
@@ -88,13 +97,24 @@ class LoopPolynomials:
     the remaining axes of ``variables``. None for a loop with one unknown.
     """
 
+    __slots__ = ("loop_index", "variables", "matrix", "q", "scalar", "half_a", "half_b")
+
     loop_index: int
     variables: tuple[int, ...]
     matrix: np.ndarray
     q: np.ndarray
-    scalar: np.ndarray | None = None
-    half_a: np.ndarray | None = None
-    half_b: np.ndarray | None = None
+    scalar: np.ndarray | None
+    half_a: np.ndarray | None
+    half_b: np.ndarray | None
+
+    def __init__(self, loop_index, variables, matrix, q, scalar=None, half_a=None, half_b=None):
+        self.loop_index = loop_index
+        self.variables = variables
+        self.matrix = matrix
+        self.q = q
+        self.scalar = scalar
+        self.half_a = half_a
+        self.half_b = half_b
 
     @property
     def split(self) -> int:
@@ -151,7 +171,6 @@ class Bilinear:
         return out
 
 
-@dataclass(frozen=True)
 class ChartBilinear:
     """The :class:`Bilinear` form of one block on every chart, laid out for the box loop.
 
@@ -162,12 +181,22 @@ class ChartBilinear:
     reference), tested against it.
     """
 
+    __slots__ = ("a_vars", "b_vars", "a", "b", "sums", "shape")
+
     a_vars: tuple[int, ...]
     b_vars: tuple[int, ...]
     a: np.ndarray
     b: np.ndarray
     sums: tuple
     shape: tuple[int, ...]
+
+    def __init__(self, a_vars, b_vars, a, b, sums, shape):
+        self.a_vars = a_vars
+        self.b_vars = b_vars
+        self.a = a
+        self.b = b
+        self.sums = sums
+        self.shape = shape
 
     @classmethod
     def stack(cls, forms: Sequence[Bilinear], n_vars: int) -> "ChartBilinear":

@@ -31,7 +31,6 @@ final solution is :mod:`spherekin.trust.krawczyk`, in outward-rounded interval a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -57,11 +56,15 @@ NEWTON_STEP_TOL = 4e-16
 SPURIOUS_FACTOR = 1e4
 
 
-@dataclass(frozen=True)
 class SquareSystem:
     """Which equations of which blocks form the square system: ``rows[i] = (block, equation)``."""
 
+    __slots__ = ("rows",)
+
     rows: tuple
+
+    def __init__(self, rows):
+        self.rows = rows
 
     @classmethod
     def from_blocks(cls, square: Sequence[Sequence[int]]) -> "SquareSystem":

@@ -49,7 +49,6 @@ certified bound is used all the same: it is valid whatever the solver did).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
 from itertools import product
 from typing import ClassVar, Sequence
 
@@ -103,9 +102,10 @@ CLARABEL_TOL = 1e-9
 DUAL_SIMPLEX_STRATEGY = 1
 
 
-@dataclass(frozen=True)
 class BoxBounds:
     """Result of the Eq. (12) reduction of one box (bounds in the box's unit coordinates)."""
+
+    __slots__ = ("empty", "lo", "hi", "lp_count", "doubts")
 
     empty: bool
     lo: np.ndarray
@@ -113,8 +113,14 @@ class BoxBounds:
     lp_count: int
     doubts: int
 
+    def __init__(self, empty, lo, hi, lp_count, doubts):
+        self.empty = empty
+        self.lo = lo
+        self.hi = hi
+        self.lp_count = lp_count
+        self.doubts = doubts
 
-@dataclass(frozen=True)
+
 class EquationRows:
     """Where one equation of Eq. (12) sits in the matrix form: its lambda columns and its rows.
 
@@ -122,6 +128,9 @@ class EquationRows:
     ``variables``; ``abscissae`` (|S|, N) holds the integers i_k, ``degrees`` the m_k) and
     ``slab_row`` (|w . lambda| <= tol).
     """
+
+    __slots__ = ("block", "index", "variables", "abscissae", "degrees", "cols", "sum_row", "var_rows",
+                 "slab_row")
 
     block: int
     index: int
@@ -132,6 +141,17 @@ class EquationRows:
     sum_row: int
     var_rows: np.ndarray
     slab_row: int
+
+    def __init__(self, block, index, variables, abscissae, degrees, cols, sum_row, var_rows, slab_row):
+        self.block = block
+        self.index = index
+        self.variables = variables
+        self.abscissae = abscissae
+        self.degrees = degrees
+        self.cols = cols
+        self.sum_row = sum_row
+        self.var_rows = var_rows
+        self.slab_row = slab_row
 
 
 class LPStructure:

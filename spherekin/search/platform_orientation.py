@@ -32,12 +32,12 @@ the fallback when the platform search cannot isolate every root (a parallel sing
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.angles import wrap
 from ..core.orientation import quaternion_matrix
+from ..core.rotations import cross
 from ..mechanism.chains import angle_about, axis_rotation, perpendicular
 from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
@@ -130,15 +130,23 @@ def chart_rotation(chart: int, x) -> np.ndarray:
     return quaternion_matrix(q) / float(q @ q)
 
 
-@dataclass(frozen=True)
 class PlatformLeg:
     """One R-R-R leg as Eq. (1) sees it: joint names, reference axes (base frame) and readings."""
+
+    __slots__ = ("names", "a1", "a2", "a3", "reference")
 
     names: tuple
     a1: np.ndarray
     a2: np.ndarray
     a3: np.ndarray
     reference: tuple
+
+    def __init__(self, names, a1, a2, a3, reference):
+        self.names = names
+        self.a1 = a1
+        self.a2 = a2
+        self.a3 = a3
+        self.reference = reference
 
 
 def not_applicable(mechanism) -> str | None:
@@ -235,16 +243,22 @@ def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.nda
     return np.stack(cols, axis=1).reshape(len(d), -1)
 
 
-@dataclass(frozen=True)
 class PlatformSystem:
     """Eq. (1) of every leg compiled on the four charts: control points = cos d1 C_c + sin d1 C_s + C_0.
 
     ``parts`` (3 legs, 3 parts (c, s, 0), 4 charts, 3, 3, 3). Built by :meth:`from_mechanism`.
     """
 
+    __slots__ = ("legs", "parts", "platform_reference")
+
     legs: tuple
     parts: np.ndarray
     platform_reference: np.ndarray
+
+    def __init__(self, legs, parts, platform_reference):
+        self.legs = legs
+        self.parts = parts
+        self.platform_reference = platform_reference
 
     @classmethod
     def from_mechanism(cls, mechanism) -> "PlatformSystem":
@@ -252,7 +266,7 @@ class PlatformSystem:
         mats = []
         for leg in legs:
             c1 = float(leg.a1 @ leg.a2)
-            perp, side = leg.a2 - c1 * leg.a1, np.cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
+            perp, side = leg.a2 - c1 * leg.a1, cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
             cos_twist = float(leg.a2 @ leg.a3)
             mats.append([form_matrix(perp, leg.a3, 0.0), form_matrix(side, leg.a3, 0.0),
                          form_matrix(c1 * leg.a1, leg.a3, cos_twist)])

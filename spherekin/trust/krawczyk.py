@@ -217,7 +217,6 @@ def certify_many(system: LoopSystem, thetas, radii: Sequence[float] = CERTIFY_RA
     return _certify_points(system, ys.reshape(len(ys), len(system.unknowns)), rs, tol)
 
 
-@dataclass(frozen=True)
 class BoxTests:
     """Krawczyk tests of B general boxes X_b = [lo_b, hi_b] (radians) at points y_b in them.
 
@@ -228,10 +227,18 @@ class BoxTests:
     unknowns: neither conclusion then).
     """
 
+    __slots__ = ("certified", "no_solution", "krawczyk_lo", "krawczyk_hi")
+
     certified: np.ndarray
     no_solution: np.ndarray
     krawczyk_lo: np.ndarray
     krawczyk_hi: np.ndarray
+
+    def __init__(self, certified, no_solution, krawczyk_lo, krawczyk_hi):
+        self.certified = certified
+        self.no_solution = no_solution
+        self.krawczyk_lo = krawczyk_lo
+        self.krawczyk_hi = krawczyk_hi
 
 
 def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = ANGLE_TOLERANCE) -> BoxTests:

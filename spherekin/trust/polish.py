@@ -14,12 +14,9 @@ polishing turns each box into a point to ~1e-15 so that it can be certified and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Sequence
-
 import numpy as np
 
-from ..core.rotations import Z, rx
+from ..closure import closure_at
 
 __all__ = ["POLISH_TOL", "POLISH_MAX_ITER", "PolishResult", "closure_residual", "polish"]
 
@@ -33,62 +30,31 @@ POLISH_MAX_ITER = 60
 CONVERGED_TOL = 1e-12
 
 
-@dataclass(frozen=True)
 class PolishResult:
     """Polished passive angles (radians), largest residual entry, steps taken, convergence flag."""
+
+    __slots__ = ("theta", "residual", "iterations", "converged")
 
     theta: np.ndarray
     residual: float
     iterations: int
     converged: bool
 
-
-def _factor_map(loops: Sequence, unknowns: Sequence) -> list[list[tuple[float, int, int]]]:
-    """Per loop, per factor: (offset, unknown index or -1 for a known angle, sign)."""
-    out = []
-    for loop in loops:
-        row = []
-        for f in loop.factors:
-            if hasattr(f, "unknown"):
-                k = next(i for i, u in enumerate(unknowns) if u is f.unknown)
-                row.append((f.offset, k, f.sign))
-            else:
-                row.append((float(f), -1, 1))
-        out.append(row)
-    return out
-
-
-
-def _derivative_factor(phi: float) -> np.ndarray:
-    """(d/dphi Rx(phi)) Z."""
-    c, s = np.cos(phi), np.sin(phi)
-    return np.array([[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]]) @ Z
+    def __init__(self, theta, residual, iterations, converged):
+        self.theta = theta
+        self.residual = residual
+        self.iterations = iterations
+        self.converged = converged
 
 
 def closure_residual(loops, unknowns, theta, jacobian: bool = False):
-    """Stacked F_n(theta) - I of every loop, shape (9 L,), and optionally its Jacobian (9 L, n)."""
+    """Stacked F_n(theta) - I of every loop, shape (9 L,), and optionally its Jacobian (9 L, n)
+    (:func:`spherekin.closure.closure_at`, loop by loop, entries row-major)."""
     theta = np.asarray(theta, dtype=float)
-    fmap = _factor_map(loops, unknowns)
-    res, jac = [], []
-    for row in fmap:
-        phis = np.array([off + (sg * theta[k] if k >= 0 else 0.0) for off, k, sg in row])
-        mats = rx(phis) @ Z
-        n = len(mats)
-        prefix = [np.eye(3)]
-        for m in mats:
-            prefix.append(prefix[-1] @ m)
-        res.append((prefix[-1] - np.eye(3)).ravel())
-        if jacobian:
-            suffix = [np.eye(3)] * (n + 1)
-            for i in range(n - 1, -1, -1):
-                suffix[i] = mats[i] @ suffix[i + 1]
-            block = np.zeros((9, len(theta)))
-            for i, (off, k, sg) in enumerate(row):
-                if k >= 0:
-                    block[:, k] += sg * (prefix[i] @ _derivative_factor(phis[i]) @ suffix[i + 1]).ravel()
-            jac.append(block)
-    r = np.concatenate(res)
-    return (r, np.vstack(jac)) if jacobian else r
+    if not jacobian:
+        return (closure_at(loops, unknowns, theta) - np.eye(3)).reshape(-1)
+    f, j = closure_at(loops, unknowns, theta, jacobian=True)
+    return (f - np.eye(3)).reshape(-1), j.reshape(-1, len(theta))
 
 
 def polish(loops, unknowns, theta0, *, tol: float = POLISH_TOL, max_iter: int = POLISH_MAX_ITER) -> PolishResult:

@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from ..core.angles import RANGE_TOL, in_range, into_range, wrap
+from ..core.angles import RANGE_TOL, in_range, into_range, near_groups, wrap
 from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many
 from .transversal import transversal_equations
 from .polish import polish
@@ -105,17 +105,27 @@ NEARBY_TOLS = 100.0
 SOLUTION_BOUND = 1e-12
 
 
-@dataclasses.dataclass
 class _Point:
     """A polished point of a cluster (angles unwrapped next to the cluster) and what is known of it."""
+
+    __slots__ = ("theta", "polished", "seed_moved", "cert", "box", "enc", "evidence")
 
     theta: np.ndarray
     polished: object
     seed_moved: float
-    cert: object = None
-    box: tuple | None = None          # (lo, hi) holding exactly this root, when certified
-    enc: tuple | None = None          # (lo, hi) a tight enclosure of that root: K(box), inside box
-    evidence: dict = dataclasses.field(default_factory=dict)
+    cert: object                      # the Krawczyk result at the point, or None
+    box: tuple | None                 # (lo, hi) holding exactly this root, when certified
+    enc: tuple | None                 # (lo, hi) a tight enclosure of that root: K(box), inside box
+    evidence: dict
+
+    def __init__(self, theta, polished, seed_moved, cert=None, box=None, enc=None, evidence=None):
+        self.theta = theta
+        self.polished = polished
+        self.seed_moved = seed_moved
+        self.cert = cert
+        self.box = box
+        self.enc = enc
+        self.evidence = {} if evidence is None else evidence
 
 
 def is_proven(sol: Solution) -> bool:
@@ -286,27 +296,12 @@ def _merge_nearby_unproven(entries: list, tol: float) -> list:
     idx = [i for i, e in enumerate(entries) if not is_proven(e) and e.status != Status.CONTINUUM]
     if len(idx) < 2:
         return entries
-    gap = NEARBY_TOLS * tol
-    parent = {i: i for i in idx}
-
-    def find(i):
-        while parent[i] != i:
-            i = parent[i]
-        return i
-
-    for a_pos, i in enumerate(idx):
-        for j in idx[a_pos + 1:]:
-            a, b = entries[i], entries[j]
-            ca, cb = 0.5 * (a.lo + a.hi), 0.5 * (b.lo + b.hi)
-            d = np.abs(wrap(ca - cb)) - 0.5 * (a.hi - a.lo) - 0.5 * (b.hi - b.lo)
-            if np.all(d <= gap):
-                parent[find(j)] = find(i)
-    groups: dict[int, list] = {}
-    for i in idx:
-        groups.setdefault(find(i), []).append(i)
-    out = [e for i, e in enumerate(entries) if i not in parent]
-    for members in groups.values():
-        group = [entries[i] for i in members]
+    lo = np.array([entries[i].lo for i in idx])
+    hi = np.array([entries[i].hi for i in idx])
+    chosen = set(idx)
+    out = [e for i, e in enumerate(entries) if i not in chosen]
+    for members in near_groups(lo, hi, NEARBY_TOLS * tol):
+        group = [entries[idx[k]] for k in members]
         if len(group) == 1:
             out += group
             continue

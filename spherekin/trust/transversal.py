@@ -27,8 +27,9 @@ implementations with the same inputs and results:
   context for every operation (slow, obviously correct). F = P_n with prefix products as above
   and, since an unknown appears at most once per loop, dF/dtheta = sign * P_{i-1} (dRx(phi_i)/dphi Z)
   S_{i+1} with suffix products S_i = Rx(phi_i) Z S_{i+1}, using Rx(phi) Z = [[0,-1,0],[c,0,-s],[s,0,c]]
-  and d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]]; one routine does this in floats
-  (:func:`transversal_equations`) and in intervals.
+  and d/dphi (Rx(phi) Z) = [[0,0,0],[-s,0,-c],[c,0,-s]], in intervals. The float values
+  (:func:`transversal_equations`) are the transversal entries of
+  :func:`spherekin.closure.closure_at`, the package's one float evaluation of F_n and dF_n/dtheta.
 
 Known factor angles and term offsets are floats rounded from the geometry; the enclosures treat
 each as an interval of half-width ``angle_tolerance`` (default :data:`ANGLE_TOLERANCE`), so they
@@ -40,13 +41,12 @@ angles (pi/2, pi, ...) that the floats round.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..core import intervals as iv_ops
-from ..closure import KNOWN_ANGLE_SNAP, Term
+from ..closure import KNOWN_ANGLE_SNAP, Term, closure_at
 from ..search.formulations import TRANSVERSAL_ENTRIES
 from ..core.intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
 from ..mechanism import LoopSystem
@@ -91,13 +91,13 @@ def transversal_equations(system: LoopSystem, theta) -> tuple[np.ndarray, np.nda
     """Float values F (E,) and Jacobian J (E, M) = dF/dtheta of the transversal system at ``theta``.
 
     ``theta``: passive angles (radians), a sequence in ``system.unknowns`` order or a mapping
-    name -> angle. E = 3 * number of loops, M = number of unknowns. (The float twin of the
-    reference evaluation.)
+    name -> angle. E = 3 * number of loops, M = number of unknowns: the transversal entries of
+    :func:`spherekin.closure.closure_at` (the interval reference below is an independent evaluation).
     """
     check_system(system)
     y = check_theta(system, theta)
-    f, j = _evaluate(system, list(y), float, math.cos, math.sin)
-    return np.array(f, dtype=float), np.array(j, dtype=float).reshape(len(f), len(y))
+    f, j = closure_at(system.loops, system.unknowns, y, jacobian=True, loop_indices=system.loop_indices)
+    return f[:, _ENTRY_ROWS, _ENTRY_COLS].reshape(-1), j[:, _ENTRY_ROWS, _ENTRY_COLS, :].reshape(-1, len(y))
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,7 +119,6 @@ _QUAD_CONST = np.array([0, 1, 1, 0])[:, None, None, None]
 _STEP_COLS = np.array([1, 2, 2, 1])
 
 
-@dataclass(frozen=True)
 class TransversalPlan:
     """The factors of a LoopSystem as index arrays (L loops padded to n factors, M unknowns, T terms).
 
@@ -133,6 +132,9 @@ class TransversalPlan:
       unknown; ``term_rows`` (T, 3): its rows of J; ``jac_u``, ``jac_f_col``, ``jac_f_row``
       (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose).
     """
+
+    __slots__ = ("n_loops", "n_factors", "const", "padding", "theta_slot", "theta_rows", "const_cols",
+                 "term_loop", "term_pos", "term_var", "term_rows", "jac_u", "jac_f_col", "jac_f_row")
 
     n_loops: int
     n_factors: int
@@ -148,6 +150,23 @@ class TransversalPlan:
     jac_u: np.ndarray
     jac_f_col: np.ndarray
     jac_f_row: np.ndarray
+
+    def __init__(self, n_loops, n_factors, const, padding, theta_slot, theta_rows, const_cols,
+                 term_loop, term_pos, term_var, term_rows, jac_u, jac_f_col, jac_f_row):
+        self.n_loops = n_loops
+        self.n_factors = n_factors
+        self.const = const
+        self.padding = padding
+        self.theta_slot = theta_slot
+        self.theta_rows = theta_rows
+        self.const_cols = const_cols
+        self.term_loop = term_loop
+        self.term_pos = term_pos
+        self.term_var = term_var
+        self.term_rows = term_rows
+        self.jac_u = jac_u
+        self.jac_f_col = jac_f_col
+        self.jac_f_row = jac_f_row
 
 
 def plan_of(system: LoopSystem) -> TransversalPlan:

@@ -1,0 +1,54 @@
+"""Tests for spherekin.core.angles: grouping boxes of angles by nearness modulo 2 pi.
+
+The reference is independent of the code: nearness by explicit shifts of 2 pi k (k in -2..2) on
+each coordinate, and the groups as connected components by scipy's graph routine.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.sparse.csgraph import connected_components
+
+from spherekin.core.angles import near_groups
+
+
+def _reference_groups(lo, hi, gap):
+    k = len(lo)
+    near = np.zeros((k, k), dtype=bool)
+    for i in range(k):
+        for j in range(k):
+            ok = True
+            for m in range(lo.shape[1]):
+                # the gap between [lo_i, hi_i] and [lo_j, hi_j] + 2 pi s, the smallest over s
+                gaps = [max(lo[j, m] + 2 * math.pi * s - hi[i, m], lo[i, m] - hi[j, m] - 2 * math.pi * s)
+                        for s in range(-2, 3)]
+                ok &= min(gaps) <= gap
+            near[i, j] = ok
+    _, labels = connected_components(near, directed=False)
+    groups = {}
+    for i, lab in enumerate(labels):
+        groups.setdefault(lab, []).append(i)
+    return sorted(groups.values())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_near_groups_are_the_components_of_nearness_modulo_two_pi(seed):
+    rng = np.random.default_rng(seed)
+    k, m = 25, 2
+    centre = rng.uniform(-math.pi, math.pi, (k, m))
+    centre[: k // 3] = rng.choice([-math.pi + 1e-3, math.pi - 1e-3], (k // 3, m))   # boxes across +-pi
+    half = rng.uniform(0.0, 0.3, (k, m))
+    lo, hi = centre - half, centre + half
+    gap = 0.05
+    got = near_groups(lo, hi, gap)
+    assert sorted(got) == _reference_groups(lo, hi, gap)
+    assert [g[0] for g in got] == sorted(g[0] for g in got) and all(g == sorted(g) for g in got)
+
+
+def test_boxes_across_pi_are_near_and_a_wider_gap_joins_more():
+    lo = np.array([[3.1], [-3.14], [0.0]])
+    hi = np.array([[3.14], [-3.1], [0.1]])
+    assert near_groups(lo, hi, 0.01) == [[0, 1], [2]]          # 3.14 and -3.14 are 2 pi - 6.28 ~ 0.003 apart
+    assert near_groups(lo, hi, 3.05) == [[0, 1, 2]]         # [0, 0.1] is 3.0 from [3.1, 3.14]
+    assert near_groups(np.zeros((0, 2)), np.zeros((0, 2)), 1.0) == []
