@@ -91,7 +91,8 @@ def main(argv=None):
                    help="convergence.json to plot (default: the latest run, see _figure_tools.experiment_data)")
     args = p.parse_args(argv)
     data, quick = experiment_data("convergence", args.results)
-    paths = save(draw(data), args.out_dir, "fig3_convergence", quick=quick)
+    fig = draw(data)
+    paths = save(fig, args.out_dir, "fig3_convergence", quick=quick)
     plt.close(fig)
     return paths
 

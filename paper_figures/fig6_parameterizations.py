@@ -75,7 +75,8 @@ def draw(data: dict):
 def main(argv=None):
     args = ft.parser(__doc__.splitlines()[0]).parse_args(argv)
     data, quick = ft.experiment_data("parameterizations")
-    ft.save(draw(data), args.out_dir, NAME, quick=quick)
+    fig = draw(data)
+    ft.save(fig, args.out_dir, NAME, quick=quick)
 
 
 if __name__ == "__main__":
