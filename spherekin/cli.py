@@ -77,21 +77,50 @@ def _parse_inputs(text: str, degrees: bool) -> list[float]:
 
 
 class _Progress:
-    """One status line on stderr, redrawn at most every 0.2 s, only when stderr is a terminal."""
+    """The progress of one solve on stderr: boxes done and their rate, one line redrawn at most every
+    0.2 s on a terminal, a plain line every PROGRESS_INTERVAL seconds otherwise (a log); nothing
+    with ``quiet``."""
 
-    def __init__(self, enabled: bool):
-        self.enabled, self.last, self.t0 = enabled, 0.0, time.perf_counter()
+    def __init__(self, terminal: bool, quiet: bool = False):
+        self.terminal, self.quiet, self.last, self.t0 = terminal, quiet, 0.0, time.perf_counter()
+        self.shown = False
 
     def __call__(self, counts: dict) -> None:
+        if self.quiet:
+            return
         now = time.perf_counter()
-        if self.enabled and now - self.last > 0.2:
-            self.last = now
-            print(f"\r  {now - self.t0:6.1f} s  boxes {counts['boxes_processed']:8d}  pending {counts['pending']:6d}"
-                  f"  accepted {counts['accepted']:5d}", end="", file=sys.stderr, flush=True)
+        elapsed = now - self.t0
+        if now - self.last < (0.2 if self.terminal else PROGRESS_INTERVAL) or (not self.terminal and elapsed < 1.0):
+            return
+        self.last = now
+        rate = counts["boxes_processed"] / elapsed if elapsed > 0 else 0.0
+        line = (f"  {elapsed:6.1f} s  boxes {counts['boxes_processed']:8d} ({rate:8.0f}/s)  pending "
+                f"{counts['pending']:6d}  accepted {counts['accepted']:5d}")
+        if self.terminal:
+            print("\r" + line, end="", file=sys.stderr, flush=True)
+            self.shown = True
+        else:
+            print(line, file=sys.stderr, flush=True)
 
     def close(self) -> None:
-        if self.enabled and self.last:
+        if self.shown:
             print(file=sys.stderr)
+
+
+def _check_output_file(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
+    """An output file path checked before any work: a known suffix, not a directory, in an existing
+    writable directory."""
+    out = Path(path)
+    if suffixes and out.suffix.lower() not in suffixes:
+        raise ValueError(f"{option} {path}: expected a file name ending in {' or '.join(suffixes)}")
+    if out.is_dir():
+        raise ValueError(f"{option} {path}: is a directory; expected a file name")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"{option} {path}: the directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ValueError(f"{option} {path}: the directory {parent} is not writable")
+    return out
 
 
 class _Choices(list):
@@ -109,7 +138,7 @@ class _Choices(list):
 
 def _solve(args) -> int:
     from .mechanism import load_mechanism
-    from .problem import solve
+    from .problem import compile as compile_problem
     from .search.pruners import check_pruner
 
     check_pruner(args.pruner, args.lp_backend)   # a refused LP backend's reason, before any output
@@ -118,15 +147,28 @@ def _solve(args) -> int:
     if len(inputs) != len(mech.actuated):
         raise ValueError(f"--inputs: expected {len(mech.actuated)} values (one per actuated joint "
                          f"{', '.join(mech.actuated)}), got {len(inputs)}")
+    values = mech.check_inputs(inputs)
+    # every argument and output path is checked before the first line of output (compile checks
+    # the strategy's names and numbers: --tol, --jobs)
+    problem = compile_problem(mech, formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
+                              parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate,
+                              jobs=args.jobs)
+    if args.json:
+        _check_output_file("--json", args.json, (".json",))
+    if args.plot:
+        from .plot import check_plot_path
+
+        try:
+            check_plot_path(args.plot)
+        except ValueError as exc:
+            raise ValueError(f"--plot {args.plot}: {str(exc).split(': ', 1)[-1]}") from None
     unit = "deg" if args.degrees else "rad"
-    shown = [math.degrees(v) if args.degrees else v for v in inputs]
+    shown = [math.degrees(v) if args.degrees else v for v in values]
     print(f"{mech.name or args.file}: direct kinematics at "
-          + ", ".join(f"{n} = {v:+.6g} {unit}" for n, v in zip(mech.actuated, shown)))
-    progress = _Progress(sys.stderr.isatty())
+          + ", ".join(f"{n} = {v:+.6g} {unit}" for n, v in zip(mech.actuated, shown)), flush=True)
+    progress = _Progress(sys.stderr.isatty(), quiet=args.quiet)
     try:
-        report = solve(mech, inputs, formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
-                       parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate,
-                       jobs=args.jobs, progress=progress)
+        report = problem.solve(values, progress=progress)
     finally:
         progress.close()
     st = report.stats
@@ -141,23 +183,50 @@ def _solve(args) -> int:
     if used.fallback:
         print(f"note: {used.fallback}")
     limit = used.limit
-    if limit:
+    if limit and limit.interrupted:
+        print(f"note: {limit.error}: the entries above are what the search had found (polished and classified), "
+              "not necessarily every solution")
+    elif limit:
         print(f"note: {limit.error}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
               "instead (status continuum: its dimension and covering boxes are in the JSON evidence)")
     if used.refined_searches:
         print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "
               "a finer tolerance to separate their roots")
+    if not report.solutions and not limit:
+        print(f"note: {_why_empty(mech, values, problem)}")
     if args.json:
         import json  # only for --json (each import is paid by every process)
 
-        Path(args.json).write_text(json.dumps(report.as_dict(), indent=2))
+        from .mechanism.io import dumps_mechanism
+
+        data = report.as_dict()
+        data["mechanism_toml"] = dumps_mechanism(mech)
+        Path(args.json).write_text(json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.plot:
         from .plot import plot_solutions  # matplotlib: imported only when a plot is asked for
 
-        plot_solutions(mech, inputs, report, args.plot, degrees=args.degrees)
+        plot_solutions(mech, values, report, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
-    return 0
+    return 130 if limit and limit.interrupted else 0
+
+
+def _why_empty(mech, values, problem) -> str:
+    """Why a solve found nothing: are there assemblies outside the joint ranges, or none at all?"""
+    limited = [j.name for j in mech.joints if j.range is not None and not j.actuated]
+    if limited:
+        from .problem import compile as compile_problem
+
+        free = mech.without_ranges(limited)
+        outside = compile_problem(free, **problem.strategy_keywords()).solve(values)
+        if outside.solutions:
+            return (f"no assembly inside the joint ranges; {len(outside.solutions)} assembl"
+                    f"{'y' if len(outside.solutions) == 1 else 'ies'} exist with the passive joints unlimited "
+                    f"(ranges set on {', '.join(limited)})")
+    if len(mech.loop_unknowns) < 3 * len(mech.loop_geometry):     # more closure equations than unknowns
+        return ("no assembly at all at these inputs: for a redundantly actuated mechanism, inputs that are not "
+                "consistent with one another")
+    return "no assembly at all at these inputs: the legs cannot be closed (the inputs lie outside the workspace)"
 
 
 # ------------------------------------------------------------------ families of inputs
@@ -570,6 +639,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "(~2-3 s to start: for long solves; default %(default)s)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
+    so.add_argument("--quiet", action="store_true", help="no progress on stderr")
     so.set_defaults(func=_solve)
     ik = sub_add_parser("ik", help="inverse kinematics: every actuator solution of a platform pose")
     ik.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")

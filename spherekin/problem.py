@@ -39,7 +39,8 @@ from .search.pruners import make_pruner
 from .results import AcceptedBox, SearchLimit, SearchReport, Settings, SolveReport, SolverStats
 from .trust.solutions import count_summary, finalize, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
-                     check_strategy, clusters_in_range, partial_report, search_platform, solve_system)
+                     check_strategy, clusters_in_range, partial_report, search_platform, solve_system,
+                     SearchInterrupted)
 
 __all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "Strategy", "Problem", "compile", "solve", "disagreement"]
@@ -117,6 +118,13 @@ class Problem:
     #: compiled once, not per input.
     loop_pruners: dict = dataclasses.field(default_factory=dict)
 
+    def strategy_keywords(self) -> dict:
+        """The keywords of :func:`compile` that make this problem's strategy (for another mechanism)."""
+        st = self.strategy
+        return dict(formulation=st.formulation if self.not_platform is None else DEFAULT_FORMULATION,
+                    pruner=st.pruner, lp_backend=st.lp_backend, parameterization=st.parameterization, tol=st.tol,
+                    isolate=st.isolate, jobs=st.jobs, max_boxes=st.max_boxes, max_depth=st.max_depth)
+
     # ------------------------------------------------------------------ one input
 
     def solve(self, inputs, *, progress: Callable[[dict], None] | None = None,
@@ -141,7 +149,8 @@ class Problem:
                 if fallback is None:
                     return self._report(values, report, solutions, refined, t_final, None, None)
         report, limit, tol = self._search_loops(values, self.strategy.tol, progress, trace)
-        solutions, refined, t_final = self._trust(values, report, tol, refine=True)
+        interrupted = limit is not None and limit.interrupted
+        solutions, refined, t_final = self._trust(values, report, tol, refine=not interrupted)
         return self._report(values, report, solutions, refined, t_final, fallback, limit)
 
     def _trust(self, values, report, tol, refine: bool):
@@ -279,6 +288,8 @@ class Problem:
         t_setup = time.perf_counter() - t0
         try:
             found = search_platform(charts, self.platform_pruner, s.tol, s.max_boxes, s.max_depth, progress)
+        except SearchInterrupted:
+            raise KeyboardInterrupt from None            # a search of milliseconds: nothing worth keeping
         except SolverLimitError as exc:
             return f"the platform search reached a cap ({exc})"
         if found.unresolved:
@@ -321,6 +332,13 @@ class Problem:
 
         try:
             return run(tol), None, tol
+        except SearchInterrupted as exc:
+            # Ctrl-C: what was accepted so far is finalized and reported, marked as interrupted (the
+            # count is then never exact), instead of being lost
+            settings = Settings(formulation=self._loop_formulation, pruner=s.pruner, lp_backend=s.lp_backend,
+                                parameterization=s.parameterization, tol=tol, isolate=s.isolate, jobs=s.jobs,
+                                charts=0)
+            return partial_report(exc, self.ranges, settings), SearchLimit(str(exc), tol, tol, interrupted=True), tol
         except SolverLimitError as exc:
             # A continuum of solutions (or a cap too small for this tol): cover the solution set with
             # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the

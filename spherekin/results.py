@@ -169,15 +169,17 @@ def box_near(sol: Solution) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True)
 class SearchLimit:
     """A search stopped by a cap (a continuum of solutions, or a cap too small for ``tol``), and
-    the covering search run instead at ``covering_tol`` (``covering_error``: it was capped too)."""
+    the covering search run instead at ``covering_tol`` (``covering_error``: it was capped too);
+    or, with ``interrupted``, stopped by Ctrl-C (no covering search: what was found is reported)."""
 
     error: str
     tol: float
     covering_tol: float
     covering_error: str | None = None
+    interrupted: bool = False
 
     def as_dict(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if v is not None}
+        return {k: v for k, v in asdict(self).items() if v is not None and v is not False}
 
 
 @dataclass(frozen=True)
@@ -285,7 +287,8 @@ class SolveReport:
                 key = "singular without certificate" if s.status == "singular" else s.status
                 others[key] = others.get(key, 0) + 1
         listed = ", ".join(f"{v} {k}" for k, v in others.items())
-        capped = "; the search hit a cap" if self.settings.limit is not None else ""
+        limit = self.settings.limit
+        capped = "" if limit is None else ("; interrupted (Ctrl-C)" if limit.interrupted else "; the search hit a cap")
         return f"at least {n} {word} proven (count not exact: {listed or 'none listed'}{capped}; see the status column)"
 
     def table(self, degrees: bool = False) -> str:

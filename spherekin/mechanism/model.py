@@ -706,6 +706,14 @@ class SphericalMechanism:
         pas = [names.index(n) for n in self.passive]
         return {"legs": leg_j, "constraints": k_mat, "K_a": k_mat[:, act], "K_p": k_mat[:, pas]}
 
+    def without_ranges(self, names: Sequence[str] | None = None) -> "SphericalMechanism":
+        """The same mechanism with the joints ``names`` (default: every joint) unlimited."""
+        import dataclasses
+
+        legs = tuple(Leg(leg.name, tuple(dataclasses.replace(j, range=None) if names is None or j.name in names else j
+                                         for j in leg.joints)) for leg in self.legs)
+        return dataclasses.replace(self, legs=legs)
+
     def parallel_measure(self, joint_angles: Mapping[str, float]) -> float:
         """The normalized distance to a parallel singularity at ``joint_angles`` (name -> radians):
         sigma_min / sigma_max of K_p (:meth:`jacobians`), 1 for an isotropic configuration, 0 at a

@@ -50,7 +50,7 @@ from .pruners import check_pruner, excludes_zero, make_pruner
 from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
 __all__ = ["solve_system", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
-           "partial_report", "charts_for_range", "SolverLimitError", "DepthLimitError", "BoxLimitError",
+           "partial_report", "charts_for_range", "SolverLimitError", "SearchInterrupted", "DepthLimitError", "BoxLimitError",
            "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
 #: Default strategies: the fastest configuration that finds every solution (benchmarks/README.md).
@@ -100,6 +100,11 @@ class SolverLimitError(RuntimeError):
     def __init__(self, message: str, partial: list[AcceptedBox]):
         super().__init__(message)
         self.partial = partial
+
+
+class SearchInterrupted(SolverLimitError):
+    """The search was interrupted (Ctrl-C, KeyboardInterrupt); the roots accepted so far are in
+    ``partial``. Not a cap: the pipeline reports the partial result instead of searching again."""
 
 
 class DepthLimitError(SolverLimitError):
@@ -177,109 +182,114 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         start = (np.arange(nc), np.zeros((nc, n)), np.ones((nc, n)))
     chart0, lo0, hi0 = start
     stack = [(lo0, hi0, np.zeros(len(lo0), dtype=int), chart0)]
-    while stack:
-        take, size = [], 0
-        while stack and size < BATCH:            # fill one batch from the top of the stack
-            take.append(stack.pop())
-            size += len(take[-1][0])
-        lo, hi, depth, chart = (np.concatenate(parts) for parts in zip(*take))
-        if len(lo) > BATCH:
-            stack.append((lo[BATCH:], hi[BATCH:], depth[BATCH:], chart[BATCH:]))
-            lo, hi, depth, chart = lo[:BATCH], hi[:BATCH], depth[:BATCH], chart[:BATCH]
-        if len(lo) == 0:
-            continue
-        counts["boxes_processed"] += len(lo)
-        if counts["boxes_processed"] > max_boxes:
-            raise BoxLimitError(
-                f"more than max_boxes={max_boxes} boxes processed; the solution set may be a continuum, "
-                "or the tolerance too small for this formulation (the paper's scalar equation has double "
-                "roots: try formulation='transversal' or a larger tol)", partial())
-        if depth.max() > max_depth:
-            raise DepthLimitError(
-                f"a box was subdivided more than max_depth={max_depth} times; the solution set may be a "
-                f"continuum, or the tolerance {tol} too small for this formulation", partial())
-        counts["max_depth"] = max(counts["max_depth"], int(depth.max()))
-        if progress is not None:
-            progress({**counts, "pending": sum(len(e[0]) for e in stack)})
-        t1 = time.perf_counter()
-        cache: dict = {}
-        cps, tols = _restrict(charts, layout, chart, lo, hi, pruned, cache)
-        t2 = time.perf_counter()
-        mwidth = charts.metric(chart, hi) - charts.metric(chart, lo)
-        widths = mwidth.max(axis=1)
-        rlo, rhi = pruner.reduce([cps[b] for b in pruned], [tols[b] for b in pruned], widths=widths)
-        charts.contract(chart, lo, hi, rlo, rhi)
-        t3 = time.perf_counter()
-        iso = np.zeros(len(lo), dtype=bool)
-        if isolate:
-            cand = np.flatnonzero(~np.any(rlo > rhi, axis=1) & (widths < ISOLATION_MAX_WIDTH))
-            if len(cand):
-                extra, extra_t = _restrict(charts, layout, chart[cand], lo[cand], hi[cand], square_only)
-                k_iso, klo, khi = krawczyk_boxes(
-                    square, [c[..., cand] if c is not None else e for c, e in zip(cps, extra)],
-                    [t[:, cand] if t is not None else e for t, e in zip(tols, extra_t)])
-                iso[cand] = k_iso
-                rlo[cand] = np.maximum(rlo[cand], klo)
-                rhi[cand] = np.minimum(rhi[cand], khi)
-        t_isolate += time.perf_counter() - t3
-        t_prune += t3 - t2
-        t_restrict += t2 - t1
-        if iso.any():
-            isolated += list(zip(chart[iso], lo[iso], hi[iso]))
-            counts["isolated"] += int(iso.sum())
-        keep = ~np.any(rlo > rhi, axis=1) & ~iso
-        counts["discarded"] += int(np.sum(~keep & ~iso))
-        width = hi - lo
-        if trace is not None:
-            outcome = np.where(iso, 2, np.where(keep, 3, 0))   # refined below for kept boxes
-            record = dict(chart=chart.copy(), depth=depth.copy(), lo=lo.copy(), hi=hi.copy(),
-                          metric_width=mwidth.copy(), reduced_lo=lo + rlo * width, reduced_hi=lo + rhi * width)
-        nlo, nhi = (lo + rlo * width)[keep], (lo + rhi * width)[keep]
-        ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
-        mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
-        done = np.all(mw <= limit, axis=1)
-        alive = np.ones(len(nlo), dtype=bool)
-        if done.any():
-            # Departure from the paper (Section 4, step 3 accepts a box once it is small): the
-            # pruners bound the box through the hull of control points on the *unreduced* box, and
-            # a hull can touch w = 0 at one abscissa where the equation does not vanish (a whole
-            # chart can shrink to one such point). Restricted to the reduced box, the control
-            # points must still admit 0, or the box holds no root.
-            idx = np.flatnonzero(done)
-            t4 = time.perf_counter()
-            rc, rt = _restrict(charts, layout, chart[idx], nlo[idx], nhi[idx], pruned)
-            empty = excludes_zero([rc[b] for b in pruned], [rt[b] for b in pruned])
-            t_restrict += time.perf_counter() - t4
-            alive[idx[empty]] = False
-            done &= alive
-            counts["discarded"] += int(empty.sum())
-        if trace is not None:
-            kept = np.flatnonzero(keep)
-            outcome[kept[done]] = 1
-            outcome[kept[~done & alive & ~np.all(ratio <= SPLIT_RATIO, axis=1)]] = 4
-            outcome[kept[~alive]] = 0
-            record["outcome"] = outcome
-            trace(record)
-        if done.any():
-            alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
-            accepted += list(zip(chart[done], alo, ahi))
-        counts["accepted"] += int(done.sum())
-        again = ~done & alive & np.all(ratio <= SPLIT_RATIO, axis=1)
-        counts["reduced_again"] += int(again.sum())
-        if again.any():
-            stack.append((nlo[again], nhi[again], depth[again], chart[again]))
-        split = ~done & ~again & alive
-        counts["split"] += int(split.sum())
-        if split.any():
-            slo, shi, sd, sc = nlo[split], nhi[split], depth[split], chart[split]
-            axis = np.argmax(mw[split], axis=1)                     # widest side in metric units
-            rows = np.arange(len(slo))
-            mid = slo[rows, axis] + SPLIT_POINT * (shi[rows, axis] - slo[rows, axis])
-            left_hi, right_lo = shi.copy(), slo.copy()
-            left_hi[rows, axis] = mid
-            right_lo[rows, axis] = mid
-            stack.append((np.concatenate([right_lo, slo]), np.concatenate([shi, left_hi]),
-                          np.concatenate([sd, sd]), np.concatenate([sc, sc])))
+    try:
+        while stack:
+            take, size = [], 0
+            while stack and size < BATCH:            # fill one batch from the top of the stack
+                take.append(stack.pop())
+                size += len(take[-1][0])
+            lo, hi, depth, chart = (np.concatenate(parts) for parts in zip(*take))
+            if len(lo) > BATCH:
+                stack.append((lo[BATCH:], hi[BATCH:], depth[BATCH:], chart[BATCH:]))
+                lo, hi, depth, chart = lo[:BATCH], hi[:BATCH], depth[:BATCH], chart[:BATCH]
+            if len(lo) == 0:
+                continue
+            counts["boxes_processed"] += len(lo)
+            if counts["boxes_processed"] > max_boxes:
+                raise BoxLimitError(
+                    f"more than max_boxes={max_boxes} boxes processed; the solution set may be a continuum, "
+                    "or the tolerance too small for this formulation (the paper's scalar equation has double "
+                    "roots: try formulation='transversal' or a larger tol)", partial())
+            if depth.max() > max_depth:
+                raise DepthLimitError(
+                    f"a box was subdivided more than max_depth={max_depth} times; the solution set may be a "
+                    f"continuum, or the tolerance {tol} too small for this formulation", partial())
+            counts["max_depth"] = max(counts["max_depth"], int(depth.max()))
+            if progress is not None:
+                progress({**counts, "pending": sum(len(e[0]) for e in stack)})
+            t1 = time.perf_counter()
+            cache: dict = {}
+            cps, tols = _restrict(charts, layout, chart, lo, hi, pruned, cache)
+            t2 = time.perf_counter()
+            mwidth = charts.metric(chart, hi) - charts.metric(chart, lo)
+            widths = mwidth.max(axis=1)
+            rlo, rhi = pruner.reduce([cps[b] for b in pruned], [tols[b] for b in pruned], widths=widths)
+            charts.contract(chart, lo, hi, rlo, rhi)
+            t3 = time.perf_counter()
+            iso = np.zeros(len(lo), dtype=bool)
+            if isolate:
+                cand = np.flatnonzero(~np.any(rlo > rhi, axis=1) & (widths < ISOLATION_MAX_WIDTH))
+                if len(cand):
+                    extra, extra_t = _restrict(charts, layout, chart[cand], lo[cand], hi[cand], square_only)
+                    k_iso, klo, khi = krawczyk_boxes(
+                        square, [c[..., cand] if c is not None else e for c, e in zip(cps, extra)],
+                        [t[:, cand] if t is not None else e for t, e in zip(tols, extra_t)])
+                    iso[cand] = k_iso
+                    rlo[cand] = np.maximum(rlo[cand], klo)
+                    rhi[cand] = np.minimum(rhi[cand], khi)
+            t_isolate += time.perf_counter() - t3
+            t_prune += t3 - t2
+            t_restrict += t2 - t1
+            if iso.any():
+                isolated += list(zip(chart[iso], lo[iso], hi[iso]))
+                counts["isolated"] += int(iso.sum())
+            keep = ~np.any(rlo > rhi, axis=1) & ~iso
+            counts["discarded"] += int(np.sum(~keep & ~iso))
+            width = hi - lo
+            if trace is not None:
+                outcome = np.where(iso, 2, np.where(keep, 3, 0))   # refined below for kept boxes
+                record = dict(chart=chart.copy(), depth=depth.copy(), lo=lo.copy(), hi=hi.copy(),
+                              metric_width=mwidth.copy(), reduced_lo=lo + rlo * width, reduced_hi=lo + rhi * width)
+            nlo, nhi = (lo + rlo * width)[keep], (lo + rhi * width)[keep]
+            ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
+            mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
+            done = np.all(mw <= limit, axis=1)
+            alive = np.ones(len(nlo), dtype=bool)
+            if done.any():
+                # Departure from the paper (Section 4, step 3 accepts a box once it is small): the
+                # pruners bound the box through the hull of control points on the *unreduced* box, and
+                # a hull can touch w = 0 at one abscissa where the equation does not vanish (a whole
+                # chart can shrink to one such point). Restricted to the reduced box, the control
+                # points must still admit 0, or the box holds no root.
+                idx = np.flatnonzero(done)
+                t4 = time.perf_counter()
+                rc, rt = _restrict(charts, layout, chart[idx], nlo[idx], nhi[idx], pruned)
+                empty = excludes_zero([rc[b] for b in pruned], [rt[b] for b in pruned])
+                t_restrict += time.perf_counter() - t4
+                alive[idx[empty]] = False
+                done &= alive
+                counts["discarded"] += int(empty.sum())
+            if trace is not None:
+                kept = np.flatnonzero(keep)
+                outcome[kept[done]] = 1
+                outcome[kept[~done & alive & ~np.all(ratio <= SPLIT_RATIO, axis=1)]] = 4
+                outcome[kept[~alive]] = 0
+                record["outcome"] = outcome
+                trace(record)
+            if done.any():
+                alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
+                accepted += list(zip(chart[done], alo, ahi))
+            counts["accepted"] += int(done.sum())
+            again = ~done & alive & np.all(ratio <= SPLIT_RATIO, axis=1)
+            counts["reduced_again"] += int(again.sum())
+            if again.any():
+                stack.append((nlo[again], nhi[again], depth[again], chart[again]))
+            split = ~done & ~again & alive
+            counts["split"] += int(split.sum())
+            if split.any():
+                slo, shi, sd, sc = nlo[split], nhi[split], depth[split], chart[split]
+                axis = np.argmax(mw[split], axis=1)                     # widest side in metric units
+                rows = np.arange(len(slo))
+                mid = slo[rows, axis] + SPLIT_POINT * (shi[rows, axis] - slo[rows, axis])
+                left_hi, right_lo = shi.copy(), slo.copy()
+                left_hi[rows, axis] = mid
+                right_lo[rows, axis] = mid
+                stack.append((np.concatenate([right_lo, slo]), np.concatenate([shi, left_hi]),
+                              np.concatenate([sd, sd]), np.concatenate([sc, sc])))
+    except KeyboardInterrupt:
+        # Ctrl-C: stop now, hand over what was accepted so far (the pipeline reports it, not exact)
+        raise SearchInterrupted("interrupted (Ctrl-C) after "
+                                f"{counts['boxes_processed']} boxes", partial()) from None
     return accepted, isolated, counts, (t_restrict, t_prune, t_isolate)
 
 
