@@ -704,15 +704,20 @@ def build_parser() -> argparse.ArgumentParser:
 #: An option's value that argparse would take for an option (it starts with "-") but is a number,
 #: a list of numbers or an angle: -0.3,0.2 / -pi/2 / -1e-3 / -.5
 _NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d|pi)")
+#: A plain negative number, which argparse itself reads as a value (its own pattern): left alone, so
+#: that options of several values (--beta -0.3 0.2 0.5) keep them apart.
+_PLAIN_NEGATIVE = re.compile(r"^-\d+$|^-\d*\.\d+$")
 
 
 def join_negative_values(argv: list[str]) -> list[str]:
     """``--opt -0.3,0.2`` -> ``--opt=-0.3,0.2``: argparse takes a value starting with "-" (other than a
-    plain negative number) for an option of its own and stops with "expected one argument"; negative
-    angles are the common case, so an option followed by one gets it as its value."""
+    plain negative number such as -0.3, which it reads itself) for an option of its own and stops with
+    "expected one argument"; negative angles are the common case, so an option followed by one gets it
+    as its value."""
     out: list[str] = []
     for tok in argv:
-        if out and _NEGATIVE_VALUE.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+        if (out and _NEGATIVE_VALUE.match(tok) and not _PLAIN_NEGATIVE.match(tok) and out[-1].startswith("--")
+                and "=" not in out[-1]):
             out[-1] = f"{out[-1]}={tok}"
         else:
             out.append(tok)

@@ -22,8 +22,11 @@ EXAMPLE = str(ROOT / "examples" / "general_3rrr.toml")
 def test_negative_values_are_joined_to_their_option():
     assert join_negative_values(["solve", "f", "--inputs", "-0.3,0.2", "--tol", "1e-6"]) == \
         ["solve", "f", "--inputs=-0.3,0.2", "--tol", "1e-6"]
-    assert join_negative_values(["--euler", "-pi/2", "--x", "-.5"]) == ["--euler=-pi/2", "--x=-.5"]
+    assert join_negative_values(["--euler", "-pi/2", "--x", "-.5"]) == ["--euler=-pi/2", "--x", "-.5"]
     assert join_negative_values(["--degrees", "--fix", "beta3=-1"]) == ["--degrees", "--fix", "beta3=-1"]
+    # a plain negative number is argparse's own: options of several values keep them apart
+    assert join_negative_values(["--beta", "-0.3", "0.2", "-5"]) == ["--beta", "-0.3", "0.2", "-5"]
+    assert join_negative_values(["--euler", "-1e-3,2,3"]) == ["--euler=-1e-3,2,3"]
 
 
 def test_ik_by_rotation_quaternion_and_euler_agree_and_close_every_leg(tmp_path, capsys):
