@@ -243,10 +243,13 @@ class _BatchProgress:
     """Inputs done, rate and time left: one line redrawn on a terminal, a line every PROGRESS_INTERVAL
     seconds otherwise (a log)."""
 
-    def __init__(self, terminal: bool):
+    def __init__(self, terminal: bool, quiet: bool = False):
         self.terminal, self.t0, self.last, self.start_done = terminal, time.perf_counter(), 0.0, None
+        self.quiet = quiet
 
     def __call__(self, done: int, total: int) -> None:
+        if self.quiet:
+            return
         now = time.perf_counter()
         if self.start_done is None:
             self.start_done = done
@@ -266,7 +269,7 @@ class _BatchProgress:
             print(line.rstrip(), file=sys.stderr, flush=True)
 
     def close(self) -> None:
-        if self.terminal and self.last:
+        if self.terminal and self.last and not self.quiet:
             print(file=sys.stderr)
 
 
@@ -304,7 +307,7 @@ def _batch(args) -> int:
     inputs = _family_inputs(mech, args)
     check_output_path(args.out, args.resume, args.overwrite)
     print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}")
-    progress = _BatchProgress(sys.stderr.isatty())
+    progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         summary = solve_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite,
                                 scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
@@ -343,7 +346,7 @@ def _map(args) -> int:
     x, y = inputs.axes
     print(f"{mech.name or args.file}: assembly-mode map over {x.name} x {y.name} "
           f"({len(x.values)} x {len(y.values)} inputs)")
-    progress = _BatchProgress(sys.stderr.isatty())
+    progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         amap = assembly_map(mech, x, y, inputs.fixed, out=args.out, resume=args.resume, overwrite=args.overwrite,
                             scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
@@ -531,6 +534,7 @@ def _add_engine_options(p) -> None:
     p.add_argument("--chunk-size", type=int, help="inputs per Dask task (default: up to 64)")
     p.add_argument("--resume", action="store_true", help="complete a partial output without redoing finished inputs")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
 def _add_grid_options(p) -> None:
