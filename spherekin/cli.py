@@ -388,6 +388,8 @@ def _ik(args) -> int:
     if args.convention and args.euler is None:
         raise ValueError("--convention: only with --euler")
     mech = load_mechanism(args.file)
+    if args.json:
+        _check_output_file("--json", args.json, (".json",))
     if args.rotation is not None:
         rot = check_rotation("--rotation", np.array(_parse_numbers("--rotation", args.rotation, 9)).reshape(3, 3))
     elif args.quaternion is not None:
@@ -450,6 +452,8 @@ def _track(args) -> int:
         start = args.start_solution - 1
     if args.out:
         check_output_path(args.out, False, True)
+    if args.json:
+        _check_output_file("--json", args.json, (".json",))
     if args.plot:
         from .plot import check_plot_path
 

@@ -67,6 +67,7 @@ def test_ik_in_degrees_prints_degrees(capsys):
     (["--quaternion", "0,0,0,0"], "--quaternion: expected a nonzero"),
     (["--euler", "1,2,3", "--convention", "ZZY"], "convention: expected three axis letters"),
     (["--quaternion", "1,0,0,0", "--convention", "ZYX"], "--convention: only with --euler"),
+    (["--quaternion", "1,0,0,0", "--json", "/nonexistent/ik.json"], "the directory /nonexistent does not exist"),
 ])
 def test_ik_bad_poses_are_one_clear_error(capsys, args, match):
     assert main(["ik", EXAMPLE, *args]) == 2
@@ -182,6 +183,7 @@ def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
     (["--start-solution", "9"], "expected a solution index 0..7"),
     (["--start-quaternion", "1,0,0,0"], "does not close the legs"),
     (["--start-solution", "1", "--plot", "x.gif"], "expected a file name ending"),
+    (["--start-solution", "1", "--json", "nodir/t.json"], "--json nodir/t.json: the directory nodir does not exist"),
 ])
 def test_track_bad_starts_are_one_clear_error(tmp_path, capsys, monkeypatch, args, match):
     monkeypatch.chdir(tmp_path)
