@@ -273,6 +273,13 @@ class _BatchProgress:
             print(file=sys.stderr)
 
 
+def _check_strategy(mech, args) -> None:
+    """The strategy options, checked (by compiling the mechanism once here) before any output."""
+    from .problem import compile as compile_problem
+
+    compile_problem(mech, **_strategy(args))
+
+
 def _strategy(args) -> dict:
     return dict(formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
                 parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate)
@@ -306,6 +313,7 @@ def _batch(args) -> int:
     mech = load_mechanism(args.file)
     inputs = _family_inputs(mech, args)
     check_output_path(args.out, args.resume, args.overwrite)
+    _check_strategy(mech, args)
     print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}")
     progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
@@ -343,6 +351,7 @@ def _map(args) -> int:
         raise ValueError(f"--table {args.table}: expected a .csv path")
     if args.table and not Path(args.table).resolve().parent.is_dir():
         raise ValueError(f"--table {args.table}: the directory does not exist")
+    _check_strategy(mech, args)
     x, y = inputs.axes
     print(f"{mech.name or args.file}: assembly-mode map over {x.name} x {y.name} "
           f"({len(x.values)} x {len(y.values)} inputs)")
@@ -732,6 +741,24 @@ def join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
+#: Python keyword names of the strategy and the command-line options that set them.
+_OPTION_OF = {"lp_backend": "--lp-backend", "pruner": "--pruner", "formulation": "--formulation",
+              "parameterization": "--parameterization", "tol": "--tol", "jobs": "--jobs"}
+_KEYWORD_VALUE = re.compile(r"\b(" + "|".join(_OPTION_OF) + r")=(None|'[^']*'|[^\s,;)]+)")
+_KEYWORD_HEAD = re.compile(r"^(" + "|".join(_OPTION_OF) + r"):")
+
+
+def as_options(message: str) -> str:
+    """An error message of the Python API in the words of the command line: ``lp_backend=None`` ->
+    "no --lp-backend", ``pruner='lp'`` -> "--pruner lp", a leading ``tol:`` -> "--tol:"."""
+    def value(m):
+        key, val = m.group(1), m.group(2)
+        return f"no {_OPTION_OF[key]}" if val == "None" else f"{_OPTION_OF[key]} {val.strip(chr(39))}"
+
+    message = _KEYWORD_VALUE.sub(value, message)
+    return _KEYWORD_HEAD.sub(lambda m: _OPTION_OF[m.group(1)] + ":", message)
+
+
 def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
     """Run the command ``argv`` (default: sys.argv[1:]); ``parser``: one :func:`build_parser` made."""
     parser = parser or build_parser()
@@ -739,7 +766,7 @@ def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
     try:
         return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback
-        print(f"spherekin: error: {exc}", file=sys.stderr)
+        print(f"spherekin: error: {as_options(str(exc))}", file=sys.stderr)
         return 2
     except RuntimeError as exc:  # a solve that failed on a worker: what was written stays
         print(f"spherekin: error: {exc}", file=sys.stderr)

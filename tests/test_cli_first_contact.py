@@ -105,3 +105,19 @@ def test_progress_lines_in_a_log_and_silence_with_quiet(capsys, monkeypatch):
     quiet(counts)
     quiet.close()
     assert capsys.readouterr().err == ""
+
+
+def test_errors_speak_in_options_not_python_keywords(capsys):
+    from spherekin.cli import as_options
+
+    assert as_options("lp_backend: the 'pp' pruner solves no LP; pass lp_backend=None or pruner='lp'") == \
+        "--lp-backend: the 'pp' pruner solves no LP; pass no --lp-backend or --pruner lp"
+    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--pruner", "pp", "--lp-backend", "highspy"]) == 2
+    captured = capsys.readouterr()
+    assert "pass no --lp-backend or --pruner lp" in captured.err and "lp_backend=" not in captured.err
+    assert captured.out == ""
+    chart = str(ROOT / "examples" / "general_3rrr.toml")
+    assert main(["batch", chart, "--grid", "beta1=0:1:3", "--fix", "beta2=0", "--fix", "beta3=0", "--out",
+                 "never.csv", "--pruner", "pp", "--lp-backend", "clarabel"]) == 2
+    captured = capsys.readouterr()
+    assert "--pruner lp" in captured.err and captured.out == "" and not Path("never.csv").exists()
