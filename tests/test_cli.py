@@ -72,7 +72,7 @@ def test_a_refused_lp_backend_is_one_line_with_its_measured_reason(name, capsys)
     assert main(["solve", GOSSELIN, "--inputs=0.3,-0.2,0.5", "--pruner", "lp", "--lp-backend", name]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith(f"spherekin: error: lp_backend: expected one of {list(LP_BACKENDS)}, got {name!r}")
+    assert err.startswith(f"spherekin: error: --lp-backend: expected one of {list(LP_BACKENDS)}, got {name!r}")
     assert REJECTED_LP_BACKENDS[name] in err
     assert name not in _help_choices(capsys)["--lp-backend"]
 
