@@ -206,22 +206,27 @@ class Problem:
         Every row is checked before the first solve (one error naming the row); ``progress(done,
         total)`` is called after each row.
         """
-        rows = np.asarray(inputs, dtype=float) if not isinstance(inputs, np.ndarray) else inputs
-        if rows.ndim != 2 or rows.shape[1] != len(self.mechanism.actuated):
-            raise ValueError(f"inputs: expected an array of shape (K, {len(self.mechanism.actuated)}) "
-                             f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), "
-                             f"got shape {rows.shape}")
-        for k, row in enumerate(rows):
-            try:
-                self.mechanism.check_inputs(row)
-            except ValueError as exc:
-                raise ValueError(f"inputs row {k}: {exc}") from None
+        rows = self._checked_rows("inputs", inputs)
         out = []
         for k, row in enumerate(rows):
             out.append(self.solve(row))
             if progress is not None:
                 progress(k + 1, len(rows))
         return tuple(out)
+
+    def _checked_rows(self, key: str, inputs) -> np.ndarray:
+        """``inputs`` as an array (K, actuated joints), every row checked (one error naming the row)."""
+        rows = np.asarray(inputs, dtype=float) if not isinstance(inputs, np.ndarray) else inputs
+        if rows.ndim != 2 or rows.shape[1] != len(self.mechanism.actuated):
+            raise ValueError(f"{key}: expected an array of shape (K, {len(self.mechanism.actuated)}) "
+                             f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), "
+                             f"got shape {rows.shape}")
+        for k, row in enumerate(rows):
+            try:
+                self.mechanism.check_inputs(row)
+            except ValueError as exc:
+                raise ValueError(f"{key} row {k}: {exc}") from None
+        return rows
 
     # ------------------------------------------------------------------ a path
 
@@ -237,15 +242,9 @@ class Problem:
         """
         from .trust.continuation import track
 
-        rows = np.asarray(path, dtype=float) if not isinstance(path, np.ndarray) else path
-        if rows.ndim != 2 or rows.shape[1] != len(self.mechanism.actuated) or not len(rows):
-            raise ValueError(f"path: expected an array of shape (K, {len(self.mechanism.actuated)}) "
-                             f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), got shape {rows.shape}")
-        for k, row in enumerate(rows):
-            try:
-                self.mechanism.check_inputs(row)
-            except ValueError as exc:
-                raise ValueError(f"path row {k}: {exc}") from None
+        rows = self._checked_rows("path", path)
+        if not len(rows):
+            raise ValueError("path: expected at least one row of inputs, got none")
         why = not_applicable(self.mechanism)
         if why is not None:
             raise ValueError(f"track: follows the platform's orientation, which needs three R-R-R legs with "

@@ -323,30 +323,10 @@ def _tangent(eqs: LegEquations, dc, beta, dbeta) -> np.ndarray | None:
         return None
 
 
-def _prove_step(eqs: LegEquations, dc, beta0, beta1):
-    """The root w1 at beta1 continuing w = 0 at beta0, proven (module doc), or None."""
-    guess = _tangent(eqs, dc, beta0, beta1 - beta0)
-    if guess is None:
-        return None
-    w1, ok = _newton(eqs, dc, guess, beta1)
-    if not ok:
-        return None
-    pad = MARGIN_RELATIVE * float(np.abs(w1).max()) + MARGIN
-    lo, hi = np.minimum(0.0, w1) - pad, np.maximum(0.0, w1) + pad
-    if not krawczyk_step(eqs, dc, lo, hi, beta0, beta1):
-        return None
-    if not krawczyk_step(eqs, dc, w1 - POINT_RADIUS, w1 + POINT_RADIUS, beta1, beta1):
-        return None
-    return w1
-
-
 def _branch_exists(eqs: LegEquations, dc, beta0, beta, sign: float) -> bool:
     """Newton from the last proven pose converges at ``beta`` to a root where det J keeps its sign."""
-    guess = _tangent(eqs, dc, beta0, beta - beta0)
-    if guess is None:
-        return False
-    w, ok = _newton(eqs, dc, guess, beta)
-    if not ok:
+    w = _predict(eqs, dc, beta0, beta)
+    if w is None:
         return False
     _, jac = eqs.values(dc, w, beta)
     return bool(np.sign(np.linalg.det(jac)) == sign)
