@@ -211,6 +211,22 @@ def _reference_beta(u, w0, v, alpha2) -> float:
     return min(roots, key=abs)  # the root nearest beta = 0 (the given w^0)
 
 
+def _joint_table(key: str, table, what: str, check) -> dict:
+    """A table joint name -> value of a 3-RRR (None: empty), each name known and each value checked
+    by ``check(key.name, value)``; ValueError naming the first problem."""
+    if table is None:
+        return {}
+    if not isinstance(table, Mapping):
+        raise ValueError(f"{key}: expected a table joint name -> {what}, got {table!r}")
+    names = rrr_joint_names()
+    out = {}
+    for n, v in table.items():
+        if n not in names:
+            raise ValueError(f"{key}: unknown joint {n!r}; valid names: {', '.join(names)}")
+        out[n] = check(f"{key}.{n}", v)
+    return out
+
+
 def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, joint_ranges=None, *,
               name: str = "3-RRR", reference_leg: str = "leg1", joint_offsets=None) -> SphericalMechanism:
     """A 3-RRR spherical parallel manipulator as a :class:`SphericalMechanism` (semantics in the module doc).
@@ -233,23 +249,8 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
                 f"elbow_axes_at_zero[{i}]: inconsistent geometry: parallel to base_axes[{i}] "
                 "(a proximal link angle of 0 or pi makes the two joints coaxial)"
             )
-    names = rrr_joint_names()
-    ranges = {}
-    if joint_ranges is not None:
-        if not isinstance(joint_ranges, Mapping):
-            raise ValueError(f"joint_ranges: expected a table joint name -> [lo, hi], got {joint_ranges!r}")
-        for n, r in joint_ranges.items():
-            if n not in names:
-                raise ValueError(f"joint_ranges: unknown joint {n!r}; valid names: {', '.join(names)}")
-            ranges[n] = check_range(f"joint_ranges.{n}", r)
-    offsets = {}
-    if joint_offsets is not None:
-        if not isinstance(joint_offsets, Mapping):
-            raise ValueError(f"joint_offsets: expected a table joint name -> angle, got {joint_offsets!r}")
-        for n, v in joint_offsets.items():
-            if n not in names:
-                raise ValueError(f"joint_offsets: unknown joint {n!r}; valid names: {', '.join(names)}")
-            offsets[n] = parse_angle(f"joint_offsets.{n}", v)
+    ranges = _joint_table("joint_ranges", joint_ranges, "[lo, hi]", check_range)
+    offsets = _joint_table("joint_offsets", joint_offsets, "angle", parse_angle)
     geom = ThreeRRRGeometry(u, w0, v0, alpha2)
     rot = find_reference_pose(geom)
     if rot is None:
