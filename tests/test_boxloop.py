@@ -311,3 +311,25 @@ def test_package_level_entry_points():
     assert rep.solutions and all(s.residual < 1e-12 for s in rep.solutions)
     with pytest.raises(AttributeError, match="nothing"):
         spherekin.nothing  # noqa: B018
+
+
+def test_a_capped_search_hands_over_the_roots_it_had_isolated():
+    """partial (of a cap, or of Ctrl-C) holds the roots already isolated, not only the accepted boxes:
+    each closes every loop (the mechanism's forward kinematics, not the solver, says so)."""
+    from spherekin.mechanism import gosselin
+    from spherekin.search.boxloop import SolverLimitError
+
+    mech, x = gosselin(), (0.3, -0.2, 0.5)
+
+    def build(chart):
+        system = mech.loop_system(x, chart)
+        return system.loops, system.unknowns
+
+    ranges = {n: mech.ranges[n] for n in mech.loop_unknowns}
+    with pytest.raises(SolverLimitError) as info:
+        solve_system(build, ranges, formulation="halves", max_boxes=2000)   # the full search takes ~2,700
+    points = [b for b in info.value.partial if np.array_equal(b.lo, b.hi)]
+    assert len(points) >= 2
+    for p in points:
+        joints = {**dict(zip(mech.actuated, x)), **dict(zip(mech.loop_unknowns, p.lo.tolist()))}
+        assert max(mech.forward(joints).loop_residuals) < 1e-9

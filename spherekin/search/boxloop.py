@@ -175,7 +175,10 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
     limit = tol * charts.accept_width
 
     def partial():
-        return [AcceptedBox(a, b, int(c)) for c, a, b in accepted]
+        # the accepted boxes, and the roots of the boxes isolated so far (Newton, as a finished search does)
+        points = _solve_isolated(charts, isolated)[0] if isolated else []
+        return ([AcceptedBox(a, b, int(c)) for c, a, b in accepted]
+                + [AcceptedBox(a, np.array(a, copy=True), int(c)) for c, a in points])
 
     if start is None:
         nc = charts.n_charts
