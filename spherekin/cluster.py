@@ -29,6 +29,10 @@ __all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "connect", "map_
 #: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
 #: job; a failure that matters reaches the job as the exception of a task (a worker that dies: KilledWorker).
 QUIET_LOGS = logging.CRITICAL
+#: Where an embedded cluster's scheduler serves HTTP (health, metrics; the dashboard when bokeh is
+#: installed): loopback only, on a free port. Reason: the default, port 8787 on every interface, is
+#: taken by any other Dask cluster running on the machine (a warning, then another port anyway).
+HTTP_ADDRESS = "127.0.0.1:0"
 #: Seconds to wait for a scheduler given by address before saying it cannot be reached.
 CONNECT_TIMEOUT = 10.0
 #: Tasks in flight per worker (:func:`map_in_order`, the batch engine). Reason: 2 keep a worker busy
@@ -82,7 +86,8 @@ def connect(*, client=None, scheduler: str | None = None, workers: int | None = 
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                           host="127.0.0.1", dashboard_address=None, silence_logs=QUIET_LOGS, preload=[__name__])
+                           host="127.0.0.1", dashboard_address=HTTP_ADDRESS, silence_logs=QUIET_LOGS,
+                           preload=[__name__])
     try:
         with Client(cluster) as c:
             yield c

@@ -71,8 +71,10 @@ def dask_client():
 
     from distributed import Client, LocalCluster
 
+    from spherekin.cluster import HTTP_ADDRESS
+
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=logging.CRITICAL)
+                           dashboard_address=HTTP_ADDRESS, silence_logs=logging.CRITICAL)
     client = Client(cluster)
     yield client
     client.close()
