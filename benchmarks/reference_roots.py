@@ -24,7 +24,6 @@ the input where the count changes along a segment of inputs.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import mpmath

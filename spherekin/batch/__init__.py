@@ -13,10 +13,9 @@ processes (one per core by default; in this process for a handful of inputs), se
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
-from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, parse_grid, read_inputs_csv
+from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
 from .maps import MAP_COLUMNS, AssemblyMap, aggregate
 from .sinks import Sink, check_output_path, open_sink, read_results
 

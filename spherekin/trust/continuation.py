@@ -38,7 +38,6 @@ LOCATE_TOL. Nothing beyond the last proven input is reported as a pose.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
