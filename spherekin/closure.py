@@ -330,7 +330,7 @@ def f11_f13_recursion(factors: Sequence[FactorPolynomials]) -> tuple[np.ndarray,
     dtype = _common_dtype(factors)
     zero = np.array(0 if dtype is object else 0.0, dtype=dtype)
     one = np.array(1 if dtype is object else 1.0, dtype=dtype)
-    f11_prev = one                                    # k = 0 (f13bar_0 = 0 is never read: the recursion uses f13bar_{k-1}, k >= 2)
+    f11_prev = one                                    # k = 0 (f13bar_0 = 0 is never read)
     f11_cur, f13_cur = zero * factors[0].q, zero * factors[0].q  # k = 1
     for k in range(1, len(factors)):
         g_base = _outer(f11_prev, factors[k - 1].q)
