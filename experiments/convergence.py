@@ -76,8 +76,10 @@ QUICK_LP_MIN_TOL = 1e-2
 #: Steps used for the order: boxes narrower than this (radians), i.e. near the root, ...
 ORDER_MAX_WIDTH = 0.1
 #: ... whose reduction is wider than this: below it the pruner's own safety margins (1e-12 of the
-#: box, pruners.INTERVAL_MARGIN) and the rounding of restricted control points dominate.
-ORDER_MIN_WIDTH = 1e-11
+#: box, pruners.INTERVAL_MARGIN) and the rounding tolerance of the equations dominate (|w| <= 2.2e-13
+#: times their magnitude, the size of the terms behind their control points, over a gradient of
+#: ~1: reductions stop at ~1e-11 rad on the Gosselin platform).
+ORDER_MIN_WIDTH = 1e-10
 #: A root is in a box when it lies within this (radians) of the box: the trace's boxes are in unit
 #: coordinates and their angles carry rounding of ~1e-15.
 CONTAIN_SLACK = 1e-12

@@ -47,6 +47,7 @@ from .core.rotations import Z, normalized_closure, rx
 
 __all__ = [
     "KNOWN_ANGLE_SNAP",
+    "KNOWN_ENTRY_FLOOR",
     "snapped_cos_sin",
     "tan_half_angle",
     "tan_half_unit",
@@ -57,6 +58,7 @@ __all__ = [
     "variable_factor",
     "f11_f13_recursion",
     "matrix_control_points",
+    "matrix_magnitude",
     "q_control_points",
     "sigma_shift",
     "scalar_control_points",
@@ -70,6 +72,15 @@ __all__ = [
 #: instead of 0; snapping keeps the structural zeros of the control points exact. The change to
 #: the equations is below 1e-14, far below any tolerance a solver can use.
 KNOWN_ANGLE_SNAP = 1e-14
+#: In :func:`matrix_magnitude`, the cos and sin of a known angle count as at least this. Reason: an
+#: error d in one of them (d <= KNOWN_ANGLE_SNAP) changes a control point by at most d times the
+#: product of the other factors' magnitudes, i.e. by at most d / KNOWN_ENTRY_FLOOR times the control
+#: point's magnitude M; over the ~8 known factors of a 3-RRR loop that is <= 8e-14 / 0.25 M = 3.2e-13 M
+#: at the worst, and ~1e-15 M for the plain rounding of an angle (the snap moves only exact
+#: multiples of pi/2, whose cos or sin is ~1e-16 k), so that the solver's rounding tolerance
+#: (ROUNDING_SAFETY eps M = 2.2e-13 M) covers the known angles' errors as well as the products'
+#: rounding. A floor of 1 would also do, at ~10x wider tolerances (slower final contraction).
+KNOWN_ENTRY_FLOOR = 0.25
 
 ROUTES = ("recursion", "product")
 
@@ -366,6 +377,42 @@ def matrix_control_points(factors: Sequence[FactorPolynomials]) -> np.ndarray:
     prod = np.eye(3, dtype=dtype) if dtype is not object else np.eye(3, dtype=int).astype(object)
     for f in factors:
         a = _control_matrices(f)
+        prod = prod[..., None, :, :] @ a if f.is_variable else prod @ a
+    return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0)
+
+
+def _magnitude_matrices(f: FactorPolynomials) -> np.ndarray:
+    """|control matrices| of one factor with each entry replaced by a bound that does not shrink
+    with cos phi or sin phi: the elementwise max(|q|, |c|, |s|) for every entry of a variable factor;
+    max(|cos phi|, KNOWN_ENTRY_FLOOR), max(|sin phi|, KNOWN_ENTRY_FLOOR) for a known factor (shape as
+    :func:`_control_matrices`)."""
+    if f.is_variable:
+        m = np.maximum.reduce([np.abs(np.asarray(a, dtype=float)) for a in (f.q, f.c, f.s)])
+        return np.abs(_control_matrices(FactorPolynomials(m, m, m)))
+    c, s = (max(abs(float(v)), KNOWN_ENTRY_FLOOR) for v in (f.c, f.s))
+    return np.abs(_control_matrices(FactorPolynomials(np.array(1.0), np.array(c), np.array(s))))
+
+
+def matrix_magnitude(factors: Sequence[FactorPolynomials]) -> np.ndarray:
+    """A bound on the size of the terms behind every control point of :func:`matrix_control_points`
+    (same shape, >= 0): the same ordered product, of each factor's control matrices in absolute
+    value, with the cos and sin of every angle counted as at least KNOWN_ENTRY_FLOOR (see
+    :func:`_magnitude_matrices`).
+
+    Why: a control point is a sum of products of the factors' entries, and its computed value errs
+    by at most ~(number of factors) * eps times the sum of those products' absolute values (the
+    standard running error bound), not times the control point itself; the cos and sin of a known
+    angle (an input plus an offset, rounded once in float) err by ~1e-16 absolutely, however small
+    they are, and :data:`KNOWN_ANGLE_SNAP` moves them by up to 1e-14. Near an input where an entry of
+    the loop is small on a whole chart (the cos of an input near pi/2), the entry's own control
+    points are far smaller than their rounding: a tolerance taken from them let the pruners discard
+    boxes that hold roots, and the box loop call roots spurious (issue 26).
+    """
+    if len(factors) == 0:
+        raise ValueError("factors: expected at least one factor, got none")
+    prod = np.eye(3)
+    for f in factors:
+        a = _magnitude_matrices(f)
         prod = prod[..., None, :, :] @ a if f.is_variable else prod @ a
     return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0)
 

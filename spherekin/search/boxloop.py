@@ -43,7 +43,7 @@ from ..core import bernstein
 from ..core.angles import RANGE_TOL, in_range, near_groups
 from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
-from .isolation import SquareSystem, krawczyk_boxes, newton
+from .isolation import SquareSystem, krawczyk_boxes, newton, spurious_proven
 from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAFETY, ChartSet, charts_for_range,
                                 make_charts)
 from .pruners import check_pruner, excludes_zero, make_pruner
@@ -297,18 +297,25 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
 
 
 def _solve_isolated(charts: ChartSet, isolated):
-    """Newton from every isolated box: (points [(chart, angles)], spurious count, failed boxes)."""
+    """Newton from every isolated box: (points [(chart, angles)], count of roots proven spurious,
+    failed boxes)."""
     if not isolated:
         return [], 0, []
     chart = np.array([c for c, _, _ in isolated])
     lo = np.array([a for _, a, _ in isolated])
     hi = np.array([b for _, _, b in isolated])
     cps, tols = _restrict(charts, _Layout(charts), chart, lo, hi)
-    u, converged, closure = newton(SquareSystem.from_blocks(charts.square), cps, tols)
+    square = SquareSystem.from_blocks(charts.square)
+    u, converged, closure = newton(square, cps, tols)
+    suspect = np.flatnonzero(converged & ~closure)
+    spurious = np.zeros(len(u), dtype=bool)
+    if len(suspect):   # dropped only when proven (isolation.spurious_proven); else kept, for the trust layer
+        spurious[suspect] = spurious_proven(square, [c[..., suspect] for c in cps],
+                                            [np.asarray(t)[..., suspect] for t in tols], u[suspect])
     x = lo + u * (hi - lo)
     angles = charts.angles(chart, x)
-    points = [(int(c), a) for c, a, ok, cl in zip(chart, angles, converged, closure) if ok and cl]
-    spurious = int(np.sum(converged & ~closure))
+    points = [(int(c), a) for c, a, ok, sp in zip(chart, angles, converged, spurious) if ok and not sp]
+    spurious = int(spurious.sum())
     failed = [(c, a, b) for c, a, b, ok in zip(chart, lo, hi, converged) if not ok]
     return points, spurious, failed
 

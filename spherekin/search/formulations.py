@@ -49,8 +49,9 @@ class EquationBlock:
 
     ``coeffs`` has shape (E, d_1, ..., d_N) over the N variables of the parameterization, d_k = 1
     where the block does not depend on variable k; ``labels`` names the E equations; ``scale`` (E,)
-    is max |control point| on the whole unit box, the magnitude that rounding errors of later
-    restrictions are relative to; ``square`` lists the equations that belong to the square system
+    bounds the size of the terms behind the control points on the whole unit box
+    (:func:`spherekin.closure.matrix_magnitude`; at least max |control point|), the magnitude that
+    the rounding errors of the control points and of their later restrictions are relative to; ``square`` lists the equations that belong to the square system
     of simple roots used by the Krawczyk test (:mod:`spherekin.search.isolation`); ``loop_index`` is -1
     for a side condition such as the sin-cos circle equation. ``bilinear``, when present, gives
     the same equations as sums of outer products of the loop's two halves (:class:`Bilinear`),
@@ -95,9 +96,15 @@ class LoopPolynomials:
     with P the product of the factors up to the floor(k/2)-th unknown: rows 0..8 are the entries
     (row-major) of q_a P and q_b S, row 9 is q_a or q_b; their axes are the first ``split`` and
     the remaining axes of ``variables``. None for a loop with one unknown.
+    ``matrix_mag``, ``half_a_mag``, ``half_b_mag`` (shapes of ``matrix``, ``half_a``, ``half_b``, >= 0):
+    bounds on the size of the terms behind each control point
+    (:func:`spherekin.closure.matrix_magnitude`), which the rounding tolerances are relative to;
+    None: the control points' own absolute values (only for polynomials computed without
+    cancellation).
     """
 
-    __slots__ = ("loop_index", "variables", "matrix", "q", "scalar", "half_a", "half_b")
+    __slots__ = ("loop_index", "variables", "matrix", "q", "scalar", "half_a", "half_b", "matrix_mag",
+                 "half_a_mag", "half_b_mag")
 
     loop_index: int
     variables: tuple[int, ...]
@@ -106,8 +113,12 @@ class LoopPolynomials:
     scalar: np.ndarray | None
     half_a: np.ndarray | None
     half_b: np.ndarray | None
+    matrix_mag: np.ndarray
+    half_a_mag: np.ndarray | None
+    half_b_mag: np.ndarray | None
 
-    def __init__(self, loop_index, variables, matrix, q, scalar=None, half_a=None, half_b=None):
+    def __init__(self, loop_index, variables, matrix, q, scalar=None, half_a=None, half_b=None, matrix_mag=None,
+                 half_a_mag=None, half_b_mag=None):
         self.loop_index = loop_index
         self.variables = variables
         self.matrix = matrix
@@ -115,6 +126,17 @@ class LoopPolynomials:
         self.scalar = scalar
         self.half_a = half_a
         self.half_b = half_b
+        self.matrix_mag = np.abs(matrix) if matrix_mag is None else matrix_mag
+        self.half_a_mag = None if half_a is None else np.abs(half_a) if half_a_mag is None else half_a_mag
+        self.half_b_mag = None if half_b is None else np.abs(half_b) if half_b_mag is None else half_b_mag
+
+    def entry_mag(self, r: int, c: int) -> np.ndarray:
+        """Magnitude of q f_rc (row r, column c of ``matrix``)."""
+        return self.matrix_mag[r, c]
+
+    def scalar_mag(self) -> np.ndarray:
+        """Magnitude of Eq. (10), q f11 + q f22 - 2 q, by either route (same terms)."""
+        return self.matrix_mag[0, 0] + self.matrix_mag[1, 1] + 2.0 * np.abs(self.q)
 
     @property
     def split(self) -> int:
@@ -137,6 +159,9 @@ class Bilinear:
     a: np.ndarray
     b: np.ndarray
     terms: np.ndarray
+    #: Magnitudes of the terms behind a's and b's control points (shapes of a, b); None: |a|, |b|.
+    a_mag: np.ndarray | None = None
+    b_mag: np.ndarray | None = None
 
     @property
     def n_equations(self) -> int:
@@ -161,10 +186,13 @@ class Bilinear:
         return (w @ outer).reshape((self.n_equations,) + da + db + batch)
 
     def magnitude(self) -> np.ndarray:
-        """Per equation, sum_t |coef_t| max|a[u_t]| max|b[v_t]|: bounds every term of the sums on
-        every sub-box (restricted control points are convex combinations), hence their rounding."""
-        amax = np.abs(self.a).reshape(len(self.a), -1).max(axis=1)
-        bmax = np.abs(self.b).reshape(len(self.b), -1).max(axis=1)
+        """Per equation, sum_t |coef_t| max A[u_t] max B[v_t], with A, B the magnitudes of the halves'
+        control points (``a_mag``, ``b_mag``): bounds every term of the sums on every sub-box
+        (restricted control points are convex combinations), hence their rounding."""
+        a_mag = np.abs(self.a) if self.a_mag is None else self.a_mag
+        b_mag = np.abs(self.b) if self.b_mag is None else self.b_mag
+        amax = a_mag.reshape(len(self.a), -1).max(axis=1)
+        bmax = b_mag.reshape(len(self.b), -1).max(axis=1)
         e, u, v = (self.terms[:, i].astype(int) for i in range(3))
         out = np.zeros(self.n_equations)
         np.add.at(out, e, np.abs(self.terms[:, 3]) * amax[u] * bmax[v])
@@ -296,16 +324,23 @@ def _positions(loop: ClosureLoop, unknowns: Sequence[Unknown]) -> list[int]:
     return pos
 
 
-def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, square=(), terms=None, prune=True) -> EquationBlock:
-    """A block from dense tensors (loop axes), or, with ``terms``, from the bilinear form in the halves."""
+def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, mags, square=(), terms=None,
+           prune=True) -> EquationBlock:
+    """A block from dense tensors (loop axes), or, with ``terms``, from the bilinear form in the halves.
+
+    ``mags``: per equation, the magnitude of the terms behind its control points
+    (:attr:`LoopPolynomials.matrix_mag`); the block's ``scale`` is the largest, so that the rounding
+    tolerance of the equation (ROUNDING_SAFETY eps scale) bounds its rounding wherever it is small.
+    """
     bil = None
     if terms is not None and lp.half_a is not None:
         k = lp.split
         bil = Bilinear(tuple(lp.variables[:k]), tuple(lp.variables[k:]), lp.half_a, lp.half_b,
-                       np.array(terms, dtype=float))
+                       np.array(terms, dtype=float), lp.half_a_mag, lp.half_b_mag)
         tensors = list(bil.assemble())
     coeffs = embed_axes(np.stack(np.broadcast_arrays(*tensors)), lp.variables, n_vars)
     scale = np.abs(coeffs).reshape(len(tensors), -1).max(axis=1)
+    scale = np.maximum(scale, [float(np.max(m)) for m in mags])
     if bil is not None:
         scale = np.maximum(scale, bil.magnitude())
     return EquationBlock(lp.loop_index, tuple(labels), coeffs, scale, tuple(square), bil, prune)
@@ -347,7 +382,8 @@ class Paper(Formulation):
     name = "paper"
 
     def blocks(self, polys, n_vars):
-        return [_block(lp, n_vars, [f"loop{lp.loop_index + 1}:f11+f22-2q"], [_scalar(lp)]) for lp in polys]
+        return [_block(lp, n_vars, [f"loop{lp.loop_index + 1}:f11+f22-2q"], [_scalar(lp)], [lp.scalar_mag()])
+                for lp in polys]
 
 
 @FORMULATIONS.register
@@ -364,7 +400,9 @@ class Transversal(Formulation):
             labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES] + [f"loop{j}:f11+f22-2q"]
             terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
             terms += _scalar_terms(len(TRANSVERSAL_ENTRIES))
-            blocks.append(_block(lp, n_vars, labels, tensors, square=range(len(TRANSVERSAL_ENTRIES)), terms=terms))
+            mags = [lp.entry_mag(r, c) for r, c in TRANSVERSAL_ENTRIES] + [lp.scalar_mag()]
+            blocks.append(_block(lp, n_vars, labels, tensors, mags, square=range(len(TRANSVERSAL_ENTRIES)),
+                                 terms=terms))
         return blocks
 
 
@@ -388,15 +426,17 @@ class Halves(Formulation):
             tensors = [lp.matrix[r, c] for r, c in TRANSVERSAL_ENTRIES]
             labels = [f"loop{j}:qf{r + 1}{c + 1}" for r, c in TRANSVERSAL_ENTRIES]
             terms = [t for e, (r, c) in enumerate(TRANSVERSAL_ENTRIES) for t in _entry_terms(e, r, c)]
+            mags = [lp.entry_mag(r, c) for r, c in TRANSVERSAL_ENTRIES]
             square = range(len(TRANSVERSAL_ENTRIES))
             if lp.half_a is None:
                 blocks.append(_block(lp, n_vars, labels + [f"loop{j}:f11+f22-2q"], tensors + [_scalar(lp)],
-                                     square=square))
+                                     mags + [lp.scalar_mag()], square=square))
                 continue
             hterms = [t for r in range(3) for c in range(3) for t in _halves_terms(3 * r + c, r, c)]
             hlabels = [f"loop{j}:P{r + 1}{c + 1}-S{c + 1}{r + 1}" for r in range(3) for c in range(3)]
-            blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, terms=hterms))
-            blocks.append(_block(lp, n_vars, labels, tensors, square=square, terms=terms, prune=False))
+            # the halves' magnitudes enter through the bilinear form's (Bilinear.magnitude)
+            blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, [np.zeros(())] * 9, terms=hterms))
+            blocks.append(_block(lp, n_vars, labels, tensors, mags, square=square, terms=terms, prune=False))
         return blocks
 
 

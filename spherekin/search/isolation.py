@@ -20,7 +20,10 @@ entries of every loop, plus the circle equations of the sin-cos parameterization
 Every root of the closure equations is a root of F (the transversal entries vanish at F_n = I),
 so the contraction and the exclusion are safe for the solver. A box proven to hold one root of F
 is *isolated*: the subdivision stops there and :func:`newton` converges to the root; the other
-equations (Eq. 10) then tell a closure from a spurious root of F (a rotation diag(1, -1, -1), ...).
+equations (Eq. 10, or the halves) then tell a closure from a spurious root of F (a rotation
+diag(1, -1, -1), ...): a root is dropped as spurious only when :func:`spurious_proven` shows that
+another equation has no zero on a box holding it (a float test at Newton's point is not enough:
+next to a singularity the point errs by far more than the equations' rounding, issue 26).
 
 Departure from the paper: the paper subdivides every box down to the tolerance; stopping at an
 isolating box saves the tail of the subdivision (the paper's Section 5 asks for faster
@@ -35,8 +38,12 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.bernstein import restrict_batch_last
+from .pruners import excludes_zero
+
 __all__ = ["KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "SPURIOUS_FACTOR",
-           "SquareSystem", "krawczyk_boxes", "evaluate_at", "jacobian_at", "newton"]
+           "SPURIOUS_PROOF_RADIUS", "SquareSystem", "krawczyk_boxes", "evaluate_at", "jacobian_at", "newton",
+           "spurious_proven"]
 
 #: K(X) is widened by this (unit coordinates of the box) before it is compared with X: its float
 #: evaluation (a few dozen operations on O(1) numbers) errs by ~1e-15; the margin also keeps an
@@ -54,6 +61,11 @@ NEWTON_STEP_TOL = 4e-16
 #: this many times its rounding tolerance; at a spurious root the scalar equation is -2 q or -4 q,
 #: some 1e12 tolerances away.
 SPURIOUS_FACTOR = 1e4
+#: Half-width (unit coordinates of the isolating box) of the small box around Newton's point on
+#: which a suspected spurious root is proven spurious when the whole box is too wide for that:
+#: Newton's point errs by ~1e-16 / sigma_min; a spurious root's other equations are ~1 away from 0,
+#: so they exclude 0 on a box of this size while the Krawczyk test still proves the root inside.
+SPURIOUS_PROOF_RADIUS = 1e-6
 
 
 class SquareSystem:
@@ -183,7 +195,10 @@ def newton(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.nd
 
     Returns (u (B, N), converged (B,), closure (B,)): the root in each box's unit coordinates,
     whether Newton converged inside the box, and whether every non-square equation vanishes there
-    (within SPURIOUS_FACTOR tolerances), i.e. whether the root is a closure and not spurious.
+    (within SPURIOUS_FACTOR tolerances). ``closure`` False is only a suspicion: u errs from the
+    root by up to the rounding over the smallest singular value of the square Jacobian (1e-10 and
+    more next to a singularity), so the other equations need not vanish at u even at a closure;
+    :func:`spurious_proven` decides.
     """
     parts = square.select(cps, tols)
     bsz, n = cps[0].shape[-1], cps[0].ndim - 2
@@ -218,3 +233,43 @@ def newton(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.nd
         vals = evaluate_at(c[others], u)
         closure &= np.all(np.abs(vals) <= SPURIOUS_FACTOR * tb, axis=0)
     return u, converged, closure
+
+
+def _others(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
+    """The equations outside the square system: (control points per block, tolerances (E', B) per block)."""
+    rows = set(square.rows)
+    cs, ts = [], []
+    for b, (c, t) in enumerate(zip(cps, tols)):
+        others = [e for e in range(c.shape[0]) if (b, e) not in rows]
+        if others:
+            tb = np.broadcast_to(np.asarray(t, dtype=float).reshape(c.shape[0], -1), (c.shape[0], c.shape[-1]))
+            cs.append(c[others])
+            ts.append(tb[others])
+    return cs, ts
+
+
+def spurious_proven(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], u: np.ndarray,
+                    radius: float = SPURIOUS_PROOF_RADIUS) -> np.ndarray:
+    """(B,) True where the one root of the square system in an isolating box is proven not to be a
+    closure: some other equation has no zero on a box that holds that root.
+
+    ``cps``/``tols``: every block on the isolating boxes (batch last), ``u`` (B, N) Newton's point in
+    each. The box is the isolating box itself, else the box u +- ``radius`` (unit coordinates), once
+    a Krawczyk test proves it holds a root of the square system (the only one of the isolating box).
+    False means not proven: the caller keeps the root (the trust layer then proves or flags it).
+    """
+    others = _others(square, cps, tols)
+    bsz = cps[0].shape[-1]
+    if not others[0]:
+        return np.zeros(bsz, dtype=bool)
+    proven = excludes_zero(*others)
+    rest = np.flatnonzero(~proven)
+    if len(rest):
+        ylo = np.clip(u[rest] - radius, 0.0, 1.0)
+        yhi = np.clip(u[rest] + radius, 0.0, 1.0)
+        sub = [restrict_batch_last(c[..., rest], ylo, yhi) for c in cps]
+        sub_tols = [np.broadcast_to(np.asarray(t, dtype=float).reshape(c.shape[0], -1),
+                                    (c.shape[0], bsz))[:, rest] for c, t in zip(cps, tols)]
+        holds, _, _ = krawczyk_boxes(square, sub, sub_tols)
+        proven[rest] = holds & excludes_zero(*_others(square, sub, sub_tols))
+    return proven

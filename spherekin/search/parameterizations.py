@@ -57,8 +57,9 @@ __all__ = [
 #: conditioned; a wider chart pushes |t| towards the singularity at theta = shift + pi.
 CHART_MAX_WIDTH = math.pi
 #: Rounding errors of control points restricted from the unit box are at most about this many
-#: machine epsilons of the equation's largest control point (products of ~2n factors in [0, 1]);
-#: the test w = 0 accepts |w| up to it.
+#: machine epsilons of the equation's magnitude (``EquationBlock.scale``: the size of the terms
+#: behind its control points, cos and sin of known angles counted as 1; products of ~2n factors in
+#: [0, 1]); the test w = 0 accepts |w| up to it.
 ROUNDING_SAFETY = 1e3
 #: The sin-cos box of a limited joint range is the bounding box of its arc, widened by this (in
 #: c, s units) so that a root at an end of the arc cannot be cut off by the rounding of cos and sin
@@ -137,16 +138,20 @@ def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int], scala
     recursion route (Cor. 2; skipped with ``scalar=False``, then read off the matrix when needed);
     both are exact reparameterizations of the same polynomials.
     """
-    from ..closure import matrix_control_points, q_control_points, scalar_control_points
+    from ..closure import matrix_control_points, matrix_magnitude, q_control_points, scalar_control_points
 
     fps = loop.factor_polynomials()
     split = _split_point(loop)
-    ha = hb = None
+    ha = hb = ha_mag = hb_mag = None
     if split is not None:
-        ha = _half(matrix_control_points(fps[:split]), q_control_points(fps[:split]))
-        hb = _half(matrix_control_points(fps[split:]), q_control_points(fps[split:]))
+        qa, qb = q_control_points(fps[:split]), q_control_points(fps[split:])
+        ha = _half(matrix_control_points(fps[:split]), qa)
+        hb = _half(matrix_control_points(fps[split:]), qb)
+        ha_mag = _half(matrix_magnitude(fps[:split]), np.abs(qa))
+        hb_mag = _half(matrix_magnitude(fps[split:]), np.abs(qb))
     return LoopPolynomials(index, tuple(variables), matrix_control_points(fps), q_control_points(fps),
-                           scalar_control_points(fps, "recursion") if scalar else None, ha, hb)
+                           scalar_control_points(fps, "recursion") if scalar else None, ha, hb,
+                           matrix_magnitude(fps), ha_mag, hb_mag)
 
 
 def _sin_cos_factor(term: Term, cbox, sbox) -> np.ndarray:
@@ -169,18 +174,34 @@ def _sin_cos_factor(term: Term, cbox, sbox) -> np.ndarray:
     return out
 
 
-def _sin_cos_product(factors, names, boxes):
-    """Control points (3, 3, *dims) of prod Rx(phi_i) Z over the (c, s) of its unknowns, and their variables."""
+def _sin_cos_product(factors, names, boxes, magnitude: bool = False):
+    """Control points (3, 3, *dims) of prod Rx(phi_i) Z over the (c, s) of its unknowns, and their variables.
+
+    With ``magnitude``, the same product of the factors' matrices in absolute value with the cos and
+    sin of every known angle or offset counted as 1 (cos phi = cos(o) c - sign sin(o) s as |c| + |s|):
+    a bound on the terms behind each control point, which its rounding is relative to (as
+    :func:`spherekin.closure.matrix_magnitude` for tan-half).
+    """
     prod = np.eye(3)
     variables = []
     for f in factors:
         if isinstance(f, Term):
             k = list(names).index(f.unknown.name)
             variables += [2 * k, 2 * k + 1]
-            prod = prod[..., None, None, :, :] @ _sin_cos_factor(f, *boxes[f.unknown.name])
+            if magnitude:
+                cbox, sbox = boxes[f.unknown.name]
+                m = np.abs(np.array(cbox, dtype=float))[:, None] + np.abs(np.array(sbox, dtype=float))[None, :]
+                a = np.zeros((2, 2, 3, 3))
+                a[..., 0, 1] = 1.0
+                for i, j in ((1, 0), (1, 2), (2, 0), (2, 2)):
+                    a[..., i, j] = m
+            else:
+                a = _sin_cos_factor(f, *boxes[f.unknown.name])
+            prod = prod[..., None, None, :, :] @ a
         else:
-            c, s = snapped_cos_sin(f)
-            prod = prod @ np.array([[0.0, -1.0, 0.0], [c, 0.0, -s], [s, 0.0, c]])
+            c, s = (1.0, 1.0) if magnitude else snapped_cos_sin(f)
+            known = np.array([[0.0, -1.0, 0.0], [c, 0.0, -s], [s, 0.0, c]])
+            prod = prod @ (np.abs(known) if magnitude else known)
     return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0), variables
 
 
@@ -193,13 +214,18 @@ def sin_cos_loop(index: int, loop: ClosureLoop, names: Sequence[str],
     factors' control matrices (tensor product over distinct variables), q = 1.
     """
     matrix, variables = _sin_cos_product(loop.factors, names, boxes)
+    mag, _ = _sin_cos_product(loop.factors, names, boxes, magnitude=True)
     split = _split_point(loop)
-    ha = hb = None
+    ha = hb = ha_mag = hb_mag = None
     if split is not None:
-        pm, _ = _sin_cos_product(loop.factors[:split], names, boxes)
-        sm, _ = _sin_cos_product(loop.factors[split:], names, boxes)
-        ha, hb = _half(pm, np.ones(pm.shape[2:])), _half(sm, np.ones(sm.shape[2:]))
-    return LoopPolynomials(index, tuple(variables), matrix, np.ones(matrix.shape[2:]), None, ha, hb)
+        halves = []
+        for part in (loop.factors[:split], loop.factors[split:]):
+            pm, _ = _sin_cos_product(part, names, boxes)
+            pmag, _ = _sin_cos_product(part, names, boxes, magnitude=True)
+            halves += [_half(pm, np.ones(pm.shape[2:])), _half(pmag, np.ones(pm.shape[2:]))]
+        ha, ha_mag, hb, hb_mag = halves
+    return LoopPolynomials(index, tuple(variables), matrix, np.ones(matrix.shape[2:]), None, ha, hb,
+                           mag, ha_mag, hb_mag)
 
 
 def _circle_block(k: int, n_vars: int, cbox, sbox) -> EquationBlock:
@@ -211,7 +237,8 @@ def _circle_block(k: int, n_vars: int, cbox, sbox) -> EquationBlock:
     shape = [1] * (n_vars + 1)
     shape[1 + 2 * k] = shape[2 + 2 * k] = 3
     coeffs = tensor.reshape(shape)
-    return EquationBlock(-1, (f"circle{k + 1}",), coeffs, np.abs(coeffs).reshape(1, -1).max(axis=1), (0,))
+    magnitude = np.abs(cc)[:, None] + np.abs(ss)[None, :] + 1.0          # the terms behind each control point
+    return EquationBlock(-1, (f"circle{k + 1}",), coeffs, np.array([magnitude.max()]), (0,))
 
 
 # --------------------------------------------------------------------------------------------

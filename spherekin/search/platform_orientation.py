@@ -280,9 +280,14 @@ class PlatformSystem:
 
     def charts(self, inputs) -> ChartSet:
         """The chart set of the box loop at actuator ``inputs``: one block of 3 equations (one per leg)
-        on 4 charts, each equation's tolerance ROUNDING_SAFETY eps times its largest control point."""
+        on 4 charts, each equation's tolerance ROUNDING_SAFETY eps times its magnitude: the largest
+        control point of |C_c| + |C_s| + |C_0|, the terms behind cos d1 C_c + sin d1 C_s + C_0 (not of
+        the sum itself, which can be small on a whole chart while its rounding is not)."""
         cps = self.control_points(inputs)
-        tols = ROUNDING_SAFETY * np.finfo(float).eps * np.abs(cps).reshape(CHARTS, len(self.legs), -1).max(axis=2)
+        magnitude = np.abs(self.parts).sum(axis=1)                                   # (legs, 4 charts, 3, 3, 3)
+        magnitude = np.moveaxis(magnitude.reshape(len(self.legs), CHARTS, -1).max(axis=2), 1, 0)
+        tols = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(
+            magnitude, np.abs(cps).reshape(CHARTS, len(self.legs), -1).max(axis=2))
         names = tuple(leg.names[0] for leg in self.legs)
         variables = ("q_a", "q_b", "q_c")
         ones = np.full((CHARTS, 3), CHART_EXTENT)

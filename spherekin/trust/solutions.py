@@ -381,6 +381,7 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
     ranges = mechanism.ranges
     stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
     unresolved = _resolve(system, sol, points, certify, stats)
+    refined_empty = None
     if unresolved and refine is not None:
         finer = refine(sol.lo, sol.hi, tol)
         if finer is not None:
@@ -389,12 +390,18 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
             for e in out:
                 e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
                                                                 "to_tol": finer_tol})
-            return _merge_unproven(out, sol, tol)
+            if out or not points:
+                return _merge_unproven(out, sol, tol)
+            # The finer search let go of every box, yet polishing converged in this cluster: the
+            # two disagree, so neither is a proof; the region is reported, never dropped (issue 26)
+            refined_empty = finer_tol
     cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
                   "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
                   "unresolved_boxes": len(unresolved)}
     if left_cluster:
         cluster_ev["polished_out_of_cluster"] = left_cluster
+    if refined_empty is not None:
+        cluster_ev["refined_search_empty"] = {"tol": refined_empty}
     kept = []
     for pt in points:
         angles = {n: float(a) for n, a in zip(names, wrap(pt.theta))}
