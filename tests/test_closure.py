@@ -305,3 +305,68 @@ def test_closure_at_is_the_product_of_rotations_and_its_derivative(seed):
     h = 1e-6
     fd = np.stack([(product(theta + h * e) - product(theta - h * e)) / (2 * h) for e in np.eye(3)], axis=-1)
     np.testing.assert_allclose(j, fd, atol=1e-8)
+
+
+# ---------------------------------------------------------------- magnitudes (issue 26)
+
+def _random_factors(rng, n_var: int, n_known: int, tiny: bool):
+    """Float factors in random order: variable ones on random t-ranges (|t| <= 1) with random shifts,
+    known ones with random angles; with ``tiny`` every known angle is pi/2 + a few 1e-16 (cos ~1e-16)."""
+    kinds = rng.permutation([True] * n_var + [False] * n_known)
+    out = []
+    for variable in kinds:
+        if variable:
+            a = float(rng.uniform(-1.0, 0.5))
+            d = float(rng.uniform(-math.pi, math.pi))
+            out.append(C.variable_factor(a, a + float(rng.uniform(0.01, 0.5)), math.cos(d), math.sin(d),
+                                         int(rng.choice([-1, 1]))))
+        else:
+            phi = math.pi / 2 + float(rng.integers(-3, 4)) * 2.2e-16 if tiny else float(rng.uniform(-4.0, 4.0))
+            out.append(C.known_factor(math.cos(phi), math.sin(phi)))
+    return out
+
+
+def _exact(f: C.FactorPolynomials) -> C.FactorPolynomials:
+    as_fraction = np.vectorize(lambda v: Fraction(float(v)), otypes=[object])
+    return C.FactorPolynomials(*(as_fraction(np.asarray(a, dtype=float)) for a in (f.q, f.c, f.s)))
+
+
+@pytest.mark.parametrize("tiny", [False, True])
+def test_matrix_magnitude_bounds_the_rounding(tiny):
+    """The float control points of a product differ from the exact product of the same float factors
+    (Fractions) by at most 64 eps times matrix_magnitude, elementwise, also where cancellation or a
+    cos of ~1e-16 makes the control points far smaller than their rounding (the case that lost roots
+    when tolerances were taken from the control points themselves)."""
+    rng = np.random.default_rng(26)
+    eps = np.finfo(float).eps
+    worst_own = 0.0
+    for _ in range(20):
+        factors = _random_factors(rng, 3, 4, tiny)
+        got = C.matrix_control_points(factors)
+        exact = C.matrix_control_points([_exact(f) for f in factors])
+        err = np.vectorize(lambda e, g: abs(float(e - Fraction(float(g)))))(exact, got)
+        mag = C.matrix_magnitude(factors)
+        assert np.all(err <= 64 * eps * mag)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            worst_own = max(worst_own, float(np.nanmax(np.where(err > 0, err / (eps * np.abs(got)), 0.0))))
+    if tiny:
+        assert worst_own > 1e3        # the control points' own size would not have bounded it
+
+
+def test_matrix_magnitude_covers_the_known_angles_tolerance():
+    """Moving the cos and sin of every known angle by up to KNOWN_ANGLE_SNAP (the snap of the Bernstein
+    equations; the rounding of an input plus an offset is far less) changes each control point by at
+    most ROUNDING_SAFETY eps times its magnitude: the solver's tolerance covers it, even where the cos
+    of a known angle is ~1e-16 (an input next to pi/2)."""
+    from spherekin.search.parameterizations import ROUNDING_SAFETY
+
+    rng = np.random.default_rng(261)
+    bound = ROUNDING_SAFETY * np.finfo(float).eps
+    for tiny in (False, True):
+        for _ in range(20):
+            factors = _random_factors(rng, 3, 4, tiny)
+            moved = [f if f.is_variable else C.known_factor(float(f.c) + rng.uniform(-1, 1) * C.KNOWN_ANGLE_SNAP,
+                                                            float(f.s) + rng.uniform(-1, 1) * C.KNOWN_ANGLE_SNAP)
+                     for f in factors]
+            change = np.abs(C.matrix_control_points(moved) - C.matrix_control_points(factors))
+            assert np.all(change <= bound * C.matrix_magnitude(factors))

@@ -177,3 +177,31 @@ def test_square_system_size_mismatch_is_an_error():
     cps, tols = on_boxes(c[:2], np.stack([r - 0.01, r + 0.01], axis=-1)[None])
     with pytest.raises(ValueError, match="square"):
         krawczyk_boxes(square(2), cps, tols)
+
+
+def _line(r: float, scale: float = 1.0) -> np.ndarray:
+    """Degree-2 Bernstein control points (1, 3, 1) of scale * (u - r) on [0, 1] (one box, batch last)."""
+    return (scale * (np.array([0.0, 0.5, 1.0]) - r)).reshape(1, 3, 1)
+
+
+def test_spurious_only_when_proven():
+    """Issue 26: a root of the square system is spurious only when another equation has no zero on a
+    box holding it. A real closure (the other equation vanishes at the same root) seen from a Newton
+    point 1e-9 off the root (next to a singularity Newton errs that much) is not spurious, however
+    far above its rounding tolerance the other equation is at that point; an equation that stays
+    near 1 is."""
+    from spherekin.search.isolation import spurious_proven
+
+    square = SquareSystem.from_blocks([[0], []])
+    r = 0.3
+    u = np.array([[r + 1e-9]])
+    tols = [np.array([[1e-18]]), np.array([[1e-18]])]
+    real = [_line(r), _line(r, 1e-3)]                  # g(u*) = 0 at the root u* = r; g(u) = 1e-12 >> 1e-18
+    assert not spurious_proven(square, real, tols, u)[0]
+    spurious = [_line(r), (np.full(3, 1.0) + 0.1 * np.array([0.0, 0.5, 1.0])).reshape(1, 3, 1)]
+    assert spurious_proven(square, spurious, tols, u)[0]
+    # on a wide box the other equation's hull may contain 0; the small box around u decides
+    near = [_line(r), (np.array([-1.0, 3.0, -1.0]) + 0.0).reshape(1, 3, 1)]   # g ~ 0.5 near u = 0.3
+    near_vals = evaluate_at(near[1], u)
+    assert abs(float(near_vals[0, 0])) > 0.1
+    assert spurious_proven(square, near, tols, u)[0]

@@ -138,3 +138,35 @@ def test_distinct_roots_stay_distinct():
     assert len(sols) == 2 and all(s.status == "certified" for s in sols)
     for r in roots[:2]:
         assert min(np.abs(np.remainder(s.angles - r + np.pi, 2 * np.pi) - np.pi).max() for s in sols) < 1e-12
+
+
+def test_a_cluster_whose_finer_search_finds_nothing_is_reported_not_dropped(monkeypatch):
+    """Issue 26: a cluster holding a real root (from inverse kinematics) that cannot be resolved
+    (every certificate refused, every sub-box test undecided) is searched again finer; when that
+    search lets go of everything, the cluster must still be reported (not proven), never dropped:
+    the count cannot be '0, exact'."""
+    import spherekin.trust.solutions as trust_solutions
+    from spherekin.trust.krawczyk import BoxTests
+
+    def undecided(system, lo, hi, ys=None, angle_tolerance=None):
+        b, m = np.shape(lo)
+        no = np.zeros(b, dtype=bool)
+        return BoxTests(no, no.copy(), np.full((b, m), np.nan), np.full((b, m), np.nan))
+
+    monkeypatch.setattr(trust_solutions, "krawczyk_many", undecided)
+    mech = general_3rrr()
+    ik = mech.inverse_kinematics(rot([0.1, 0.2, -0.1]))[0]
+    names = mech.loop_unknowns
+    root = np.array([ik.joint_angles[n] for n in names])
+    calls = []
+
+    def empty_refine(lo, hi, tol):
+        calls.append(tol)
+        return [], tol * 1e-2
+
+    sols = finalize(mech, ik.inputs, names, [_cluster_at(root)], 1e-6, certify=refusing_certify,
+                    refine=empty_refine)
+    assert calls, "the unresolved cluster was not searched again"
+    assert sols and count_summary(sols)[1] is False
+    assert any(np.all(s.lo - 1e-9 <= root) and np.all(root <= s.hi + 1e-9) or np.abs(s.angles - root).max() < 1e-9
+               for s in sols)
