@@ -183,3 +183,14 @@ def test_far_from_the_change_point_the_count_is_exact():
     """Where the two roots are well apart, the count is proven and right (flagging is not the answer)."""
     for theta in (math.pi / 2 + 1e-2, math.pi / 2 - 1e-3, 0.3):
         assert check_report(CHANGE_POINT, theta, solve(CHANGE_POINT, [theta])) == "exact"
+
+
+@pytest.mark.parametrize("distance", [1e-8, 0.0])
+def test_extended_precision_resolves_the_pair_next_to_the_change_point(distance):
+    """Issue 26, item 3: where float64 cannot separate the two assemblies (~5e-8 apart in this float
+    design), Newton and the Krawczyk test in extended precision (spherekin/trust/extended.py) separate
+    and certify them, and account for the rest of the cluster: the count is exact and right."""
+    theta = math.pi / 2 + distance
+    report = solve(CHANGE_POINT, [theta])
+    assert check_report(CHANGE_POINT, theta, report) == "exact"
+    assert report.proven_count == 2

@@ -11,6 +11,9 @@ each cluster, :func:`finalize`
    another cluster, or of none in the ranges: it is never reported as this cluster's root);
 2. certifies each point by the Krawczyk test (:mod:`spherekin.trust.krawczyk`) at radii below 0.4 times
    its distance to the nearest other point, so that distinct certified points are distinct roots;
+   where the float test cannot (two roots closer than ~1e-5 next to a branch or change point), by
+   the same test in extended precision on equations with exact constants
+   (:mod:`spherekin.trust.extended`, at most :data:`MAX_EXTENDED_TESTS` tests per input);
 3. accounts for the whole cluster: a member box inside a certified box holds no other root; the
    others go through Krawczyk tests on sub-boxes (:func:`spherekin.trust.krawczyk.krawczyk_many`): a box
    whose Krawczyk image misses it holds no root and is dropped, one whose image lies inside it
@@ -47,7 +50,8 @@ import math
 import numpy as np
 
 from ..core.angles import RANGE_TOL, in_range, into_range, near_groups, wrap
-from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, certify_many, krawczyk_many
+from .extended import EXTENDED_RADII, certify_extended, krawczyk_boxes_extended, polish_extended
+from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, BoxTests, certify_many, krawczyk_many
 from .transversal import transversal_equations
 from .polish import polish
 from ..results import Cluster, Solution, Status
@@ -79,6 +83,14 @@ SEPARATION_FRACTION = 0.4
 #: to a fold is resolved in ~10-100 tests; the cap bounds the work on clusters that cannot be
 #: resolved (at a singular input), which are then reported with a lower-bound count.
 MAX_RESOLVE_BOXES = 2000
+#: Krawczyk tests in extended precision (:mod:`spherekin.trust.extended`: exact constants, 50 digits)
+#: per input at most (a test of a box or a radius, or one extended Newton run), for the points and
+#: sub-boxes the float tests cannot decide (next to a branch, change or singular input). Reason:
+#: each costs 3-20 ms (four-bar to 3-RRR); two roots 5e-8 apart in a cluster of ~300 boxes of 1e-6
+#: (a four-bar 1e-8 .. 1e-16 rad from its change point) are separated, certified and the rest of the
+#: cluster excluded in ~900 (3 s); the cap bounds the time an input where nothing can be separated
+#: spends before its count is flagged.
+MAX_EXTENDED_TESTS = 1000
 #: Sub-boxes narrower than this (radians) are not bisected further: their Krawczyk images are
 #: dominated by rounding (~1e-15 relative), so smaller boxes cannot decide anything new.
 MIN_RESOLVE_WIDTH = 1e-13
@@ -128,6 +140,42 @@ class _Point:
         self.evidence = {} if evidence is None else evidence
 
 
+class _Extended:
+    """The extended-precision tests of one input (:mod:`spherekin.trust.extended`), within a budget of
+    MAX_EXTENDED_TESTS; ``None`` answers once the budget is spent or the system is not the
+    mechanism's own unknowns."""
+
+    __slots__ = ("mechanism", "inputs", "names", "left")
+
+    def __init__(self, mechanism, inputs, names):
+        self.mechanism = mechanism
+        self.inputs = inputs
+        self.names = tuple(names)
+        self.left = MAX_EXTENDED_TESTS if self.names == tuple(mechanism.loop_unknowns) else 0
+
+    def certify(self, theta, radii):
+        """A KrawczykResult of the extended test at ``radii`` (ascending), or None (budget spent)."""
+        if self.left <= 0:
+            return None
+        radii = [r for r in EXTENDED_RADII if r <= max(radii)] or list(radii)
+        self.left -= len(radii)
+        return certify_extended(self.mechanism, self.inputs, dict(zip(self.names, theta)), radii)
+
+    def polish(self, theta):
+        """The root Newton converges to in extended precision from ``theta`` (floats), or None."""
+        if self.left <= 0:
+            return None
+        self.left -= 1
+        return polish_extended(self.mechanism, self.inputs, dict(zip(self.names, theta)))
+
+    def boxes(self, lo, hi):
+        """BoxTests of the boxes [lo, hi] (B, M) in extended precision, or None (budget spent)."""
+        if self.left < len(lo):
+            return None
+        self.left -= len(lo)
+        return krawczyk_boxes_extended(self.mechanism, self.inputs, lo, hi)
+
+
 def is_proven(sol: Solution) -> bool:
     """Whether an entry is a root proven by a certificate (it counts towards an exact count)."""
     return sol.status == Status.CERTIFIED or (sol.status == Status.SINGULAR and bool(sol.evidence.get("krawczyk_certified")))
@@ -162,10 +210,12 @@ def _seeds(sol: Cluster) -> np.ndarray:
     return np.vstack((centre[None], mids))
 
 
-def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict) -> list:
+def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict, extended=None) -> list:
     """Account for every member box of the cluster; returns the boxes left unresolved [(lo, hi)].
 
     Adds the roots found on the way to ``points`` (certified on the sub-box that isolated them).
+    Sub-boxes the float test leaves undecided are tested again in extended precision (``extended``,
+    an :class:`_Extended`, while its budget lasts) before they are bisected.
     """
     members = sol.members if sol.members is not None else np.array([[sol.lo, sol.hi]])
     certified = [p.box for p in points if p.box is not None]
@@ -196,6 +246,8 @@ def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict
         hi = np.array([b[1] for b in batch])
         test = krawczyk_many(system, lo, hi, angle_tolerance=FINE_ANGLE_TOLERANCE)
         stats["tests"] += len(batch)
+        if extended is not None:
+            test = _retest_extended(extended, test, lo, hi, certified, stats)
         for i, (blo, bhi) in enumerate(batch):
             if _inside_any(certified, blo, bhi) or test.no_solution[i]:
                 stats["excluded" if test.no_solution[i] else "covered"] += 1
@@ -211,7 +263,7 @@ def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict
                     continue
                 touching = [p for p in points if p.enc is not None and np.all(p.enc[0] <= kb[1])
                             and np.all(kb[0] <= p.enc[1])]
-                new = None if touching else _new_root(system, blo, bhi, kb[0], kb[1], certify_fn)
+                new = None if touching else _new_root(system, blo, bhi, kb[0], kb[1], certify_fn, extended)
                 if new is not None:
                     points.append(new)
                     certified.append((blo, bhi))
@@ -227,10 +279,30 @@ def _resolve(system, sol: Cluster, points: list[_Point], certify_fn, stats: dict
     return unresolved
 
 
-def _certify_with_fallback(certify_fn, system, thetas, radii) -> list:
+def _retest_extended(extended, test: BoxTests, lo, hi, certified, stats: dict) -> BoxTests:
+    """``test`` with its undecided boxes (neither certified nor without solution, not inside a
+    certified box) tested again in extended precision; the decided ones replace the float verdicts."""
+    undecided = [i for i in range(len(lo)) if not (test.certified[i] or test.no_solution[i])
+                 and not _inside_any(certified, lo[i], hi[i])]
+    if not undecided:
+        return test
+    ext = extended.boxes(lo[undecided], hi[undecided])
+    if ext is None:
+        return test
+    stats["extended_tests"] = stats.get("extended_tests", 0) + len(undecided)
+    out = BoxTests(test.certified.copy(), test.no_solution.copy(), test.krawczyk_lo.copy(), test.krawczyk_hi.copy())
+    for j, i in enumerate(undecided):
+        if ext.certified[j] or ext.no_solution[j]:
+            out.certified[i], out.no_solution[i] = ext.certified[j], ext.no_solution[j]
+            out.krawczyk_lo[i], out.krawczyk_hi[i] = ext.krawczyk_lo[j], ext.krawczyk_hi[j]
+    return out
+
+
+def _certify_with_fallback(certify_fn, system, thetas, radii, extended=None) -> list:
     """``certify_fn`` on the points ``thetas`` at the default angle tolerance, then, for each whose
-    K(X) was computed but not inside X, at the finer one (:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`;
-    the evidence records which); one result per point, in order."""
+    K(X) was computed but not inside X, at the finer one (:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`),
+    then in extended precision (``extended``, an :class:`_Extended`, at radii up to the largest of
+    ``radii``; the evidence records which: ``angle_tolerance`` 0); one result per point, in order."""
     if not len(thetas):
         return []
     certs = list(certify_fn(system, thetas, radii=radii))
@@ -240,10 +312,16 @@ def _certify_with_fallback(certify_fn, system, thetas, radii) -> list:
         for i, f in zip(again, fine):
             if f.certified:
                 certs[i] = f
+    if extended is not None:
+        for i, c in enumerate(certs):
+            if not c.certified and c.krawczyk_box is not None and not c.no_solution:
+                e = extended.certify(thetas[i], radii)
+                if e is not None and e.certified:
+                    certs[i] = e
     return certs
 
 
-def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
+def _new_root(system, lo, hi, k_lo, k_hi, certify_fn, extended=None):
     """The one root of a sub-box whose Krawczyk image lies inside it: polished from the image's centre."""
     start = 0.5 * (k_lo + k_hi)
     p = polish(system.loops, system.unknowns, start)
@@ -255,11 +333,11 @@ def _new_root(system, lo, hi, k_lo, k_hi, certify_fn):
     point.enc = (np.asarray(k_lo, float), np.asarray(k_hi, float))
     half = 0.5 * float(np.min(hi - lo))
     point.cert = _certify_with_fallback(certify_fn, system, [point.theta],
-                                        [r for r in CERTIFY_RADII if r <= half] or [half])[0]
+                                        [r for r in CERTIFY_RADII if r <= half] or [half], extended)[0]
     return point
 
 
-def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None) -> list[Solution]:
+def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None, extended=None) -> list[Solution]:
     """Polish, separate, prove and classify the clusters found for ``mechanism`` at ``inputs``.
 
     ``names``: the passive unknowns (order of ``Solution.angles``); ``clusters``: :class:`~spherekin.results.Cluster` s of the
@@ -269,15 +347,21 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None)
     cluster are certified together). ``refine(lo, hi, tol)``, optional: the clusters of a new
     search of the box [lo, hi] at a finer tolerance, as ``(clusters, finer_tol)``, or None when
     there is none; a cluster that cannot be resolved is replaced by the clusters of that search
-    (recursively) before it is reported as unresolved. Returns the entries sorted by angles;
-    see the module docstring for the statuses and :func:`count_summary` for the count.
+    (recursively) before it is reported as unresolved. ``extended``: whether points and sub-boxes
+    the float tests cannot decide are tested in extended precision (:mod:`spherekin.trust.extended`);
+    default: when ``certify`` is the default (an injected ``certify`` stands for all certification).
+    Returns the entries sorted by angles; see the module docstring for the statuses and
+    :func:`count_summary` for the count.
     """
+    if extended is None:
+        extended = certify is None
     if certify is None:
         certify = certify_many
     out = []
     if clusters:
         system = mechanism.loop_system(inputs, {n: (-LOCAL_CHART, LOCAL_CHART) for n in names})
-        out = _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine)
+        ext = _Extended(mechanism, inputs, names) if extended else None
+        out = _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine, ext)
     # a root found from two clusters (a refined search of a hull can reach a neighbour's root)
     unique: list[Solution] = []
     for e in sorted(out, key=lambda e: not is_proven(e)):
@@ -338,7 +422,7 @@ def _polish_cluster(system, sol: Cluster, tol: float):
     return points, left_cluster, best
 
 
-def _certify_all(certify_fn, system, groups: list[list[_Point]]) -> None:
+def _certify_all(certify_fn, system, groups: list[list[_Point]], extended=None) -> None:
     """Certify every point of every cluster (``groups``: the points of each cluster), each at the
     radii below SEPARATION_FRACTION of its distance to the nearest other point of its cluster; one
     batch call per distinct list of radii (usually one for the whole input)."""
@@ -349,7 +433,7 @@ def _certify_all(certify_fn, system, groups: list[list[_Point]]) -> None:
             radii = [r for r in CERTIFY_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
             by_radii.setdefault(tuple(radii), []).append(pt)
     for radii, pts in by_radii.items():
-        certs = _certify_with_fallback(certify_fn, system, [pt.theta for pt in pts], list(radii))
+        certs = _certify_with_fallback(certify_fn, system, [pt.theta for pt in pts], list(radii), extended)
         for pt, cert in zip(pts, certs):
             pt.cert = cert
             if cert.certified:
@@ -357,7 +441,54 @@ def _certify_all(certify_fn, system, groups: list[list[_Point]]) -> None:
                 pt.enc = tuple(np.array(v) for v in zip(*cert.krawczyk_box))
 
 
-def _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine) -> list[Solution]:
+def _disjoint(a, b) -> bool:
+    """Whether the boxes a = (lo, hi) and b share no point."""
+    return bool(np.any(a[1] < b[0]) or np.any(b[1] < a[0]))
+
+
+def _sharpen(certify_fn, system, points: list[_Point], extended) -> list[_Point]:
+    """A cluster's points with those the float tests could not certify polished again in extended
+    precision (:func:`spherekin.trust.extended.polish_extended`) and certified there.
+
+    Next to a branch or change point the float polish leaves a valley of near-solutions (residuals
+    ~1e-15 spread over ~1e-7) around two roots ~1e-8 apart; Newton in extended precision converges
+    from them to the roots themselves. Each distinct root it reaches replaces the points that led to
+    it, unless a certified box already holds it; a new root counts (box set) only when its certified
+    box and the enclosure of its root miss every other certified box and enclosure (so that distinct
+    certified boxes hold distinct roots). Points Newton does not converge from stay as they were.
+    """
+    if extended is None or all(p.box is not None for p in points):
+        return points
+    proven = [p for p in points if p.box is not None]
+    stay, new = [], []
+    for p in points:
+        if p.box is not None:
+            continue
+        theta = extended.polish(p.theta)
+        if theta is None:
+            stay.append(p)
+            continue
+        theta = p.theta + wrap(theta - p.theta)                         # next to the cluster, as p
+        if _inside_any([q.box for q in proven], theta, theta) or any(np.array_equal(theta, q.theta) for q in new):
+            continue                                                    # a root already in hand
+        new.append(_Point(theta, p.polished, p.seed_moved + float(np.abs(theta - p.theta).max()),
+                          evidence={"polished_in_extended_precision": True}))
+    if not new:
+        return points
+    anchors = proven + new
+    for pt in new:
+        sep = min((np.abs(pt.theta - q.theta).max() for q in anchors if q is not pt), default=math.inf)
+        radii = [r for r in EXTENDED_RADII if r <= SEPARATION_FRACTION * sep] or [SEPARATION_FRACTION * sep]
+        pt.cert = _certify_with_fallback(certify_fn, system, [pt.theta], radii, extended)[0]
+        if pt.cert.certified:
+            box = tuple(np.array(v) for v in zip(*pt.cert.box))
+            enc = tuple(np.array(v) for v in zip(*pt.cert.krawczyk_box))
+            if all(_disjoint(box, q.enc) and _disjoint(enc, q.box) for q in anchors if q.box is not None):
+                pt.box, pt.enc = box, enc
+    return proven + new + stay
+
+
+def _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine, extended=None) -> list[Solution]:
     """The entries of ``clusters``: polish each, certify all their points together, then account
     for each cluster and classify its points."""
     out: list[Solution] = []
@@ -369,24 +500,27 @@ def _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify,
             out.append(cont)
         else:
             todo.append((sol, points, left_cluster, best))
-    _certify_all(certify, system, [points for _, points, _, _ in todo])
+    _certify_all(certify, system, [points for _, points, _, _ in todo], extended)
+    todo = [(sol, _sharpen(certify, system, points, extended), left, best) for sol, points, left, best in todo]
     for sol, points, left_cluster, best in todo:
-        out += _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best)
+        out += _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best,
+                        extended)
     return out
 
 
-def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best) -> list[Solution]:
+def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points, left_cluster, best,
+             extended=None) -> list[Solution]:
     """One cluster's entries from its certified points: the rest of the cluster accounted for
     (:func:`_resolve`), searched again finer when unresolved, its points classified."""
     ranges = mechanism.ranges
     stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
-    unresolved = _resolve(system, sol, points, certify, stats)
+    unresolved = _resolve(system, sol, points, certify, stats, extended)
     refined_empty = None
     if unresolved and refine is not None:
         finer = refine(sol.lo, sol.hi, tol)
         if finer is not None:
             subs, finer_tol = finer
-            out = _finalize_clusters(mechanism, system, inputs, names, subs, finer_tol, certify, refine)
+            out = _finalize_clusters(mechanism, system, inputs, names, subs, finer_tol, certify, refine, extended)
             for e in out:
                 e.evidence.setdefault("refined", []).insert(0, {"tol": tol, "cluster_boxes": sol.n_boxes,
                                                                 "to_tol": finer_tol})
@@ -398,6 +532,8 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
     cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
                   "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
                   "unresolved_boxes": len(unresolved)}
+    if stats.get("extended_tests"):
+        cluster_ev["extended_precision_tests"] = stats["extended_tests"]
     if left_cluster:
         cluster_ev["polished_out_of_cluster"] = left_cluster
     if refined_empty is not None:

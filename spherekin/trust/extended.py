@@ -1,0 +1,652 @@
+"""Certification in extended precision: a Krawczyk test on closure equations written from the joint axes.
+
+Why: :mod:`spherekin.trust.krawczyk` certifies in float64 interval arithmetic on the transversal
+system of a LoopSystem, whose constant angles (offsets, twists, reference readings) are floats derived
+from the axes and are therefore intervals of half-width >= 4e-15
+(:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`). Next to a branch or change point, two roots
+delta apart have a Jacobian whose smallest singular value is ~delta, and the width of F(y) (~1e-14)
+times |J^-1| exceeds every box that still contracts: for delta below ~1e-5 neither root can be
+certified. Here every constant is exact and the arithmetic carries :data:`EXTENDED_DIGITS` digits,
+so F(y) is ~1e-50 wide and the test is limited only by the float point y it is given.
+
+The mechanism certified is the one given by the floats of the :class:`SphericalMechanism`: each
+joint axis is the direction of its float vector (normalized in interval arithmetic, so the exact
+unit vector lies in the enclosure), each actuator input and each reading offset
+(``Joint.reference_angle``) is the exact value of its float (``mpf(float)`` is exact). Nothing is
+read from the LoopSystem or the float model: the equations are written again from the model's
+convention (:mod:`spherekin.mechanism.model`):
+
+* a leg's joints are listed base -> platform; joint i turns by the displacement
+  d_i = reading_i - reference_angle_i about its axis a_i in the reference configuration (right-hand
+  rule), and the leg places the platform at D = Rot(a_1, d_1) ... Rot(a_k, d_k) (product of
+  exponentials; Rodrigues' formula Rot(a, d) = cos d I + sin d [a]x + (1 - cos d) a a^T); the
+  platform rotation along the leg is D R_ref (R_ref = ``platform_reference``, I by default);
+* one loop per leg k other than the reference leg r; the loop closes iff both legs place the
+  platform alike, D_r = D_k, i.e. M_k = D_r^T D_k = I. (M_k = R_ref (R_r^T R_k) R_ref^T for the
+  platform rotations R = D R_ref: the same condition, written so that the float R_ref, orthogonal
+  only to rounding, does not enter; M_k = R_r^T R_k exactly when R_ref = I, as in every preset.)
+
+The square system F: for every loop the entries (2,1), (3,1), (3,2) (1-based; :data:`LOOP_ENTRIES`)
+of M_k, in the passive readings of ``mechanism.loop_unknowns`` order, the actuated readings fixed
+at the inputs. Near M = I + [w]x they are (w_z, -w_y, w_x): simple roots where the mechanism is
+regular. They also vanish where M_k is a half-turn about a coordinate axis (an orthogonal lower
+triangular matrix is diagonal with entries +-1), so a certificate also requires every diagonal
+entry of every M_k to be > 0 over the whole box: then M_k = I at the root, an assembly.
+
+Jacobian: dD/dd_i = [w_i]x D with w_i = Rot(a_1, d_1) ... Rot(a_{i-1}, d_{i-1}) a_i (the current
+axis; P [a]x P^T = [P a]x for a rotation P), so with u = D_r e_i, v = D_k e_j,
+d(M_k)_ij / d(reading) = +w . (v x u) for a joint of leg k and -w . (v x u) for a joint of leg r
+(identities of the exact matrices at every point, so enclosures of w, u, v enclose J over a box).
+
+Krawczyk's test (as in :mod:`spherekin.trust.krawczyk`): for X = [lo, hi], y in X, a float matrix C
+(the inverse of the float J(y)) and J(X) enclosing the Jacobian over X,
+K(X) = y - C F(y) + (I - C J(X)) (X - y), every operation in mpmath's ``iv`` interval arithmetic at
+EXTENDED_DIGITS digits (a private context per call: no global mpmath state is touched). Proven:
+
+* K(X) in the interior of X and every diag(M_k) > 0 on X: X holds exactly one root of F, and it
+  is an assembly of the mechanism given by its floats (``certified``);
+* K(X) misses X, or an equation's enclosure over X excludes 0: X holds no root of F, hence no
+  assembly (``no_solution``).
+
+Departures from the float test: the equations are M_k = D_r^T D_k from the axes (not the Eq. (2)
+products of a LoopSystem), the constants are exact (``angle_tolerance`` = 0: a certificate is about
+the mechanism exactly as given by its floats, not about every rounding of it), the diagonal check
+(the Eq. (2) products of the float test have no spurious half-turn roots to exclude), X - y is
+evaluated as an interval per unknown (not enclosed by [-rho, rho]), and only square systems are
+tested (redundant actuation is out of scope: "not certified: not square").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from .krawczyk import BoxTests, KrawczykResult
+
+__all__ = [
+    "EXTENDED_DIGITS",
+    "EXTENDED_RADII",
+    "EXTENDED_RCOND_MIN",
+    "LOOP_ENTRIES",
+    "EXTENDED_NEWTON_STEPS",
+    "EXTENDED_NEWTON_TOL",
+    "certify_extended",
+    "krawczyk_boxes_extended",
+    "polish_extended",
+    "leg_rotations_extended",
+]
+
+#: Decimal digits of the interval arithmetic (mpmath ``iv`` context, ~169 bits). Reason: with exact
+#: constants, F(y) is then ~1e-50 wide, so C F(y) stays far below any box radius above 1e-30 even
+#: for |J^-1| ~ 1e15 (roots ~1e-15 apart); the float point y (ulp ~4e-16 for angles ~ 2 pi) limits
+#: the test long before the arithmetic does, and 50 digits keep every call within milliseconds.
+EXTENDED_DIGITS = 50
+
+#: Box radii (radians) tried by :func:`certify_extended`, smallest first. Reason: the smallest
+#: exceeds the distance from a polished float point to its root (a few ulps of the angle times
+#: |J^-1|, ~1e-15 for a regular root) with margin; a root delta from another contracts only for
+#: radii between that distance and ~0.4 delta, hence every decade; the largest, 1e-6, is the float
+#: test's largest (:data:`spherekin.trust.krawczyk.CERTIFY_RADII`) and the solver's tolerance.
+EXTENDED_RADII = (1e-13, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
+
+#: The midpoint Jacobian is reported singular when sigma_min / sigma_max of the float J(y) is below
+#: this. Reason: C is the float inverse of the float J(y) (entries rounded to ~1e-16), so
+#: |I - C J(y)| ~ 1e-16 / rcond: at 1e-14 it is ~1e-2, beyond which C no longer makes K small; and
+#: roots that close (~1e-14 rad) cannot be told apart by boxes around float points (ulp ~4e-16).
+EXTENDED_RCOND_MIN = 1e-14
+
+#: The entries (row, column), 0-based, of M_k = D_r^T D_k that form the equations of each loop:
+#: (2,1), (3,1), (3,2) 1-based, i.e. (w_z, -w_y, w_x) of M = I + [w]x (the float test's choice,
+#: :data:`spherekin.search.formulations.TRANSVERSAL_ENTRIES`).
+LOOP_ENTRIES = ((1, 0), (2, 0), (2, 1))
+
+
+# --------------------------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------------------------
+
+def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED_RADII) -> KrawczykResult:
+    """Krawczyk tests of X = theta +- r (radians) for r in ``radii``, ascending: the first success or the last failure.
+
+    ``mechanism``: a :class:`~spherekin.mechanism.SphericalMechanism`; ``inputs``: one reading per
+    actuated joint (``mechanism.actuated`` order); ``theta``: the passive readings y (a sequence in
+    ``mechanism.loop_unknowns`` order or a mapping name -> angle). y = theta exactly (floats),
+    X = [y - r, y + r] (endpoints in extended precision, rounded outward), C the float inverse of
+    the float J(y). Certified iff K(X) lies in the interior of X and every diagonal entry of every
+    loop's M_k is > 0 over X: then X holds exactly one assembly of the mechanism given by its floats
+    (module docstring). ``no_solution``: K(X) misses X or an equation's enclosure over X excludes 0.
+    A singular midpoint Jacobian (rcond < :data:`EXTENDED_RCOND_MIN`) or a non-square system fails
+    at once ("not certified: not square" for redundant actuation). The result is a
+    :class:`~spherekin.trust.krawczyk.KrawczykResult`: ``box``/``krawczyk_box`` as float (lo, hi)
+    rounded outward from the extended values, ``residual`` a bound on max |F(y)|,
+    ``singular_values`` of the float J(y), ``angle_tolerance`` 0.0 (exact constants).
+    """
+    plan = _Plan(mechanism, inputs)
+    y = _check_theta(plan.names, theta)
+    rs = _check_radii(radii)
+    ctx = plan.ctx
+    y_iv = [ctx.mpf(v) for v in y]                 # exact
+    f_y, sv, c = _at_point(plan, y_iv, y)
+    base = dict(names=plan.names, center=tuple(float(v) for v in y), residual=_magnitude_up(f_y),
+                singular_values=sv, n_equations=plan.n_eq, n_unknowns=plan.m, subsystem_rows=None,
+                other_bound=0.0, angle_tolerance=0.0)
+    tried, res = [], None
+    for r in rs:
+        tried.append(r)
+        x = [ctx.make_mpf(((yv - r)._mpi_[0], (yv + r)._mpi_[1])) for yv in y_iv]   # [y - r, y + r] outward
+        res = _test_box(plan, base, r, x, y_iv, f_y, c)
+        if res.certified or res.krawczyk_box is None:
+            break
+    return replace(res, radii_tried=tuple(tried))
+
+
+#: Newton steps at most in :func:`polish_extended`. Reason: from a float point next to a near-double
+#: root (off by up to ~sqrt(1e-16) = 1e-8 of a pair ~1e-8 apart) Newton first halves its distance
+#: per step (a double root's linear phase) and then doubles its digits: ~30 steps reach 1e-30.
+EXTENDED_NEWTON_STEPS = 60
+#: :func:`polish_extended` stops when a step is below this (radians): far below the smallest radius
+#: the test uses (1e-13) and far above the working precision (1e-50).
+EXTENDED_NEWTON_TOL = 1e-30
+
+
+def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS) -> np.ndarray | None:
+    """Newton's method on this module's equations F in extended precision from ``theta`` (passive
+    readings, ``mechanism.loop_unknowns`` order): the root it converges to, rounded to floats, or
+    None (no convergence within ``steps``, a singular Jacobian, or a system that is not square).
+
+    Why: next to a branch or change point the float polish (:mod:`spherekin.trust.polish`) stops
+    ~1e-16 / sigma_min away from a root (a valley of near-solutions ~1e-7 long where two roots are
+    ~5e-8 apart); the Krawczyk test at radii below their separation needs a point ~1e-16 from the
+    root. Nothing is proven here: the point is only a candidate for :func:`certify_extended`.
+    """
+    import mpmath
+
+    plan = _Plan(mechanism, inputs)
+    y0 = _check_theta(plan.names, theta)
+    if not plan.square or plan.m == 0:
+        return None
+    ctx = plan.ctx
+
+    def mid(v):
+        return mpmath.mp.make_mpf(v.mid._mpi_[0])
+
+    with mpmath.workdps(EXTENDED_DIGITS):
+        y = [mpmath.mpf(float(v)) for v in y0]
+        for _ in range(steps):
+            f, _, jac = plan.evaluate([ctx.mpf(v) for v in y], jacobian=True)
+            try:
+                step = mpmath.lu_solve(mpmath.matrix([[mid(v) for v in row] for row in jac]),
+                                       mpmath.matrix([mid(v) for v in f]))
+            except ZeroDivisionError:
+                return None
+            y = [a - b for a, b in zip(y, step)]
+            if not all(mpmath.isfinite(v) for v in y):
+                return None
+            if max(abs(v) for v in step) < EXTENDED_NEWTON_TOL:
+                return np.array([float(v) for v in y])
+    return None
+
+
+def krawczyk_boxes_extended(mechanism, inputs, lo, hi) -> BoxTests:
+    """Krawczyk tests of B boxes [lo, hi] (arrays (B, M), radians, ``mechanism.loop_unknowns`` order).
+
+    The meaning of :func:`spherekin.trust.krawczyk.krawczyk_many`, in extended precision on the
+    equations of this module: y_b is the exact midpoint of box b (computed in extended precision),
+    ``certified`` (B,): K(X_b) in the interior of X_b and every diag(M_k) > 0 on X_b (exactly one
+    assembly in X_b); ``no_solution`` (B,): K(X_b) misses X_b or an equation's enclosure over X_b
+    excludes 0 (no assembly in X_b); ``krawczyk_lo``/``krawczyk_hi`` (B, M): floats enclosing K(X_b),
+    rounded outward (nan where the system is not square or J(y_b) is singular: then no_solution
+    may still hold from the enclosures of F).
+    """
+    plan = _Plan(mechanism, inputs)
+    m = plan.m
+    lo = np.asarray(lo, dtype=float)
+    hi = np.asarray(hi, dtype=float)
+    if lo.ndim != 2 or lo.shape != hi.shape or lo.shape[1] != m or not np.all(np.isfinite(lo) & np.isfinite(hi)) \
+            or np.any(lo > hi):
+        raise ValueError(f"lo, hi: expected two (B, {m}) arrays of finite angles with lo <= hi, got shapes "
+                         f"{lo.shape} and {hi.shape}")
+    b = len(lo)
+    certified, no_solution = np.zeros(b, bool), np.zeros(b, bool)
+    k_lo, k_hi = np.full((b, m), np.nan), np.full((b, m), np.nan)
+    ctx = plan.ctx
+    for i in range(b):
+        x = [ctx.mpf([float(a), float(c)]) for a, c in zip(lo[i], hi[i])]
+        y_iv = [(ctx.mpf(float(a)) + ctx.mpf(float(c))) / 2 for a, c in zip(lo[i], hi[i])]   # the exact midpoint
+        f_y, _, c = _at_point(plan, y_iv, 0.5 * (lo[i] + hi[i]))
+        out = _box_core(plan, x, y_iv, f_y, c)
+        no_solution[i] = out["disjoint"] or out["excluded"]
+        if out["k"] is not None:
+            k_lo[i], k_hi[i] = zip(*(_outward(v) for v in out["k"]))
+            certified[i] = out["inside"] and out["diagonal_ok"] and not out["disjoint"]
+    return BoxTests(certified, no_solution, k_lo, k_hi)
+
+
+def leg_rotations_extended(mechanism, joint_angles: Mapping[str, float]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The platform rotation along each leg, D_leg R_ref, enclosed in extended precision, as float bounds.
+
+    ``joint_angles``: every joint's reading (name -> radians). Returns leg name -> (lo, hi), two
+    (3, 3) float arrays rounded outward from the extended enclosure (what
+    ``mechanism.forward(joint_angles).leg_poses`` computes in floats; the tests compare the two).
+    R_ref enters as its floats; the certified equations do not use it (module docstring).
+    """
+    readings = _check_readings(mechanism, joint_angles)
+    plan = _Plan(mechanism, [readings[n] for n in mechanism.actuated], check_ranges=False)
+    ctx = plan.ctx
+    x = [ctx.mpf(readings[n]) for n in plan.names]
+    ref = [[ctx.mpf(float(v)) for v in row] for row in mechanism.platform_reference]
+    out = {}
+    for k, name in enumerate(plan.leg_names):
+        d, _ = plan.leg_rotation(k, x, jacobian=False)
+        bounds = [[_outward(v) for v in row] for row in _matmul(d, ref)]
+        out[name] = (np.array([[b[0] for b in row] for row in bounds]),
+                     np.array([[b[1] for b in row] for row in bounds]))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The equations in extended interval arithmetic
+# --------------------------------------------------------------------------------------------
+
+class _Numbers:
+    """One number system for the equations: (cos, sin), 0 and 1 of the private ``iv`` context
+    (enclosures) or of floats (the float J(y) that gives C and the singular values)."""
+
+    __slots__ = ("cos_sin", "zero", "one")
+
+    def __init__(self, cos_sin, zero, one):
+        self.cos_sin = cos_sin
+        self.zero = zero
+        self.one = one
+
+
+class _JointPlan:
+    """One joint in one number system: its unit axis a (enclosed, for intervals), a a^T, its
+    reference angle, and either the index of its unknown or its rotation Rot(a, input - reference)."""
+
+    __slots__ = ("axis", "outer", "reference", "unknown", "rotation")
+
+    def __init__(self, axis, outer, reference, unknown, rotation):
+        self.axis = axis
+        self.outer = outer
+        self.reference = reference
+        self.unknown = unknown
+        self.rotation = rotation
+
+
+class _Plan:
+    """Everything one call needs, built per call: the equations in a private mpmath ``iv`` context
+    at EXTENDED_DIGITS (``exact``) and in floats (``approx``, for C and the singular values only).
+
+    ``names``: the unknowns (``mechanism.loop_unknowns``); ``leg_names``; ``loops``: (index of leg
+    k, index of the reference leg r) per loop; ``n_eq`` = 3 * loops, ``m`` = unknowns, ``square``.
+    """
+
+    def __init__(self, mechanism, inputs, check_ranges: bool = True):
+        from mpmath.ctx_iv import MPIntervalContext
+        from ..mechanism import SphericalMechanism
+
+        if not isinstance(mechanism, SphericalMechanism):
+            raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
+        values = mechanism.check_inputs(inputs) if check_ranges else tuple(float(v) for v in inputs)
+        ctx = MPIntervalContext()       # private: the shared mpmath.iv keeps its precision
+        ctx.dps = EXTENDED_DIGITS
+        self.ctx = ctx
+        self.exact_numbers = _Numbers(lambda d: _interval_cos_sin(ctx, d), ctx.mpf(0), ctx.mpf(1))
+        self.float_numbers = _Numbers(lambda d: (math.cos(d), math.sin(d)), 0.0, 1.0)
+        self.names = tuple(mechanism.loop_unknowns)
+        self.leg_names = tuple(leg.name for leg in mechanism.legs)
+        known = dict(zip(mechanism.actuated, values))
+        index = {n: i for i, n in enumerate(self.names)}
+        exact, approx = [], []
+        for leg in mechanism.legs:
+            for j in leg.joints:
+                if j.name not in known and j.name not in index:
+                    raise ValueError(f"mechanism: passive joint {j.name!r} appears in no loop")
+            exact.append(tuple(self._joint(j, known, index, True) for j in leg.joints))
+            approx.append(tuple(self._joint(j, known, index, False) for j in leg.joints))
+        self.exact = tuple(exact)
+        self.approx = tuple(approx)
+        r = self.leg_names.index(mechanism.reference_leg)
+        self.loops = tuple((k, r) for k in range(len(self.leg_names)) if k != r)
+        self.n_eq = 3 * len(self.loops)
+        self.m = len(self.names)
+        self.square = self.n_eq == self.m
+
+    def _joint(self, joint, known: dict, index: dict, exact: bool) -> _JointPlan:
+        if exact:
+            ctx = self.ctx
+            raw = [ctx.mpf(float(v)) for v in joint.axis]          # exact: mpf(float) is exact
+            norm = ctx.sqrt(raw[0] * raw[0] + raw[1] * raw[1] + raw[2] * raw[2])
+            axis = [v / norm for v in raw]                         # encloses the exact unit vector
+            num, ref = self.exact_numbers, ctx.mpf(float(joint.reference_angle))
+            fixed = ctx.mpf(known[joint.name]) if joint.name in known else None
+        else:
+            vec = np.asarray(joint.axis, dtype=float)
+            axis = [float(v) for v in vec / np.linalg.norm(vec)]
+            num, ref = self.float_numbers, float(joint.reference_angle)
+            fixed = known.get(joint.name)
+        outer = [[axis[p] * axis[q] for q in range(3)] for p in range(3)]
+        if fixed is None:
+            return _JointPlan(axis, outer, ref, index[joint.name], None)
+        return _JointPlan(axis, outer, ref, None, _rodrigues(num, axis, outer, fixed - ref))
+
+    def leg_rotation(self, leg: int, x, jacobian: bool, exact: bool = True):
+        """D = Rot(a_1, d_1) ... Rot(a_k, d_k) of leg number ``leg`` at the unknowns x (intervals,
+        or floats when not ``exact``), and the current axes w_i = Rot(a_1, d_1) ...
+        Rot(a_{i-1}, d_{i-1}) a_i of its passive joints as (unknown index, w) pairs (empty unless
+        ``jacobian``)."""
+        num = self.exact_numbers if exact else self.float_numbers
+        p = None
+        currents = []
+        for jp in (self.exact if exact else self.approx)[leg]:
+            if jp.unknown is None:
+                rot = jp.rotation
+            else:
+                if jacobian:
+                    currents.append((jp.unknown, jp.axis if p is None else _matvec(p, jp.axis)))
+                rot = _rodrigues(num, jp.axis, jp.outer, x[jp.unknown] - jp.reference)
+            p = rot if p is None else _matmul(p, rot)
+        return p, currents
+
+    def evaluate(self, x, jacobian: bool, exact: bool = True):
+        """At the unknowns x (intervals, or floats when not ``exact``): F (n_eq values, LOOP_ENTRIES
+        of each M_k), the diagonal entries of each M_k (3 per loop), and J (n_eq rows of m values;
+        None unless ``jacobian``)."""
+        zero = (self.exact_numbers if exact else self.float_numbers).zero
+        legs = [self.leg_rotation(k, x, jacobian, exact) for k in range(len(self.leg_names))]
+        f, diag, jac = [], [], []
+        for k, r in self.loops:
+            dk, wk = legs[k]
+            dr, wr = legs[r]
+            col_k = [[dk[p][j] for p in range(3)] for j in range(3)]      # D_k e_j
+            col_r = [[dr[p][i] for p in range(3)] for i in range(3)]      # D_r e_i
+            for i in range(3):
+                diag.append(_dot(col_r[i], col_k[i]))
+            for i, j in LOOP_ENTRIES:
+                u, v = col_r[i], col_k[j]
+                f.append(_dot(u, v))                                       # (M_k)_ij = u . v
+                if jacobian:
+                    row = [zero] * self.m
+                    vxu = _cross(v, u)
+                    for idx, w in wk:
+                        row[idx] = row[idx] + _dot(w, vxu)                 # d/d reading, leg k
+                    for idx, w in wr:
+                        row[idx] = row[idx] - _dot(w, vxu)                 # d/d reading, leg r
+                    jac.append(row)
+        return f, diag, (jac if jacobian else None)
+
+
+def _rodrigues(num: _Numbers, a, outer, d):
+    """Rot(a, d) = cos d I + sin d [a]x + (1 - cos d) a a^T (a: the unit axis, enclosed for intervals)."""
+    c, s = num.cos_sin(d)
+    v = num.one - c
+    sa = [s * a[0], s * a[1], s * a[2]]
+    return [[c + v * outer[0][0], v * outer[0][1] - sa[2], v * outer[0][2] + sa[1]],
+            [v * outer[1][0] + sa[2], c + v * outer[1][1], v * outer[1][2] - sa[0]],
+            [v * outer[2][0] - sa[1], v * outer[2][1] + sa[0], c + v * outer[2][2]]]
+
+
+def _interval_cos_sin(ctx, d):
+    """Enclosures of (cos d, sin d) for an interval d, in one range reduction (mpmath's mpi_cos_sin)."""
+    from mpmath.libmp.libmpi import mpi_cos_sin
+    c, s = mpi_cos_sin(d._mpi_, ctx.prec)
+    return ctx.make_mpf(c), ctx.make_mpf(s)
+
+
+def _matmul(p, q):
+    return [[p[i][0] * q[0][j] + p[i][1] * q[1][j] + p[i][2] * q[2][j] for j in range(3)] for i in range(3)]
+
+
+def _matvec(p, a):
+    return [p[i][0] * a[0] + p[i][1] * a[1] + p[i][2] * a[2] for i in range(3)]
+
+
+def _dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def _cross(u, v):
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+# --------------------------------------------------------------------------------------------
+# The Krawczyk test
+# --------------------------------------------------------------------------------------------
+
+def _at_point(plan: _Plan, y_iv, y_float):
+    """At the point y: F(y) enclosed (y_iv: exact intervals), the singular values of the float J at
+    y_float (a float next to y; descending), and C (:func:`_preconditioner`)."""
+    f_y, _, _ = plan.evaluate(y_iv, jacobian=False)
+    _, _, j_y = plan.evaluate([float(v) for v in y_float], jacobian=True, exact=False)
+    j_float = np.array(j_y, dtype=float).reshape(plan.n_eq, plan.m)
+    sv = tuple(float(v) for v in np.linalg.svd(j_float, compute_uv=False)) if j_float.size else ()
+    return f_y, sv, _preconditioner(plan, j_float, sv)
+
+
+def _preconditioner(plan: _Plan, j_float: np.ndarray, sv: tuple):
+    """C = the float inverse of the float J(y), as exact intervals; None when the system is not
+    square or J(y) is singular (rcond below EXTENDED_RCOND_MIN). Any C is valid; a good one makes K small."""
+    if not plan.square or plan.m == 0 or not sv or not np.all(np.isfinite(j_float)) \
+            or not sv[-1] > EXTENDED_RCOND_MIN * sv[0]:
+        return None
+    c = np.linalg.inv(j_float)
+    if not np.all(np.isfinite(c)):
+        return None
+    return [[plan.ctx.mpf(float(v)) for v in row] for row in c]
+
+
+def _krawczyk_operator(num: _Numbers, y, f_y, c, j_x, x):
+    """K(X) = y - C F(y) + (I - C J(X)) (X - y), every operation in intervals (lists of intervals;
+    c, j_x: m x m). Every root of F in X lies in K(X) (Krawczyk; Moore)."""
+    m = len(y)
+    dx = [xv - yv for xv, yv in zip(x, y)]
+    out = []
+    for i in range(m):
+        ci = c[i]
+        acc = y[i] - _sum([ci[p] * f_y[p] for p in range(m)], num.zero)
+        for j in range(m):
+            cj = _sum([ci[p] * j_x[p][j] for p in range(m)], num.zero)
+            acc = acc + ((num.one - cj) if i == j else -cj) * dx[j]
+        out.append(acc)
+    return out
+
+
+def _sum(values, zero):
+    acc = zero
+    for v in values:
+        acc = acc + v
+    return acc
+
+
+def _box_core(plan: _Plan, x, y, f_y, c) -> dict:
+    """One box X (intervals) around y: F, diag(M), J over X, K(X) (None when c is None), and the verdicts."""
+    f_x, diag_x, j_x = plan.evaluate(x, jacobian=c is not None)
+    excluded = any(_lo(v) > 0 or _hi(v) < 0 for v in f_x)
+    bad_diag = [(i, v) for i, v in enumerate(diag_x) if not _lo(v) > 0]
+    out = dict(f_x=f_x, excluded=excluded, diagonal_ok=not bad_diag, bad_diag=bad_diag, k=None,
+               inside=False, disjoint=False)
+    if c is None:
+        return out
+    k = _krawczyk_operator(plan.exact_numbers, y, f_y, c, j_x, x)
+    out["k"] = k
+    out["inside"] = all(_lo(kv) > _lo(xv) and _hi(kv) < _hi(xv) for kv, xv in zip(k, x))
+    out["disjoint"] = any(_hi(kv) < _lo(xv) or _lo(kv) > _hi(xv) for kv, xv in zip(k, x))
+    return out
+
+
+def _test_box(plan: _Plan, base: dict, r: float, x, y, f_y, c) -> KrawczykResult:
+    """The KrawczykResult of the box X (intervals) of radius r around y."""
+    common = dict(base, radius=r, box=tuple(_outward(v) for v in x), krawczyk_box=None, contraction=math.nan,
+                  no_solution=False, radii_tried=(r,))
+    out = _box_core(plan, x, y, f_y, c)
+    common["no_solution"] = bool(out["excluded"])
+    if not plan.square:
+        return KrawczykResult(certified=False, reason=(
+            f"not certified: not square ({plan.n_eq} equations, {plan.m} unknowns; redundant actuation is "
+            "out of scope of the extended-precision test)"
+            + ("; F excludes 0 over X, so X holds no solution" if out["excluded"] else "")), **common)
+    if out["k"] is None:
+        sv = base["singular_values"]
+        smin = sv[-1] if sv else 0.0
+        return KrawczykResult(certified=False, reason=(
+            f"not certified: singular midpoint Jacobian (smallest singular value {smin:.3g}, "
+            f"{smin / sv[0] if sv and sv[0] else 0.0:.3g} of the largest, below {EXTENDED_RCOND_MIN:g})"
+            + ("; F excludes 0 over X, so X holds no solution" if out["excluded"] else "")), **common)
+    k = out["k"]
+    k_box = tuple(_outward(v) for v in k)
+    ratio = max(_width_ratio(kv, xv) for kv, xv in zip(k, x)) if k else math.nan
+    disjoint = out["disjoint"] or out["excluded"]
+    common.update(krawczyk_box=k_box, contraction=ratio, no_solution=bool(disjoint))
+    if out["inside"] and out["diagonal_ok"] and not disjoint:
+        return KrawczykResult(certified=True, reason="", **common)
+    names = base["names"]
+    if out["disjoint"]:
+        why = "K(X) does not meet X, so X holds no solution"
+    elif out["excluded"]:
+        why = "an equation's enclosure over X excludes 0, so X holds no solution"
+    elif out["inside"]:
+        i, v = out["bad_diag"][0]
+        loop, entry = divmod(i, 3)
+        k_leg, r_leg = plan.loops[loop]
+        why = (f"K(X) lies inside X (one root of the loop entries) but the diagonal entry ({entry + 1},{entry + 1}) "
+               f"of M = D_r^T D_k for the legs ({plan.leg_names[k_leg]!r}, {plan.leg_names[r_leg]!r}) is not > 0 "
+               f"over X "
+               f"(down to {_outward(v)[0]:.3g}): the root may be a half-turn M != I, not an assembly")
+    else:
+        x_box = common["box"]
+        excess = [max(xb[0] - kb[0], kb[1] - xb[1]) for xb, kb in zip(x_box, k_box)]
+        worst = int(np.argmax(excess))
+        why = (f"K(X) is not inside X (contraction {ratio:.3g}; {names[worst]!r} leaves X by "
+               f"{excess[worst]:.3g} rad)")
+    return KrawczykResult(certified=False, reason=f"not certified at radius {r:g}: {why}", **common)
+
+
+# --------------------------------------------------------------------------------------------
+# Helpers: interval endpoints, outward rounding, checks
+# --------------------------------------------------------------------------------------------
+
+def _lo(v):
+    """The lower endpoint of an interval, exactly (a :class:`_Raw`, comparable with floats and other endpoints)."""
+    return _Raw(v._mpi_[0])
+
+
+def _hi(v):
+    """The upper endpoint of an interval, exactly."""
+    return _Raw(v._mpi_[1])
+
+
+class _Raw:
+    """A raw mpmath number (libmp tuple) with exact comparisons."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = value
+
+    def _cmp(self, other) -> int:
+        from mpmath.libmp import from_float, mpf_cmp
+        o = other.value if isinstance(other, _Raw) else from_float(float(other))
+        return mpf_cmp(self.value, o)
+
+    def __lt__(self, other):
+        return self._cmp(other) < 0
+
+    def __gt__(self, other):
+        return self._cmp(other) > 0
+
+
+def _round(raw, up: bool) -> float:
+    """The float next to the raw mpf ``raw`` on the side ``up`` (so it bounds raw from that side)."""
+    from mpmath.libmp import finf, fninf, from_float, mpf_cmp, to_float
+    if raw == finf or raw == fninf:
+        return math.inf if raw == finf else -math.inf
+    f = to_float(raw, rnd="c" if up else "f")
+    c = mpf_cmp(from_float(f), raw)
+    if up and c < 0:
+        f = math.nextafter(f, math.inf)
+    elif not up and c > 0:
+        f = math.nextafter(f, -math.inf)
+    return f
+
+
+def _outward(v) -> tuple[float, float]:
+    """Floats (lo, hi) enclosing the interval v."""
+    a, b = v._mpi_
+    return _round(a, up=False), _round(b, up=True)
+
+
+def _magnitude_up(values) -> float:
+    """An upper bound (float) on max |v| over the intervals ``values``."""
+    out = 0.0
+    for v in values:
+        lo, hi = _outward(v)
+        out = max(out, -lo, hi)
+    return out
+
+
+def _width_ratio(k, x) -> float:
+    """width(k) / width(x) for intervals, to float (computed in extended precision: the widths
+    can be far below the float spacing of the angles)."""
+    from mpmath.libmp import mpf_div, mpf_sub, round_ceiling, round_floor, to_float
+    kw = mpf_sub(k._mpi_[1], k._mpi_[0], 64, round_ceiling)
+    xw = mpf_sub(x._mpi_[1], x._mpi_[0], 64, round_floor)
+    if not to_float(xw) > 0:
+        return math.inf
+    return to_float(mpf_div(kw, xw, 64, round_ceiling))
+
+
+def _check_theta(names: tuple, theta) -> np.ndarray:
+    if isinstance(theta, Mapping):
+        missing = [n for n in names if n not in theta]
+        if missing:
+            raise ValueError(f"theta: missing angle(s) for {missing}; expected one per unknown {names}")
+        values = [theta[n] for n in names]
+    elif isinstance(theta, (str, bytes)):
+        raise ValueError(f"theta: expected {len(names)} passive angles (radians) {names}, got {theta!r}")
+    else:
+        values = theta
+    try:
+        y = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"theta: expected {len(names)} real angles (radians) {names}, got {theta!r}") from None
+    if y.shape != (len(names),):
+        raise ValueError(f"theta: expected shape ({len(names)},) (one angle per unknown {names}), got {y.shape}")
+    if not np.all(np.isfinite(y)):
+        raise ValueError(f"theta: expected finite angles (radians), got {theta!r}")
+    return y
+
+
+def _check_radii(radii) -> list[float]:
+    if isinstance(radii, (str, bytes)) or not isinstance(radii, (Sequence, np.ndarray)) or len(radii) == 0:
+        raise ValueError(f"radii: expected a non-empty sequence of positive radii (radians), got {radii!r}")
+    rs = []
+    for i, value in enumerate(radii):
+        try:
+            r = float(value) if not isinstance(value, (bool, np.bool_)) else math.nan
+        except (TypeError, ValueError):
+            r = math.nan
+        if not (math.isfinite(r) and 0.0 < r < math.pi):
+            raise ValueError(f"radii[{i}]: expected a radius in (0, pi) radians, got {value!r}")
+        rs.append(r)
+    if any(b <= a for a, b in zip(rs, rs[1:])):
+        raise ValueError(f"radii: expected strictly increasing radii, got {list(radii)!r}")
+    return rs
+
+
+def _check_readings(mechanism, joint_angles) -> dict[str, float]:
+    if not isinstance(joint_angles, Mapping):
+        raise ValueError(f"joint_angles: expected a mapping joint name -> angle (radians), got {joint_angles!r}")
+    missing = [n for n in mechanism.joint_names if n not in joint_angles]
+    if missing:
+        raise ValueError(f"joint_angles: missing angle(s) for {missing}")
+    out = {}
+    for n in mechanism.joint_names:
+        v = float(joint_angles[n])
+        if not math.isfinite(v):
+            raise ValueError(f"joint_angles[{n!r}]: expected a finite angle (radians), got {joint_angles[n]!r}")
+        out[n] = v
+    return out
