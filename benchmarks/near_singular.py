@@ -19,7 +19,7 @@ from benchmarks.reference_roots import reference_roots, singular_input
 from spherekin import solve
 from spherekin.trust.solutions import is_proven
 
-__all__ = ["MATCH", "FLAG_ALLOWED_WITHIN", "judge", "random_segment"]
+__all__ = ["MATCH", "FLAG_ALLOWED_WITHIN", "BOX_SLACK", "in_box", "judge", "random_segment"]
 
 #: A reported rotation matches a reference root when every entry agrees to this: spherekin's
 #: polished roots are accurate to ~1e-13 / sigma_min (~1e-7 at 1e-12 from a fold, where the two
@@ -27,6 +27,19 @@ __all__ = ["MATCH", "FLAG_ALLOWED_WITHIN", "judge", "random_segment"]
 MATCH = 1e-6
 #: Beyond this distance from the singular input a lower-bound count is a failure (the issue's rule).
 FLAG_ALLOWED_WITHIN = 1e-8
+#: A reference root lies in an entry's box when every angle is within this of it (radians): the
+#: box ends are floats rounded from the search's boxes.
+BOX_SLACK = 1e-9
+
+
+def in_box(theta, sol) -> bool:
+    """Whether the angles theta lie in the entry's box modulo 2 pi (per angle, BOX_SLACK either side).
+
+    theta is moved into [lo, lo + 2 pi) per angle, so that a box of any width up to 2 pi (a
+    continuum's hull, a merged cluster) is tested whole, not only its part within pi of lo."""
+    lo, hi = np.asarray(sol.lo, float), np.asarray(sol.hi, float)
+    d = lo + np.mod(np.asarray(theta, float) - lo, 2 * np.pi)
+    return bool(np.all((d <= hi + BOX_SLACK) | (d - 2 * np.pi >= lo - BOX_SLACK)))
 
 
 def judge(mech, geometry, inputs, distance) -> dict:
@@ -47,10 +60,7 @@ def judge(mech, geometry, inputs, distance) -> dict:
         covered = False
         for m in ik:
             theta = np.array([m.joint_angles[n] for n in rep.unknowns])
-            for s in rep.solutions:
-                if not is_proven(s):
-                    d = np.remainder(theta - s.lo + np.pi, 2 * np.pi) - np.pi + s.lo   # theta next to the box
-                    covered |= bool(np.all(d >= s.lo - 1e-9) and np.all(d <= s.hi + 1e-9))
+            covered |= any(in_box(theta, s) for s in rep.solutions if not is_proven(s))
         if not covered:
             wrong["lost"] = wrong.get("lost", 0) + 1
     if rep.count_exact and rep.proven_count != ref.count:

@@ -64,8 +64,9 @@ STATUSES = tuple(Status)
 #: Entries that stand for a region rather than one point.
 _REGIONS = (Status.CLUSTER, Status.CONTINUUM)
 #: Converged polished points closer than this (radians, every passive angle, modulo 2 pi) are one
-#: point when neither is certified (certified points are compared through their boxes): polished
-#: points agree to ~1e-14 and two roots this close cannot be separated by polishing anyway.
+#: point when neither is certified (certified points are compared through their boxes and root
+#: enclosures, :func:`_relation`): polished points agree to ~1e-14 and two roots this close cannot be
+#: separated by the float polish anyway.
 DEDUPE_TOL = 1e-8
 #: Half-width (radians) of the chart of the LoopSystem that finalize evaluates: one system per
 #: input, built once for every cluster. Reason: polishing and certification evaluate the loops in
@@ -362,15 +363,65 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None,
         system = mechanism.loop_system(inputs, {n: (-LOCAL_CHART, LOCAL_CHART) for n in names})
         ext = _Extended(mechanism, inputs, names) if extended else None
         out = _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine, ext)
-    # a root found from two clusters (a refined search of a hull can reach a neighbour's root)
-    unique: list[Solution] = []
-    for e in sorted(out, key=lambda e: not is_proven(e)):
-        if e.status in _REGIONS or not any(
-                u.status not in _REGIONS and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL
-                for u in unique):
-            unique.append(e)
-    unique = _merge_nearby_unproven(unique, tol)
+    unique = _merge_nearby_unproven(_unique(out), tol)
     unique.sort(key=lambda s: tuple(np.round(s.angles, 9)))
+    return unique
+
+
+def _shifted(box, e: Solution, ref: Solution):
+    """The box (lo, hi) of entry ``e`` moved by the whole turns that bring e's angles next to ref's."""
+    d = e.angles - ref.angles
+    k = d - wrap(d)
+    return np.asarray(box[0]) - k, np.asarray(box[1]) - k
+
+
+def _enclosure(e: Solution):
+    enc = e.evidence.get("root_enclosure")
+    return (np.array(enc["lo"]), np.array(enc["hi"])) if enc else (e.lo, e.hi)
+
+
+def _relation(e: Solution, u: Solution) -> str:
+    """Whether two proven entries hold the "same" root, "distinct" roots, or it is "unknown".
+
+    Each certified box holds exactly one root, which lies in its enclosure (K(X)): an enclosure
+    inside the other's box puts both roots in that box (same); an enclosure outside it cannot hold
+    the other's root (distinct). Nothing weaker: two roots 6e-9 apart are both certified in extended
+    precision (the agile eye next to a singular line), so nearness of the points proves nothing.
+    """
+    enc_e, box_e = _shifted(_enclosure(e), e, u), _shifted((e.lo, e.hi), e, u)
+    enc_u, box_u = _enclosure(u), (u.lo, u.hi)
+    if _inside_any([box_u], *enc_e) or _inside_any([box_e], *enc_u):
+        return "same"
+    if _disjoint(enc_e, box_u) or _disjoint(enc_u, box_e):
+        return "distinct"
+    return "unknown"
+
+
+def _unique(entries: list) -> list:
+    """The entries with the roots found twice (from two clusters: a refined search of a hull can reach
+    a neighbour's root) kept once. A proven entry is dropped when it holds the same root as one kept
+    (:func:`_relation`) and loses its proof when that cannot be decided; an entry that is not proven
+    is dropped when its point lies in a proven entry's box (the one root there is that entry's) or
+    within DEDUPE_TOL of another unproven point."""
+    unique: list[Solution] = []
+    for e in sorted(entries, key=lambda e: not is_proven(e)):
+        if e.status in _REGIONS:
+            unique.append(e)
+            continue
+        kept = [u for u in unique if u.status not in _REGIONS]
+        if is_proven(e):
+            relations = [_relation(e, u) for u in kept if is_proven(u)]
+            if "same" in relations:
+                continue
+            if "unknown" in relations:
+                e = dataclasses.replace(e, status=Status.UNVERIFIED, evidence={
+                    **e.evidence, "krawczyk_certified": False,
+                    "reason": "its certified box overlaps another certified box without either enclosing the "
+                              "other's root: it may be the same root"})
+        elif any(_inside_any([(u.lo, u.hi)], *_shifted((e.angles, e.angles), e, u)) for u in kept if is_proven(u)) \
+                or any(not is_proven(u) and np.abs(wrap(e.angles - u.angles)).max() <= DEDUPE_TOL for u in kept):
+            continue
+        unique.append(e)
     return unique
 
 
@@ -598,6 +649,9 @@ def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict
             ev["reason"] += f"; {len(unresolved)} boxes of its cluster could not be resolved (it may hold more roots)"
     lo, hi = pt.box if pt.box is not None else (sol.lo, sol.hi)
     shift = theta - pt.theta
+    if proven and pt.enc is not None:
+        # where the root is, in the box's frame: what tells two proven entries apart (_unique)
+        ev["root_enclosure"] = {"lo": (pt.enc[0] + shift).tolist(), "hi": (pt.enc[1] + shift).tolist()}
     return Solution(theta, lo + shift, hi + shift, sol.n_boxes, residual=p.residual,
                     singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
                     status=status, evidence=ev)

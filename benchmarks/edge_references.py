@@ -1,0 +1,771 @@
+"""Independent 50-digit references at the edges of spherical mechanisms (issue 26, item 2).
+
+Everything here is computed from a mechanism's *joint axes* alone (``mech.legs[i].joints[j].axis``,
+``.actuated``, ``.reference_angle`` and ``mech.platform_reference_matrix``), converted exactly to
+mpmath (``mpmath.mpf(float)`` is exact) and normalized there, at :data:`DIGITS` decimal digits.
+spherekin's loop equations, its solver and its trust layer are never called; the float axes are
+the design, so a design that is a change-point mechanism on paper is, in floats, within ~1e-16 of
+one, and the references say what that float design does.
+
+Mechanisms of two legs (spherical four-bar and five-bar)
+    The reference leg is (A*, B) with A actuated; the other leg is (D, C) (four-bar: D a passive
+    base joint) or (E*, D, C) (five-bar: E actuated). At inputs theta, B(theta) = Rot(A, theta_A -
+    ref_A) B0 and Q = D (four-bar) or Q = Rot(E, theta_E - ref_E) D0 (five-bar); the platform joint
+    C lies at a = angle(B0, C0) from B and b = angle(D0, C0) from Q. With c = cos angle(B, Q), C =
+    alpha B + beta Q + gamma (B x Q), and the Gram determinant of (B, Q, C),
+
+        disc = 1 - c^2 - cos^2 a - cos^2 b + 2 c cos a cos b = (cos(a - b) - c) (c - cos(a + b)),
+
+    decides the number of assemblies: 2 when disc > 0, 1 when disc = 0 (a double assembly), 0 when
+    disc < 0 (:func:`two_leg_reference`). The branch inputs are where angle(B, Q) = |a - b| or
+    min(a + b, 2 pi - a - b): c(theta_A) = P cos(phi) + S' sin(phi) + S is a sinusoid in
+    phi = theta_A - ref_A, solved in closed form (:func:`two_leg_edges`). A *change point* is an
+    extremum of c that touches one of the two values (a double root of disc); in floats it is within
+    ~1e-16 of touching, so it is either two branch inputs ~1e-8 apart or no branch input at all,
+    and the reference says which.
+
+3-RRR
+    The leg constraints w_i(beta_i) . (R' v_i) = w_i . v_i (the distal link angle), with the axes
+    u_i, w_i, v_i of the reference configuration, w_i(beta_i) = Rot(u_i, beta_i - ref_i) w_i and R'
+    the platform's displacement from the reference configuration (the reported pose is R' P, P the
+    platform reference), as homogeneous quadrics in the quaternion of R'. The roots are found as in
+    :mod:`benchmarks.reference_roots` (eigen-candidates of the degree-8 problem, complex Newton at
+    50 digits, restarts until the 8 Bezout roots are distinct), but with the quadrics built at 50
+    digits from the joint axes (reference_roots rebuilds them from the 3-RRR's *description* lists,
+    a design that differs from the axes in the last bit, enough to move a fold by ~1e-16), and with
+    what it takes to separate the two roots of a pair 1e-16 from a fold (~1e-8 apart, where the
+    eigen-candidates no longer do) or 1e-16 from the agile eye's singular lines (~1e-16 apart): the
+    conjugate of each complex root, starts for a pair from the null direction of the Jacobian, and
+    restarts with deflation (:func:`_rrr_roots`). Undecided (``count`` None, with the reason): a
+    degenerate design (no 8-dimensional null space: non-isolated roots), fewer than 8 distinct
+    roots, two roots closer than :data:`DECIDE_SEPARATION`, or an odd number of real roots.
+    :func:`rrr_singular_input` finds where the count changes along a segment to :data:`ROOT_ACCURACY`
+    (benchmarks.reference_roots.singular_input bisects in floats, to ~1e-15).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mpmath
+import numpy as np
+
+from benchmarks.peers_closed_form import candidate_points, leg_quadrics
+from benchmarks.reference_roots import MAX_RESTARTS, _same
+from spherekin.mechanism.chains import axis_rotation, sphere_point
+from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
+
+__all__ = ["DIGITS", "CHANGE_TOL", "DECIDE_SEPARATION", "DISC_TOL", "ROOT_ACCURACY", "EdgeReference", "Edge",
+           "four_bar", "five_bar", "two_leg_reference", "two_leg_edges", "two_leg_coincidences", "rrr_reference",
+           "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis"]
+
+#: Working precision (decimal digits).
+DIGITS = 50
+#: An extremum of cos angle(B, Q) within this of a branch value (1 - |x| in the normalized sinusoid)
+#: is a change point (a double root of the discriminant) of the design: a design that is a change
+#: point on paper misses it by ~1e-16 in floats; a generic design by far more than 1e-12.
+CHANGE_TOL = mpmath.mpf("1e-12")
+#: A 3-RRR reference is undecided when two of its 8 roots (real or complex, up to sign) are closer
+#: than this: Newton's roots agree to ~1e-40, two roots of a pair 1e-16 from a fold are ~1e-8 apart,
+#: and one at 1e-16 from a codimension-2 singular set of the agile eye ~1e-16 apart.
+DECIDE_SEPARATION = mpmath.mpf("1e-22")
+#: A two-leg reference is undecided when |disc| is below this (a double assembly to the working
+#: precision; the smallest |disc| of the campaign, at the five-bar's coincidence 1e-16 from B = D,
+#: is ~1e-33) or when 1 - cos^2 angle(B, Q) is (B and Q parallel: C on a circle).
+DISC_TOL = mpmath.mpf("1e-45")
+#: :func:`rrr_singular_input` locates x* to this (radians) and checks that the count changes across
+#: it at this distance: far below the smallest distance approached (1e-16), while the merging pair
+#: is still ~1e-10 apart, which the 50-digit Newton resolves (at ~1e-24 it sometimes does not).
+ROOT_ACCURACY = mpmath.mpf("1e-20")
+#: Newton steps per start: quadratic convergence from the eigen-candidates takes ~6; next to a fold
+#: (candidates ~1e-8 off, a pair ~1e-8 apart) ~30 linear steps; a real start between a complex pair
+#: never converges and is then handed to :func:`_pair_starts`.
+NEWTON_STEPS = 80
+#: Newton has converged when its step is below 10^-(DIGITS - 10), or below SMALL_STEP with the
+#: residual below TINY_RESIDUAL: at a root whose Jacobian has a singular value ~1e-12 (the agile
+#: eye next to its singular lines) the steps stall at ~1e-50 / 1e-12 while the residual is at
+#: the working precision, the root then known to ~1e-35, far inside SAME_ROOT.
+SMALL_STEP = mpmath.mpf("1e-25")
+TINY_RESIDUAL = mpmath.mpf(10) ** (-(DIGITS - 3))
+
+
+# ------------------------------------------------------------------------------ small mp helpers
+
+def mp_axis(v) -> list:
+    """The direction of the float vector v in mpmath, normalized at DIGITS digits."""
+    with mpmath.workdps(DIGITS):
+        x = [mpmath.mpf(float(t)) for t in v]
+        n = mpmath.sqrt(sum(t * t for t in x))
+        return [t / n for t in x]
+
+
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _rot(axis, angle, v):
+    """Rot(axis, angle) v (Rodrigues; axis a unit mp vector)."""
+    c, s = mpmath.cos(angle), mpmath.sin(angle)
+    k = _cross(axis, v)
+    d = _dot(axis, v)
+    return [v[i] * c + k[i] * s + axis[i] * d * (1 - c) for i in range(3)]
+
+
+def _angle(a, b):
+    return mpmath.atan2(mpmath.sqrt(sum(t * t for t in _cross(a, b))), _dot(a, b))
+
+
+def _frame(b, c):
+    """The 3x3 mp matrix [b, c, b x c] (columns)."""
+    n = _cross(b, c)
+    return mpmath.matrix([[b[i], c[i], n[i]] for i in range(3)])
+
+
+def _to_float(m) -> np.ndarray:
+    return np.array([[float(m[i, j]) for j in range(m.cols)] for i in range(m.rows)])
+
+
+def _mp(x):
+    return x if isinstance(x, mpmath.mpf) else mpmath.mpf(float(x))
+
+
+# ------------------------------------------------------------------------------ results
+
+@dataclass(frozen=True)
+class EdgeReference:
+    """The reference at one input: ``count`` real assemblies (None: undecided, ``note`` says why),
+    their platform ``rotations`` (float 3x3, from 50 digits; as spherekin's ``platform_rotation``),
+    the same at 50 digits (``mp_rotations``), per assembly the current joint axes that fix it
+    (``points``: joint name -> mp unit vector; two-leg mechanisms), the ``discriminant`` (two-leg:
+    the Gram determinant; 3-RRR: None) and the smallest distance between two roots (3-RRR)."""
+
+    count: int | None
+    rotations: tuple = ()
+    mp_rotations: tuple = field(default=(), repr=False)
+    points: tuple = field(default=(), repr=False)
+    discriminant: object = None
+    min_separation: float | None = None
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Edge:
+    """An input where the number of assemblies changes or may change, to be approached.
+
+    ``x_star``: the inputs at the edge (a tuple of mpf, 50 digits; inputs not moved are floats
+    exactly); ``direction``: float vector along which to approach it (max norm 1); ``kind``:
+    "branch" (a simple root of the discriminant: 2 <-> 0 assemblies), "change" (a double root: a
+    change point, 2 on both sides in the paper design), "change-split" (a branch input within
+    ~1e-6 of a change point: the float design's change point opened into a window), "coincident"
+    (B = Q: a continuum of C in the paper design), "closest" (the inputs where the two assemblies
+    come closest, for designs with no branch input), "singular" (3-RRR: the reference count changes
+    there), "singular-line" (the agile eye's codimension-2 singular set)."""
+
+    x_star: tuple
+    direction: tuple
+    kind: str
+    note: str = ""
+
+
+# ------------------------------------------------------------------------------ constructors
+
+def _polar(polar_deg: float, azimuth_deg: float) -> np.ndarray:
+    p, a = math.radians(polar_deg), math.radians(azimuth_deg)
+    return np.array([math.sin(p) * math.cos(a), math.sin(p) * math.sin(a), math.cos(p)])
+
+
+def four_bar(ground: float, crank: float, coupler: float, rocker: float, branch: float = 1.0,
+             crank_azimuth: float = 90.0) -> SphericalMechanism:
+    """A spherical four-bar with link angles in degrees, built as :func:`spherekin.mechanism.four_bar`.
+
+    ground = angle(A, D), crank = angle(A, B), coupler = angle(B, C), rocker = angle(D, C). A = z
+    (actuated), D in the xz-plane at ``ground`` from z, B = Rot(A, crank_azimuth) of the point at
+    ``crank`` from A towards D, C on side ``branch`` of B x D. Legs "crank" = (A, B), "rocker" =
+    (D, C); the coupler BC is the platform. With the defaults, ``four_bar(80, 30, 70, 60)`` is the
+    preset. ValueError when the design cannot be assembled with the crank at ``crank_azimuth``.
+    """
+    a = np.array([0.0, 0.0, 1.0])
+    d = _polar(ground, 0.0)
+    b = axis_rotation(a, math.radians(crank_azimuth)) @ _polar(crank, 0.0)
+    c = sphere_point(b, d, math.radians(coupler), math.radians(rocker), branch)
+    if c is None:
+        raise ValueError(f"four_bar({ground}, {crank}, {coupler}, {rocker}): cannot be assembled with the "
+                         f"crank at azimuth {crank_azimuth} deg")
+    return SphericalMechanism(
+        legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
+              Leg("rocker", (Joint("D", d), Joint("C", c)))),
+        name=f"spherical four-bar ({ground:g}/{crank:g}/{coupler:g}/{rocker:g} deg)",
+    )
+
+
+def five_bar(ground: float, left: float, coupler_left: float, coupler_right: float, right: float,
+             branch: float = -1.0) -> SphericalMechanism:
+    """A spherical five-bar with link angles in degrees, built as :func:`spherekin.mechanism.five_bar`.
+
+    ground = angle(A, E), left = angle(A, B), coupler_left = angle(B, C), coupler_right =
+    angle(C, D), right = angle(D, E). A, E in the xz-plane at -+ground/2 from z (A and E actuated),
+    B and D at ``left`` and ``right`` from A and E towards +y, C on side ``branch`` of B x D. Legs
+    "left" = (A, B), "right" = (E, D, C); the platform is the link BC.
+    """
+    a, e = _polar(ground / 2, 180.0), _polar(ground / 2, 0.0)
+    y = np.array([0.0, 1.0, 0.0])
+    b = math.cos(math.radians(left)) * a + math.sin(math.radians(left)) * y
+    d = math.cos(math.radians(right)) * e + math.sin(math.radians(right)) * y
+    c = sphere_point(b, d, math.radians(coupler_left), math.radians(coupler_right), branch)
+    if c is None:
+        raise ValueError(f"five_bar({ground}, {left}, {coupler_left}, {coupler_right}, {right}): cannot be "
+                         "assembled at the reference inputs")
+    return SphericalMechanism(
+        legs=(Leg("left", (Joint("A", a, actuated=True), Joint("B", b))),
+              Leg("right", (Joint("E", e, actuated=True), Joint("D", d), Joint("C", c)))),
+        name=f"spherical five-bar ({ground:g}/{left:g}/{coupler_left:g}/{coupler_right:g}/{right:g} deg)",
+    )
+
+
+# ------------------------------------------------------------------------------ two-leg mechanisms
+
+@dataclass(frozen=True)
+class _TwoLeg:
+    a_axis: list          # A (actuated, reference leg's base joint)
+    a_ref: object         # A's reference angle (mpf)
+    a_index: int          # A's position in mech.actuated
+    b0: list              # B at the reference configuration
+    b_name: str
+    e_axis: list | None   # E (five-bar) or None (four-bar: Q = D fixed)
+    e_ref: object
+    e_index: int | None
+    d0: list              # D at the reference configuration
+    d_name: str
+    c0: list              # C at the reference configuration
+    c_name: str
+    cos_a: object         # cos angle(B0, C0)
+    cos_b: object         # cos angle(D0, C0)
+    ang_a: object
+    ang_b: object
+    frame0_inv: object    # [B0, C0, B0 x C0]^-1
+    platform: object      # the platform reference (mp matrix)
+
+
+def _two_leg(mech: SphericalMechanism) -> _TwoLeg:
+    legs = {leg.name: leg for leg in mech.legs}
+    if len(legs) != 2:
+        raise ValueError(f"mech: expected a spherical four-bar or five-bar (2 legs), got {len(legs)} legs")
+    first = [leg for leg in mech.legs if len(leg.joints) == 2 and leg.joints[0].actuated and not leg.joints[1].actuated]
+    if not first:
+        raise ValueError("mech: no leg (A*, B) with A actuated")
+    lb = first[0]
+    lo = [leg for leg in mech.legs if leg is not lb][0]
+    js = lo.joints
+    if len(js) == 2 and not js[0].actuated and not js[1].actuated:
+        e_joint, d_joint, c_joint = None, js[0], js[1]
+    elif len(js) == 3 and js[0].actuated and not js[1].actuated and not js[2].actuated:
+        e_joint, d_joint, c_joint = js
+    else:
+        raise ValueError(f"mech: leg {lo.name!r} is neither (D, C) nor (E*, D, C)")
+    with mpmath.workdps(DIGITS):
+        b0, c0, d0 = mp_axis(lb.joints[1].axis), mp_axis(c_joint.axis), mp_axis(d_joint.axis)
+        plat = mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in mech.platform_reference_matrix])
+        return _TwoLeg(
+            a_axis=mp_axis(lb.joints[0].axis), a_ref=_mp(lb.joints[0].reference_angle),
+            a_index=mech.actuated.index(lb.joints[0].name), b0=b0, b_name=lb.joints[1].name,
+            e_axis=None if e_joint is None else mp_axis(e_joint.axis),
+            e_ref=None if e_joint is None else _mp(e_joint.reference_angle),
+            e_index=None if e_joint is None else mech.actuated.index(e_joint.name),
+            d0=d0, d_name=d_joint.name, c0=c0, c_name=c_joint.name,
+            cos_a=_dot(b0, c0), cos_b=_dot(d0, c0), ang_a=_angle(b0, c0), ang_b=_angle(d0, c0),
+            frame0_inv=mpmath.inverse(_frame(b0, c0)), platform=plat)
+
+
+def _q_point(g: _TwoLeg, inputs):
+    if g.e_axis is None:
+        return g.d0
+    return _rot(g.e_axis, _mp(inputs[g.e_index]) - g.e_ref, g.d0)
+
+
+def two_leg_reference(mech: SphericalMechanism, inputs) -> EdgeReference:
+    """The reference of a spherical four-bar or five-bar at ``inputs`` (floats or mpf, radians, in
+    the order of ``mech.actuated``): count 0, 1 or 2 from the sign of the Gram determinant of
+    (B, Q, C), each assembly's platform rotation and its points B, D (current), C."""
+    g = _two_leg(mech)
+    with mpmath.workdps(DIGITS):
+        b = _rot(g.a_axis, _mp(inputs[g.a_index]) - g.a_ref, g.b0)
+        q = _q_point(g, inputs)
+        c = _dot(b, q)
+        disc = 1 - c * c - g.cos_a ** 2 - g.cos_b ** 2 + 2 * c * g.cos_a * g.cos_b
+        den = 1 - c * c
+        if den < DISC_TOL:
+            return EdgeReference(None, discriminant=disc, note=f"B and {g.d_name} (anti)parallel: C on a circle")
+        if abs(disc) < DISC_TOL:
+            return EdgeReference(None, discriminant=disc, note="discriminant 0 at 50 digits: a double assembly")
+        if disc < 0:
+            return EdgeReference(0, discriminant=disc)
+        alpha = (g.cos_a - c * g.cos_b) / den
+        beta = (g.cos_b - c * g.cos_a) / den
+        n = _cross(b, q)
+        gamma = mpmath.sqrt(disc) / den          # |n|^2 = den, gamma^2 |n|^2 = disc / den
+        rots, mp_rots, points = [], [], []
+        for sign in (1, -1):
+            cc = [alpha * b[i] + beta * q[i] + sign * gamma * n[i] for i in range(3)]
+            r = _frame(b, cc) * g.frame0_inv * g.platform
+            mp_rots.append(r)
+            rots.append(_to_float(r))
+            points.append({g.b_name: b, g.d_name: q, g.c_name: cc})
+        return EdgeReference(2, tuple(rots), tuple(mp_rots), tuple(points), disc)
+
+
+def _sinusoid(g: _TwoLeg, inputs):
+    """(P, S', S) with cos angle(B, Q) = P cos(phi) + S' sin(phi) + S, phi = theta_A - ref_A."""
+    q = _q_point(g, inputs)
+    ab, aq = _dot(g.a_axis, g.b0), _dot(g.a_axis, q)
+    return _dot(q, g.b0) - ab * aq, _dot(q, _cross(g.a_axis, g.b0)), ab * aq
+
+
+def two_leg_edges(mech: SphericalMechanism, inputs=None) -> list:
+    """Every branch, change and coincidence input of A (the reference leg's actuator), the other
+    inputs fixed at ``inputs`` (default: zeros), in closed form at 50 digits; "closest" edges (the
+    two extrema of cos angle(B, Q)) when there is none. A list of :class:`Edge`."""
+    g = _two_leg(mech)
+    n_in = len(mech.actuated)
+    inputs = [0.0] * n_in if inputs is None else list(inputs)
+    direction = tuple(1.0 if i == g.a_index else 0.0 for i in range(n_in))
+    out = []
+    with mpmath.workdps(DIGITS):
+        p, s1, s0 = _sinusoid(g, inputs)
+        rho = mpmath.sqrt(p * p + s1 * s1)
+        phi0 = mpmath.atan2(s1, p)                       # cos angle(B, Q) is largest at phi0
+        two_pi = 2 * mpmath.pi
+
+        def at(phi, kind, note):
+            theta = g.a_ref + phi
+            theta = theta - two_pi * mpmath.nint(theta / two_pi)
+            x = [_mp(v) for v in inputs]
+            x[g.a_index] = theta
+            out.append(Edge(tuple(x), direction, kind, note))
+
+        targets = [(mpmath.cos(g.ang_a - g.ang_b), "inner", "angle(B, Q) = |a - b|"),
+                   (mpmath.cos(g.ang_a + g.ang_b), "outer", "angle(B, Q) = min(a + b, 2 pi - a - b)")]
+        for k, side, note in targets:
+            x = (k - s0) / rho
+            near = 1 - abs(x)
+            change = abs(near) < CHANGE_TOL
+            coincident = side == "inner" and abs(g.ang_a - g.ang_b) < CHANGE_TOL
+            if change:
+                kind = "coincident" if coincident else "change"
+                at(phi0 if x > 0 else phi0 + mpmath.pi, kind, f"{note}: an extremum of cos angle(B, Q) "
+                   f"touches it (1 - |x| = {mpmath.nstr(near, 3)})")
+            if abs(x) <= 1:
+                dev = mpmath.acos(x)
+                for s in (1, -1):
+                    at(phi0 + s * dev, "change-split" if change else "branch", note)
+        if not out:
+            at(phi0, "closest", "the two assemblies closest (no branch input): cos angle(B, Q) largest")
+            at(phi0 + mpmath.pi, "closest", "the two assemblies closest (no branch input): cos angle(B, Q) smallest")
+    return out
+
+
+def two_leg_coincidences(mech: SphericalMechanism) -> list:
+    """Five-bar: the float inputs of E (the other leg's actuator) at which D(theta_E) lies on the
+    circle that B describes about A (angle(A, D) = angle(A, B0)), so that moving A brings B onto D:
+    with angle(B0, C0) = angle(D0, C0) there, C then turns on a circle (a continuum) in the paper
+    design. Closed form at 50 digits, rounded to floats; [] for a four-bar."""
+    g = _two_leg(mech)
+    if g.e_axis is None:
+        return []
+    out = []
+    with mpmath.workdps(DIGITS):
+        # cos angle(A, D(phi)) = P cos(phi) + S' sin(phi) + S, phi = theta_E - ref_E
+        ed, ea = _dot(g.e_axis, g.d0), _dot(g.e_axis, g.a_axis)
+        p = _dot(g.a_axis, g.d0) - ed * ea
+        s1 = _dot(g.a_axis, _cross(g.e_axis, g.d0))
+        x = (_dot(g.a_axis, g.b0) - ed * ea) / mpmath.sqrt(p * p + s1 * s1)
+        if abs(x) <= 1:
+            phi0, dev = mpmath.atan2(s1, p), mpmath.acos(x)
+            for sg in (1, -1):
+                theta = g.e_ref + phi0 + sg * dev
+                theta = theta - 2 * mpmath.pi * mpmath.nint(theta / (2 * mpmath.pi))
+                out.append(float(theta))
+    return out
+
+
+# ------------------------------------------------------------------------------ 3-RRR
+
+@dataclass(frozen=True)
+class _Rrr:
+    u: list
+    w: list
+    v: list
+    refs: list
+    cos_a2: list
+    platform: object
+    float_geometry: tuple
+
+
+def _rrr(mech: SphericalMechanism) -> _Rrr:
+    if len(mech.legs) != 3 or any(len(leg.joints) != 3 or not leg.joints[0].actuated
+                                  or leg.joints[1].actuated or leg.joints[2].actuated for leg in mech.legs):
+        raise ValueError("mech: expected a 3-RRR (three legs of 3 joints, the base joint actuated)")
+    order = [mech.actuated.index(leg.joints[0].name) for leg in mech.legs]
+    legs = [mech.legs[order.index(i)] for i in range(3)]      # leg of input i
+    with mpmath.workdps(DIGITS):
+        u = [mp_axis(leg.joints[0].axis) for leg in legs]
+        w = [mp_axis(leg.joints[1].axis) for leg in legs]
+        v = [mp_axis(leg.joints[2].axis) for leg in legs]
+        refs = [_mp(leg.joints[0].reference_angle) for leg in legs]
+        cos_a2 = [_dot(w[i], v[i]) for i in range(3)]
+        plat = mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in mech.platform_reference_matrix])
+        fgeo = (np.array([[float(t) for t in x] for x in u]), np.array([[float(t) for t in x] for x in w]),
+                np.array([[float(t) for t in x] for x in v]), np.array([float(mpmath.acos(c)) for c in cos_a2]))
+    return _Rrr(u, w, v, refs, cos_a2, plat, fgeo)
+
+
+def _rrr_quadrics(g: _Rrr, inputs) -> list:
+    """q^T A_i q = |q|^2 (w_i(beta_i) . R'(q) v_i - cos alpha2_i), at DIGITS digits."""
+    out = []
+    with mpmath.workdps(DIGITS):
+        for i in range(3):
+            w = _rot(g.u[i], _mp(inputs[i]) - g.refs[i], g.w[i])
+            v = g.v[i]
+            ca = g.cos_a2[i]
+            wv = _dot(w, v)
+            a = mpmath.zeros(4, 4)
+            a[0, 0] = wv - ca
+            cr = _cross(v, w)
+            for r in range(3):
+                a[0, r + 1] = a[r + 1, 0] = cr[r]
+                for c2 in range(3):
+                    a[r + 1, c2 + 1] = w[r] * v[c2] + v[r] * w[c2] - ((wv + ca) if r == c2 else 0)
+            out.append(a)
+    return out
+
+
+def _quat_rotation_mp(q):
+    q0, x, y, z = q
+    n = q0 * q0 + x * x + y * y + z * z
+    return mpmath.matrix([
+        [q0 * q0 + x * x - y * y - z * z, 2 * (x * y - z * q0), 2 * (x * z + y * q0)],
+        [2 * (x * y + z * q0), q0 * q0 - x * x + y * y - z * z, 2 * (y * z - x * q0)],
+        [2 * (x * z - y * q0), 2 * (y * z + x * q0), q0 * q0 - x * x - y * y + z * z]]) / n
+
+
+def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
+    """Complex Newton from q0 on F = (q^T A_i q, q . q - 1), as benchmarks.reference_roots._newton
+    but with fewer steps; (q, converged: see SMALL_STEP).
+
+    ``deflate``: roots already found (and their negatives, the same pose): Newton then runs on
+    G = F / prod_k ((q - r_k) . (q - r_k))^(1/2) (analytic; its Jacobian is (J - F m^T) / prod with
+    m = sum_k (q - r_k) / ((q - r_k) . (q - r_k))), which no longer has the r_k as roots, so a start
+    next to a found root is driven to a missing one; the result is then polished without deflation."""
+    q = mpmath.matrix([mpmath.mpc(x) for x in q0])
+    q = q / mpmath.sqrt(sum(x * x for x in q))
+    tol = mpmath.mpf(10) ** (-(DIGITS - 10))
+    known = [r for r0 in deflate for r in (r0, -r0)]
+    for k in range(max_steps):
+        aq = [a * q for a in quadrics]
+        f = mpmath.matrix([sum(q[j] * aq[i][j] for j in range(4)) for i in range(3)] + [sum(x * x for x in q) - 1])
+        jac = mpmath.matrix(4, 4)
+        for i in range(3):
+            for j in range(4):
+                jac[i, j] = 2 * aq[i][j]
+        for j in range(4):
+            jac[3, j] = 2 * q[j]
+        if known:
+            m = mpmath.matrix(4, 1)
+            for r in known:
+                d = q - r
+                dd = sum(x * x for x in d)
+                if dd == 0:
+                    return q, False
+                m += d / dd
+            jac = jac - f * m.T
+        try:
+            step = mpmath.lu_solve(jac, f)
+        except ZeroDivisionError:
+            return q, False
+        q = q - step
+        size = mpmath.norm(step, mpmath.inf)
+        if known:
+            if size < mpmath.mpf(10) ** -20:
+                return _newton(quadrics, q, max_steps - k)
+        elif size < tol or (size < SMALL_STEP and mpmath.norm(f, mpmath.inf) < TINY_RESIDUAL):
+            return q, True
+    return q, False
+
+
+def _pair_starts(quadrics, r) -> list:
+    """Starts for the two roots of a pair next to a fold, from a real point r near them (a root, or
+    where Newton stalled between a complex pair): along the right singular vector v of smallest
+    singular value of the Jacobian J(r), with u the left one, F(r + h v) = F(r) + h J v + h^2 F2(v)
+    exactly (every equation is a quadratic form); its component along u is a quadratic in h whose
+    two roots, real or complex, give the starts r + h v."""
+    r = mpmath.matrix([mpmath.re(x) for x in r])
+    jac = mpmath.matrix(4, 4)
+    f = []
+    for i, a in enumerate(quadrics):
+        aq = a * r
+        f.append(sum(r[j] * aq[j] for j in range(4)))
+        for j in range(4):
+            jac[i, j] = 2 * aq[j]
+    f.append(sum(x * x for x in r) - 1)
+    for j in range(4):
+        jac[3, j] = 2 * r[j]
+    u_mat, sv, vt = mpmath.svd_r(jac)
+    k = min(range(4), key=lambda i: sv[i])
+    v = mpmath.matrix([vt[k, j] for j in range(4)])
+    u = [u_mat[i, k] for i in range(4)]
+    jv = jac * v
+    f2 = [sum(v[a] * sum(quad[a, b] * v[b] for b in range(4)) for a in range(4)) for quad in quadrics]
+    f2.append(sum(x * x for x in v))
+    qa = sum(u[i] * f2[i] for i in range(4))
+    qb = sum(u[i] * jv[i] for i in range(4))
+    qc = sum(u[i] * f[i] for i in range(4))
+    if qa == 0:
+        return []
+    disc = mpmath.sqrt(mpmath.mpc(qb * qb - 4 * qa * qc))
+    return [r + ((-qb + sg * disc) / (2 * qa)) * v for sg in (1, -1)]
+
+
+def _rrr_roots(g: _Rrr, inputs, seed: int = 0):
+    """The 8 roots (mp complex quaternions), or (the roots found, the reason).
+
+    As benchmarks.reference_roots.reference_roots (its restarts here with deflation of the roots
+    found, :func:`_newton`), plus two searches for the partner of a root next
+    to a fold, where the eigen-candidates (~sqrt of the distance to the fold) no longer separate
+    the pair: the conjugate of every complex root (a root: the quadrics are real), and for every
+    real root or point where Newton stalled, the pair's two starts of :func:`_pair_starts`."""
+    quadrics = _rrr_quadrics(g, inputs)
+    float_inputs = [float(_mp(inputs[i]) - g.refs[i]) for i in range(3)]
+    try:
+        starts = list(candidate_points(leg_quadrics(g.float_geometry, float_inputs)))
+    except ValueError as exc:
+        return [], f"degenerate: {exc}"
+    roots: list = []
+    rng = np.random.default_rng(seed)
+
+    stalled = []
+
+    def add(start):
+        q, ok = _newton(quadrics, start)
+        if ok and not any(_same(q, r) for r in roots):
+            roots.append(q)
+        elif not ok:
+            stalled.append(q)
+
+    for start in starts:
+        add(start)
+    if len(roots) < 8:
+        for r in list(roots) + stalled:
+            if max(abs(mpmath.im(x)) for x in r) > mpmath.mpf("1e-30"):
+                add(mpmath.matrix([mpmath.conj(x) for x in r]))
+            else:
+                for start in _pair_starts(quadrics, r):
+                    add(start)
+    restarts = 0
+    while len(roots) < 8 and restarts < MAX_RESTARTS:
+        restarts += 1
+        base = roots[restarts % len(roots)] if roots else np.ones(4)
+        scale = 10.0 ** rng.uniform(-8, -2)
+        start = np.array([complex(base[j]) for j in range(4)]) + scale * (rng.normal(size=4) + 1j * rng.normal(size=4))
+        q, ok = _newton(quadrics, start, deflate=roots)
+        if ok and not any(_same(q, r) for r in roots):
+            roots.append(q)
+    if len(roots) != 8:
+        return roots, f"found {len(roots)} distinct roots of the quaternion quadrics, not 8"
+    return roots, ""
+
+
+def _pair_distance(a, b):
+    return min(max(abs(a[j] - s * b[j]) for j in range(4)) for s in (1, -1))
+
+
+def rrr_reference(mech: SphericalMechanism, inputs, seed: int = 0) -> EdgeReference:
+    """The reference of a 3-RRR at ``inputs`` (floats or mpf, radians, order of ``mech.actuated``),
+    from its joint axes; ``count`` None when undecided (module docstring)."""
+    g = _rrr(mech)
+    with mpmath.workdps(DIGITS):
+        roots, why = _rrr_roots(g, inputs, seed)
+        if why:
+            return EdgeReference(None, note=why)
+        sep = min(_pair_distance(a, b) for i, a in enumerate(roots) for b in roots[i + 1:])
+        if sep < DECIDE_SEPARATION:
+            return EdgeReference(None, min_separation=float(sep),
+                                 note=f"two roots {mpmath.nstr(sep, 3)} apart: not resolved at {DIGITS} digits")
+        real = [r for r in roots if max(abs(mpmath.im(x)) for x in r) < mpmath.mpf("1e-30")]
+        if len(real) % 2:
+            return EdgeReference(None, min_separation=float(sep), note=f"{len(real)} real roots (odd)")
+        mp_rots = [_quat_rotation_mp([mpmath.re(x) for x in r]) * g.platform for r in real]
+        return EdgeReference(len(real), tuple(_to_float(r) for r in mp_rots), tuple(mp_rots),
+                             min_separation=float(sep))
+
+
+def _closest_pair_g(g: _Rrr, x):
+    """g = sum (q1 - s q2)_j^2 of the closest pair of roots at inputs x (mp): > 0 for a real pair,
+    < 0 for a complex-conjugate pair; analytic, and linear through 0 at a fold."""
+    roots, why = _rrr_roots(g, x)
+    if why:
+        raise ValueError(why)
+    best = None
+    for i, a in enumerate(roots):
+        for b in roots[i + 1:]:
+            for s in (1, -1):
+                d = [a[j] - s * b[j] for j in range(4)]
+                m = max(abs(t) for t in d)
+                if best is None or m < best[0]:
+                    best = (m, d)
+    return mpmath.re(sum(t * t for t in best[1]))
+
+
+def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
+    """(x*, direction): the input on the segment x_a -> x_b where the reference count changes, to
+    ~ROOT_ACCURACY (mpf tuple), and x_b - x_a scaled to max norm 1. Bisection on the count (ends with
+    different counts required) to a bracket of ``width`` (radians), then regula falsi (Illinois) on
+    the signed squared distance of the merging pair of roots, which is linear through the fold.
+    ValueError when the counts at the ends are equal or a count is undecided."""
+    g = _rrr(mech)
+    with mpmath.workdps(DIGITS):
+        xa = [_mp(v) for v in x_a]
+        xb = [_mp(v) for v in x_b]
+        span = max(abs(xb[i] - xa[i]) for i in range(3))
+        direction = tuple(float((xb[i] - xa[i]) / span) for i in range(3))
+
+        def point(s):
+            return [xa[i] + s * (xb[i] - xa[i]) for i in range(3)]
+
+        def count(s):
+            c = rrr_reference(mech, point(s)).count
+            if c is None:
+                raise ValueError(f"undecided reference at s = {mpmath.nstr(s, 17)}")
+            return c
+
+        lo, hi = mpmath.mpf(0), mpmath.mpf(1)
+        c_lo = count(lo)
+        if count(hi) == c_lo:
+            raise ValueError("rrr_singular_input: the reference counts at the two ends are equal")
+        while (hi - lo) * span > width:
+            mid = (lo + hi) / 2
+            if count(mid) == c_lo:
+                lo = mid
+            else:
+                hi = mid
+        best = (lo + hi) / 2
+        try:
+            g_lo, g_hi = _closest_pair_g(g, point(lo)), _closest_pair_g(g, point(hi))
+        except ValueError:
+            g_lo = g_hi = mpmath.mpf(1)
+        best_g, side = None, 0
+        for _ in range(60):
+            if g_lo * g_hi > 0 or (hi - lo) * span < ROOT_ACCURACY:
+                break               # done, or not a simple fold: keep the bracket
+            s = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+            try:
+                gs = _closest_pair_g(g, point(s))
+            except ValueError:
+                break               # the pair too close to resolve
+            if best_g is None or abs(gs) < best_g:
+                best, best_g = s, abs(gs)
+            if gs == 0 or abs(gs) < mpmath.mpf(10) ** (-(DIGITS - 5)):
+                break
+            if gs * g_lo > 0:
+                lo, g_lo = s, gs
+                if side == -1:
+                    g_hi /= 2
+                side = -1
+            else:
+                hi, g_hi = s, gs
+                if side == 1:
+                    g_lo /= 2
+                side = 1
+        # check: the count changes across best (ROOT_ACCURACY on either side); else bisect on
+        eps = ROOT_ACCURACY / span
+        try:
+            ok = count(best - eps) == c_lo and count(best + eps) != c_lo
+        except ValueError:
+            ok = False
+        if not ok:
+            try:
+                while (hi - lo) * span > ROOT_ACCURACY:
+                    mid = (lo + hi) / 2
+                    if count(mid) == c_lo:
+                        lo = mid
+                    else:
+                        hi = mid
+            except ValueError:
+                pass                # undecided that close: the bracket so far
+            best = (lo + hi) / 2
+        return tuple(point(best)), direction
+
+
+def rrr_segment(mech: SphericalMechanism, rng, max_tries: int = 200):
+    """A random segment of inputs (uniform in [-pi, pi]^3) along which the reference count changes:
+    (x*, direction) by :func:`rrr_singular_input`. RuntimeError after ``max_tries`` segments."""
+    for _ in range(max_tries):
+        x_a, x_b = rng.uniform(-np.pi, np.pi, 3), rng.uniform(-np.pi, np.pi, 3)
+        ca, cb = rrr_reference(mech, x_a).count, rrr_reference(mech, x_b).count
+        if ca is None or cb is None or ca == cb:
+            continue
+        try:
+            return rrr_singular_input(mech, x_a, x_b)
+        except ValueError:
+            continue
+    raise RuntimeError(f"no segment with a change of count in {max_tries} tries")
+
+
+def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1) -> Edge:
+    """An input on the agile eye's (spherekin.mechanism.gosselin) codimension-2 singular set
+    beta1 = 0, beta2 = sign pi/2 (any beta3; pairs of assembly modes merge there), at 50 digits."""
+    with mpmath.workdps(DIGITS):
+        x = (mpmath.mpf(0), sign * mpmath.pi / 2, mpmath.mpf(float(beta3)))
+    d = np.asarray(direction, float)
+    return Edge(x, tuple(d / np.abs(d).max()), "singular-line", "beta1 = 0, beta2 = +-pi/2")
+
+
+# ------------------------------------------------------------------------------ shared helpers
+
+def inputs_at(edge: Edge, distance: float) -> tuple:
+    """The float inputs nearest x* + distance * direction (each entry rounded once from 50 digits),
+    and the actual signed distance (float) along the direction's largest entry."""
+    with mpmath.workdps(DIGITS):
+        d = mpmath.mpf(float(distance))
+        x = tuple(float(edge.x_star[i] + d * mpmath.mpf(edge.direction[i])) for i in range(len(edge.x_star)))
+        k = int(np.argmax(np.abs(edge.direction)))
+        actual = float((mpmath.mpf(x[k]) - edge.x_star[k]) / mpmath.mpf(edge.direction[k]))
+    return x, actual
+
+
+def passive_angles(mech: SphericalMechanism, rotation, inputs) -> list:
+    """The passive joint readings (dicts name -> radians, in [-pi, pi]) of the pose ``rotation`` with
+    the actuators at ``inputs``: every combination of the legs' solutions. Each leg's chain
+    Rot(a_1, d_1) ... Rot(a_k, d_k) = R P^T (axes at the reference configuration, d = reading -
+    reference angle, P the platform reference) is solved for its passive joints with its actuated
+    joints (a prefix of the leg) fixed, by the Paden-Kahan subproblems
+    (:func:`spherekin.mechanism.chains.serial_ik`). Unlike ``mech.inverse_kinematics``, this stays
+    right where a leg is at a serial singularity (the agile eye's axis u_i = v_i, where the actuator
+    turns freely and inverse kinematics returns an arbitrary actuator reading)."""
+    from spherekin.mechanism.chains import serial_ik, wrap
+
+    target = np.asarray(rotation, float) @ mech.platform_reference_matrix.T
+    values = dict(zip(mech.actuated, (float(v) for v in inputs)))
+    per_leg = []
+    for leg in mech.legs:
+        k = 0
+        rest = target
+        while k < len(leg.joints) and leg.joints[k].actuated:
+            j = leg.joints[k]
+            rest = axis_rotation(j.axis, values[j.name] - j.reference_angle).T @ rest
+            k += 1
+        joints = leg.joints[k:]
+        if any(j.actuated for j in joints):
+            raise ValueError(f"leg {leg.name!r}: actuated joints must come first")
+        if not joints:
+            per_leg.append([{}])
+            continue
+        sols = serial_ik(np.array([j.axis for j in joints]), rest)
+        per_leg.append([{j.name: wrap(j.reference_angle + d) for j, d in zip(joints, sol)} for sol in sols])
+    out = [{}]
+    for options in per_leg:
+        out = [{**a, **b} for a in out for b in options]
+    return out
