@@ -381,23 +381,26 @@ def matrix_control_points(factors: Sequence[FactorPolynomials]) -> np.ndarray:
     return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0)
 
 
-def _magnitude_matrices(f: FactorPolynomials) -> np.ndarray:
-    """|control matrices| of one factor with each entry replaced by a bound that does not shrink
-    with cos phi or sin phi: the elementwise max(|q|, |c|, |s|) for every entry of a variable factor;
-    max(|cos phi|, KNOWN_ENTRY_FLOOR), max(|sin phi|, KNOWN_ENTRY_FLOOR) for a known factor (shape as
-    :func:`_control_matrices`)."""
+def _magnitude_matrix(f: FactorPolynomials) -> np.ndarray:
+    """The largest |control matrix| (3, 3) of one factor over its control points, with each entry
+    bounded in a way that does not shrink with cos phi or sin phi: max(|q|, |c|, |s|) over the
+    control points for every entry of a variable factor; max(|cos phi|, KNOWN_ENTRY_FLOOR) and
+    max(|sin phi|, KNOWN_ENTRY_FLOOR) for a known factor."""
     if f.is_variable:
-        m = np.maximum.reduce([np.abs(np.asarray(a, dtype=float)) for a in (f.q, f.c, f.s)])
-        return np.abs(_control_matrices(FactorPolynomials(m, m, m)))
-    c, s = (max(abs(float(v)), KNOWN_ENTRY_FLOOR) for v in (f.c, f.s))
-    return np.abs(_control_matrices(FactorPolynomials(np.array(1.0), np.array(c), np.array(s))))
+        m = max(float(np.max(np.abs(np.asarray(a, dtype=float)))) for a in (f.q, f.c, f.s))
+        c = s = q = m
+    else:
+        q = 1.0
+        c, s = (max(abs(float(v)), KNOWN_ENTRY_FLOOR) for v in (f.c, f.s))
+    return np.array([[0.0, q, 0.0], [c, 0.0, s], [s, 0.0, c]])
 
 
 def matrix_magnitude(factors: Sequence[FactorPolynomials]) -> np.ndarray:
-    """A bound on the size of the terms behind every control point of :func:`matrix_control_points`
-    (same shape, >= 0): the same ordered product, of each factor's control matrices in absolute
-    value, with the cos and sin of every angle counted as at least KNOWN_ENTRY_FLOOR (see
-    :func:`_magnitude_matrices`).
+    """A bound M (3, 3) on the size of the terms behind every control point of entry (i, j) of
+    :func:`matrix_control_points`: the ordered product of each factor's largest |control matrix|
+    (:func:`_magnitude_matrix`; nonnegative matrices, so the product bounds every product of
+    control matrices in absolute value), with the cos and sin of every angle counted as at least
+    KNOWN_ENTRY_FLOOR.
 
     Why: a control point is a sum of products of the factors' entries, and its computed value errs
     by at most ~(number of factors) * eps times the sum of those products' absolute values (the
@@ -412,9 +415,8 @@ def matrix_magnitude(factors: Sequence[FactorPolynomials]) -> np.ndarray:
         raise ValueError("factors: expected at least one factor, got none")
     prod = np.eye(3)
     for f in factors:
-        a = _magnitude_matrices(f)
-        prod = prod[..., None, :, :] @ a if f.is_variable else prod @ a
-    return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0)
+        prod = prod @ _magnitude_matrix(f)
+    return prod
 
 
 def q_control_points(factors: Sequence[FactorPolynomials]) -> np.ndarray:

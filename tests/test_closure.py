@@ -334,7 +334,7 @@ def _exact(f: C.FactorPolynomials) -> C.FactorPolynomials:
 @pytest.mark.parametrize("tiny", [False, True])
 def test_matrix_magnitude_bounds_the_rounding(tiny):
     """The float control points of a product differ from the exact product of the same float factors
-    (Fractions) by at most 64 eps times matrix_magnitude, elementwise, also where cancellation or a
+    (Fractions) by at most 64 eps times matrix_magnitude (per entry), also where cancellation or a
     cos of ~1e-16 makes the control points far smaller than their rounding (the case that lost roots
     when tolerances were taken from the control points themselves)."""
     rng = np.random.default_rng(26)
@@ -345,7 +345,7 @@ def test_matrix_magnitude_bounds_the_rounding(tiny):
         got = C.matrix_control_points(factors)
         exact = C.matrix_control_points([_exact(f) for f in factors])
         err = np.vectorize(lambda e, g: abs(float(e - Fraction(float(g)))))(exact, got)
-        mag = C.matrix_magnitude(factors)
+        mag = C.matrix_magnitude(factors).reshape((3, 3) + (1,) * (got.ndim - 2))
         assert np.all(err <= 64 * eps * mag)
         with np.errstate(divide="ignore", invalid="ignore"):
             worst_own = max(worst_own, float(np.nanmax(np.where(err > 0, err / (eps * np.abs(got)), 0.0))))
@@ -369,4 +369,5 @@ def test_matrix_magnitude_covers_the_known_angles_tolerance():
                                                             float(f.s) + rng.uniform(-1, 1) * C.KNOWN_ANGLE_SNAP)
                      for f in factors]
             change = np.abs(C.matrix_control_points(moved) - C.matrix_control_points(factors))
-            assert np.all(change <= bound * C.matrix_magnitude(factors))
+            mag = C.matrix_magnitude(factors).reshape((3, 3) + (1,) * (change.ndim - 2))
+            assert np.all(change <= bound * mag)

@@ -170,3 +170,33 @@ def test_a_cluster_whose_finer_search_finds_nothing_is_reported_not_dropped(monk
     assert sols and count_summary(sols)[1] is False
     assert any(np.all(s.lo - 1e-9 <= root) and np.all(root <= s.hi + 1e-9) or np.abs(s.angles - root).max() < 1e-9
                for s in sols)
+
+
+def _proven(x, box, enc):
+    """A proven entry at angle x (one unknown) with its certified box x +- box, root enclosure x +- enc."""
+    a = np.array([x])
+    return Solution(a, a - box, a + box, 1, residual=1e-16, status=Status.CERTIFIED,
+                    evidence={"krawczyk_certified": True, "root_enclosure": {"lo": [x - enc], "hi": [x + enc]}})
+
+
+def test_proven_entries_are_one_root_only_when_their_certificates_say_so():
+    """Issue 26: two certified roots 6e-9 apart (the agile eye next to a singular line, certified in
+    extended precision) are two roots: nearness of points proves nothing; an entry whose root
+    enclosure lies in another's box is that root, found twice; an unproven point inside a proven
+    box is that box's one root, one outside it is kept (the count then cannot be exact)."""
+    from spherekin.trust.solutions import _unique
+
+    a = _proven(0.5, 2e-9, 1e-15)
+    b = _proven(0.5 + 6e-9, 2e-9, 1e-15)
+    twice = _proven(0.5 + 1e-15, 2e-9, 1e-15)
+    near = Solution(np.array([0.5 + 1e-9]), np.array([0.5]), np.array([0.5 + 2e-9]), 1, status=Status.UNVERIFIED)
+    outside = Solution(np.array([0.5 + 3e-9]), np.array([0.5]), np.array([0.5 + 4e-9]), 1, status=Status.UNVERIFIED)
+    out = _unique([a, b, twice, near, outside])
+    assert [float(e.angles[0]) for e in out if is_proven(e)] == [0.5, 0.5 + 6e-9]
+    assert [float(e.angles[0]) for e in out if not is_proven(e)] == [0.5 + 3e-9]
+    assert count_summary(out) == (2, False)
+    # the same roots a whole turn apart are still one
+    assert len(_unique([a, _proven(0.5 + 2 * np.pi, 2e-9, 1e-15)])) == 1
+    # certificates that overlap without either enclosing the other's root: not two proven roots
+    wide = _unique([_proven(0.5, 2e-9, 1.5e-9), _proven(0.5 + 3e-9, 2e-9, 1.5e-9)])
+    assert count_summary(wide) == (1, False)

@@ -96,10 +96,10 @@ class LoopPolynomials:
     with P the product of the factors up to the floor(k/2)-th unknown: rows 0..8 are the entries
     (row-major) of q_a P and q_b S, row 9 is q_a or q_b; their axes are the first ``split`` and
     the remaining axes of ``variables``. None for a loop with one unknown.
-    ``matrix_mag``, ``half_a_mag``, ``half_b_mag`` (shapes of ``matrix``, ``half_a``, ``half_b``, >= 0):
-    bounds on the size of the terms behind each control point
+    ``matrix_mag`` (3, 3), ``half_a_mag``, ``half_b_mag`` (10,): per entry (row of a half), a bound
+    on the size of the terms behind each of its control points
     (:func:`spherekin.closure.matrix_magnitude`), which the rounding tolerances are relative to;
-    None: the control points' own absolute values (only for polynomials computed without
+    None: the control points' own largest absolute values (only for polynomials computed without
     cancellation).
     """
 
@@ -126,22 +126,28 @@ class LoopPolynomials:
         self.scalar = scalar
         self.half_a = half_a
         self.half_b = half_b
-        self.matrix_mag = np.abs(matrix) if matrix_mag is None else matrix_mag
-        self.half_a_mag = None if half_a is None else np.abs(half_a) if half_a_mag is None else half_a_mag
-        self.half_b_mag = None if half_b is None else np.abs(half_b) if half_b_mag is None else half_b_mag
+        self.matrix_mag = _largest_per_row(matrix, 2).reshape(3, 3) if matrix_mag is None else matrix_mag
+        self.half_a_mag = None if half_a is None else _largest_per_row(half_a) if half_a_mag is None else half_a_mag
+        self.half_b_mag = None if half_b is None else _largest_per_row(half_b) if half_b_mag is None else half_b_mag
 
-    def entry_mag(self, r: int, c: int) -> np.ndarray:
+    def entry_mag(self, r: int, c: int) -> float:
         """Magnitude of q f_rc (row r, column c of ``matrix``)."""
-        return self.matrix_mag[r, c]
+        return float(self.matrix_mag[r, c])
 
-    def scalar_mag(self) -> np.ndarray:
+    def scalar_mag(self) -> float:
         """Magnitude of Eq. (10), q f11 + q f22 - 2 q, by either route (same terms)."""
-        return self.matrix_mag[0, 0] + self.matrix_mag[1, 1] + 2.0 * np.abs(self.q)
+        return float(self.matrix_mag[0, 0] + self.matrix_mag[1, 1] + 2.0 * np.max(np.abs(self.q)))
 
     @property
     def split(self) -> int:
         """Number of tensor axes (variables) in half a: its unknowns for tan-half, twice that for sin-cos."""
         return self.half_a.ndim - 1 if self.half_a is not None else 0
+
+
+def _largest_per_row(tensor: np.ndarray, lead: int = 1) -> np.ndarray:
+    """The largest |value| of each row (the first ``lead`` axes) of a tensor of control points."""
+    t = np.abs(np.asarray(tensor, dtype=float))
+    return t.reshape(t.shape[:lead] + (-1,)).max(axis=-1)
 
 
 @dataclass(frozen=True)
@@ -159,7 +165,7 @@ class Bilinear:
     a: np.ndarray
     b: np.ndarray
     terms: np.ndarray
-    #: Magnitudes of the terms behind a's and b's control points (shapes of a, b); None: |a|, |b|.
+    #: Per row of a and b (U,), (V,): bounds on the terms behind its control points; None: max |row|.
     a_mag: np.ndarray | None = None
     b_mag: np.ndarray | None = None
 
@@ -189,10 +195,8 @@ class Bilinear:
         """Per equation, sum_t |coef_t| max A[u_t] max B[v_t], with A, B the magnitudes of the halves'
         control points (``a_mag``, ``b_mag``): bounds every term of the sums on every sub-box
         (restricted control points are convex combinations), hence their rounding."""
-        a_mag = np.abs(self.a) if self.a_mag is None else self.a_mag
-        b_mag = np.abs(self.b) if self.b_mag is None else self.b_mag
-        amax = a_mag.reshape(len(self.a), -1).max(axis=1)
-        bmax = b_mag.reshape(len(self.b), -1).max(axis=1)
+        amax = _largest_per_row(self.a) if self.a_mag is None else np.asarray(self.a_mag, dtype=float)
+        bmax = _largest_per_row(self.b) if self.b_mag is None else np.asarray(self.b_mag, dtype=float)
         e, u, v = (self.terms[:, i].astype(int) for i in range(3))
         out = np.zeros(self.n_equations)
         np.add.at(out, e, np.abs(self.terms[:, 3]) * amax[u] * bmax[v])
@@ -340,7 +344,7 @@ def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, mags, square=(), t
         tensors = list(bil.assemble())
     coeffs = embed_axes(np.stack(np.broadcast_arrays(*tensors)), lp.variables, n_vars)
     scale = np.abs(coeffs).reshape(len(tensors), -1).max(axis=1)
-    scale = np.maximum(scale, [float(np.max(m)) for m in mags])
+    scale = np.maximum(scale, np.asarray(mags, dtype=float))
     if bil is not None:
         scale = np.maximum(scale, bil.magnitude())
     return EquationBlock(lp.loop_index, tuple(labels), coeffs, scale, tuple(square), bil, prune)
@@ -435,7 +439,7 @@ class Halves(Formulation):
             hterms = [t for r in range(3) for c in range(3) for t in _halves_terms(3 * r + c, r, c)]
             hlabels = [f"loop{j}:P{r + 1}{c + 1}-S{c + 1}{r + 1}" for r in range(3) for c in range(3)]
             # the halves' magnitudes enter through the bilinear form's (Bilinear.magnitude)
-            blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, [np.zeros(())] * 9, terms=hterms))
+            blocks.append(_block(lp, n_vars, hlabels, [lp.q] * 9, [0.0] * 9, terms=hterms))
             blocks.append(_block(lp, n_vars, labels, tensors, mags, square=square, terms=terms, prune=False))
         return blocks
 

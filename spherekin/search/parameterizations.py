@@ -130,6 +130,12 @@ def _half(matrix: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.concatenate([matrix.reshape((9,) + q.shape), np.broadcast_to(q, q.shape)[None]])
 
 
+def _half_magnitude(bound: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per row of a half (:func:`_half`): the magnitude bound (10,) of its entries (``bound`` (3, 3),
+    row-major) and of its q (the largest |control point|: q is a product without cancellation)."""
+    return np.append(np.asarray(bound, dtype=float).reshape(9), float(np.max(np.abs(q))))
+
+
 def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int], scalar: bool = True) -> LoopPolynomials:
     """q_n F_n of a loop in t = tan((theta - shift)/2) on each unknown's range (Sections 2.2, 3).
 
@@ -147,8 +153,8 @@ def tan_half_loop(index: int, loop: ClosureLoop, variables: Sequence[int], scala
         qa, qb = q_control_points(fps[:split]), q_control_points(fps[split:])
         ha = _half(matrix_control_points(fps[:split]), qa)
         hb = _half(matrix_control_points(fps[split:]), qb)
-        ha_mag = _half(matrix_magnitude(fps[:split]), np.abs(qa))
-        hb_mag = _half(matrix_magnitude(fps[split:]), np.abs(qb))
+        ha_mag = _half_magnitude(matrix_magnitude(fps[:split]), qa)
+        hb_mag = _half_magnitude(matrix_magnitude(fps[split:]), qb)
     return LoopPolynomials(index, tuple(variables), matrix_control_points(fps), q_control_points(fps),
                            scalar_control_points(fps, "recursion") if scalar else None, ha, hb,
                            matrix_magnitude(fps), ha_mag, hb_mag)
@@ -205,6 +211,11 @@ def _sin_cos_product(factors, names, boxes, magnitude: bool = False):
     return np.moveaxis(np.moveaxis(prod, -1, 0), -1, 0), variables
 
 
+def _largest(tensor: np.ndarray) -> np.ndarray:
+    """(3, 3): the largest value of each entry of a (3, 3, *dims) tensor of control points."""
+    return tensor.reshape(3, 3, -1).max(axis=2)
+
+
 def sin_cos_loop(index: int, loop: ClosureLoop, names: Sequence[str],
                  boxes: Mapping[str, tuple]) -> LoopPolynomials:
     """F_n of a loop in the variables (c_k, s_k) = (cos theta_k, sin theta_k) (Section 5).
@@ -214,15 +225,15 @@ def sin_cos_loop(index: int, loop: ClosureLoop, names: Sequence[str],
     factors' control matrices (tensor product over distinct variables), q = 1.
     """
     matrix, variables = _sin_cos_product(loop.factors, names, boxes)
-    mag, _ = _sin_cos_product(loop.factors, names, boxes, magnitude=True)
+    mag = _largest(_sin_cos_product(loop.factors, names, boxes, magnitude=True)[0])
     split = _split_point(loop)
     ha = hb = ha_mag = hb_mag = None
     if split is not None:
         halves = []
         for part in (loop.factors[:split], loop.factors[split:]):
             pm, _ = _sin_cos_product(part, names, boxes)
-            pmag, _ = _sin_cos_product(part, names, boxes, magnitude=True)
-            halves += [_half(pm, np.ones(pm.shape[2:])), _half(pmag, np.ones(pm.shape[2:]))]
+            pmag = _largest(_sin_cos_product(part, names, boxes, magnitude=True)[0])
+            halves += [_half(pm, np.ones(pm.shape[2:])), _half_magnitude(pmag, np.ones(1))]
         ha, ha_mag, hb, hb_mag = halves
     return LoopPolynomials(index, tuple(variables), matrix, np.ones(matrix.shape[2:]), None, ha, hb,
                            mag, ha_mag, hb_mag)
