@@ -194,3 +194,29 @@ def test_extended_precision_resolves_the_pair_next_to_the_change_point(distance)
     report = solve(CHANGE_POINT, [theta])
     assert check_report(CHANGE_POINT, theta, report) == "exact"
     assert report.proven_count == 2
+
+
+@pytest.mark.parametrize("distance", [1e-7, 1e-6])
+def test_a_search_around_a_root_keeps_it(distance):
+    """The box loop alone, on a box 1e-9 around a reference assembly of the change-point four-bar
+    (what a refined search of a cluster does): its tolerance must cover the rounding of entries that
+    are ~1e-8 on the whole chart, or it discards every box (it did: issue 26's 'finer search returns
+    nothing'). The root's readings come from inverse kinematics of the 50-digit reference pose."""
+    from spherekin.search.boxloop import solve_system
+
+    theta = math.pi / 2 + distance
+    count, poses = reference(CHANGE_POINT, theta)
+    names = CHANGE_POINT.loop_unknowns
+    for pose in poses:
+        ik = [s for s in CHANGE_POINT.inverse_kinematics(pose)
+              if abs(math.remainder(s.inputs[0] - theta, 2 * math.pi)) < 1e-9]
+        assert ik
+        root = np.array([ik[0].joint_angles[n] for n in names])
+
+        def build(chart):
+            system = CHANGE_POINT.loop_system([theta], chart)
+            return system.loops, system.unknowns
+
+        report = solve_system(build, {n: (float(r) - 1e-9, float(r) + 1e-9) for n, r in zip(names, root)}, tol=1e-11)
+        assert any(np.all(c.lo - 1e-12 <= root) and np.all(root <= c.hi + 1e-12) for c in report.clusters), \
+            f"the search discarded the box holding the root at input pi/2 + {distance:g}"
