@@ -220,3 +220,34 @@ def test_a_search_around_a_root_keeps_it(distance):
         report = solve_system(build, {n: (float(r) - 1e-9, float(r) + 1e-9) for n, r in zip(names, root)}, tol=1e-11)
         assert any(np.all(c.lo - 1e-12 <= root) and np.all(root <= c.hi + 1e-12) for c in report.clusters), \
             f"the search discarded the box holding the root at input pi/2 + {distance:g}"
+
+
+@pytest.mark.parametrize("inputs", [(0.0, 0.0, 0.0), (0.3, 0.3, 0.3)])
+def test_coaxial_agile_eye_keeps_its_four_half_turn_assemblies(inputs):
+    """The issue's third reproduction, as far as its words fix it: a coaxial agile eye (every base
+    axis on z, right link angles, elbow and platform axes on coordinate axes) answered '0 solutions,
+    exact' at (0, 0, 0) where I, Rx(pi), Ry(pi), Rz(pi) are assemblies. Checked here independently of
+    spherekin: those four poses (turned by Rz(beta) for equal inputs beta, the design being symmetric
+    about z) close every leg, w_i(beta) . R v_i = cos(pi/2) = 0; each must be reported, as a proven
+    entry or inside an unproven entry's box, and every proven entry must close every leg."""
+    from spherekin.mechanism import three_rrr
+
+    x, y, z = np.eye(3)
+    elbows, platform = [x, y, x], [y, z, z]
+    mech = three_rrr([z, z, z], elbows, platform, [math.pi / 2] * 3, name="coaxial agile eye")
+    beta = inputs[0]
+    turn = axis_rotation(z, beta)
+    expected = [turn @ np.diag(d) for d in ((1.0, 1.0, 1.0), (1.0, -1.0, -1.0), (-1.0, 1.0, -1.0), (-1.0, -1.0, 1.0))]
+
+    def closes(rot) -> bool:
+        return all(abs(float((turn @ w) @ (rot @ v))) < 1e-12 for w, v in zip(elbows, platform))
+
+    assert all(closes(r) for r in expected)
+    report = solve(mech, inputs)
+    for r in expected:
+        assert any(s.platform_rotation is not None and np.abs(s.platform_rotation - r).max() < 1e-9
+                   for s in report.solutions), f"the assembly {np.round(r, 3).tolist()} is missing"
+    for s in report.solutions:
+        if is_proven(s):
+            assert closes(s.platform_rotation)
+    assert report.proven_count >= 4 or not report.count_exact
