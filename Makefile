@@ -4,7 +4,8 @@
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 #   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
-#   make bench / bench-peers / sweep -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root sweep)
+#   make bench / bench-peers / sweep / edge -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root
+#     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
 #   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
 # Scripts of benchmarks/, experiments/, paper_figures/ are modules: run them as python -m benchmarks.bench_solve.
 PYTHON ?= python3
@@ -15,7 +16,7 @@ STAMP := $(VENV)/.installed
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep mutants
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +66,9 @@ bench-peers: $(STAMP)
 
 sweep: $(STAMP)
 	$(BIN)/python -m benchmarks.sweep_roots --poses 1000 --jobs 2
+
+edge: $(STAMP)
+	$(BIN)/python -m benchmarks.edge_campaign --jobs 2
 
 mutants: $(STAMP)
 	$(BIN)/python mutation/run.py $(if $(ONLY),--only $(ONLY))
