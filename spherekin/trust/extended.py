@@ -64,7 +64,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .krawczyk import BoxTests, KrawczykResult
+from .krawczyk import BoxTests, KrawczykResult, check_radii
+from .transversal import check_angles
 
 __all__ = [
     "EXTENDED_DIGITS",
@@ -125,8 +126,8 @@ def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED
     ``singular_values`` of the float J(y), ``angle_tolerance`` 0.0 (exact constants).
     """
     plan = _Plan(mechanism, inputs)
-    y = _check_theta(plan.names, theta)
-    rs = _check_radii(radii)
+    y = check_angles(plan.names, theta)
+    rs = check_radii(radii)
     ctx = plan.ctx
     y_iv = [ctx.mpf(v) for v in y]                 # exact
     f_y, sv, c = _at_point(plan, y_iv, y)
@@ -165,7 +166,7 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
     import mpmath
 
     plan = _Plan(mechanism, inputs)
-    y0 = _check_theta(plan.names, theta)
+    y0 = check_angles(plan.names, theta)
     if not plan.square or plan.m == 0:
         return None
     ctx = plan.ctx
@@ -597,44 +598,6 @@ def _width_ratio(k, x) -> float:
     if not to_float(xw) > 0:
         return math.inf
     return to_float(mpf_div(kw, xw, 64, round_ceiling))
-
-
-def _check_theta(names: tuple, theta) -> np.ndarray:
-    if isinstance(theta, Mapping):
-        missing = [n for n in names if n not in theta]
-        if missing:
-            raise ValueError(f"theta: missing angle(s) for {missing}; expected one per unknown {names}")
-        values = [theta[n] for n in names]
-    elif isinstance(theta, (str, bytes)):
-        raise ValueError(f"theta: expected {len(names)} passive angles (radians) {names}, got {theta!r}")
-    else:
-        values = theta
-    try:
-        y = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"theta: expected {len(names)} real angles (radians) {names}, got {theta!r}") from None
-    if y.shape != (len(names),):
-        raise ValueError(f"theta: expected shape ({len(names)},) (one angle per unknown {names}), got {y.shape}")
-    if not np.all(np.isfinite(y)):
-        raise ValueError(f"theta: expected finite angles (radians), got {theta!r}")
-    return y
-
-
-def _check_radii(radii) -> list[float]:
-    if isinstance(radii, (str, bytes)) or not isinstance(radii, (Sequence, np.ndarray)) or len(radii) == 0:
-        raise ValueError(f"radii: expected a non-empty sequence of positive radii (radians), got {radii!r}")
-    rs = []
-    for i, value in enumerate(radii):
-        try:
-            r = float(value) if not isinstance(value, (bool, np.bool_)) else math.nan
-        except (TypeError, ValueError):
-            r = math.nan
-        if not (math.isfinite(r) and 0.0 < r < math.pi):
-            raise ValueError(f"radii[{i}]: expected a radius in (0, pi) radians, got {value!r}")
-        rs.append(r)
-    if any(b <= a for a, b in zip(rs, rs[1:])):
-        raise ValueError(f"radii: expected strictly increasing radii, got {list(radii)!r}")
-    return rs
 
 
 def _check_readings(mechanism, joint_angles) -> dict[str, float]:

@@ -55,6 +55,7 @@ __all__ = [
     "certify",
     "certify_many",
     "certify_reference",
+    "check_radii",
 ]
 
 #: The tighter angle tolerance (radians) :mod:`spherekin.trust.solutions` retries with when a test at
@@ -193,7 +194,7 @@ def certify(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
     """
     check_system(system)
     y = check_theta(system, theta)
-    rs = _check_radii(radii)
+    rs = check_radii(radii)
     tol = check_tolerance(angle_tolerance)
     return _certify_points(system, y[None], rs, tol)[0]
 
@@ -210,7 +211,7 @@ def certify_many(system: LoopSystem, thetas, radii: Sequence[float] = CERTIFY_RA
     if isinstance(thetas, (str, bytes, Mapping)) or not isinstance(thetas, (Sequence, np.ndarray)):
         raise ValueError(f"thetas: expected a sequence of points (one angle per unknown {system.names}), got {thetas!r}")
     ys = np.array([check_theta(system, t, key=f"thetas[{i}]") for i, t in enumerate(thetas)], dtype=float)
-    rs = _check_radii(radii)
+    rs = check_radii(radii)
     tol = check_tolerance(angle_tolerance)
     if len(ys) == 0:
         return []
@@ -532,7 +533,7 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
 def certify_reference(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
                       angle_tolerance: float = ANGLE_TOLERANCE) -> KrawczykResult:
     """:func:`certify` with :func:`krawczyk_reference`: radii tried one by one, in order."""
-    rs = _check_radii(radii)
+    rs = check_radii(radii)
     tried = []
     for r in rs:
         res = krawczyk_reference(system, theta, r, angle_tolerance)
@@ -574,7 +575,8 @@ def _outward(v) -> tuple[float, float]:
     return lo, hi
 
 
-def _check_radii(radii) -> list[float]:
+def check_radii(radii) -> list[float]:
+    """``radii`` (radians) as a list of floats in (0, pi), strictly increasing; ValueError naming the first bad one."""
     if isinstance(radii, (str, bytes)) or not isinstance(radii, (Sequence, np.ndarray)) or len(radii) == 0:
         raise ValueError(f"radii: expected a non-empty sequence of positive radii (radians), got {radii!r}")
     rs = [_check_radius(f"radii[{i}]", v) for i, v in enumerate(radii)]

@@ -64,6 +64,7 @@ __all__ = [
     "interval_eval",
     "check_system",
     "check_theta",
+    "check_angles",
     "check_tolerance",
     "check_box",
 ]
@@ -452,7 +453,12 @@ def check_system(system) -> None:
 
 
 def check_theta(system: LoopSystem, theta, key: str = "theta") -> np.ndarray:
-    names = system.names
+    """``theta`` (a sequence in ``system.unknowns`` order or a mapping name -> angle) as a float array."""
+    return check_angles(system.names, theta, key)
+
+
+def check_angles(names: tuple, theta, key: str = "theta") -> np.ndarray:
+    """``theta`` (one angle per name, in order, or a mapping name -> angle) as a finite float array."""
     if isinstance(theta, Mapping):
         missing = [n for n in names if n not in theta]
         if missing:
