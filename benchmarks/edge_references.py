@@ -52,7 +52,7 @@ import mpmath
 import numpy as np
 
 from benchmarks.peers_closed_form import candidate_points, leg_quadrics
-from benchmarks.reference_roots import MAX_RESTARTS, _same
+from benchmarks.reference_roots import MAX_RESTARTS, leg_quadric_mp, same_root
 from spherekin.mechanism.chains import axis_rotation, sphere_point
 from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 
@@ -429,17 +429,7 @@ def _rrr_quadrics(g: _Rrr, inputs) -> list:
     with mpmath.workdps(DIGITS):
         for i in range(3):
             w = _rot(g.u[i], _mp(inputs[i]) - g.refs[i], g.w[i])
-            v = g.v[i]
-            ca = g.cos_a2[i]
-            wv = _dot(w, v)
-            a = mpmath.zeros(4, 4)
-            a[0, 0] = wv - ca
-            cr = _cross(v, w)
-            for r in range(3):
-                a[0, r + 1] = a[r + 1, 0] = cr[r]
-                for c2 in range(3):
-                    a[r + 1, c2 + 1] = w[r] * v[c2] + v[r] * w[c2] - ((wv + ca) if r == c2 else 0)
-            out.append(a)
+            out.append(leg_quadric_mp(w, g.v[i], g.cos_a2[i]))
     return out
 
 
@@ -550,7 +540,7 @@ def _rrr_roots(g: _Rrr, inputs, seed: int = 0):
 
     def add(start):
         q, ok = _newton(quadrics, start)
-        if ok and not any(_same(q, r) for r in roots):
+        if ok and not any(same_root(q, r) for r in roots):
             roots.append(q)
         elif not ok:
             stalled.append(q)
@@ -571,7 +561,7 @@ def _rrr_roots(g: _Rrr, inputs, seed: int = 0):
         scale = 10.0 ** rng.uniform(-8, -2)
         start = np.array([complex(base[j]) for j in range(4)]) + scale * (rng.normal(size=4) + 1j * rng.normal(size=4))
         q, ok = _newton(quadrics, start, deflate=roots)
-        if ok and not any(_same(q, r) for r in roots):
+        if ok and not any(same_root(q, r) for r in roots):
             roots.append(q)
     if len(roots) != 8:
         return roots, f"found {len(roots)} distinct roots of the quaternion quadrics, not 8"

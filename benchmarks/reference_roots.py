@@ -31,7 +31,8 @@ import numpy as np
 
 from benchmarks.peers_closed_form import candidate_points, leg_quadrics, quaternion_rotation
 
-__all__ = ["DIGITS", "REAL_IMAG", "SAME_ROOT", "Reference", "reference_roots", "singular_input", "near_singular_inputs"]
+__all__ = ["DIGITS", "REAL_IMAG", "SAME_ROOT", "Reference", "reference_roots", "singular_input", "near_singular_inputs",
+           "leg_quadric_mp", "same_root"]
 
 #: Working precision (decimal digits) of the polishing.
 DIGITS = 50
@@ -76,17 +77,23 @@ def _mp_quadrics(geometry, inputs) -> list:
             rot = mpmath.eye(3) + s * kx + (1 - c) * (kx * kx)
             w = rot * mpmath.matrix([mpmath.mpf(float(x)) for x in w0[i]])
             v = mpmath.matrix([mpmath.mpf(float(x)) for x in v0[i]])
-            ca = mpmath.cos(mpmath.mpf(float(alpha2[i])))
-            wv = sum(w[j] * v[j] for j in range(3))
-            a = mpmath.zeros(4, 4)
-            a[0, 0] = wv - ca
-            cross = [v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]]
-            for r in range(3):
-                a[0, r + 1] = a[r + 1, 0] = cross[r]
-                for c2 in range(3):
-                    a[r + 1, c2 + 1] = w[r] * v[c2] + v[r] * w[c2] - ((wv + ca) if r == c2 else 0)
-            out.append(a)
+            out.append(leg_quadric_mp(w, v, mpmath.cos(mpmath.mpf(float(alpha2[i])))))
     return out
+
+
+def leg_quadric_mp(w, v, ca):
+    """The 4 x 4 mpmath matrix A of one leg's quadric q^T A q = |q|^2 (w . R(q) v - ca), from the
+    elbow axis w and platform axis v (3 mpmath numbers each) and ca = cos(alpha2), in the working
+    precision of the caller."""
+    wv = sum(w[j] * v[j] for j in range(3))
+    a = mpmath.zeros(4, 4)
+    a[0, 0] = wv - ca
+    cross = [v[1] * w[2] - v[2] * w[1], v[2] * w[0] - v[0] * w[2], v[0] * w[1] - v[1] * w[0]]
+    for r in range(3):
+        a[0, r + 1] = a[r + 1, 0] = cross[r]
+        for c2 in range(3):
+            a[r + 1, c2 + 1] = w[r] * v[c2] + v[r] * w[c2] - ((wv + ca) if r == c2 else 0)
+    return a
 
 
 def _newton(quadrics, q0):
@@ -116,7 +123,7 @@ def _newton(quadrics, q0):
         return q, False
 
 
-def _same(p, q) -> bool:
+def same_root(p, q) -> bool:
     return min(max(abs(p[j] - s * q[j]) for j in range(4)) for s in (1, -1)) < SAME_ROOT
 
 
@@ -132,7 +139,7 @@ def reference_roots(geometry, inputs, seed: int = 0) -> Reference:
     while True:
         for start in starts:
             q, ok = _newton(quadrics, start)
-            if ok and not any(_same(q, r) for r in roots):
+            if ok and not any(same_root(q, r) for r in roots):
                 roots.append(q)
         if len(roots) >= 8 or restarts >= MAX_RESTARTS:
             break
