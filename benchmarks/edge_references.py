@@ -52,7 +52,7 @@ import mpmath
 import numpy as np
 
 from benchmarks.peers_closed_form import candidate_points, leg_quadrics
-from benchmarks.reference_roots import MAX_RESTARTS, leg_quadric_mp, same_root
+from benchmarks.reference_roots import MAX_RESTARTS, leg_quadric_mp, quadric_system_mp, same_root
 from spherekin.mechanism.chains import axis_rotation, sphere_point
 from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 
@@ -455,14 +455,7 @@ def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
     tol = mpmath.mpf(10) ** (-(DIGITS - 10))
     known = [r for r0 in deflate for r in (r0, -r0)]
     for k in range(max_steps):
-        aq = [a * q for a in quadrics]
-        f = mpmath.matrix([sum(q[j] * aq[i][j] for j in range(4)) for i in range(3)] + [sum(x * x for x in q) - 1])
-        jac = mpmath.matrix(4, 4)
-        for i in range(3):
-            for j in range(4):
-                jac[i, j] = 2 * aq[i][j]
-        for j in range(4):
-            jac[3, j] = 2 * q[j]
+        f, jac = quadric_system_mp(quadrics, q)
         if known:
             m = mpmath.matrix(4, 1)
             for r in known:
@@ -635,12 +628,22 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
         c_lo = count(lo)
         if count(hi) == c_lo:
             raise ValueError("rrr_singular_input: the reference counts at the two ends are equal")
-        while (hi - lo) * span > width:
-            mid = (lo + hi) / 2
-            if count(mid) == c_lo:
-                lo = mid
-            else:
-                hi = mid
+
+        def bisect(lo, hi, stop, undecided_ends=False):
+            """The bracket [lo, hi] halved on the count until it is narrower than stop (radians); with
+            ``undecided_ends``, a count the reference cannot decide ends it with the bracket so far."""
+            while (hi - lo) * span > stop:
+                mid = (lo + hi) / 2
+                try:
+                    below = count(mid) == c_lo
+                except ValueError:
+                    if undecided_ends:
+                        break
+                    raise
+                lo, hi = (mid, hi) if below else (lo, mid)
+            return lo, hi
+
+        lo, hi = bisect(lo, hi, width)
         best = (lo + hi) / 2
         try:
             g_lo, g_hi = _closest_pair_g(g, point(lo)), _closest_pair_g(g, point(hi))
@@ -676,15 +679,7 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
         except ValueError:
             ok = False
         if not ok:
-            try:
-                while (hi - lo) * span > ROOT_ACCURACY:
-                    mid = (lo + hi) / 2
-                    if count(mid) == c_lo:
-                        lo = mid
-                    else:
-                        hi = mid
-            except ValueError:
-                pass                # undecided that close: the bracket so far
+            lo, hi = bisect(lo, hi, ROOT_ACCURACY, undecided_ends=True)
             best = (lo + hi) / 2
         return tuple(point(best)), direction
 

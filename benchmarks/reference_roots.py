@@ -32,7 +32,7 @@ import numpy as np
 from benchmarks.peers_closed_form import candidate_points, leg_quadrics, quaternion_rotation
 
 __all__ = ["DIGITS", "REAL_IMAG", "SAME_ROOT", "Reference", "reference_roots", "singular_input", "near_singular_inputs",
-           "leg_quadric_mp", "same_root"]
+           "leg_quadric_mp", "quadric_system_mp", "same_root"]
 
 #: Working precision (decimal digits) of the polishing.
 DIGITS = 50
@@ -81,6 +81,20 @@ def _mp_quadrics(geometry, inputs) -> list:
     return out
 
 
+def quadric_system_mp(quadrics, q):
+    """(F, J) of the square system (q^T A_i q for the three legs, q . q - 1) at the mpmath vector q:
+    F a 4 x 1 and J a 4 x 4 mpmath matrix (J = 2 A_i q in the first rows, 2 q in the last)."""
+    aq = [a * q for a in quadrics]
+    f = mpmath.matrix([sum(q[j] * aq[i][j] for j in range(4)) for i in range(3)] + [sum(x * x for x in q) - 1])
+    jac = mpmath.matrix(4, 4)
+    for i in range(3):
+        for j in range(4):
+            jac[i, j] = 2 * aq[i][j]
+    for j in range(4):
+        jac[3, j] = 2 * q[j]
+    return f, jac
+
+
 def leg_quadric_mp(w, v, ca):
     """The 4 x 4 mpmath matrix A of one leg's quadric q^T A q = |q|^2 (w . R(q) v - ca), from the
     elbow axis w and platform axis v (3 mpmath numbers each) and ca = cos(alpha2), in the working
@@ -104,15 +118,7 @@ def _newton(quadrics, q0):
         q = q / norm
         tol = mpmath.mpf(10) ** (-(DIGITS - 10))
         for _ in range(MAX_STEPS):
-            aq = [a * q for a in quadrics]
-            f = mpmath.matrix([sum(q[j] * aq[i][j] for j in range(4)) for i in range(3)] +
-                              [sum(x * x for x in q) - 1])
-            jac = mpmath.matrix(4, 4)
-            for i in range(3):
-                for j in range(4):
-                    jac[i, j] = 2 * aq[i][j]
-            for j in range(4):
-                jac[3, j] = 2 * q[j]
+            f, jac = quadric_system_mp(quadrics, q)
             try:
                 step = mpmath.lu_solve(jac, f)
             except ZeroDivisionError:
