@@ -52,3 +52,26 @@ def test_boxes_across_pi_are_near_and_a_wider_gap_joins_more():
     assert near_groups(lo, hi, 0.01) == [[0, 1], [2]]          # 3.14 and -3.14 are 2 pi - 6.28 ~ 0.003 apart
     assert near_groups(lo, hi, 3.05) == [[0, 1, 2]]         # [0, 0.1] is 3.0 from [3.1, 3.14]
     assert near_groups(np.zeros((0, 2)), np.zeros((0, 2)), 1.0) == []
+
+
+# ------------------------------------------------------------------ a full turn (forgotten --degrees)
+
+from spherekin.core.angles import MAX_INPUT_ANGLE, beyond_turn, check_turn  # noqa: E402
+
+
+@pytest.mark.parametrize("theta", [0.0, 3.0, -3.0, 2 * math.pi, -2 * math.pi, math.pi, 6.28318])
+def test_angles_within_a_turn_are_accepted_unchanged(theta):
+    assert check_turn("x", theta) == theta
+    assert not beyond_turn(np.array([theta])).any()
+
+
+@pytest.mark.parametrize("theta", [17.0, -17.0, 2 * math.pi + 1e-9, 30.0, 1e17, -1e300])
+def test_angles_beyond_a_turn_are_refused_with_the_degrees_hint(theta):
+    with pytest.raises(ValueError, match=r"^x: .* more than a full turn in radians .*--degrees"):
+        check_turn("x", theta)
+    assert beyond_turn(np.array([0.1, theta]))[1]
+
+
+def test_the_turn_bound_is_two_pi_with_the_range_tolerance():
+    # independent: 2 pi from its digits, and the tolerance the range ends use (1e-10)
+    assert 6.283185307179586 + 0.5e-10 <= MAX_INPUT_ANGLE <= 6.283185307179586 + 1.5e-10

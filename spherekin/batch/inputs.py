@@ -19,7 +19,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..core.angles import in_range_many
+from ..core.angles import beyond_turn, in_range_many, turn_error
 from ..mechanism.checks import parse_angle
 
 __all__ = ["MAX_INPUTS", "GridAxis", "InputSet", "parse_grid", "parse_fix", "grid_inputs", "read_inputs_csv",
@@ -228,11 +228,16 @@ def array_inputs(mechanism, inputs) -> InputSet:
 
 
 def check_inputs(mechanism, inputs: InputSet) -> None:
-    """ValueError naming the first row (and where it came from) that is not finite or leaves a joint range."""
+    """ValueError naming the first row (and where it came from) that is not finite, is more than a full
+    turn from 0 (:data:`~spherekin.core.angles.MAX_INPUT_ANGLE`) or leaves a joint range."""
     bad = ~np.isfinite(inputs.values)
     if bad.any():
         k, j = np.argwhere(bad)[0]
         raise ValueError(f"{inputs.where(int(k))}: {inputs.names[j]} is {float(inputs.values[k, j])}; expected a finite angle")
+    far = beyond_turn(inputs.values)
+    if far.any():
+        k, j = np.argwhere(far)[0]
+        raise ValueError(turn_error(f"{inputs.where(int(k))}: {inputs.names[j]}", inputs.values[k, j]))
     for j, name in enumerate(inputs.names):
         rng = mechanism.joint(name).range
         ok = in_range_many(inputs.values[:, j], rng)

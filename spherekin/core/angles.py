@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-__all__ = ["TWO_PI", "RANGE_TOL", "wrap", "in_range", "in_range_many", "into_range", "near_groups"]
+__all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "into_range",
+           "beyond_turn", "turn_error", "check_turn", "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -21,6 +22,12 @@ TWO_PI = 2.0 * math.pi
 #: an angle reduced modulo 2 pi: a few ulps of 2 pi ~ 1e-15) may differ by rounding alone; 1e-10
 #: is far above that and far below the accuracy anyone states a joint range with.
 RANGE_TOL = 1e-10
+#: Largest |angle| (radians) accepted as an actuator input or a given pose angle: one full turn (plus
+#: the range tolerance, so that 2 pi written as text is accepted). Reason: angles are read modulo
+#: 2 pi, so an input beyond a turn names the same pose as its reduced value, and such an input comes
+#: from a forgotten degrees flag (17 meant as 17 degrees) far more often than from a joint turned
+#: several times; far beyond a turn the reduction itself loses digits (at 1e17 rad, every one).
+MAX_INPUT_ANGLE = TWO_PI + RANGE_TOL
 
 
 def wrap(angle):
@@ -56,6 +63,26 @@ def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:
         return float(theta)
     lo = float(rng[0])
     return lo - tol + float(np.mod(float(theta) - (lo - tol), TWO_PI))
+
+
+def beyond_turn(theta) -> np.ndarray:
+    """Whether each entry of ``theta`` (radians, an array) is more than a full turn from 0
+    (|theta| > MAX_INPUT_ANGLE): a boolean array of its shape."""
+    return np.abs(np.asarray(theta, dtype=float)) > MAX_INPUT_ANGLE
+
+
+def turn_error(key: str, theta: float) -> str:
+    """The one message for an angle beyond a full turn (see :data:`MAX_INPUT_ANGLE`), naming ``key``."""
+    return (f"{key}: {float(theta):g} is more than a full turn in radians (expected |angle| <= 2 pi); "
+            "an angle in degrees? convert it (on the command line: --degrees)")
+
+
+def check_turn(key: str, theta: float) -> float:
+    """``theta`` (radians) as a float when it is within a full turn of 0, else ValueError naming ``key``."""
+    theta = float(theta)
+    if abs(theta) > MAX_INPUT_ANGLE:
+        raise ValueError(turn_error(key, theta))
+    return theta
 
 
 def near_groups(lo, hi, gap: float) -> list[list[int]]:

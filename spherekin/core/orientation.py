@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from .angles import check_turn
+
 __all__ = ["quaternion_matrix", "rotation_from_quaternion", "quaternions_from_rotations", "rotation_from_euler",
            "EULER_AXES", "check_euler_convention"]
 
@@ -123,6 +125,7 @@ def rotation_from_euler(angles, convention: str, key: str = "euler") -> np.ndarr
         raise ValueError(f"{key}: expected 3 angles in radians, got {angles!r}") from None
     if len(a) != 3 or not all(math.isfinite(v) for v in a):
         raise ValueError(f"{key}: expected 3 finite angles in radians, got {list(a)}")
+    a = [check_turn(key, v) for v in a]          # 10,-20,30 without --degrees: refused, not misread
     mats = [_axis_rotation(c.lower(), v) for c, v in zip(convention, a)]
     if convention.isupper():            # intrinsic: R = R_1 R_2 R_3
         return mats[0] @ mats[1] @ mats[2]

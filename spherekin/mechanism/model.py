@@ -49,7 +49,7 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import in_range, into_range
+from ..core.angles import check_turn, in_range, into_range
 from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
@@ -499,7 +499,9 @@ class SphericalMechanism:
 
     def check_inputs(self, inputs) -> tuple[float, ...]:
         """The actuator ``inputs`` (one angle in radians per actuated joint, in the order of
-        ``actuated``) as floats, each inside its closed joint range; else one ValueError naming it."""
+        ``actuated``) as floats, each within a full turn of 0 (:data:`~spherekin.core.angles.MAX_INPUT_ANGLE`:
+        17 is refused, being 17 degrees far more often than 17 rad) and inside its closed joint range;
+        else one ValueError naming it."""
         names = self.actuated
         if isinstance(inputs, (str, bytes, Mapping)) or not isinstance(inputs, (Sequence, np.ndarray)):
             raise ValueError(f"inputs: expected {len(names)} actuator angles in radians {names}, got {inputs!r}")
@@ -507,7 +509,7 @@ class SphericalMechanism:
             raise ValueError(f"inputs: expected {len(names)} actuator angles {names}, got {len(inputs)}")
         out = []
         for name, value in zip(names, inputs):
-            v = parse_angle(f"inputs ({name})", value)
+            v = check_turn(f"inputs ({name})", parse_angle(f"inputs ({name})", value))
             rng = self.joint(name).range
             if not in_range(v, rng):
                 raise ValueError(f"inputs ({name}): {v!r} is outside the joint range [{rng[0]!r}, {rng[1]!r}]")
@@ -524,7 +526,7 @@ class SphericalMechanism:
         missing = [n for n in required if n not in angles]
         if missing:
             raise ValueError(f"{key}: missing angle(s) for {missing}")
-        return {n: parse_angle(f"{key}[{n!r}]", v) for n, v in angles.items()}
+        return {n: check_turn(f"{key}[{n!r}]", parse_angle(f"{key}[{n!r}]", v)) for n, v in angles.items()}
 
     # ---------------------------------------------------------------- loop equations
 
