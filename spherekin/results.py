@@ -289,6 +289,9 @@ class SolveReport:
         listed = ", ".join(f"{v} {k}" for k, v in others.items())
         limit = self.settings.limit
         capped = "" if limit is None else ("; interrupted (Ctrl-C)" if limit.interrupted else "; the search hit a cap")
+        if not self.solutions and limit is not None:
+            stopped = "interrupted (Ctrl-C)" if limit.interrupted else "the search hit a cap"
+            return f"no solution found before the search stopped ({stopped}): the count is not known"
         return f"at least {n} {word} proven (count not exact: {listed or 'none listed'}{capped}; see the status column)"
 
     def table(self, degrees: bool = False) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -69,8 +70,15 @@ def test_ctrl_c_prints_and_saves_what_was_found_exit_130_no_traceback(tmp_path):
     assert proc.returncode == 130
     assert "Traceback" not in stderr
     assert "interrupted (Ctrl-C)" in stdout and "not necessarily every solution" in stdout
+    assert "at least 0" not in stdout                # nothing found yet is not a count
     data = json.loads(out.read_text())
     assert data["settings"]["limit"]["interrupted"] is True and data["count"]["exact"] is False
+    # the statistics are the work done until Ctrl-C, the same number as the note's (not zeros)
+    done = int(re.search(r"after (\d+) boxes", stdout).group(1))
+    assert done > 0 and re.search(rf"\b{done} boxes \(", stdout), stdout
+    stats = data["statistics"]
+    assert stats["boxes_processed"] == done and stats["charts"] >= 1 and stats["lps_solved"] > 0
+    assert stats["time_total"] >= 1.0 and data["settings"]["charts"] == stats["charts"]
 
 
 def test_an_empty_result_says_why(capsys):

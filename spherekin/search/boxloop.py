@@ -33,6 +33,7 @@ w = 0 at one point where the equation does not vanish).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Callable, Mapping, Sequence
@@ -95,11 +96,21 @@ ISOLATION_MAX_WIDTH = 0.5
 
 
 class SolverLimitError(RuntimeError):
-    """A cap of the box loop was reached; the roots found so far are in ``partial``."""
+    """A cap of the box loop was reached; the roots found so far are in ``partial``, and ``stats``
+    (a :class:`SolverStats`) counts the work done until then: boxes processed, discarded, split,
+    LPs, charts and seconds, as a finished search reports them."""
 
-    def __init__(self, message: str, partial: list[AcceptedBox]):
+    def __init__(self, message: str, partial: list[AcceptedBox], counts: dict | None = None,
+                 times: tuple = (0.0, 0.0, 0.0)):
         super().__init__(message)
         self.partial = partial
+        t_restrict, t_prune, t_isolate = times
+        self.stats = SolverStats(**(counts or {}), time_restrict=t_restrict, time_prune=t_prune,
+                                 time_isolate=t_isolate)
+
+    def add_stats(self, **more) -> None:
+        """Add counters and seconds known only to a caller (charts, LPs, set-up time) to ``stats``."""
+        self.stats = dataclasses.replace(self.stats, **{k: getattr(self.stats, k) + v for k, v in more.items()})
 
 
 class SearchInterrupted(SolverLimitError):
@@ -174,11 +185,13 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
     isolated: list[tuple[int, np.ndarray, np.ndarray]] = []
     limit = tol * charts.accept_width
 
-    def partial():
-        # the accepted boxes, and the roots of the boxes isolated so far (Newton, as a finished search does)
+    def stopped():
+        # what a stopped loop hands over: the accepted boxes and the roots of the boxes isolated so far
+        # (Newton, as a finished search does), the counters and the seconds spent so far
         points = _solve_isolated(charts, isolated)[0] if isolated else []
         return ([AcceptedBox(a, b, int(c)) for c, a, b in accepted]
-                + [AcceptedBox(a, np.array(a, copy=True), int(c)) for c, a in points])
+                + [AcceptedBox(a, np.array(a, copy=True), int(c)) for c, a in points],
+                dict(counts), (t_restrict, t_prune, t_isolate))
 
     if start is None:
         nc = charts.n_charts
@@ -202,11 +215,11 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
                 raise BoxLimitError(
                     f"more than max_boxes={max_boxes} boxes processed; the solution set may be a continuum, "
                     "or the tolerance too small for this formulation (the paper's scalar equation has double "
-                    "roots: try formulation='transversal' or a larger tol)", partial())
+                    "roots: try formulation='transversal' or a larger tol)", *stopped())
             if depth.max() > max_depth:
                 raise DepthLimitError(
                     f"a box was subdivided more than max_depth={max_depth} times; the solution set may be a "
-                    f"continuum, or the tolerance {tol} too small for this formulation", partial())
+                    f"continuum, or the tolerance {tol} too small for this formulation", *stopped())
             counts["max_depth"] = max(counts["max_depth"], int(depth.max()))
             if progress is not None:
                 progress({**counts, "pending": sum(len(e[0]) for e in stack)})
@@ -292,7 +305,7 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
     except KeyboardInterrupt:
         # Ctrl-C: stop now, hand over what was accepted so far (the pipeline reports it, not exact)
         raise SearchInterrupted("interrupted (Ctrl-C) after "
-                                f"{counts['boxes_processed']} boxes", partial()) from None
+                                f"{counts['boxes_processed']} boxes", *stopped()) from None
     return accepted, isolated, counts, (t_restrict, t_prune, t_isolate)
 
 
@@ -344,8 +357,12 @@ def _run_group(charts, pruner, tol, max_boxes, max_depth, isolate, group, progre
     n = len(charts.variables)
     group = np.asarray(group, dtype=int)
     start = (group, np.zeros((len(group), n)), np.ones((len(group), n)))
-    accepted, isolated, counts, times = _box_loop(charts, pruner, tol, max_boxes, max_depth, start, isolate, progress,
-                                                  trace)
+    try:
+        accepted, isolated, counts, times = _box_loop(charts, pruner, tol, max_boxes, max_depth, start, isolate,
+                                                      progress, trace)
+    except SolverLimitError as exc:
+        exc.add_stats(lps_solved=getattr(pruner, "lp_count", 0) - lp0, lp_doubts=getattr(pruner, "doubts", 0) - doubts0)
+        raise
     points, spurious, failed = _solve_isolated(charts, isolated)
     if failed:  # Newton left an isolating box (not seen in practice): subdivide it the ordinary way
         c, a, b = (np.array(v) for v in zip(*failed))
@@ -473,7 +490,11 @@ def solve_system(
     groups = [list(range(i, charts.n_charts, jobs)) for i in range(min(jobs, charts.n_charts))]
     if len(groups) == 1:
         built = pruner_for(charts, pruner, lp_backend, pruners)
-        results = [_run_group(charts, built, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
+        try:
+            results = [_run_group(charts, built, tol, max_boxes, max_depth, isolate, groups[0], progress, trace)]
+        except SolverLimitError as exc:
+            exc.add_stats(charts=charts.n_charts, time_setup=t_setup, time_total=time.perf_counter() - t0)
+            raise
     else:
         from ..cluster import connect, map_in_order
 
@@ -501,11 +522,12 @@ def solve_system(
 
 
 def partial_report(exc: SolverLimitError, ranges, settings: Settings) -> SearchReport:
-    """A report from the accepted boxes a capped search had found (its clusters, no statistics);
-    ``settings``: those of the capped search."""
+    """A report from the accepted boxes a capped or interrupted search had found (its clusters) and the
+    statistics of the work it did; ``settings``: those of the stopped search (its chart count from ``exc``)."""
     found = list(exc.partial)
     clusters = clusters_in_range(found, ranges, settings.tol)
-    return SearchReport(tuple(ranges), tuple(clusters), tuple(found), SolverStats(accepted=len(found)), settings)
+    settings = dataclasses.replace(settings, charts=exc.stats.charts)
+    return SearchReport(tuple(ranges), tuple(clusters), tuple(found), exc.stats, settings)
 
 
 def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Cluster]:
