@@ -8,7 +8,7 @@
   (Ctrl-C reaches the whole process group; the job's process handles it). Only where starting it
   is safe (:func:`local_cluster_unsafe`: a script's call under ``if __name__ == "__main__":``,
   a notebook, ``python -m spherekin``); elsewhere the job runs in this process, with a warning
-  that says why;
+  (once per process) that says why;
 * ``scheduler="tcp://HOST:8786"``: an existing Dask cluster (``dask scheduler`` + ``dask worker``,
   spherekin installed where the workers run), unchanged; or ``client=``: a Client of the
   caller's, left open.
@@ -47,6 +47,9 @@ CONNECT_TIMEOUT = 10.0
 #: while its next task travels; 4 also absorb uneven tasks, and the results held back for input
 #: order stay a few tasks per worker.
 TASKS_PER_WORKER = 4
+#: The reason a job first ran in this process instead of on a local cluster (empty: none yet). The
+#: warning that says so is given once per process: the later jobs of a script run here for the same reason.
+_IN_PROCESS_SAID: list[str] = []
 
 
 def default_workers() -> int:
@@ -157,9 +160,11 @@ def connect(*, client=None, scheduler: str | None = None, workers: int | None = 
         return
     unsafe = local_cluster_unsafe()
     if unsafe is not None:
-        warnings.warn(f"spherekin runs this job in this process, not on a local Dask cluster: {unsafe}. "
-                      f'For the cluster, put that code under `if __name__ == "__main__":`, or pass '
-                      f"scheduler= or client=.", RuntimeWarning, stacklevel=_caller_stacklevel())
+        if not _IN_PROCESS_SAID:
+            _IN_PROCESS_SAID.append(unsafe)
+            warnings.warn(f"spherekin runs this job in this process, not on a local Dask cluster: {unsafe}. "
+                          f'For the cluster, put that code under `if __name__ == "__main__":`, or pass '
+                          f"scheduler= or client=.", RuntimeWarning, stacklevel=_caller_stacklevel())
         yield None
         return
     from distributed import Client, LocalCluster

@@ -151,11 +151,12 @@ def check_batch_table(path: Path) -> None:
         np.testing.assert_allclose(rows[["beta1", "beta2", "beta3"]].to_numpy(float), np.tile(x, (len(rows), 1)))
 
 
-def test_an_unguarded_script_runs_the_batch_here_says_why_and_gets_the_table(tmp_path):
-    (tmp_path / "s.py").write_text(BATCH)
+def test_an_unguarded_script_runs_the_batch_here_says_why_once_and_gets_the_table(tmp_path):
+    (tmp_path / "s.py").write_text(BATCH + "again = batch.solve_many(general_3rrr(), inputs[:1], workers=2)\n"
+                                           "print('again', again['input'].nunique())\n")
     proc = run_python(tmp_path, "s.py")
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.split() == ["workers", "0"]
+    assert proc.stdout.split() == ["workers", "0", "again", "1"]
     warned = [line for line in proc.stderr.splitlines() if "RuntimeWarning" in line]
     assert len(warned) == 1, proc.stderr
     assert warned[0].startswith(f"{tmp_path / 's.py'}:6: RuntimeWarning: spherekin runs this job in this process")
