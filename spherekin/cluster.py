@@ -70,7 +70,6 @@ def dask_setup(worker=None) -> None:
     ignore SIGINT. Ctrl-C in a terminal reaches the whole process group; the job's process handles it
     (cancels, writes what is done, closes the cluster), and the workers would only print tracebacks."""
     import signal
-    import threading
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -86,9 +85,9 @@ def local_cluster_unsafe() -> str | None:
     in every worker, and the workers fail ("Nanny failed to start"). So it is safe when nothing is
     run again: the "fork" method; a ``__main__`` without ``__file__`` (the interactive interpreter,
     Jupyter, ``python -c``); a package's or zip's ``__main__`` (``python -m spherekin``), which
-    multiprocessing skips; or when the main module's top-level frame (of the calling thread, else
-    of the main thread) is at a line inside an ``if __name__ == "__main__":`` block (either operand
-    order; the ``spherekin`` console script is one). Unsafe, as we cannot tell: a frozen executable
+    multiprocessing skips; or when the main module's top-level frame (in the main thread's stack,
+    also for a call from another thread) is at a line inside an ``if __name__ == "__main__":``
+    block (either operand order; the ``spherekin`` console script is one). Unsafe, as we cannot tell: a frozen executable
     (its workers start the program itself), a main file that cannot be read or parsed, a call not
     made from the main module's top-level code (e.g. an atexit handler, ``python -i`` afterwards).
     """
@@ -116,8 +115,8 @@ def local_cluster_unsafe() -> str | None:
             tree = ast.parse(f.read(), path)
     except (OSError, SyntaxError, ValueError) as exc:
         return f"its worker processes would run {path} again, which cannot be read ({exc})"
-    line = frame.f_lineno
-    for node in ast.walk(tree):
+    line = frame.f_lineno                   # of the statement running: the one that starts this job
+    for node in ast.walk(tree):             # an `if` whose test is __name__ == "__main__", either order
         if (isinstance(node, ast.If) and isinstance(t := node.test, ast.Compare) and len(t.ops) == 1
                 and isinstance(t.ops[0], ast.Eq)
                 and {ast.dump(t.left), ast.dump(t.comparators[0])} == {ast.dump(ast.Name("__name__", ast.Load())),

@@ -98,6 +98,9 @@ GUARD_CASES = {
     "the fork method runs nothing again": (
         {"s.py": 'import dask\ndask.config.set({"distributed.worker.multiprocessing-method": "fork"})\n' + PRINT},
         ["s.py"], None),
+    "the forkserver method runs the script again too": (
+        {"s.py": 'import dask\ndask.config.set({"distributed.worker.multiprocessing-method": "forkserver"})\n' + PRINT},
+        ["s.py"], "line 4, which starts this job, is not under"),
     "a frozen executable": ({"s.py": "import sys\nsys.frozen = True\n" + PRINT}, ["s.py"], "frozen executable"),
 }
 
