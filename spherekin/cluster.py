@@ -87,9 +87,10 @@ def local_cluster_unsafe() -> str | None:
     Jupyter, ``python -c``); a package's or zip's ``__main__`` (``python -m spherekin``), which
     multiprocessing skips; or when the main module's top-level frame (in the main thread's stack,
     also for a call from another thread) is at a line inside an ``if __name__ == "__main__":``
-    block (either operand order; the ``spherekin`` console script is one). Unsafe, as we cannot tell: a frozen executable
-    (its workers start the program itself), a main file that cannot be read or parsed, a call not
-    made from the main module's top-level code (e.g. an atexit handler, ``python -i`` afterwards).
+    block (either operand order; the ``spherekin`` console script is one). Unsafe, as we cannot
+    tell: a frozen executable (its workers start the program itself), a main file that cannot be
+    read or parsed, a call not made from the main module's top-level code (an atexit handler, the
+    prompt of ``python -i``). A caller there gets a cluster with ``scheduler=`` or ``client=``.
     """
     import dask
 
