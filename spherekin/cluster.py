@@ -5,7 +5,10 @@
 * ``workers=0``: this process, no cluster;
 * with no address: an embedded ``distributed.LocalCluster`` on 127.0.0.1, one single-threaded
   worker process per core (or ``workers``), closed when the job ends; its workers ignore SIGINT
-  (Ctrl-C reaches the whole process group; the job's process handles it);
+  (Ctrl-C reaches the whole process group; the job's process handles it). Only where starting it
+  is safe (:func:`local_cluster_unsafe`: a script's call under ``if __name__ == "__main__":``,
+  a notebook, ``python -m spherekin``); elsewhere the job runs in this process, with a warning
+  (once per process) that says why;
 * ``scheduler="tcp://HOST:8786"``: an existing Dask cluster (``dask scheduler`` + ``dask worker``,
   spherekin installed where the workers run), unchanged; or ``client=``: a Client of the
   caller's, left open.
@@ -18,12 +21,17 @@ our own. ``distributed`` is imported only when a cluster is asked for.
 
 from __future__ import annotations
 
+import ast
 import logging
 import os
+import sys
+import threading
+import warnings
 from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "connect", "map_in_order", "default_workers", "n_workers", "dask_setup"]
+__all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "connect", "map_in_order", "default_workers", "n_workers", "dask_setup",
+           "local_cluster_unsafe"]
 
 #: Log level of an embedded cluster's scheduler and workers. Reason: at shutdown (the end of a job,
 #: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
@@ -39,6 +47,9 @@ CONNECT_TIMEOUT = 10.0
 #: while its next task travels; 4 also absorb uneven tasks, and the results held back for input
 #: order stay a few tasks per worker.
 TASKS_PER_WORKER = 4
+#: The reason a job first ran in this process instead of on a local cluster (empty: none yet). The
+#: warning that says so is given once per process: the later jobs of a script run here for the same reason.
+_IN_PROCESS_SAID: list[str] = []
 
 
 def default_workers() -> int:
@@ -59,10 +70,74 @@ def dask_setup(worker=None) -> None:
     ignore SIGINT. Ctrl-C in a terminal reaches the whole process group; the job's process handles it
     (cancels, writes what is done, closes the cluster), and the workers would only print tracebacks."""
     import signal
-    import threading
 
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def local_cluster_unsafe() -> str | None:
+    """Why an embedded local cluster must not be started from here, or None when it may.
+
+    Its worker processes are started by ``multiprocessing`` with Dask's
+    ``distributed.worker.multiprocessing-method`` ("spawn" by default, or "forkserver"): each first
+    runs the main script (or ``python -m`` module) again, as ``__mp_main__``. A script that starts
+    the job from its top-level code, not under ``if __name__ == "__main__":``, would start it again
+    in every worker, and the workers fail ("Nanny failed to start"). So it is safe when nothing is
+    run again: the "fork" method; a ``__main__`` without ``__file__`` (the interactive interpreter,
+    Jupyter, ``python -c``); a package's or zip's ``__main__`` (``python -m spherekin``), which
+    multiprocessing skips; or when the main module's top-level frame (in the main thread's stack,
+    also for a call from another thread) is at a line inside an ``if __name__ == "__main__":``
+    block (either operand order; the ``spherekin`` console script is one). Unsafe, as we cannot
+    tell: a frozen executable (its workers start the program itself), a main file that cannot be
+    read or parsed, a call not made from the main module's top-level code (an atexit handler, the
+    prompt of ``python -i``). A caller there gets a cluster with ``scheduler=`` or ``client=``.
+    """
+    import dask
+
+    if dask.config.get("distributed.worker.multiprocessing-method", "spawn") == "fork":
+        return None
+    if getattr(sys, "frozen", False):
+        return "this is a frozen executable, whose worker processes would start the program again"
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    name = getattr(getattr(main, "__spec__", None), "name", None) or ""
+    if path is None or name == "__main__" or name.endswith(".__main__"):
+        return None
+    path = os.path.abspath(path)
+    frame = sys._getframe() if threading.current_thread() is threading.main_thread() \
+        else sys._current_frames().get(threading.main_thread().ident)
+    while frame is not None and not (frame.f_globals is vars(main) and frame.f_code.co_name == "<module>"
+                                     and os.path.abspath(frame.f_code.co_filename) == path):
+        frame = frame.f_back
+    if frame is None:
+        return f"the call is not made from the top-level code of {path}, which its worker processes would run again"
+    try:
+        with open(path, "rb") as f:
+            tree = ast.parse(f.read(), path)
+    except (OSError, SyntaxError, ValueError) as exc:
+        return f"its worker processes would run {path} again, which cannot be read ({exc})"
+    line = frame.f_lineno                   # of the statement running: the one that starts this job
+    for node in ast.walk(tree):             # an `if` whose test is __name__ == "__main__", either order
+        if (isinstance(node, ast.If) and isinstance(t := node.test, ast.Compare) and len(t.ops) == 1
+                and isinstance(t.ops[0], ast.Eq)
+                and {ast.dump(t.left), ast.dump(t.comparators[0])} == {ast.dump(ast.Name("__name__", ast.Load())),
+                                                                       ast.dump(ast.Constant("__main__"))}
+                and node.body[0].lineno <= line <= node.body[-1].end_lineno):
+            return None
+    return (f"its worker processes would run {path} again, and its line {line}, which starts this job, "
+            f'is not under `if __name__ == "__main__":`')
+
+
+def _caller_stacklevel() -> int:
+    """The ``stacklevel`` of warnings.warn, called from here, that names the caller's first frame
+    outside spherekin (and contextlib): the line of the user's code that started the job."""
+    import contextlib
+
+    skip = (os.path.dirname(os.path.abspath(__file__)) + os.sep, os.path.abspath(contextlib.__file__))
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(skip):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 @contextmanager
@@ -81,6 +156,15 @@ def connect(*, client=None, scheduler: str | None = None, workers: int | None = 
             yield c
         return
     if workers == 0:
+        yield None
+        return
+    unsafe = local_cluster_unsafe()
+    if unsafe is not None:
+        if not _IN_PROCESS_SAID:
+            _IN_PROCESS_SAID.append(unsafe)
+            warnings.warn(f"spherekin runs this job in this process, not on a local Dask cluster: {unsafe}. "
+                          f'For the cluster, put that code under `if __name__ == "__main__":`, or pass '
+                          f"scheduler= or client=.", RuntimeWarning, stacklevel=_caller_stacklevel())
         yield None
         return
     from distributed import Client, LocalCluster

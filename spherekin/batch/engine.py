@@ -2,7 +2,9 @@
 
 Where a job runs (:func:`connect`): a handful of inputs (at most IN_PROCESS_MAX_INPUTS, or
 ``workers=0``) in this process, no cluster; otherwise where :func:`spherekin.cluster.connect` says:
-an embedded local cluster, an existing one by ``scheduler`` address, or the caller's ``client``.
+an embedded local cluster (only where that is safe, else this process with a warning:
+:func:`spherekin.cluster.local_cluster_unsafe`), an existing one by ``scheduler`` address, or the
+caller's ``client``.
 
 How: the mechanism and the strategy go to every worker once, as a worker plugin
 (:class:`CompiledProblem`) that compiles the problem when the worker starts it; then every task is

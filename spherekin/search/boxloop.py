@@ -462,7 +462,8 @@ def solve_system(
     a box once the Krawczyk test proves it holds one root (:mod:`spherekin.search.isolation`); only with
     a formulation that has a square system of simple roots. ``jobs``: Dask worker processes for
     the charts, on a local cluster started for the search (:mod:`spherekin.cluster`; ~2-3 s to
-    start, worth it for searches of many seconds; the solutions do not depend on it). ``progress(counts)`` is called before each batch
+    start, worth it for searches of many seconds; the solutions do not depend on it; where starting
+    one is not safe, e.g. an unguarded script, the charts run here and a warning says why). ``progress(counts)`` is called before each batch
     of boxes with the running counters (and "pending": boxes waiting; with ``jobs > 1`` once per
     finished worker). ``max_boxes`` (per worker) and ``max_depth`` (default DEPTH_PER_UNKNOWN per
     variable) cap the search; reaching a cap raises a :class:`SolverLimitError` subclass.
