@@ -179,8 +179,10 @@ def test_a_guarded_script_runs_the_batch_on_a_local_cluster(tmp_path):
 def test_solve_with_jobs_in_an_unguarded_script_runs_here_and_says_why(tmp_path):
     (tmp_path / "s.py").write_text("import spherekin\nfrom spherekin.mechanism import gosselin\n"
                                    "rep = spherekin.solve(gosselin(), (0.3, -0.2, 0.5), formulation='halves', jobs=2)\n"
-                                   "print(len(rep.solutions), sum(s.status == 'singular' for s in rep.solutions))\n")
+                                   "print(len(rep.solutions), sum(s.status == 'singular' for s in rep.solutions), "
+                                   "rep.settings.jobs)\n")
     proc = run_python(tmp_path, "s.py")
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert proc.stdout.split() == ["8", "4"]          # the paper's count at its inputs: 8, 4 of them singular
+    assert proc.stdout.split()[:2] == ["8", "4"]      # the paper's count at its inputs: 8, 4 of them singular
+    assert proc.stdout.split()[2] == "1"              # the settings say where it ran: one process, not 2 jobs
     assert f"{tmp_path / 's.py'}:3: RuntimeWarning: spherekin runs this job in this process" in proc.stderr

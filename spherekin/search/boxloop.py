@@ -503,6 +503,8 @@ def solve_system(
         args = [(charts, (pruner, lp_backend), tol, max_boxes, max_depth, isolate, g) for g in groups]
         results = []
         with connect(workers=len(groups)) as client:
+            if client is None:      # no local cluster here (spherekin.cluster.local_cluster_unsafe): say so
+                jobs = 1
             for res in map_in_order(client, _worker, args):
                 results.append(res)
                 if progress is not None:
@@ -518,7 +520,7 @@ def solve_system(
     stats = SolverStats(charts=charts.n_charts, **counts, time_setup=t_setup, time_restrict=t_restrict,
                         time_prune=t_prune, time_isolate=t_isolate, time_total=time.perf_counter() - t0)
     settings = Settings(formulation=formulation, pruner=pruner, lp_backend=lp_backend,
-                        parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, charts=charts.n_charts)
+                        parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, charts=charts.n_charts)  # jobs: those used
     return SearchReport(charts.unknowns, tuple(clusters), tuple(boxes), stats, settings)
 
 
