@@ -371,9 +371,8 @@ class SolveReport:
     solution (:class:`EmptyReason`; None when there are solutions, or when not asked for).
 
     :meth:`frame` is a DataFrame of the solutions, :meth:`as_dict` the JSON. To draw them:
-    ``spherekin.plot.plot_solutions(report.mechanism, report.settings.inputs, report, path)``
-    returns the matplotlib Figure (plotting is an interface above this hand-over type, so the
-    report has no ``plot`` method of its own).
+    ``spherekin.plot.plot_report(report, path=None)`` returns the matplotlib Figure (plotting is
+    an interface, a layer above this hand-over type, so the report has no ``plot`` method).
     """
 
     unknowns: tuple[str, ...]
