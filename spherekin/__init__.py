@@ -2,9 +2,9 @@
 
 Entry points (loaded on first use, so that ``import spherekin`` stays cheap; see README.md):
 
-* ``solve(mechanism, inputs, *, formulation="auto", pruner="pp", tol=1e-6, ...)`` -- every assembly
-  of a mechanism (a SphericalMechanism, or the path of a .toml file) at actuator inputs (radians):
-  a SolveReport (``report.table()``, ``report.frame()``, ``report.as_dict()``);
+* ``solve(mechanism, inputs, *, formulation=..., pruner=..., tol=..., ...)`` -- every assembly of a
+  mechanism (a SphericalMechanism, or the path of a .toml file) at actuator inputs (radians, one per
+  actuated joint): a SolveReport (``report.table()``, ``report.frame()``, ``report.as_dict()``);
 * ``compile(mechanism, *, formulation=..., ...)`` -- a Problem compiled once for a strategy, then
   ``problem.solve(inputs)``, ``problem.solve_many(rows)``, ``problem.track(path, start=...)``;
 * ``load_mechanism(path)`` -- read a mechanism file (docs/mechanism-format.md);
