@@ -474,9 +474,11 @@ def _track(args) -> int:
     st = track.stop
     if st is not None:
         print(f"stopped between rows {st.row} and {st.row + 1}: {st.reason}. Last proven input "
-              f"{', '.join(format_number(v * scale, '+.9g') for v in st.last_inputs)} ({st.fraction:.6g} of the way); the "
+              f"{', '.join(format_number(v * scale, '+.9g') for v in st.last_inputs)} "
+              f"({st.fraction:.6g} of the way); the "
               f"singular input, located by bisection to {st.bracket:.1e} rad: "
-              f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs)} ({st.distance:.2e} rad further); "
+              f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs)} "
+              f"({st.distance:.2e} rad further); "
               f"singularity measure at the last proven pose {st.measure:.2e}")
     code = 0
     if args.check is not None:

@@ -47,8 +47,8 @@ from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAUL
                      SearchInterrupted)
 
 __all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
-           "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "Strategy", "Problem", "compile", "solve", "disagreement", "as_mechanism",
-           "REPR_NAME_CHARS"]
+           "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
+           "solve", "disagreement", "as_mechanism"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
@@ -62,6 +62,8 @@ PIPELINE_FORMULATIONS = ("auto", "platform")
 def formulation_choices() -> tuple[str, ...]:
     """Every formulation a solve accepts by name: "auto", "platform" and the registered loop formulations."""
     return (*PIPELINE_FORMULATIONS, *FORMULATIONS)
+
+
 #: Longest mechanism name ``repr(problem)`` shows (longer ones are cut with "..."). Reason: keeps the
 #: repr on one line of ~200 characters whatever the file calls its mechanism.
 REPR_NAME_CHARS = 60
