@@ -544,7 +544,8 @@ def _add_grid_options(p) -> None:
                    help="sweep an actuated joint over N points from LO to HI (both included; e.g. beta1=-pi:pi:64); "
                         "repeat for each swept joint, the first varies slowest")
     p.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold an actuated joint at VALUE")
-    p.add_argument("--degrees", action="store_true", help="input angles (and printed angles) in degrees")
+    p.add_argument("--degrees", action="store_true",
+                   help="input angles (and printed angles) in degrees; written tables stay in radians")
 
 
 def _verify(args) -> int:
