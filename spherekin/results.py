@@ -4,7 +4,10 @@ The box loop (:mod:`spherekin.search.boxloop`) hands over :class:`AcceptedBox` e
 :class:`Cluster` s, in a :class:`SearchReport`; the trust layer (:mod:`spherekin.trust.solutions`)
 turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
 (:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
-:class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost.
+:class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost, :class:`EmptyReason`
+why a solve found nothing. The views of them every reader shares live here too: the results table
+(:func:`solution_table`: ``SolveReport.frame()`` and every batch table) and the number format of
+printed tables (:func:`format_number`).
 """
 
 from __future__ import annotations
