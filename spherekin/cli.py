@@ -34,14 +34,15 @@ def _gosselin(args) -> int:
 
     from .core import bernstein
     from .paper_gosselin import paper_gosselin_loops
+    from .results import format_number
 
     t0 = time.perf_counter()
     loops = paper_gosselin_loops(args.beta, tuple(args.range), corrected=True)
     rng = np.random.default_rng(args.seed)
     print("Gosselin platform: the paper's two closure loops in Bernstein form (Section 2.1, Eq. 10);")
     print("  loop 2 with its first and last factors swapped back (erratum s21-final-loop2, verification/REPORT.md)")
-    print(f"  actuators beta = ({', '.join(f'{b:+.4f}' for b in args.beta)}) rad; "
-          f"passive joints in [{args.range[0]:+.4f}, {args.range[1]:+.4f}] rad")
+    print(f"  actuators beta = ({', '.join(format_number(b, '+.4f') for b in args.beta)}) rad; "
+          f"passive joints in [{format_number(args.range[0], '+.4f')}, {format_number(args.range[1], '+.4f')}] rad")
     total = 0
     for k, loop in enumerate(loops, start=1):
         rec = loop.scalar_control_points("recursion")
@@ -139,6 +140,7 @@ class _Choices(list):
 def _solve(args) -> int:
     from .mechanism import load_mechanism
     from .problem import compile as compile_problem
+    from .results import format_number
     from .search.pruners import check_pruner
 
     check_pruner(args.pruner, args.lp_backend)   # a refused LP backend's reason, before any output
@@ -165,7 +167,7 @@ def _solve(args) -> int:
     unit = "deg" if args.degrees else "rad"
     shown = [math.degrees(v) if args.degrees else v for v in values]
     print(f"{mech.name or args.file}: direct kinematics at "
-          + ", ".join(f"{n} = {v:+.6g} {unit}" for n, v in zip(mech.actuated, shown)), flush=True)
+          + ", ".join(f"{n} = {format_number(v, '+.6g')} {unit}" for n, v in zip(mech.actuated, shown)), flush=True)
     progress = _Progress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         report = problem.solve(values, progress=progress)
@@ -192,8 +194,8 @@ def _solve(args) -> int:
     if used.refined_searches:
         print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "
               "a finer tolerance to separate their roots")
-    if not report.solutions and not limit:
-        print(f"note: {_why_empty(mech, values, problem)}")
+    if report.empty_reason is not None:
+        print(f"note: {report.empty_reason.text()}")
     if args.json:
         import json  # only for --json (each import is paid by every process)
 
@@ -209,24 +211,6 @@ def _solve(args) -> int:
         plot_solutions(mech, values, report, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return 130 if limit and limit.interrupted else 0
-
-
-def _why_empty(mech, values, problem) -> str:
-    """Why a solve found nothing: are there assemblies outside the joint ranges, or none at all?"""
-    limited = [j.name for j in mech.joints if j.range is not None and not j.actuated]
-    if limited:
-        from .problem import compile as compile_problem
-
-        free = mech.without_ranges(limited)
-        outside = compile_problem(free, **problem.strategy_keywords()).solve(values)
-        if outside.solutions:
-            return (f"no assembly inside the joint ranges; {len(outside.solutions)} assembl"
-                    f"{'y' if len(outside.solutions) == 1 else 'ies'} exist with the passive joints unlimited "
-                    f"(ranges set on {', '.join(limited)})")
-    if len(mech.loop_unknowns) < 3 * len(mech.loop_geometry):     # more closure equations than unknowns
-        return ("no assembly at all at these inputs: for a redundantly actuated mechanism, inputs that are not "
-                "consistent with one another")
-    return "no assembly at all at these inputs: the legs cannot be closed (the inputs lie outside the workspace)"
 
 
 # ------------------------------------------------------------------ families of inputs
@@ -314,7 +298,8 @@ def _batch(args) -> int:
     inputs = _family_inputs(mech, args)
     check_output_path(args.out, args.resume, args.overwrite)
     _check_strategy(mech, args)
-    print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}")
+    print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}"
+          + (f" (--degrees: inputs read in degrees; {args.out} holds radians)" if args.degrees else ""))
     progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         summary = solve_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite,
@@ -388,6 +373,7 @@ def _ik(args) -> int:
     import numpy as np
 
     from .core.orientation import quaternions_from_rotations, rotation_from_euler, rotation_from_quaternion
+    from .results import format_number
     from .mechanism import load_mechanism
     from .mechanism.checks import check_rotation
 
@@ -412,14 +398,14 @@ def _ik(args) -> int:
     scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
     q = quaternions_from_rotations(rot)
     print(f"{mech.name or args.file}: inverse kinematics at the platform pose with quaternion "
-          f"w, x, y, z = {q[0]:+.6f}, {q[1]:+.6f}, {q[2]:+.6f}, {q[3]:+.6f}")
+          f"w, x, y, z = {', '.join(format_number(c) for c in q)}")
     names = list(mech.actuated) + list(mech.passive)
     n_in = sum(s.in_range for s in sols)
     print(f"{len(sols)} solution(s) (working modes), {n_in} inside every joint range; joint angles in {unit}:")
     print("  #  mode  " + " ".join(f"{n:>11s}" for n in names) + "  in range")
     for k, s in enumerate(sols, start=1):
         mode = "".join("+" if m > 0 else "-" if m < 0 else "0" for m in s.working_mode)
-        print(f"{k:3d}  {mode:>4s}  " + " ".join(f"{s.joint_angles[n] * scale:+11.6f}" for n in names)
+        print(f"{k:3d}  {mode:>4s}  " + " ".join(format_number(s.joint_angles[n] * scale, "+11.6f") for n in names)
               + f"  {'yes' if s.in_range else 'no'}")
     if args.json:
         import json
@@ -442,6 +428,7 @@ def _track(args) -> int:
     from .mechanism import load_mechanism
     from .mechanism.checks import check_rotation
     from .problem import compile as compile_problem
+    from .results import format_number
 
     given = [k for k in ("start_rotation", "start_quaternion", "start_solution") if getattr(args, k) is not None]
     if len(given) != 1:
@@ -482,14 +469,16 @@ def _track(args) -> int:
     quats = quaternions_from_rotations(np.array([p.rotation for p in track.poses]))
     for p, q in zip(track.poses, quats):
         vals = list(p.inputs) + p.passive.tolist()
-        print(f"{p.row:5d}  " + " ".join(f"{v * scale:+11.6f}" for v in vals)
-              + "  " + " ".join(f"{c:+.6f}" for c in q) + f"  {p.measure:9.2e}")
+        print(f"{p.row:5d}  " + " ".join(format_number(v * scale, "+11.6f") for v in vals)
+              + "  " + " ".join(format_number(c) for c in q) + f"  {p.measure:9.2e}")
     st = track.stop
     if st is not None:
         print(f"stopped between rows {st.row} and {st.row + 1}: {st.reason}. Last proven input "
-              f"{', '.join(f'{v * scale:+.9g}' for v in st.last_inputs)} ({st.fraction:.6g} of the way); the "
+              f"{', '.join(format_number(v * scale, '+.9g') for v in st.last_inputs)} "
+              f"({st.fraction:.6g} of the way); the "
               f"singular input, located by bisection to {st.bracket:.1e} rad: "
-              f"{', '.join(f'{v * scale:+.12g}' for v in st.singular_inputs)} ({st.distance:.2e} rad further); "
+              f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs)} "
+              f"({st.distance:.2e} rad further); "
               f"singularity measure at the last proven pose {st.measure:.2e}")
     code = 0
     if args.check is not None:
@@ -555,7 +544,8 @@ def _add_grid_options(p) -> None:
                    help="sweep an actuated joint over N points from LO to HI (both included; e.g. beta1=-pi:pi:64); "
                         "repeat for each swept joint, the first varies slowest")
     p.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold an actuated joint at VALUE")
-    p.add_argument("--degrees", action="store_true", help="input angles (and printed angles) in degrees")
+    p.add_argument("--degrees", action="store_true",
+                   help="input angles (and printed angles) in degrees; written tables stay in radians")
 
 
 def _verify(args) -> int:

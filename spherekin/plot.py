@@ -45,6 +45,7 @@ __all__ = [
     "great_circle_arc",
     "current_joint_axes",
     "plot_solutions",
+    "plot_report",
     "check_plot_path",
     "plot_assembly_map",
     "plot_track",
@@ -555,3 +556,14 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig
+
+
+def plot_report(report: SolveReport, path=None, *, degrees: bool = False):
+    """:func:`plot_solutions` of a report of :func:`spherekin.solve` (or ``Problem.solve``), which
+    holds its mechanism and inputs: ``spherekin.plot.plot_report(report)`` returns the Figure (also
+    written to ``path`` when given). The report itself has no ``plot`` method: it is a hand-over
+    type, a layer below the plots (tests/test_layers.py)."""
+    if not isinstance(report, SolveReport) or report.mechanism is None:
+        raise ValueError(f"report: expected a SolveReport of spherekin.solve (holding its mechanism), "
+                         f"got {type(report).__name__ if not isinstance(report, SolveReport) else 'one without it'}")
+    return plot_solutions(report.mechanism, report.settings.inputs, report, path, degrees=degrees)

@@ -26,6 +26,7 @@ refined searches, continua) works on those.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from dataclasses import dataclass
 from typing import Callable, Mapping
@@ -33,17 +34,21 @@ from typing import Callable, Mapping
 import numpy as np
 
 from .core.angles import RANGE_TOL
+from .mechanism.io import load_mechanism
+from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
 from .search.platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
 from .search.pruners import make_pruner
-from .results import AcceptedBox, SearchLimit, SearchReport, Settings, SolveReport, SolverStats
+from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
+                      EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                      check_strategy, clusters_in_range, partial_report, search_platform, solve_system,
                      SearchInterrupted)
 
 __all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
-           "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "Strategy", "Problem", "compile", "solve", "disagreement"]
+           "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
+           "solve", "disagreement", "as_mechanism"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
@@ -57,6 +62,25 @@ PIPELINE_FORMULATIONS = ("auto", "platform")
 def formulation_choices() -> tuple[str, ...]:
     """Every formulation a solve accepts by name: "auto", "platform" and the registered loop formulations."""
     return (*PIPELINE_FORMULATIONS, *FORMULATIONS)
+
+
+#: Longest mechanism name ``repr(problem)`` shows (longer ones are cut with "..."). Reason: keeps the
+#: repr on one line of ~200 characters whatever the file calls its mechanism.
+REPR_NAME_CHARS = 60
+
+
+def as_mechanism(mechanism) -> SphericalMechanism:
+    """``mechanism`` itself when it is a :class:`~spherekin.mechanism.SphericalMechanism`, else the
+    mechanism of the file at that path (str or ``os.PathLike``, docs/mechanism-format.md); the one
+    place every Python entry point (:func:`solve`, :func:`compile`, :mod:`spherekin.batch`) resolves it."""
+    if isinstance(mechanism, SphericalMechanism):
+        return mechanism
+    if isinstance(mechanism, (str, os.PathLike)):
+        return load_mechanism(mechanism)
+    raise ValueError(f"mechanism: expected a SphericalMechanism or a path to a .toml file, "
+                     f"got {type(mechanism).__name__}")
+
+
 #: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
 #: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
 #: the boxes are fine enough to show its shape and estimate its dimension.
@@ -118,6 +142,17 @@ class Problem:
     #: compiled once, not per input.
     loop_pruners: dict = dataclasses.field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """One line: the mechanism's name and size and the strategy (not the whole mechanism)."""
+        st = self.strategy
+        name = self.mechanism.name or "unnamed mechanism"
+        if len(name) > REPR_NAME_CHARS:
+            name = name[:REPR_NAME_CHARS - 3] + "..."
+        backend = f" ({st.lp_backend})" if st.lp_backend else ""
+        how = "platform" if self.platform is not None else f"{st.formulation}, {st.parameterization}"
+        return (f"Problem({name!r}, {len(self.mechanism.joints)} joints, {len(self.names)} unknowns; "
+                f"{how}, pruner {st.pruner}{backend}, tol {st.tol:g})")
+
     def strategy_keywords(self) -> dict:
         """The keywords of :func:`compile` that make this problem's strategy (for another mechanism)."""
         st = self.strategy
@@ -131,8 +166,33 @@ class Problem:
               trace: Callable[[dict], None] | None = None) -> SolveReport:
         """Every assembly at actuator ``inputs`` (radians, one per actuated joint) inside the joint
         ranges: polished, certified and classified (see :func:`spherekin.solve`). ``trace`` (loop
-        formulations only, ``jobs=1``) records every batch of boxes for experiments."""
+        formulations only, ``jobs=1``) records every batch of boxes for experiments. A report
+        without solutions (and no cap or Ctrl-C) says why in ``empty_reason`` (:meth:`explain_empty`)."""
         values = self.mechanism.check_inputs(inputs)
+        report = self._solve(values, progress, trace)
+        if not report.solutions and report.settings.limit is None:
+            report = dataclasses.replace(report, empty_reason=self.explain_empty(values))
+        return report
+
+    def explain_empty(self, inputs) -> EmptyReason:
+        """Why the solve at ``inputs`` (radians, one per actuated joint) finds no assembly in the
+        joint ranges: assemblies exist with the passive joints' ranges lifted (one more solve, of
+        the mechanism without them), or none at all (inconsistent inputs of a redundantly actuated
+        mechanism, or inputs outside the workspace). Meaningful for inputs whose solve is empty."""
+        values = self.mechanism.check_inputs(inputs)
+        mech = self.mechanism
+        limited = tuple(j.name for j in mech.joints if j.range is not None and not j.actuated)
+        if limited:
+            free = compile(mech.without_ranges(limited), **self.strategy_keywords())
+            found = free._solve(values, None, None)
+            if found.solutions:
+                return EmptyReason(EMPTY_OUTSIDE_RANGES, limited, len(found.solutions))
+        # more closure equations than unknowns: a redundantly actuated mechanism
+        kind = EMPTY_INCONSISTENT if len(mech.loop_unknowns) < 3 * len(mech.loop_geometry) else EMPTY_OUTSIDE_WORKSPACE
+        return EmptyReason(kind, limited, 0)
+
+    def _solve(self, values, progress, trace) -> SolveReport:
+        """The report of checked ``values`` (without :meth:`explain_empty`)."""
         if trace is not None and self.platform is not None:
             raise ValueError("trace: only available with a loop formulation (paper, transversal, halves), "
                              "got the platform formulation")
@@ -196,7 +256,8 @@ class Problem:
         stats = dataclasses.replace(stats, time_finalize=t_final, time_total=report.stats.time_total + t_final)
         inputs = dict(zip(self.mechanism.actuated, (float(v) for v in values)))
         named = tuple(dataclasses.replace(s, unknowns=tuple(report.unknowns), actuated=inputs) for s in solutions)
-        return SolveReport(report.unknowns, named, report.boxes, stats, settings, proven, exact)
+        return SolveReport(report.unknowns, named, report.boxes, stats, settings, proven, exact,
+                           mechanism=self.mechanism)
 
     # ------------------------------------------------------------------ many inputs
 
@@ -204,12 +265,13 @@ class Problem:
         """One report per row of ``inputs`` (shape (K, number of actuated joints), radians), in order.
 
         Every row is checked before the first solve (one error naming the row); ``progress(done,
-        total)`` is called after each row.
+        total)`` is called after each row. An empty report's ``empty_reason`` is None here (it costs
+        another solve: call :meth:`explain_empty` for the rows that need it).
         """
         rows = self._checked_rows("inputs", inputs)
         out = []
         for k, row in enumerate(rows):
-            out.append(self.solve(row))
+            out.append(self._solve(self.mechanism.check_inputs(row), None, None))
             if progress is not None:
                 progress(k + 1, len(rows))
         return tuple(out)
@@ -391,8 +453,10 @@ def compile(
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
 ) -> Problem:
-    """Compile ``mechanism`` for a strategy (names as in :func:`spherekin.solve`); every name and
-    number is checked here, before any input is solved."""
+    """Compile ``mechanism`` (a :class:`spherekin.mechanism.SphericalMechanism`, or the path of a
+    mechanism file) for a strategy (the keywords of :func:`solve`, same defaults); every name and
+    number is checked here, before any input is solved. Returns a :class:`Problem`."""
+    mechanism = as_mechanism(mechanism)
     if formulation not in formulation_choices():
         raise ValueError(f"formulation: expected one of {list(formulation_choices())}, got {formulation!r}")
     check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner, lp_backend,
@@ -421,22 +485,47 @@ def compile(
     return Problem(mechanism, strategy, tuple(names), ranges, platform, pruner_obj, not_platform)
 
 
-def solve(mechanism, inputs, *, progress: Callable[[dict], None] | None = None,
-          trace: Callable[[dict], None] | None = None, **strategy) -> SolveReport:
+def solve(
+    mechanism,
+    inputs,
+    *,
+    formulation: str = DEFAULT_FORMULATION,
+    pruner: str = DEFAULT_PRUNER,
+    lp_backend: str | None = None,
+    parameterization: str = DEFAULT_PARAMETERIZATION,
+    tol: float = DEFAULT_TOL,
+    isolate: bool = True,
+    jobs: int = 1,
+    max_boxes: int = DEFAULT_MAX_BOXES,
+    max_depth: int | None = None,
+    progress: Callable[[dict], None] | None = None,
+    trace: Callable[[dict], None] | None = None,
+) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
-    ``mechanism`` is a :class:`spherekin.mechanism.SphericalMechanism`; ``inputs`` one angle
-    (radians) per actuated joint. Returns a :class:`SolveReport` whose solutions are polished,
-    deduplicated and classified (:func:`spherekin.trust.solutions.finalize`): passive angles, platform
-    rotation, residual, status and its evidence. The strategies are chosen by name:
-    ``formulation`` one of :func:`formulation_choices` ("auto": the platform formulation where it
-    applies, else "halves"), ``pruner``, ``lp_backend``, ``parameterization`` (of the loop
-    equations), ``tol`` (radians), ``isolate``, ``jobs`` (worker processes over the charts of the
-    loop equations), caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.search.boxloop.solve_system`).
+    ``mechanism``: a :class:`spherekin.mechanism.SphericalMechanism`, or the path (str or
+    ``os.PathLike``) of a mechanism file (docs/mechanism-format.md); ``inputs``: one angle (radians)
+    per actuated joint. Returns a :class:`SolveReport` whose solutions are polished, deduplicated
+    and classified (:func:`spherekin.trust.solutions.finalize`): passive angles, platform rotation,
+    residual, status and its evidence (``report.frame()``: a DataFrame of them; an empty report
+    says why in ``report.empty_reason``). The strategy, by name:
+
+    * ``formulation``: one of :func:`formulation_choices` ("auto": the platform formulation where it
+      applies, else "halves");
+    * ``pruner`` ("pp", "lp", "hybrid") and ``lp_backend`` (None: the pruner's default);
+    * ``parameterization`` of the loop equations ("tan-half", "sin-cos");
+    * ``tol``: the size (radians) of the boxes the search stops at; ``isolate``: Krawczyk isolation;
+    * ``jobs``: worker processes over the charts of the loop equations;
+    * caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.search.boxloop.solve_system`).
+
     The paper-faithful configuration is ``formulation="paper", pruner="lp", lp_backend="clarabel",
-    isolate=False``. The strategy keywords and their defaults are those of :func:`compile`; for many
-    inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
+    isolate=False``. For many inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
+    ``progress`` is called with the search's counters; ``trace`` (loop formulations only) records
+    every batch of boxes.
     """
-    if trace is not None and strategy.get("formulation", DEFAULT_FORMULATION) == "auto":
-        strategy["formulation"] = LOOP_FORMULATION        # a trace records the boxes of the loop equations
-    return compile(mechanism, **strategy).solve(inputs, progress=progress, trace=trace)
+    if trace is not None and formulation == "auto":
+        formulation = LOOP_FORMULATION                   # a trace records the boxes of the loop equations
+    problem = compile(mechanism, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                      parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
+                      max_depth=max_depth)
+    return problem.solve(inputs, progress=progress, trace=trace)

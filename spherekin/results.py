@@ -4,7 +4,10 @@ The box loop (:mod:`spherekin.search.boxloop`) hands over :class:`AcceptedBox` e
 :class:`Cluster` s, in a :class:`SearchReport`; the trust layer (:mod:`spherekin.trust.solutions`)
 turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
 (:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
-:class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost.
+:class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost, :class:`EmptyReason`
+why a solve found nothing. The views of them every reader shares live here too: the results table
+(:func:`solution_table`: ``SolveReport.frame()`` and every batch table) and the number format of
+printed tables (:func:`format_number`).
 """
 
 from __future__ import annotations
@@ -16,7 +19,16 @@ from typing import Mapping
 import numpy as np
 
 __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
-           "SearchReport", "SolveReport"]
+           "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
+           "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
+           "solution_table"]
+
+
+def format_number(value, spec: str = "+.6f") -> str:
+    """``value`` formatted with ``spec`` (a format spec, e.g. "+11.6f"), a value that prints as zero
+    printed as +0 (never "-0.000000" for -1e-17 or -0.0): the one number format of every printed table."""
+    text = format(float(value), spec)
+    return format(0.0, spec) if float(text) == 0.0 else text
 
 
 class Status(StrEnum):
@@ -151,8 +163,8 @@ class Solution:
         return Rotation.from_matrix(self.platform_rotation).as_euler(check_euler_convention(convention))
 
     def __repr__(self) -> str:
-        angles = ", ".join(f"{n}={a:+.6f}" for n, a in self.passive_angles.items()) or \
-            ", ".join(f"{a:+.6f}" for a in self.angles)
+        angles = ", ".join(f"{n}={format_number(a)}" for n, a in self.passive_angles.items()) or \
+            ", ".join(format_number(a) for a in self.angles)
         res = "" if self.residual is None else f", residual={self.residual:.1e}"
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
 
@@ -241,6 +253,116 @@ class SearchReport:
         return f"{len(self.clusters)} cluster(s) of boxes (not polished nor certified)"
 
 
+#: The kinds of :class:`EmptyReason`: assemblies exist once the passive joints' ranges are lifted;
+#: none exist (a redundantly actuated mechanism given inputs that do not fit together); none exist
+#: (the inputs lie outside the workspace: the legs cannot be closed).
+EMPTY_OUTSIDE_RANGES = "outside_ranges"
+EMPTY_INCONSISTENT = "inconsistent_inputs"
+EMPTY_OUTSIDE_WORKSPACE = "outside_workspace"
+
+
+@dataclass(frozen=True)
+class EmptyReason:
+    """Why a solve found no assembly (:meth:`spherekin.problem.Problem.explain_empty`; the JSON's
+    ``empty_reason``): ``kind`` (one of the EMPTY_* names), ``ranged_joints`` (the passive joints
+    with a range), ``assemblies_without_ranges`` (entries of the solve with those ranges lifted:
+    > 0 exactly for kind "outside_ranges")."""
+
+    kind: str
+    ranged_joints: tuple[str, ...] = ()
+    assemblies_without_ranges: int = 0
+
+    def text(self) -> str:
+        """The sentence the CLI prints."""
+        if self.kind == EMPTY_OUTSIDE_RANGES:
+            n = self.assemblies_without_ranges
+            return (f"no assembly inside the joint ranges; {n} assembl{'y' if n == 1 else 'ies'} exist with the "
+                    f"passive joints unlimited (ranges set on {', '.join(self.ranged_joints)})")
+        if self.kind == EMPTY_INCONSISTENT:
+            return ("no assembly at all at these inputs: for a redundantly actuated mechanism, inputs that are not "
+                    "consistent with one another")
+        return "no assembly at all at these inputs: the legs cannot be closed (the inputs lie outside the workspace)"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "ranged_joints": list(self.ranged_joints),
+                "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
+
+
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+
+
+def table_columns(actuated, unknowns) -> tuple[str, ...]:
+    """The columns of the results table (:func:`solution_table`) of a mechanism with these actuated
+    joints and passive unknowns (names)."""
+    return ("input", *actuated, "solution", "status", *unknowns, *QUATERNION_COLUMNS, *ROTATION_COLUMNS,
+            "residual", "singularity", "parallel_measure")
+
+
+def solution_table(actuated, unknowns, items, measure=None):
+    """The results table (a pandas DataFrame; docs/results-format.md) of ``items``: (input index, its
+    inputs (radians, one per name of ``actuated``), the names of its solutions' angles, its
+    solutions) each; one row per solution, passive angles in the order of ``unknowns``; an input
+    without solutions gets one row with empty solution columns. ``measure(joint_angles)``: the
+    ``parallel_measure`` of a solution (name -> radians; NaN without it or where it raises
+    ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
+    (:mod:`spherekin.batch.rows`), so the columns cannot drift apart."""
+    import pandas as pd
+
+    from .core.orientation import quaternions_from_rotations
+
+    names, actuated = list(unknowns), list(actuated)
+    idx, sol, status, sing, resid, meas, angles, rots, inp = [], [], [], [], [], [], [], [], []
+    nan_rot = np.full((3, 3), np.nan)
+    for index, row, their_names, solutions in items:
+        row = np.asarray(row, dtype=float)
+        order = None if tuple(their_names) == tuple(names) else [list(their_names).index(n) for n in names]
+        for j, s in enumerate(solutions or (None,)):
+            idx.append(index)
+            inp.append(row)
+            if s is None:
+                sol.append(pd.NA)
+                status.append(None)
+                sing.append(None)
+                resid.append(np.nan)
+                meas.append(np.nan)
+                angles.append(np.full(len(names), np.nan))
+                rots.append(nan_rot)
+                continue
+            a = np.asarray(s.angles, dtype=float)
+            a = a if order is None else a[order]
+            sol.append(j)
+            status.append(str(s.status))
+            sing.append(s.singularity)
+            resid.append(np.nan if s.residual is None else float(s.residual))
+            angles.append(a)
+            rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
+            joints = {**dict(zip(actuated, (float(v) for v in row))), **dict(zip(names, (float(v) for v in a)))}
+            try:
+                meas.append(np.nan if measure is None else measure(joints))
+            except ValueError:             # a joint the loop equations do not carry: no Jacobian
+                meas.append(np.nan)
+    rots = np.array(rots).reshape(-1, 3, 3)
+    quats = np.full((len(rots), 4), np.nan)
+    known = np.isfinite(rots).all(axis=(1, 2))
+    if known.any():
+        quats[known] = quaternions_from_rotations(rots[known])
+    data = {"input": np.array(idx, dtype=np.int64)}
+    inp = np.array(inp, dtype=float).reshape(-1, len(actuated))
+    data.update({n: inp[:, j] for j, n in enumerate(actuated)})
+    data["solution"] = pd.array(sol, dtype="Int64")
+    data["status"] = pd.array(status, dtype="string")
+    angles = np.array(angles, dtype=float).reshape(-1, len(names))
+    data.update({n: angles[:, j] for j, n in enumerate(names)})
+    data.update({c: quats[:, j] for j, c in enumerate(QUATERNION_COLUMNS)})
+    flat = rots.reshape(-1, 9)
+    data.update({c: flat[:, j] for j, c in enumerate(ROTATION_COLUMNS)})
+    data["residual"] = np.array(resid, dtype=float)
+    data["singularity"] = pd.array(sing, dtype="string")
+    data["parallel_measure"] = np.array(meas, dtype=float)
+    return pd.DataFrame(data, columns=list(table_columns(actuated, names)))
+
+
 @dataclass(frozen=True)
 class SolveReport:
     """Everything a solve returns: the unknowns' names, the solutions, the raw boxes, statistics.
@@ -248,6 +370,12 @@ class SolveReport:
     ``proven_count``: the number of solutions proven by a certificate (status ``certified``, or
     ``singular`` with ``krawczyk_certified`` in its evidence); ``count_exact``: True when that is
     every entry, so the count is exact; False when it is a lower bound ("at least").
+    ``mechanism``: the mechanism solved (None when not known); ``empty_reason``: why there is no
+    solution (:class:`EmptyReason`; None when there are solutions, or when not asked for).
+
+    :meth:`frame` is a DataFrame of the solutions, :meth:`as_dict` the JSON. To draw them:
+    ``spherekin.plot.plot_report(report, path=None)`` returns the matplotlib Figure (plotting is
+    an interface, a layer above this hand-over type, so the report has no ``plot`` method).
     """
 
     unknowns: tuple[str, ...]
@@ -257,6 +385,21 @@ class SolveReport:
     settings: Settings
     proven_count: int
     count_exact: bool
+    mechanism: object = field(default=None, repr=False, compare=False)
+    empty_reason: EmptyReason | None = None
+
+    def frame(self):
+        """The solutions as a pandas DataFrame, one row per solution, in the columns of a batch's
+        results table (docs/results-format.md; :func:`solution_table`): ``input`` (0), the actuated
+        joints and ``solution`` (index among the entries), ``status``, the passive angles, ``qw ...
+        qz``, ``r11 ... r33``, ``residual``, ``singularity``, ``parallel_measure`` (NaN when the
+        report does not hold its mechanism). Angles in radians. A report without solutions gives one
+        row with empty solution columns, as a batch does."""
+        mech = self.mechanism
+        names = self.unknowns if mech is None else mech.loop_unknowns
+        measure = None if mech is None else mech.parallel_measure
+        return solution_table(self.settings.actuated, names,
+                              [(0, self.settings.inputs, self.unknowns, self.solutions)], measure)
 
     def __repr__(self) -> str:
         return (f"SolveReport({self.count_text()}; {len(self.solutions)} entries over {', '.join(self.unknowns)}; "
@@ -269,7 +412,7 @@ class SolveReport:
         head = "".join(f"<th>{escape(n)}</th>" for n in ("#", *self.unknowns, "status", "residual", "singularity"))
         rows = []
         for i, s in enumerate(self.solutions, start=1):
-            cells = [str(i), *(f"{a:+.6f}" for a in s.angles), str(s.status),
+            cells = [str(i), *(format_number(a) for a in s.angles), str(s.status),
                      "-" if s.residual is None else f"{s.residual:.1e}", s.singularity or "-"]
             rows.append("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
         return (f"<p><b>{escape(self.count_text())}</b> (radians)</p><table><thead><tr>{head}</tr></thead>"
@@ -301,7 +444,7 @@ class SolveReport:
         head += "   residual  status      singularity"
         rows = [head]
         for i, s in enumerate(self.solutions, start=1):
-            row = f"{i:3d}  " + " ".join(f"{a * scale:+11.6f}" for a in s.angles) + f"  {s.n_boxes:5d}"
+            row = f"{i:3d}  " + " ".join(format_number(a * scale, "+11.6f") for a in s.angles) + f"  {s.n_boxes:5d}"
             res = "-" if s.residual is None else f"{s.residual:9.1e}"
             row += f"  {res:>9s}  {s.status:10s}  {s.singularity or '-'}"
             rows.append(row)
@@ -330,4 +473,5 @@ class SolveReport:
                  "box_lo": arr(box_near(s)[0]), "box_hi": arr(box_near(s)[1]), "n_boxes": s.n_boxes}
                 for s in self.solutions],
             "statistics": self.stats.as_dict(),
+            **({} if self.empty_reason is None else {"empty_reason": self.empty_reason.as_dict()}),
         }

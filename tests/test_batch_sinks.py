@@ -113,3 +113,25 @@ def test_resume_refuses_a_file_of_another_mechanism(tmp_path, mech):
     path.write_text("input,a,b\n0,1,2\n1,1,2\n")
     with pytest.raises(ValueError, match="columns are not those of this mechanism"):
         open_sink(path, mech, INPUTS, resume=True)
+
+
+def test_a_small_job_in_this_process_is_one_parquet_file_and_resumes(tmp_path, mech, frames):
+    from spherekin.batch import solve_to_file
+
+    out = tmp_path / "r.parquet"
+    summary = solve_to_file(mech, INPUTS[:3], out)            # 3 inputs: in this process (no cluster)
+    assert summary.workers == 0 and summary.solved == 3
+    assert [p.name for p in out.glob("part-*.parquet")] == ["part-000000000-000000003.parquet"]
+    # the rows: those of each input solved alone (the module's reference frames)
+    pd.testing.assert_frame_equal(read_results(out), pd.concat(frames[:3], ignore_index=True))
+    # a resume over more inputs solves only the new ones, as one more file
+    again = solve_to_file(mech, INPUTS, out, resume=True)
+    assert (again.skipped, again.solved) == (3, 2)
+    assert sorted(p.name for p in out.glob("part-*.parquet")) == ["part-000000000-000000003.parquet",
+                                                                "part-000000003-000000005.parquet"]
+    pd.testing.assert_frame_equal(read_results(out), pd.concat(frames, ignore_index=True))
+    # chunks on workers still share the work out: 4 tasks per worker (cluster.TASKS_PER_WORKER)
+    from spherekin.batch.engine import CHUNK_INPUTS, default_chunk_size
+
+    assert default_chunk_size(3, 0) == CHUNK_INPUTS
+    assert default_chunk_size(16, 2) == 2 and default_chunk_size(3, 2) == 1 and default_chunk_size(10**6, 2) == 64

@@ -189,3 +189,24 @@ def test_track_bad_starts_are_one_clear_error(tmp_path, capsys, monkeypatch, arg
     path = _write_path(tmp_path, [0.3, 0.35])
     assert main(["track", EXAMPLE, "--path", str(path), *args]) == 2
     assert match in capsys.readouterr().err
+
+
+def test_ik_prints_no_minus_zero(capsys):
+    # rotation by 90 deg about x: delta2 of four working modes is 0 up to rounding (about -1e-15)
+    gosselin = str(ROOT / "examples" / "gosselin.toml")
+    assert main(["ik", gosselin, "--euler", "0,0,90", "--degrees"]) == 0
+    out = capsys.readouterr().out
+    assert "-0.000000" not in out
+    rows = [line.split() for line in out.splitlines()[3:]]      # after the pose, count and header lines
+    assert len(rows) == 8 and sum(r[8] == "+0.000000" for r in rows) == 4   # r[8]: delta2
+
+
+def test_batch_in_degrees_says_the_table_holds_radians(tmp_path, capsys):
+    out = tmp_path / "r.csv"
+    assert main(["batch", EXAMPLE, "--grid", "beta1=-90:90:2", "--fix", "beta2=0", "--fix", "beta3=30",
+                 "--degrees", "--out", str(out), "--workers", "0", "--quiet"]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "--degrees: inputs read in degrees" in header and "holds radians" in header
+    frame = pd.read_csv(out)
+    np.testing.assert_allclose(sorted(set(frame["beta1"])), [-np.pi / 2, np.pi / 2], rtol=1e-15)
+    np.testing.assert_allclose(frame["beta3"], np.pi / 6, rtol=1e-15)

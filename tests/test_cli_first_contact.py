@@ -129,3 +129,13 @@ def test_errors_speak_in_options_not_python_keywords(capsys):
                  "never.csv", "--pruner", "pp", "--lp-backend", "clarabel"]) == 2
     captured = capsys.readouterr()
     assert "--pruner lp" in captured.err and captured.out == "" and not Path("never.csv").exists()
+
+
+def test_the_json_of_an_empty_solve_says_why(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    chart = str(ROOT / "examples" / "gosselin_chart.toml")
+    assert main(["solve", chart, "--inputs", "-2.5,2.9,0.1", "--json", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    reason = json.loads(out.read_text())["empty_reason"]
+    assert reason["kind"] == "outside_ranges" and reason["assemblies_without_ranges"] == 8
+    assert f"note: {reason['note']}" in printed                 # the line printed is the JSON's

@@ -285,3 +285,21 @@ def test_bad_input_raises_clear_errors_and_writes_nothing(solved, tmp_path):
             plot_solutions(*args, **kwargs)
     assert not target.exists() and not (tmp_path / "out.jpg").exists()
     assert list(Path(tmp_path).iterdir()) == []
+
+
+def test_plot_report_draws_a_report_from_what_it_holds(solved, tmp_path):
+    import matplotlib
+
+    from spherekin.plot import plot_report
+
+    mech, inputs, report = solved["gosselin"]
+    with matplotlib.rc_context({"svg.fonttype": "none"}):
+        fig = plot_report(report, tmp_path / "r.svg")
+    assert len(fig.axes) == len(report.solutions) == 8
+    text = (tmp_path / "r.svg").read_text()
+    # the title the explicit call gives: the mechanism's name and the report's inputs
+    assert mech.name in text and "beta1 = +0.3, beta2 = -0.2, beta3 = +0.5 rad" in text
+    with pytest.raises(ValueError, match="report: expected a SolveReport of spherekin.solve .holding its mechanism"):
+        plot_report(dataclasses.replace(report, mechanism=None))
+    with pytest.raises(ValueError, match="got int"):
+        plot_report(3)

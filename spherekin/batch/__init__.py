@@ -4,6 +4,7 @@
 :mod:`spherekin.batch.rows`) of every input; ``solve_to_file(mechanism, inputs, out)`` writes it to
 a Parquet dataset or CSV file as it is computed (``resume=True`` completes a partial one);
 ``assembly_map(mechanism, x, y, fixed)`` counts the solutions over a 2-D grid (:class:`AssemblyMap`).
+``mechanism``: a SphericalMechanism or the path of a mechanism file (as for :func:`spherekin.solve`).
 Inputs: an array (K, A) in radians, a DataFrame with a column per actuated joint, or an
 :class:`InputSet` (:func:`grid_inputs`, :func:`read_inputs_csv`). Where it runs: ``client`` (a
 ``distributed.Client``), ``scheduler`` (an address), or an embedded local cluster of ``workers``
@@ -54,12 +55,14 @@ class _MemorySink(Sink):
 
 def _prepare(mechanism, inputs, strategy):
     """The checked inputs and the job (the strategy compiled once here: a bad name fails now)."""
+    from ..problem import as_mechanism   # the pipeline: imported when a job runs, not with this package
     from .engine import Job
 
+    mechanism = as_mechanism(mechanism)
     inputs = array_inputs(mechanism, inputs)
     job = Job.of(mechanism, strategy)
     job.compile()
-    return inputs, job
+    return mechanism, inputs, job
 
 
 def solve_many(mechanism, inputs, *, client=None, scheduler: str | None = None, workers: int | None = None,
@@ -71,7 +74,7 @@ def solve_many(mechanism, inputs, *, client=None, scheduler: str | None = None, 
     """
     from .engine import connect, run
 
-    inputs, job = _prepare(mechanism, inputs, strategy)
+    mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     sink = _MemorySink(mechanism, inputs.values)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
         summary = run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
@@ -92,7 +95,7 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     """
     from .engine import connect, run
 
-    inputs, job = _prepare(mechanism, inputs, strategy)
+    mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     path = check_output_path(out, resume, overwrite)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
         sink = open_sink(path, mechanism, inputs.values, resume)
@@ -106,6 +109,9 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
     """The assembly-mode map over the grid ``x`` by ``y`` (GridAxis or "name=lo:hi:n"), the other
     actuated joints at ``fixed`` (name -> radians, or "name=value"); with ``out`` the results table
     is also written there (and ``resume`` completes it). Ctrl-C raises KeyboardInterrupt."""
+    from ..problem import as_mechanism
+
+    mechanism = as_mechanism(mechanism)
     inputs = grid_inputs(mechanism, [x, y], fixed)
     x, y = inputs.axes
     if out is None:

@@ -39,15 +39,16 @@ from ..cluster import TASKS_PER_WORKER, n_workers
 from .rows import report_rows
 
 __all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
-           "CompiledProblem", "solve_chunk", "chunks", "connect", "run"]
+           "CompiledProblem", "solve_chunk", "default_chunk_size", "chunks", "connect", "run"]
 
 #: Jobs of at most this many inputs run in this process, without a cluster. Reason: starting an
 #: embedded cluster (worker processes that import numpy, pandas and spherekin) costs ~2-4 s, the
 #: time of ~150-250 solves; for fewer inputs the cluster would only slow the job down.
 IN_PROCESS_MAX_INPUTS = 64
-#: Inputs per task, at most. Reason: a solve takes ~5-30 ms and a Dask task costs ~1 ms of
-#: scheduling and transfer, so 64 inputs keep that overhead near 0.1%, while a chunk still finishes
-#: in about a second: progress stays live, Ctrl-C is quick, and a resumed job redoes little.
+#: Inputs per task, at most (and per chunk of a job in this process). Reason: a solve takes ~5-30 ms
+#: and a Dask task costs ~1 ms of scheduling and transfer, so 64 inputs keep that overhead near 0.1%,
+#: while a chunk still finishes in about a second: progress stays live, Ctrl-C is quick, and a
+#: resumed job redoes little.
 CHUNK_INPUTS = 64
 
 
@@ -119,6 +120,17 @@ def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
     return report_rows(problem.mechanism, problem.solve_many(rows), first, rows)
 
 
+def default_chunk_size(n_inputs: int, workers: int) -> int:
+    """Inputs per chunk of a job of ``n_inputs`` on ``workers`` Dask workers (0: in this process).
+
+    On workers, small enough to give each worker TASKS_PER_WORKER tasks (all of them busy), at most
+    CHUNK_INPUTS. In this process there is nobody to share the work with: CHUNK_INPUTS, so a small
+    job is one chunk (one Parquet part, not one part per input)."""
+    if not workers:
+        return CHUNK_INPUTS
+    return max(1, min(CHUNK_INPUTS, math.ceil(n_inputs / (workers * TASKS_PER_WORKER))))
+
+
 def chunks(todo: np.ndarray, size: int) -> list[tuple[int, int]]:
     """[first, end) ranges of at most ``size`` consecutive inputs covering the True entries of ``todo``."""
     out = []
@@ -153,8 +165,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     skipped = int(sink.done.sum())
     workers = n_workers(client)
     if chunk_size is None:
-        per = max(1, workers) * TASKS_PER_WORKER
-        chunk_size = max(1, min(CHUNK_INPUTS, math.ceil((total - skipped) / per)))
+        chunk_size = default_chunk_size(total - skipped, workers)
     elif isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise ValueError(f"chunk_size: expected a whole number >= 1, got {chunk_size!r}")
     todo = chunks(~sink.done, chunk_size)

@@ -17,18 +17,14 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.orientation import quaternions_from_rotations
+from ..results import QUATERNION_COLUMNS, ROTATION_COLUMNS, solution_table, table_columns
 
 __all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows", "empty_frame"]
-
-QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
-ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
 
 
 def columns(mechanism) -> tuple[str, ...]:
     """The column names of the results table of ``mechanism`` (module doc)."""
-    return ("input", *mechanism.actuated, "solution", "status", *mechanism.loop_unknowns, *QUATERNION_COLUMNS,
-            *ROTATION_COLUMNS, "residual", "singularity", "parallel_measure")
+    return table_columns(mechanism.actuated, mechanism.loop_unknowns)
 
 
 def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
@@ -53,61 +49,9 @@ def track_rows(mechanism, track):
 
 def solution_rows(mechanism, items):
     """The results table of ``items``: (input index, its inputs (radians), the unknowns' names, its
-    solutions) each; an input without solutions gets one row with empty solution columns."""
-    import pandas as pd
-
-    names = list(mechanism.loop_unknowns)
-    actuated = list(mechanism.actuated)
-    idx, sol, status, sing, resid, measure, angles, rots, inp = [], [], [], [], [], [], [], [], []
-    nan_rot = np.full((3, 3), np.nan)
-    for index, row, unknowns, solutions in items:
-        row = np.asarray(row, dtype=float)
-        order = None if tuple(unknowns) == tuple(names) else [list(unknowns).index(n) for n in names]
-        entries = solutions or (None,)
-        for j, s in enumerate(entries):
-            idx.append(index)
-            inp.append(row)
-            if s is None:
-                sol.append(pd.NA)
-                status.append(None)
-                sing.append(None)
-                resid.append(np.nan)
-                measure.append(np.nan)
-                angles.append(np.full(len(names), np.nan))
-                rots.append(nan_rot)
-                continue
-            a = np.asarray(s.angles, dtype=float)
-            a = a if order is None else a[order]
-            sol.append(j)
-            status.append(str(s.status))
-            sing.append(s.singularity)
-            resid.append(np.nan if s.residual is None else float(s.residual))
-            angles.append(a)
-            rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
-            joints = {**dict(zip(actuated, (float(v) for v in row))), **dict(zip(names, (float(v) for v in a)))}
-            try:
-                measure.append(mechanism.parallel_measure(joints))
-            except ValueError:             # a joint the loop equations do not carry: no Jacobian
-                measure.append(np.nan)
-    rots = np.array(rots).reshape(-1, 3, 3)
-    quats = np.full((len(rots), 4), np.nan)
-    known = np.isfinite(rots).all(axis=(1, 2))
-    if known.any():
-        quats[known] = quaternions_from_rotations(rots[known])
-    data = {"input": np.array(idx, dtype=np.int64)}
-    inp = np.array(inp, dtype=float).reshape(-1, len(actuated))
-    data.update({n: inp[:, j] for j, n in enumerate(actuated)})
-    data["solution"] = pd.array(sol, dtype="Int64")
-    data["status"] = pd.array(status, dtype="string")
-    angles = np.array(angles, dtype=float).reshape(-1, len(names))
-    data.update({n: angles[:, j] for j, n in enumerate(names)})
-    data.update({c: quats[:, j] for j, c in enumerate(QUATERNION_COLUMNS)})
-    flat = rots.reshape(-1, 9)
-    data.update({c: flat[:, j] for j, c in enumerate(ROTATION_COLUMNS)})
-    data["residual"] = np.array(resid, dtype=float)
-    data["singularity"] = pd.array(sing, dtype="string")
-    data["parallel_measure"] = np.array(measure, dtype=float)
-    return pd.DataFrame(data, columns=list(columns(mechanism)))
+    solutions) each; an input without solutions gets one row with empty solution columns. Built by
+    :func:`spherekin.results.solution_table`, as ``SolveReport.frame()`` is."""
+    return solution_table(mechanism.actuated, mechanism.loop_unknowns, items, mechanism.parallel_measure)
 
 
 def empty_frame(mechanism):
