@@ -533,6 +533,19 @@ def _track(args) -> int:
     return code
 
 
+def _no_names(args) -> dict[str, str]:
+    """A command whose errors' Python names do not depend on the options given."""
+    return {}
+
+
+def _track_names(args) -> dict[str, str]:
+    """The Python names of track's errors that depend on the options given: ``start`` is the start
+    option typed, when it is a pose (with --start-solution, Python's ``start`` counts from 0 and its
+    messages are left as they are rather than be given the option's numbers)."""
+    given = [o for o in ("start_rotation", "start_quaternion") if getattr(args, o, None) is not None]
+    return {"start": "--" + given[0].replace("_", "-")} if len(given) == 1 else {}
+
+
 def _add_engine_options(p) -> None:
     p.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://HOST:8786); default: an "
                                        "embedded local cluster (in this process for a handful of inputs)")
@@ -797,7 +810,7 @@ def build_parser() -> argparse.ArgumentParser:
     tk.add_argument("--json", help="write one entry per path row (and the stop) as JSON")
     tk.add_argument("--out", help="write the rows as a results table (.csv or .parquet, the columns of batch)")
     tk.add_argument("--plot", help="draw the orientation along the path and the singularity measure (.png, .pdf, .svg)")
-    tk.set_defaults(func=_track)
+    tk.set_defaults(func=_track, python_names=_track_names)
     g = sub_add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
     g.add_argument("--beta", nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
                    help="actuator angles in radians, numbers or text such as pi/2 (default: %(default)s)")
@@ -879,7 +892,9 @@ def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
         args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     except SystemExit as exc:    # --help or --version (0), or a usage error with its one line printed (2)
         return exc.code if isinstance(exc.code, int) else 2
-    options = {**_OPTION_OF, **parser.command(args.command).options()}
+    # the package's Python names in this command's words: its options, and names that depend on them
+    options = {**_OPTION_OF, **parser.command(args.command).options(),
+               **getattr(args, "python_names", _no_names)(args)}
     try:
         return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback

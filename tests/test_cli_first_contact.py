@@ -244,6 +244,15 @@ def test_each_command_translates_its_own_python_names():
     assert as_options("the path: and workers: inside a sentence", batch) == "the path: and workers: inside a sentence"
 
 
+def test_tracks_start_is_named_as_the_option_given(capsys):
+    """Python's ``start`` is the pose option the user gave (a pose that is no assembly is found by
+    the track itself, after its header line)."""
+    assert main(["track", GENERAL, "--path", PATH, "--start-quaternion", "1,0,0,0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith("spherekin: error: --start-quaternion: the start pose does not close the legs"), err
+
+
 def test_the_top_level_help_is_a_description_and_the_commands(capsys):
     from spherekin.cli import build_parser
 
