@@ -182,13 +182,13 @@ def _solve(args) -> int:
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
     if used.fallback:
-        print(f"note: {used.fallback}")
+        print(f"note: {as_options(used.fallback)}")
     limit = used.limit
     if limit and limit.interrupted:
-        print(f"note: {limit.error}: the entries above are what the search had found (polished and classified), "
+        print(f"note: {as_options(limit.error)}: the entries above are what the search had found (polished and classified), "
               "not necessarily every solution")
     elif limit:
-        print(f"note: {limit.error}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
+        print(f"note: {as_options(limit.error)}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
               "instead (status continuum: its dimension and covering boxes are in the JSON evidence)")
     if used.refined_searches:
         print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "

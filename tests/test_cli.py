@@ -244,3 +244,17 @@ def test_the_console_entry_collects_garbage_while_it_solves():
     assert proc.returncode == 0, proc.stderr
     assert "numpy at import: False" in proc.stderr and "gc during solve: True" in proc.stderr
     assert "8 solutions (count proven" in proc.stdout
+
+
+def test_a_notes_python_keywords_are_given_as_options(monkeypatch, capsys):
+    """A cap's note speaks the command line too: "try --formulation transversal", not the Python
+    keyword formulation='transversal' (caps made tiny so that the solve reaches them at once)."""
+    import functools
+
+    import spherekin.problem
+
+    monkeypatch.setattr(spherekin.problem, "compile", functools.partial(spherekin.problem.compile, max_boxes=100))
+    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--quiet"]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
+    assert notes and any("max_boxes=100" in n for n in notes)
+    assert all("formulation='" not in n for n in notes) and any("try --formulation transversal" in n for n in notes)
