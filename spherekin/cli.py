@@ -33,16 +33,19 @@ def _gosselin(args) -> int:
     import numpy as np
 
     from .core import bernstein
+    from .mechanism.checks import check_range, parse_angle
     from .paper_gosselin import paper_gosselin_loops
     from .results import format_number
 
+    betas = [parse_angle(f"--beta (B{k})", b) for k, b in enumerate(args.beta, start=1)]
+    passive = check_range("--range", args.range)
     t0 = time.perf_counter()
-    loops = paper_gosselin_loops(args.beta, tuple(args.range), corrected=True)
+    loops = paper_gosselin_loops(betas, passive, corrected=True)
     rng = np.random.default_rng(args.seed)
     print("Gosselin platform: the paper's two closure loops in Bernstein form (Section 2.1, Eq. 10);")
     print("  loop 2 with its first and last factors swapped back (erratum s21-final-loop2, verification/REPORT.md)")
-    print(f"  actuators beta = ({', '.join(format_number(b, '+.4f') for b in args.beta)}) rad; "
-          f"passive joints in [{format_number(args.range[0], '+.4f')}, {format_number(args.range[1], '+.4f')}] rad")
+    print(f"  actuators beta = ({', '.join(format_number(b, '+.4f') for b in betas)}) rad; "
+          f"passive joints in [{format_number(passive[0], '+.4f')}, {format_number(passive[1], '+.4f')}] rad")
     total = 0
     for k, loop in enumerate(loops, start=1):
         rec = loop.scalar_control_points("recursion")
@@ -67,14 +70,18 @@ def _gosselin(args) -> int:
     return 0
 
 
-def _parse_inputs(text: str, degrees: bool) -> list[float]:
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise ValueError(f"--inputs: expected comma-separated numbers such as 0.1,-0.2,0.3, got {text!r}") from None
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"--inputs: expected finite numbers, got {text!r}")
-    return [math.radians(v) for v in values] if degrees else values
+def _parse_angles(key: str, text: str, names, degrees: bool, what: str) -> list[float]:
+    """The angles of ``names`` (radians) from the comma-separated ``text`` of option ``key``: each a
+    number or text such as "pi/2", read as the mechanism files, --grid and --fix read angles
+    (:func:`~spherekin.mechanism.checks.parse_angle`; degrees with ``degrees``). ``what``: what the
+    values are, for the error when there are not as many as names."""
+    from .mechanism.checks import parse_angle
+
+    parts = text.split(",")
+    if len(parts) != len(names):
+        raise ValueError(f"{key}: expected {len(names)} values ({what}: {', '.join(names)}), comma-separated, "
+                         f"got {len(parts)} in {text!r}")
+    return [parse_angle(f"{key} ({name})", part, degrees=degrees) for name, part in zip(names, parts)]
 
 
 class _Progress:
@@ -145,10 +152,7 @@ def _solve(args) -> int:
 
     check_pruner(args.pruner, args.lp_backend)   # a refused LP backend's reason, before any output
     mech = load_mechanism(args.file)
-    inputs = _parse_inputs(args.inputs, args.degrees)
-    if len(inputs) != len(mech.actuated):
-        raise ValueError(f"--inputs: expected {len(mech.actuated)} values (one per actuated joint "
-                         f"{', '.join(mech.actuated)}), got {len(inputs)}")
+    inputs = _parse_angles("--inputs", args.inputs, mech.actuated, args.degrees, "one per actuated joint")
     values = mech.check_inputs(inputs)
     # every argument and output path is checked before the first line of output (compile checks
     # the strategy's names and numbers: --tol, --jobs)
@@ -160,10 +164,7 @@ def _solve(args) -> int:
     if args.plot:
         from .plot import check_plot_path
 
-        try:
-            check_plot_path(args.plot)
-        except ValueError as exc:
-            raise ValueError(f"--plot {args.plot}: {str(exc).split(': ', 1)[-1]}") from None
+        check_plot_path(args.plot, "--plot")
     unit = "deg" if args.degrees else "rad"
     shown = [math.degrees(v) if args.degrees else v for v in values]
     print(f"{mech.name or args.file}: direct kinematics at "
@@ -183,13 +184,13 @@ def _solve(args) -> int:
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
     if used.fallback:
-        print(f"note: {used.fallback}")
+        print(f"note: {as_options(used.fallback)}")
     limit = used.limit
     if limit and limit.interrupted:
-        print(f"note: {limit.error}: the entries above are what the search had found (polished and classified), "
+        print(f"note: {as_options(limit.error)}: the entries above are what the search had found (polished and classified), "
               "not necessarily every solution")
     elif limit:
-        print(f"note: {limit.error}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
+        print(f"note: {as_options(limit.error)}; the solution set was covered with boxes of {limit.covering_tol:g} rad "
               "instead (status continuum: its dimension and covering boxes are in the JSON evidence)")
     if used.refined_searches:
         print(f"note: {used.refined_searches} cluster(s) next to a singularity were searched again at "
@@ -329,7 +330,7 @@ def _map(args) -> int:
     if args.plot:
         from .plot import check_plot_path
 
-        check_plot_path(args.plot)
+        check_plot_path(args.plot, "--plot")
     if args.out:
         check_output_path(args.out, args.resume, args.overwrite)
     if args.table and not str(args.table).lower().endswith(".csv"):
@@ -390,9 +391,7 @@ def _ik(args) -> int:
     elif args.quaternion is not None:
         rot = rotation_from_quaternion(_parse_numbers("--quaternion", args.quaternion, 4), "--quaternion")
     else:
-        angles = _parse_numbers("--euler", args.euler, 3)
-        if args.degrees:
-            angles = [math.radians(a) for a in angles]
+        angles = _parse_angles("--euler", args.euler, ("a", "b", "c"), args.degrees, "three Euler angles")
         rot = rotation_from_euler(angles, args.convention or "ZYX", "--euler")
     sols = mech.inverse_kinematics(rot, only_in_range=args.in_range)
     scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
@@ -434,7 +433,7 @@ def _track(args) -> int:
     if len(given) != 1:
         raise ValueError("expected the start as exactly one of --start-rotation, --start-quaternion, --start-solution")
     mech = load_mechanism(args.file)
-    path = read_inputs_csv(mech, args.path, degrees=args.degrees)
+    path = read_inputs_csv(mech, args.path, degrees=args.degrees, key="--path")
     if args.start_rotation is not None:
         start = check_rotation("--start-rotation",
                                np.array(_parse_numbers("--start-rotation", args.start_rotation, 9)).reshape(3, 3))
@@ -442,10 +441,7 @@ def _track(args) -> int:
         start = rotation_from_quaternion(_parse_numbers("--start-quaternion", args.start_quaternion, 4),
                                          "--start-quaternion")
     else:
-        if args.start_solution < 1:
-            raise ValueError(f"--start-solution: expected a solution number >= 1 (as solve prints them), "
-                             f"got {args.start_solution}")
-        start = args.start_solution - 1
+        start = args.start_solution - 1          # 1..MAX_ASSEMBLIES, checked as the option was read
     if args.out:
         check_output_path(args.out, False, True)
     if args.json:
@@ -453,9 +449,7 @@ def _track(args) -> int:
     if args.plot:
         from .plot import check_plot_path
 
-        check_plot_path(args.plot)
-    if args.check is not None and args.check < 1:
-        raise ValueError(f"--check: expected every N-th row with N >= 1, got {args.check}")
+        check_plot_path(args.plot, "--plot")
     problem = compile_problem(mech)
     print(f"{mech.name or args.file}: tracking one assembly mode along {len(path)} input(s) of {args.path}")
     t0 = time.perf_counter()
@@ -528,12 +522,25 @@ def _track(args) -> int:
     return code
 
 
+def _no_names(args) -> dict[str, str]:
+    """A command whose errors' Python names do not depend on the options given."""
+    return {}
+
+
+def _track_names(args) -> dict[str, str]:
+    """The Python names of track's errors that depend on the options given: ``start`` is the start
+    option typed, when it is a pose (with --start-solution, Python's ``start`` counts from 0 and its
+    messages are left as they are rather than be given the option's numbers)."""
+    given = [o for o in ("start_rotation", "start_quaternion") if getattr(args, o, None) is not None]
+    return {"start": "--" + given[0].replace("_", "-")} if len(given) == 1 else {}
+
+
 def _add_engine_options(p) -> None:
     p.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://HOST:8786); default: an "
                                        "embedded local cluster (in this process for a handful of inputs)")
-    p.add_argument("--workers", type=int, help="worker processes of the embedded cluster (default: one per core; "
-                                               "0: in this process)")
-    p.add_argument("--chunk-size", type=int, help="inputs per Dask task (default: up to 64)")
+    p.add_argument("--workers", type=_whole(0, why=" (0: in this process)"),
+                   help="worker processes of the embedded cluster (default: one per core; 0: in this process)")
+    p.add_argument("--chunk-size", type=_whole(1), help="inputs per Dask task (default: up to 64)")
     p.add_argument("--resume", action="store_true", help="complete a partial output without redoing finished inputs")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -595,6 +602,102 @@ class _HelpFormatter(argparse.HelpFormatter):
                          _terminal_columns() - 2 if width is None else width)
 
 
+#: The start of every error the command line prints: its own checks, the package's ValueErrors and
+#: argparse's usage errors alike, each one line, exit status 2.
+ERROR_PREFIX = "spherekin: error: "
+
+#: What `spherekin --help` says spherekin is (the commands follow, listed by argparse).
+DESCRIPTION = ("Direct kinematics of parallel spherical mechanisms with Bernstein polynomials: every "
+               "assembly of a mechanism inside its joint ranges, each one proven.")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser with spherekin's one error format: a usage error is the line
+    "spherekin: error: --option: expected ..., got ... (see spherekin COMMAND --help)", exit status 2,
+    instead of argparse's usage block and its "spherekin COMMAND: error:" line. The command parsers
+    are of this class too (add_subparsers makes its parsers of the parser's own class)."""
+
+    def add_subparsers(self, **kwargs):
+        self._commands = super().add_subparsers(**kwargs)
+        return self._commands
+
+    def command(self, name: str | None) -> "_Parser":
+        """The parser of command ``name`` (this parser when it has no such command)."""
+        commands = getattr(self, "_commands", None)
+        return commands.choices.get(name, self) if commands is not None and name else self
+
+    def parse_args(self, args=None, namespace=None):
+        # argparse reports a command's stray arguments from the top parser; the command's own parser
+        # says it here, so that the hint names the command's --help
+        namespace, extras = self.parse_known_args(args, namespace)
+        if extras:
+            self.command(getattr(namespace, "command", None)).error(f"unrecognized arguments: {' '.join(extras)}")
+        return namespace
+
+    def error(self, message):
+        self.exit(2, f"{ERROR_PREFIX}{self.usage_error(message)} (see {self.prog} --help)\n")
+
+    def options(self) -> dict[str, str]:
+        """Python name -> the option that sets it, as typed (its long form), for every option of this
+        parser: ``workers`` -> "--workers", ``chunk_size`` -> "--chunk-size" (each command its own)."""
+        return {a.dest: max(a.option_strings, key=len) for a in self._actions if a.option_strings}
+
+    def usage_error(self, message: str) -> str:
+        """argparse's error ``message`` in spherekin's words: "argument --jobs: invalid int value:
+        'x'" -> "--jobs: expected a whole number, got 'x'"; the command list for a missing or unknown
+        command. Messages it does not know are kept."""
+        commands = getattr(self, "_commands", None)
+        names = ", ".join(commands.choices) if commands is not None else ""
+        m = re.fullmatch(r"argument (?P<name>[^:]+): (?P<rest>.*)", message, re.S)
+        if m:
+            name, rest = m["name"].split("/")[-1], m["rest"]
+            choice = re.fullmatch(r"invalid choice: (?P<value>.+?) \(choose from (?P<choices>.*)\)", rest, re.S)
+            if commands is not None and name in (commands.dest, commands.metavar) and choice:
+                return f"{choice['value']} is not a command; expected one of {names}"
+            for pattern, words in ((r"invalid int value: (.+)", "expected a whole number, got {}"),
+                                   (r"invalid float value: (.+)", "expected a number, got {}"),
+                                   (r"expected one argument", "expected a value"),
+                                   (r"expected (\d+) arguments?", "expected {} values"),
+                                   (r"ignored explicit argument (.+)", "takes no value, got {}")):
+                found = re.fullmatch(pattern, rest, re.S)
+                if found:
+                    rest = words.format(*found.groups())
+                    break
+            if choice:
+                rest = (f"expected one of {', '.join(c.strip(chr(39)) for c in choice['choices'].split(', '))}, "
+                        f"got {choice['value']}")
+            return f"{name}: {rest}"
+        m = re.fullmatch(r"the following arguments are required: (?P<names>.*)", message, re.S)
+        if m:
+            missing = m["names"].split(", ")
+            if commands is not None and (commands.dest in missing or commands.metavar in missing):
+                return f"expected a command, one of {names}"
+            return f"{' and '.join(missing)}: required, not given"
+        m = re.fullmatch(r"unrecognized arguments: (?P<args>.*)", message, re.S)
+        if m:
+            return f"{m['args']}: not an option or argument of {self.prog}"
+        m = re.fullmatch(r"ambiguous option: (?P<option>\S+) could match (?P<matches>.*)", message, re.S)
+        if m:
+            return f"{m['option']}: ambiguous, could be {m['matches']}"
+        return message
+
+
+def _whole(minimum: int, maximum: int | None = None, why: str = ""):
+    """The argparse type of a whole-number option: an int in [minimum, maximum] or the usage error
+    "expected a whole number >= minimum{why}, got ..." (read with the other options: before any work)."""
+    def whole(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum or (maximum is not None and value > maximum):
+            span = f">= {minimum}" if maximum is None else f"from {minimum} to {maximum}"
+            raise argparse.ArgumentTypeError(f"expected a whole number {span}{why}, got {text!r}")
+        return value
+
+    return whole
+
+
 def _add_strategy_options(so) -> None:
     """The strategy options of solve, batch and map (choices read from the registries)."""
     from .search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
@@ -627,21 +730,23 @@ def _add_strategy_options(so) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     from .paper_gosselin import DEFAULT_PASSIVE_RANGE
+    from .search.platform_orientation import MAX_ASSEMBLIES
 
-    parser = argparse.ArgumentParser(prog="spherekin", description=__doc__.splitlines()[0],
-                                     formatter_class=_HelpFormatter)
+    parser = _Parser(prog="spherekin", description=DESCRIPTION, formatter_class=_HelpFormatter,
+                     epilog="'spherekin COMMAND --help' gives the options of a command; README.md has examples.")
     parser.add_argument("--version", action="version", version=f"spherekin {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True)
+    commands = parser.add_subparsers(dest="command", required=True, title="commands", metavar="COMMAND")
 
     def sub_add_parser(name, **kw):
         return commands.add_parser(name, formatter_class=_HelpFormatter, **kw)
 
     so = sub_add_parser("solve", help="direct kinematics of a mechanism file (all solutions in range)")
     so.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
-    so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees)")
+    so.add_argument("--inputs", required=True, help="actuator inputs, comma-separated (radians unless --degrees; "
+                                                      "text such as pi/2 too)")
     so.add_argument("--degrees", action="store_true", help="inputs and printed angles in degrees")
     _add_strategy_options(so)
-    so.add_argument("--jobs", type=int, default=1,
+    so.add_argument("--jobs", type=_whole(1), default=1,
                     help="Dask worker processes over the charts of the loop equations, on a local cluster "
                          "(~2-3 s to start: for long solves; default %(default)s)")
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
@@ -652,7 +757,8 @@ def build_parser() -> argparse.ArgumentParser:
     ik.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     ik.add_argument("--rotation", help="the platform rotation R, 9 numbers row-major (v_i = R v_i^0)")
     ik.add_argument("--quaternion", help="the platform rotation as a quaternion w,x,y,z (normalized first)")
-    ik.add_argument("--euler", help="the platform rotation as three Euler angles a,b,c (radians unless --degrees)")
+    ik.add_argument("--euler", help="the platform rotation as three Euler angles a,b,c (radians unless "
+                                     "--degrees; text such as pi/2 too)")
     ik.add_argument("--convention", help="Euler convention: upper case intrinsic (ZYX, the default; ZYZ, ...), "
                                          "lower case extrinsic (xyz, ...)")
     ik.add_argument("--degrees", action="store_true", help="Euler angles and printed angles in degrees")
@@ -684,22 +790,24 @@ def build_parser() -> argparse.ArgumentParser:
     tk.add_argument("--path", required=True, help="CSV of inputs (a header naming the actuated joints, one row each)")
     tk.add_argument("--start-rotation", help="the platform rotation R at the first input, 9 numbers row-major")
     tk.add_argument("--start-quaternion", help="the platform rotation at the first input as w,x,y,z")
-    tk.add_argument("--start-solution", type=int, help="start from solution K (as solve numbers them, from 1) of "
-                                                       "the full solve at the first input")
+    tk.add_argument("--start-solution", metavar="K",
+                    type=_whole(1, MAX_ASSEMBLIES, f" (as solve numbers them; a mechanism track follows, three R-R-R "
+                                                   f"legs, has at most {MAX_ASSEMBLIES} assemblies at an input)"),
+                    help="start from solution K (as solve numbers them, from 1) of the full solve at the first input")
     tk.add_argument("--degrees", action="store_true", help="path inputs and printed angles in degrees")
-    tk.add_argument("--check", type=int, metavar="N", help="also solve fully at every N-th row (and the last) and "
+    tk.add_argument("--check", type=_whole(1), metavar="N", help="also solve fully at every N-th row (and the last) and "
                                                           "confirm the tracked pose is one of the solutions")
     tk.add_argument("--json", help="write one entry per path row (and the stop) as JSON")
     tk.add_argument("--out", help="write the rows as a results table (.csv or .parquet, the columns of batch)")
     tk.add_argument("--plot", help="draw the orientation along the path and the singularity measure (.png, .pdf, .svg)")
-    tk.set_defaults(func=_track)
+    tk.set_defaults(func=_track, python_names=_track_names)
     g = sub_add_parser("gosselin", help="summary of the paper's Gosselin loop equations")
-    g.add_argument("--beta", type=float, nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
-                   help="actuator angles in radians (default: %(default)s)")
-    g.add_argument("--range", type=float, nargs=2, default=list(DEFAULT_PASSIVE_RANGE), metavar=("LO", "HI"),
+    g.add_argument("--beta", nargs=3, default=list(DEFAULT_BETAS), metavar=("B1", "B2", "B3"),
+                   help="actuator angles in radians, numbers or text such as pi/2 (default: %(default)s)")
+    g.add_argument("--range", nargs=2, default=list(DEFAULT_PASSIVE_RANGE), metavar=("LO", "HI"),
                    help="range of every passive joint in radians (default: +-0.9 pi)")
-    g.add_argument("--samples", type=int, default=10000, help="random points for the sampled range")
-    g.add_argument("--seed", type=int, default=0, help="seed of the random sample")
+    g.add_argument("--samples", type=_whole(1), default=10000, help="random points for the sampled range")
+    g.add_argument("--seed", type=_whole(0), default=0, help="seed of the random sample")
     g.set_defaults(func=_gosselin)
     v = sub_add_parser("verify", help="verify every claim of the paper and write the errata report")
     v.add_argument("--quick", action="store_true", help="small sizes, as in the test suite")
@@ -731,35 +839,59 @@ def join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
-#: Python keyword names of the strategy and the command-line options that set them.
+#: Python keyword names of the strategy (those of spherekin.compile) and the options that set them:
+#: the words of every command with strategy options, and the default of :func:`as_options`.
 _OPTION_OF = {"lp_backend": "--lp-backend", "pruner": "--pruner", "formulation": "--formulation",
-              "parameterization": "--parameterization", "tol": "--tol", "jobs": "--jobs"}
-_KEYWORD_VALUE = re.compile(r"\b(" + "|".join(_OPTION_OF) + r")=(None|'[^']*'|[^\s,;)]+)")
-_KEYWORD_HEAD = re.compile(r"^(" + "|".join(_OPTION_OF) + r"):")
+              "parameterization": "--parameterization", "tol": "--tol", "jobs": "--jobs", "isolate": "--no-isolate"}
+#: A keyword's value in the words of the command line, where it is not "--option value".
+_VALUE_WORDS = {("isolate", "True"): "isolation (no --no-isolate)", ("isolate", "False"): "--no-isolate"}
 
 
-def as_options(message: str) -> str:
-    """An error message of the Python API in the words of the command line: ``lp_backend=None`` ->
-    "no --lp-backend", ``pruner='lp'`` -> "--pruner lp", a leading ``tol:`` -> "--tol:"."""
+def as_options(message: str, options: dict[str, str] = _OPTION_OF) -> str:
+    """An error message of the Python API in the words of one command: ``options`` maps each Python
+    name to the option the user typed (the command's own, :meth:`_Parser.options`: track's ``path``
+    is --path, batch has none; default: the strategy's). ``lp_backend=None`` -> "no --lp-backend",
+    ``pruner='lp'`` -> "--pruner lp", a leading ``workers:`` or ``inputs (beta1):`` -> "--workers:",
+    "--inputs (beta1):". Only names of ``options``, and only as keyword=value or at the head of the
+    message: the same word elsewhere in a sentence is left alone."""
+    if not options:
+        return message
+    names = "|".join(sorted(map(re.escape, options), key=len, reverse=True))
+
     def value(m):
-        key, val = m.group(1), m.group(2)
-        return f"no {_OPTION_OF[key]}" if val == "None" else f"{_OPTION_OF[key]} {val.strip(chr(39))}"
+        key, val = m["key"], m["value"].strip("'")
+        if (key, val) in _VALUE_WORDS:
+            return _VALUE_WORDS[key, val]
+        return f"no {options[key]}" if val == "None" else f"{options[key]} {val}"
 
-    message = _KEYWORD_VALUE.sub(value, message)
-    return _KEYWORD_HEAD.sub(lambda m: _OPTION_OF[m.group(1)] + ":", message)
+    message = re.sub(rf"\b(?P<key>{names})=(?P<value>None|'[^']*'|[^\s,;)]+)", value, message)
+    return re.sub(rf"^(?P<key>{names})(?=[:\s(\[])", lambda m: options[m["key"]], message)
+
+
+def error_line(message: str, options: dict[str, str] = _OPTION_OF) -> str:
+    """The one line the command line prints for a refused input (exit status 2): ERROR_PREFIX and the
+    message in the command's words (:func:`as_options`), its line breaks made spaces."""
+    return ERROR_PREFIX + " ".join(as_options(str(message), options).split())
 
 
 def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
-    """Run the command ``argv`` (default: sys.argv[1:]); ``parser``: one :func:`build_parser` made."""
+    """Run the command ``argv`` (default: sys.argv[1:]) and return its exit status (a usage error or
+    a refused input: 2, one line on stderr, nothing else printed); ``parser``: one :func:`build_parser` made."""
     parser = parser or build_parser()
-    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    try:
+        args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    except SystemExit as exc:    # --help or --version (0), or a usage error with its one line printed (2)
+        return exc.code if isinstance(exc.code, int) else 2
+    # the package's Python names in this command's words: its options, and names that depend on them
+    options = {**_OPTION_OF, **parser.command(args.command).options(),
+               **getattr(args, "python_names", _no_names)(args)}
     try:
         return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback
-        print(f"spherekin: error: {as_options(str(exc))}", file=sys.stderr)
+        print(error_line(str(exc), options), file=sys.stderr)
         return 2
     except RuntimeError as exc:  # a solve that failed on a worker: what was written stays
-        print(f"spherekin: error: {exc}", file=sys.stderr)
+        print(f"{ERROR_PREFIX}{' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("\nspherekin: interrupted", file=sys.stderr)

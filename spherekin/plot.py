@@ -161,18 +161,19 @@ def current_joint_axes(mechanism: SphericalMechanism, inputs, passive_angles: Ma
 # Checks
 # --------------------------------------------------------------------------------------------
 
-def check_plot_path(path) -> tuple[Path, str]:
-    """(path, format) of a figure file, checked before any work: an existing directory, a suffix of PLOT_FORMATS."""
+def check_plot_path(path, key: str = "path") -> tuple[Path, str]:
+    """(path, format) of a figure file, checked before any work: an existing directory, a suffix of PLOT_FORMATS.
+    ``key``: the name errors give the path (the command line passes its option, "--plot")."""
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"path: expected a file name such as out.png, got {path!r}")
+        raise ValueError(f"{key}: expected a file name such as out.png, got {path!r}")
     out = Path(path)
     fmt = out.suffix.lower().lstrip(".")
     if out.is_dir():
-        raise ValueError(f"path: expected a file name, got the directory {str(out)!r}")
+        raise ValueError(f"{key}: expected a file name, got the directory {str(out)!r}")
     if not out.parent.is_dir():
-        raise ValueError(f"path: the directory {str(out.parent)!r} of {str(out)!r} does not exist")
+        raise ValueError(f"{key}: the directory {str(out.parent)!r} of {str(out)!r} does not exist")
     if fmt not in PLOT_FORMATS:
-        raise ValueError(f"path: expected a file name ending in one of "
+        raise ValueError(f"{key}: expected a file name ending in one of "
                          f"{', '.join('.' + f for f in PLOT_FORMATS)}, got {out.name!r}")
     return out, fmt
 

@@ -60,16 +60,22 @@ def test_strategy_options_reach_the_solver(tmp_path, capsys):
 
 
 def test_unknown_strategy_name_is_a_usage_error(capsys):
-    with pytest.raises(SystemExit) as err:
-        main(["solve", GOSSELIN, "--inputs", "0,0,0", "--parameterization", "quaternion"])
-    assert err.value.code == 2 and "tan-half" in capsys.readouterr().err
+    """argparse's own errors in spherekin's one format: one line, the option first, exit status 2."""
+    assert main(["solve", GOSSELIN, "--inputs", "0,0,0", "--parameterization", "quaternion"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1
+    assert err.startswith(f"spherekin: error: --parameterization: expected one of {', '.join(PARAMETERIZATIONS)}, "
+                          "got 'quaternion' (see spherekin solve --help)")
 
 
+@pytest.mark.parametrize("pruner", [None, *PRUNERS])
 @pytest.mark.parametrize("name", sorted(REJECTED_LP_BACKENDS))
-def test_a_refused_lp_backend_is_one_line_with_its_measured_reason(name, capsys):
+def test_a_refused_lp_backend_is_one_line_with_its_measured_reason(name, pruner, capsys):
     """Not argparse's "invalid choice": spherekin knows the name and says why it refuses it (exit 2,
-    nothing on stdout, no traceback); --help still lists only the offered backends."""
-    assert main(["solve", GOSSELIN, "--inputs=0.3,-0.2,0.5", "--pruner", "lp", "--lp-backend", name]) == 2
+    nothing on stdout, no traceback), whatever the pruner (the default pp solves no LP, and said only
+    that); --help still lists only the offered backends."""
+    chosen = [] if pruner is None else ["--pruner", pruner]
+    assert main(["solve", GOSSELIN, "--inputs=0.3,-0.2,0.5", *chosen, "--lp-backend", name]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith(f"spherekin: error: --lp-backend: expected one of {list(LP_BACKENDS)}, got {name!r}")
@@ -79,9 +85,7 @@ def test_a_refused_lp_backend_is_one_line_with_its_measured_reason(name, capsys)
 
 def _help_choices(capsys) -> dict:
     """option -> its choices, as ``spherekin solve --help`` prints them ({a,b,c})."""
-    with pytest.raises(SystemExit) as err:
-        main(["solve", "--help"])
-    assert err.value.code == 0
+    assert main(["solve", "--help"]) == 0
     text = capsys.readouterr().out
     return {option: choices.split(",") for option, choices in re.findall(r"(--[a-z-]+) \{([^}]*)\}", text)}
 
@@ -115,7 +119,7 @@ def test_degrees_give_the_same_solutions(tmp_path):
     [
         (["solve", GOSSELIN, "--inputs", "0.3,-0.2"], "expected 3 values"),
         (["solve", GOSSELIN, "--inputs", "0.3,abc,0.1"], "--inputs"),
-        (["solve", GOSSELIN, "--inputs", "0.3,nan,0.1"], "finite"),
+        (["solve", GOSSELIN, "--inputs", "0.3,nan,0.1"], "--inputs (beta2): expected an angle in radians"),
         (["solve", "no/such/file.toml", "--inputs", "0,0,0"], "file.toml"),
         (["solve", GOSSELIN, "--inputs", "0,0,0", "--jobs", "0"], "jobs"),
         (["gosselin", "--range", "1", "0"], "lo < hi"),
@@ -240,3 +244,17 @@ def test_the_console_entry_collects_garbage_while_it_solves():
     assert proc.returncode == 0, proc.stderr
     assert "numpy at import: False" in proc.stderr and "gc during solve: True" in proc.stderr
     assert "8 solutions (count proven" in proc.stdout
+
+
+def test_a_notes_python_keywords_are_given_as_options(monkeypatch, capsys):
+    """A cap's note speaks the command line too: "try --formulation transversal", not the Python
+    keyword formulation='transversal' (caps made tiny so that the solve reaches them at once)."""
+    import functools
+
+    import spherekin.problem
+
+    monkeypatch.setattr(spherekin.problem, "compile", functools.partial(spherekin.problem.compile, max_boxes=100))
+    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--quiet"]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
+    assert notes and any("max_boxes=100" in n for n in notes)
+    assert all("formulation='" not in n for n in notes) and any("try --formulation transversal" in n for n in notes)

@@ -178,8 +178,8 @@ def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
 
 @pytest.mark.parametrize("args, match", [
     ([], "exactly one of --start-rotation"),
-    (["--start-solution", "0"], "solution number >= 1"),
-    (["--start-solution", "9"], "expected a solution index 0..7"),
+    (["--start-solution", "0"], "--start-solution: expected a whole number from 1 to 8"),
+    (["--start-solution", "9"], "--start-solution: expected a whole number from 1 to 8"),
     (["--start-quaternion", "1,0,0,0"], "does not close the legs"),
     (["--start-solution", "1", "--plot", "x.gif"], "expected a file name ending"),
     (["--start-solution", "1", "--json", "nodir/t.json"], "--json nodir/t.json: the directory nodir does not exist"),

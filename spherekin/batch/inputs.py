@@ -70,13 +70,6 @@ class InputSet:
         return f"inputs row {k}"
 
 
-def _angle(key: str, text: str, degrees: bool) -> float:
-    if degrees and "pi" in text:
-        raise ValueError(f"{key}: with --degrees, expected a number of degrees, got {text.strip()!r} (radians)")
-    value = parse_angle(key, text.strip())
-    return math.radians(value) if degrees else value
-
-
 def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
     """A grid axis from ``"name=lo:hi:n"`` (module doc); lo, hi in degrees with ``degrees`` (unless
     written with pi). ValueError naming the spec for anything else."""
@@ -85,8 +78,8 @@ def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
     if not sep or not name.strip() or len(parts) != 3:
         raise ValueError(f"--grid {spec!r}: expected name=lo:hi:n, e.g. beta1=-pi:pi:64")
     name = name.strip()
-    lo = _angle(f"--grid {name} (lo)", parts[0], degrees)
-    hi = _angle(f"--grid {name} (hi)", parts[1], degrees)
+    lo = parse_angle(f"--grid {name} (lo)", parts[0], degrees=degrees)
+    hi = parse_angle(f"--grid {name} (hi)", parts[1], degrees=degrees)
     try:
         n = int(parts[2])
     except ValueError:
@@ -103,7 +96,7 @@ def parse_fix(spec: str, degrees: bool = False) -> tuple[str, float]:
     name, sep, value = str(spec).partition("=")
     if not sep or not name.strip() or not value.strip():
         raise ValueError(f"--fix {spec!r}: expected name=value, e.g. beta3=0.5")
-    return name.strip(), _angle(f"--fix {name.strip()}", value, degrees)
+    return name.strip(), parse_angle(f"--fix {name.strip()}", value, degrees=degrees)
 
 
 def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, float] | Sequence[str] = (),
@@ -135,7 +128,7 @@ def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, f
         raise ValueError("--grid: expected at least one grid axis (name=lo:hi:n)")
     total = math.prod(len(a.values) for a in axes)
     if total > MAX_INPUTS:
-        raise ValueError(f"--grid: {total} points is more than MAX_INPUTS = {MAX_INPUTS}; split the job")
+        raise ValueError(f"--grid: {total} points is more than one job takes ({MAX_INPUTS:,}); split the job")
     mesh = np.meshgrid(*(a.values for a in axes), indexing="ij")
     cols = {a.name: m.ravel() for a, m in zip(axes, mesh)}
     values = np.column_stack([cols[n] if n in cols else np.full(total, fixed[n]) for n in names])
@@ -144,18 +137,18 @@ def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, f
     return out
 
 
-def read_inputs_csv(mechanism, path, degrees: bool = False) -> InputSet:
+def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs") -> InputSet:
     """The inputs of a CSV file (module doc); with ``degrees`` its numbers are degrees. One
     ValueError naming the line and column of the first problem (a missing or extra column, an empty
-    cell, text, NaN, a value outside a joint range)."""
+    cell, text, NaN, a value outside a joint range); ``key``: the option that named the file."""
     path = Path(path)
     names = tuple(mechanism.actuated)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
-        raise ValueError(f"--inputs {path}: no such file") from None
+        raise ValueError(f"{key} {path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"--inputs {path}: cannot read it ({exc})") from None
+        raise ValueError(f"{key} {path}: cannot read it ({exc})") from None
     rows = [(k + 1, r) for k, r in enumerate(csv.reader(text.splitlines())) if any(c.strip() for c in r)]
     if not rows:
         raise ValueError(f"{path}: empty; expected a header line naming the actuated joints ({', '.join(names)})")
@@ -174,7 +167,7 @@ def read_inputs_csv(mechanism, path, degrees: bool = False) -> InputSet:
     if len(rows) == 1:
         raise ValueError(f"{path}: no input rows after the header")
     if len(rows) - 1 > MAX_INPUTS:
-        raise ValueError(f"{path}: {len(rows) - 1} rows is more than MAX_INPUTS = {MAX_INPUTS}; split the job")
+        raise ValueError(f"{path}: {len(rows) - 1} rows is more than one job takes ({MAX_INPUTS:,}); split the job")
     order = [header.index(n) for n in names]
     values = np.empty((len(rows) - 1, len(names)))
     lines = np.empty(len(rows) - 1, dtype=np.int64)
@@ -187,7 +180,7 @@ def read_inputs_csv(mechanism, path, degrees: bool = False) -> InputSet:
                 raise ValueError(f"{path} line {line}, column {names[j]}: empty; expected a number (radians"
                                  f"{' or degrees with --degrees' if not degrees else ''})")
             try:
-                values[k, j] = _angle(f"{path} line {line}, column {names[j]}", cell, degrees)
+                values[k, j] = parse_angle(f"{path} line {line}, column {names[j]}", cell, degrees=degrees)
             except ValueError:
                 raise ValueError(f"{path} line {line}, column {names[j]}: expected a finite number, got {cell!r}") from None
         lines[k] = line
@@ -221,7 +214,7 @@ def array_inputs(mechanism, inputs) -> InputSet:
         raise ValueError(f"inputs: expected an array of shape (K, {len(names)}) (one column per actuated joint: "
                          f"{', '.join(names)}), got shape {values.shape}")
     if len(values) > MAX_INPUTS:
-        raise ValueError(f"inputs: {len(values)} rows is more than MAX_INPUTS = {MAX_INPUTS}; split the job")
+        raise ValueError(f"inputs: {len(values)} rows is more than one job takes ({MAX_INPUTS:,}); split the job")
     out = InputSet(names, values.copy(), "array")
     check_inputs(mechanism, out)
     return out

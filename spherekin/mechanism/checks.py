@@ -33,11 +33,18 @@ _PI_EXPR = re.compile(
 )
 
 
-def parse_angle(key: str, value) -> float:
+def parse_angle(key: str, value, *, degrees: bool = False) -> float:
     """An angle in radians: a real number, or a string such as "pi/2", "-3*pi/4", "2pi", "0.25".
 
-    Raises ValueError naming ``key`` for anything else (booleans, NaN, infinities, other text).
+    With ``degrees`` the value is a number of degrees (text with pi is refused: it is radians),
+    returned in radians. The one reader of angles typed by a user: mechanism files, --inputs, --euler,
+    --grid, --fix and CSV cells. Raises ValueError naming ``key`` for anything else (booleans, NaN,
+    infinities, other text).
     """
+    if degrees:
+        if isinstance(value, str) and "pi" in value:
+            raise ValueError(f"{key}: with --degrees, expected a number of degrees, got {value.strip()!r} (radians)")
+        return math.radians(parse_angle(key, value))
     if isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{key}: expected an angle in radians (a number or text like \"pi/2\"), got {value!r}")
     if isinstance(value, str):

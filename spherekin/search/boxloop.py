@@ -430,7 +430,7 @@ def check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs)
     if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
         raise ValueError(f"tol: expected a positive number of radians, got {tol!r}")
     if tol > MAX_TOL:
-        raise ValueError(f"tol: expected at most MAX_TOL = {MAX_TOL} rad, got {tol!r}: a coarser box could hold "
+        raise ValueError(f"tol: expected at most {MAX_TOL:g} rad, got {tol!r}: a coarser box could hold "
                          "several assemblies, which polishing would merge or move (the tolerance is the size of the "
                          "boxes the search stops at; the solutions are polished to ~1e-15 whatever it is)")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:

@@ -43,10 +43,15 @@ from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 
 __all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
            "quaternion_matrix", "form_matrix", "chart_control_points", "chart_quaternion", "chart_rotation",
-           "passive_readings", "passive_readings_many", "passive_names", "Quaternion"]
+           "passive_readings", "passive_readings_many", "passive_names", "Quaternion", "MAX_ASSEMBLIES"]
 
 #: Number of quaternion charts (one per component fixed to 1).
 CHARTS = 4
+#: Most isolated assemblies (distinct platform rotations) such a mechanism has at one input. Reason:
+#: each leg's equation (1) is a homogeneous quadratic form q^T M q = 0 and q, -q, any real multiple of
+#: q are one rotation, so the assemblies are the real points where three quadrics of the projective
+#: space P^3 meet: at most 2 * 2 * 2 = 8 isolated ones (Bezout's theorem).
+MAX_ASSEMBLIES = 8
 #: Each chart lets the three free components range over [-CHART_EXTENT, CHART_EXTENT], not [-1, 1].
 #: Reason: a root with two components of equal largest modulus lies on the boundary of two
 #: [-1, 1] charts, where no box can hold it in its interior, so the Krawczyk test could never

@@ -141,12 +141,13 @@ class Pruner(ABC):
 
     @classmethod
     def check(cls, lp_backend: str | None) -> None:
-        """ValueError when ``lp_backend`` does not fit this pruner; builds nothing."""
+        """ValueError when ``lp_backend`` does not fit this pruner; builds nothing. The backend's own
+        name is checked first: a refused backend says why (its measurement) whatever the pruner."""
+        if lp_backend is not None:
+            backend_class(lp_backend)
         if cls.default_lp_backend is None and lp_backend is not None:
             raise ValueError(f"lp_backend: the {cls.name!r} pruner solves no LP; pass lp_backend=None or "
                              f"pruner='lp'")
-        if lp_backend is not None:
-            backend_class(lp_backend)
 
     @classmethod
     def build(cls, shapes: Sequence[tuple[int, ...]], lp_backend: str | None) -> "Pruner":

@@ -472,7 +472,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                             float(np.abs(singular - here).max()),
                             float((stop["hi"] - stop["lo"]) * np.abs(direction).max()),
                             float(eqs.measure(stop["dc"], here)),
-                            "no step longer than MIN_STEP could be proven: the assembly mode meets another "
+                            f"no step longer than {MIN_STEP:g} rad of input could be proven: the assembly mode meets another "
                             "(a parallel singularity) and ends")
     return Track(names, poses, stop, n_steps, rejected)
 
