@@ -824,19 +824,13 @@ _NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d|pi)")
 _PLAIN_NEGATIVE = re.compile(r"^-\d+$|^-\d*\.\d+$")
 
 
-def join_negative_values(argv: list[str]) -> list[str]:
-    """``--opt -0.3,0.2`` -> ``--opt=-0.3,0.2``: argparse takes a value starting with "-" (other than a
-    plain negative number such as -0.3, which it reads itself) for an option of its own and stops with
-    "expected one argument"; negative angles are the common case, so an option followed by one gets it
-    as its value."""
-    out: list[str] = []
-    for tok in argv:
-        if (out and _NEGATIVE_VALUE.match(tok) and not _PLAIN_NEGATIVE.match(tok) and out[-1].startswith("--")
-                and "=" not in out[-1]):
-            out[-1] = f"{out[-1]}={tok}"
-        else:
-            out.append(tok)
-    return out
+def protect_negative_values(argv: list[str]) -> list[str]:
+    """``-0.3,0.2`` -> ``" -0.3,0.2"``: argparse takes a token starting with "-" (other than a plain
+    negative number such as -0.3, which it reads itself) for an option and stops with "expected one
+    argument"; negative angles (-pi/2, -1e-3, lists) are the common case and never an option's name,
+    so each gets a leading space, which argparse reads as a value (of a one-value option or of one with
+    several, ``--beta -pi/2 0 0``) and every angle reader ignores."""
+    return [f" {tok}" if _NEGATIVE_VALUE.match(tok) and not _PLAIN_NEGATIVE.match(tok) else tok for tok in argv]
 
 
 #: Python keyword names of the strategy (those of spherekin.compile) and the options that set them:
@@ -879,9 +873,14 @@ def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
     a refused input: 2, one line on stderr, nothing else printed); ``parser``: one :func:`build_parser` made."""
     parser = parser or build_parser()
     try:
-        args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+        args = parser.parse_args(protect_negative_values(list(sys.argv[1:] if argv is None else argv)))
     except SystemExit as exc:    # --help or --version (0), or a usage error with its one line printed (2)
         return exc.code if isinstance(exc.code, int) else 2
+    for key, value in vars(args).items():        # the space protect_negative_values added, gone again
+        if isinstance(value, str):
+            setattr(args, key, value.strip())
+        elif isinstance(value, list):
+            setattr(args, key, [v.strip() if isinstance(v, str) else v for v in value])
     # the package's Python names in this command's words: its options, and names that depend on them
     options = {**_OPTION_OF, **parser.command(args.command).options(),
                **getattr(args, "python_names", _no_names)(args)}

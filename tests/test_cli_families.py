@@ -4,6 +4,7 @@ test_batch_engine.py)."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,21 +12,32 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from spherekin.cli import join_negative_values, main
+from spherekin.cli import protect_negative_values, main
 from spherekin.mechanism import general_3rrr
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = str(ROOT / "examples" / "general_3rrr.toml")
 
 
-def test_negative_values_are_joined_to_their_option():
-    assert join_negative_values(["solve", "f", "--inputs", "-0.3,0.2", "--tol", "1e-6"]) == \
-        ["solve", "f", "--inputs=-0.3,0.2", "--tol", "1e-6"]
-    assert join_negative_values(["--euler", "-pi/2", "--x", "-.5"]) == ["--euler=-pi/2", "--x", "-.5"]
-    assert join_negative_values(["--degrees", "--fix", "beta3=-1"]) == ["--degrees", "--fix", "beta3=-1"]
+def test_negative_values_are_read_as_values():
+    assert protect_negative_values(["solve", "f", "--inputs", "-0.3,0.2", "--tol", "1e-6"]) == \
+        ["solve", "f", "--inputs", " -0.3,0.2", "--tol", "1e-6"]
+    assert protect_negative_values(["--euler", "-pi/2", "--x", "-.5"]) == ["--euler", " -pi/2", "--x", "-.5"]
+    assert protect_negative_values(["--degrees", "--fix", "beta3=-1"]) == ["--degrees", "--fix", "beta3=-1"]
     # a plain negative number is argparse's own: options of several values keep them apart
-    assert join_negative_values(["--beta", "-0.3", "0.2", "-5"]) == ["--beta", "-0.3", "0.2", "-5"]
-    assert join_negative_values(["--euler", "-1e-3,2,3"]) == ["--euler=-1e-3,2,3"]
+    assert protect_negative_values(["--beta", "-0.3", "0.2", "-5"]) == ["--beta", "-0.3", "0.2", "-5"]
+    assert protect_negative_values(["--euler", "-1e-3,2,3"]) == ["--euler", " -1e-3,2,3"]
+
+
+def test_an_option_of_several_values_takes_negative_angles(capsys):
+    # --beta takes three values: -pi/2 must stay one of them (independent: the printed actuators)
+    assert main(["gosselin", "--beta", "-pi/2", "0", "-pi/4", "--samples", "10"]) == 0
+    out = capsys.readouterr().out
+    assert f"beta = ({-math.pi / 2:+.4f}, +0.0000, {-math.pi / 4:+.4f}) rad" in out
+    assert main(["solve", EXAMPLE, "--inputs", "-pi/2,0.2,-0.5", "--quiet"]) == 0
+    assert f"beta1 = {-math.pi / 2:+.6g} rad" in capsys.readouterr().out
+    assert main(["solve", EXAMPLE, "--inputs", "-0.3x,0.2,0.5"]) == 2
+    assert "got '-0.3x'" in capsys.readouterr().err               # the value as typed
 
 
 def test_ik_by_rotation_quaternion_and_euler_agree_and_close_every_leg(tmp_path, capsys):

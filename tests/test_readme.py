@@ -21,7 +21,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of
-from spherekin.cli import build_parser, join_negative_values
+from spherekin.cli import build_parser, protect_negative_values
 from spherekin.mechanism import general_3rrr
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -185,6 +185,6 @@ def test_readme_command_lines_parse():
     parser = build_parser()
     for words in lines:
         try:
-            parser.parse_args(join_negative_values(words))
+            parser.parse_args(protect_negative_values(words))
         except SystemExit:
             pytest.fail(f"the README's `spherekin {shlex.join(words)}` does not parse")
