@@ -17,12 +17,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.orientation import quaternions_from_rotations
+from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
 
 __all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows", "empty_frame"]
 
-QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
-ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
 
 
 def columns(mechanism) -> tuple[str, ...]:
@@ -44,10 +42,10 @@ def track_rows(mechanism, track):
 
     items = []
     for p in track.poses:
-        joints = {**dict(zip(mechanism.actuated, p.inputs)), **dict(zip(track.names, p.passive.tolist()))}
-        sol = Solution(p.passive, p.passive, p.passive, 0, p.rotation, p.residual,
-                       mechanism.singularity(joints).kind, Status.CERTIFIED)
-        items.append((p.row, np.asarray(p.inputs), track.names, (sol,)))
+        angles = np.array(list(p.passive_angles.values()))
+        sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual,
+                       mechanism.singularity({**p.inputs, **p.passive_angles}).kind, Status.CERTIFIED)
+        items.append((p.row, np.array(list(p.inputs.values())), tuple(p.passive_angles), (sol,)))
     return solution_rows(mechanism, items)
 
 
