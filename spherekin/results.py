@@ -320,11 +320,11 @@ class SolveReport:
             "unknowns": list(self.unknowns),
             "count": {"proven": self.proven_count, "exact": self.count_exact, "entries": len(self.solutions)},
             "solutions": [
-                {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
+                {"number": number, "passive_angles": dict(zip(self.unknowns, arr(s.angles))),
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
                  "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
                  "box_lo": arr(box_near(s)[0]), "box_hi": arr(box_near(s)[1]), "n_boxes": s.n_boxes}
-                for s in self.solutions],
+                for number, s in enumerate(self.solutions, start=1)],     # numbered as printed, from 1
             "statistics": self.stats.as_dict(),
         }

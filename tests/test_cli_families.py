@@ -154,14 +154,14 @@ def test_track_writes_the_rows_json_and_checks_against_full_solves(tmp_path, cap
     assert list(frame.columns) == list(columns(general_3rrr()))
     assert list(frame["input"]) == list(range(9)) and (frame["status"] == "certified").all()
     data = json.loads(js.read_text())
-    assert data["stop"] is None and len(data["rows"]) == 9
+    assert data["stop"] is None and len(data["poses"]) == 9
     # the same start by rotation gives the same rows
-    rot = np.array(data["rows"][0]["platform_rotation"])
+    rot = np.array(data["poses"][0]["platform_rotation"])
     assert main(["track", EXAMPLE, "--path", str(path), "--start-rotation",
                  ",".join(repr(float(v)) for v in rot.ravel()), "--json", str(js)]) == 0
     again = json.loads(js.read_text())
-    np.testing.assert_allclose([r["platform_rotation"] for r in again["rows"]],
-                               [r["platform_rotation"] for r in data["rows"]], atol=1e-13)
+    np.testing.assert_allclose([r["platform_rotation"] for r in again["poses"]],
+                               [r["platform_rotation"] for r in data["poses"]], atol=1e-13)
 
 
 def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
@@ -179,7 +179,7 @@ def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
 @pytest.mark.parametrize("args, match", [
     ([], "exactly one of --start-rotation"),
     (["--start-solution", "0"], "solution number >= 1"),
-    (["--start-solution", "9"], "expected a solution index 0..7"),
+    (["--start-solution", "9"], "--start-solution: expected a solution number 1..8"),
     (["--start-quaternion", "1,0,0,0"], "does not close the legs"),
     (["--start-solution", "1", "--plot", "x.gif"], "expected a file name ending"),
     (["--start-solution", "1", "--json", "nodir/t.json"], "--json nodir/t.json: the directory nodir does not exist"),

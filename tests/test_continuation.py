@@ -111,8 +111,8 @@ def test_tracked_poses_are_the_poses_that_generated_the_path(which, mech):
     tr = track(m, path, rots[0])
     assert tr.complete and len(tr.poses) == len(path)
     for p, r in zip(tr.poses, rots):
-        np.testing.assert_allclose(p.rotation, r, atol=1e-12)
-    assert tr.steps >= len(path) - 1
+        np.testing.assert_allclose(p.platform_rotation, r, atol=1e-12)
+    assert tr.proven_steps >= len(path) - 1
 
 
 def _singular_input(geometry, lo, hi, n_lo):
@@ -138,18 +138,18 @@ def test_a_path_into_a_parallel_singularity_stops_there_on_its_own_branch(mech):
         tr = track(mech, path, start)
         previous = start
         for p in tr.poses:                      # every reported pose: a reference pose of the same branch
-            ref = direct_kinematics(geometry, p.inputs)
-            dist = sorted(np.abs(r - p.rotation).max() for r in ref)
+            ref = direct_kinematics(geometry, list(p.inputs.values()))
+            dist = sorted(np.abs(r - p.platform_rotation).max() for r in ref)
             assert dist[0] < 1e-9
             nearest = min(ref, key=lambda r: np.abs(r - previous).max())
-            np.testing.assert_allclose(p.rotation, nearest, atol=1e-9)
-            previous = p.rotation
+            np.testing.assert_allclose(p.platform_rotation, nearest, atol=1e-9)
+            previous = p.platform_rotation
         if tr.stop is not None:
             stopped += 1
-            assert abs(tr.stop.singular_inputs[0] - x_star) < 1e-6
-            assert abs(tr.stop.last_inputs[0] - x_star) < 1e-6
-            assert tr.stop.last_inputs[0] <= x_star + 1e-9            # nothing proven beyond it
-            assert all(p.inputs[0] < x_star for p in tr.poses)
+            assert abs(tr.stop.singular_inputs["beta1"] - x_star) < 1e-6
+            assert abs(tr.stop.last_proven_inputs["beta1"] - x_star) < 1e-6
+            assert tr.stop.last_proven_inputs["beta1"] <= x_star + 1e-9            # nothing proven beyond it
+            assert all(p.inputs["beta1"] < x_star for p in tr.poses)
     assert stopped == 2                         # exactly the two modes that meet end there
 
 
@@ -170,8 +170,8 @@ def test_two_modes_1e_4_apart_without_a_singularity_do_not_swap(mech):
     for start in starts:
         tr = track(mech, path, start)
         assert tr.complete
-        np.testing.assert_allclose(tr.poses[-1].rotation, start, atol=1e-9)     # back where it started: no swap
-        at_turn = tr.poses[11].rotation
+        np.testing.assert_allclose(tr.poses[-1].platform_rotation, start, atol=1e-9)     # back where it started: no swap
+        at_turn = tr.poses[11].platform_rotation
         assert min(np.abs(r - at_turn).max() for r in poses) < 1e-9
 
 
@@ -188,7 +188,7 @@ def test_start_errors_are_named(mech):
         problem.track([[0.1, 0.2]], start=0)
     tr = problem.track(path, start=3)
     report = problem.solve(path[0])
-    np.testing.assert_allclose(tr.poses[0].rotation, report.solutions[3].platform_rotation, atol=1e-13)
+    np.testing.assert_allclose(tr.poses[0].platform_rotation, report.solutions[3].platform_rotation, atol=1e-13)
 
 
 def _root_near(eqs, dc, beta):

@@ -1,7 +1,8 @@
 """The results table of a batch: one row per solution of every input (docs/results-format.md).
 
 Columns, in order: ``input`` (the input's 0-based row number), the actuated joints by name
-(radians), ``solution`` (0-based index among the input's solutions), ``status``, every passive
+(radians), ``solution`` (the solution's number among the input's entries, from 1: the number
+``solve`` prints, the JSON's ``number`` and ``--start-solution`` take), ``status``, every passive
 angle by name (radians), the platform rotation as a unit quaternion ``qw, qx, qy, qz`` (qw >= 0) and
 as a matrix ``r11 ... r33`` (row-major; v_i = R v_i^0), ``residual`` (largest |F_n - I| entry),
 ``singularity`` (the mechanism's classification) and ``parallel_measure``: the normalized distance
@@ -76,7 +77,7 @@ def solution_rows(mechanism, items):
                 continue
             a = np.asarray(s.angles, dtype=float)
             a = a if order is None else a[order]
-            sol.append(j)
+            sol.append(j + 1)                  # numbered from 1, as printed tables and the JSON
             status.append(str(s.status))
             sing.append(s.singularity)
             resid.append(np.nan if s.residual is None else float(s.residual))
