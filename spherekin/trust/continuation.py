@@ -525,10 +525,11 @@ class _JointRanges:
             return None
         return int(bad[0]), self.names[int(np.argmin(inside[bad[0]]))]
 
-    def measure(self, angles_row) -> float:
-        """The parallel measure (:meth:`~spherekin.mechanism.SphericalMechanism.parallel_measure`) at
-        one row of :meth:`angles`."""
-        return float(self.mechanism.parallel_measure(_named(self.names, angles_row)))
+    def measures(self, angles) -> np.ndarray:
+        """The parallel measure (:meth:`~spherekin.mechanism.SphericalMechanism.parallel_measures`) at
+        each row of :meth:`angles` (K, joints): shape (K,)."""
+        angles = np.asarray(angles, dtype=float).reshape(-1, len(self.names))
+        return self.mechanism.parallel_measures({n: angles[:, j] for j, n in enumerate(self.names)})
 
 
 def _locate_exit(eqs: LegEquations, joints: _JointRanges, x0, x1, dc0, record):
@@ -668,8 +669,9 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     residuals = np.abs(eqs.residual(dcs[:reached], path[:reached])).max(axis=1)
     act, pas = joints.actuated, joints.passive
     na = len(act)
+    measures = joints.measures(angles)
     poses = tuple(TrackedPose(r, _named(act, angles[r, :na]), rotations[r], _named(pas, angles[r, na:]),
-                              float(residuals[r]), joints.measure(angles[r]), int(steps_of[r])) for r in range(reached))
+                              float(residuals[r]), float(measures[r]), int(steps_of[r])) for r in range(reached))
     if leaves is not None:
         row, x1, record = leaves                       # x1 = path[row + 1]: s is the fraction of the segment
         x0 = path[row]
@@ -682,7 +684,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
         at = joints.angles(here, d_in)[0]
         stop = RangeStop((row, row + 1), float(s_in), name, tuple(float(v) for v in mechanism.ranges[name]),
                          float(at[joints.names.index(name)]), _named(act, here), _named(act, there),
-                         float(np.abs(there - here).max()), joints.measure(at),
+                         float(np.abs(there - here).max()), float(joints.measures(at)[0]),
                          f"{name} leaves its joint range {[float(v) for v in mechanism.ranges[name]]} (radians): "
                          "no pose beyond is reported")
     elif stop is not None:
@@ -693,7 +695,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
         stop = SingularStop((row, row + 1), float(stop["s"]), _named(act, here), _named(act, singular),
                             float(np.abs(singular - here).max()),
                             float((stop["hi"] - stop["lo"]) * np.abs(direction).max()),
-                            joints.measure(joints.angles(here, stop["dc"])[0]),
+                            float(joints.measures(joints.angles(here, stop["dc"]))[0]),
                             f"no step longer than {MIN_STEP:g} rad of input could be proven: the assembly mode "
                             "meets another (a parallel singularity) and ends")
     return Track(mechanism.name, act, pas, n, poses, stop, n_steps, rejected)
