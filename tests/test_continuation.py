@@ -251,3 +251,165 @@ def test_krawczyk_step_refuses_a_box_that_misses_the_root_in_one_coordinate(mech
         shift = np.zeros(3)
         shift[k] = 3 * r
         assert not krawczyk_step(eqs, dc, shift - r, shift + r, beta, beta)
+
+
+# ---------------------------------------------------------------- joint ranges, measure, names (issue 27)
+
+#: gamma1's range of docs/mechanism-format.md's example, and a path (beta2 = 2.83, beta3 = -2.24)
+#: along which the assembly with gamma1 = -2.64 at the first row turns gamma1 past -0.9 pi (near
+#: beta1 = 0.2718, between rows 13 and 14).
+GAMMA1_RANGE = (-0.9 * np.pi, 0.9 * np.pi)
+RANGE_PATH = np.column_stack([np.linspace(0.07, 0.67, 41), np.full(41, 2.83), np.full(41, -2.24)])
+
+
+def with_range(mech, name, rng):
+    """``mech`` with joint ``name`` limited to ``rng`` (radians), as a [joint_ranges] entry does."""
+    import dataclasses
+
+    from spherekin.mechanism.model import Leg
+
+    legs = tuple(Leg(leg.name, tuple(dataclasses.replace(j, range=rng) if j.name == name else j for j in leg.joints))
+                 for leg in mech.legs)
+    return dataclasses.replace(mech, legs=legs)
+
+
+def _gamma1_by_ik(mech, pose, x):
+    """gamma1 (radians, in [-pi, pi]) of the assembly at platform pose ``pose`` and inputs ``x``, by
+    the mechanism's inverse kinematics (Paden-Kahan subproblems: no tracker, no passive readings)."""
+    sols = [s for s in mech.inverse_kinematics(pose)
+            if np.abs(np.angle(np.exp(1j * (np.array(s.inputs) - x)))).max() < 1e-8]
+    assert len(sols) == 1
+    return sols[0].joint_angles["gamma1"]
+
+
+def _range_start(mech):
+    geometry = geometry_of(mech)
+    starts = [r for r in direct_kinematics(geometry, RANGE_PATH[0])
+              if -2.7 < _gamma1_by_ik(mech, r, RANGE_PATH[0]) < -2.6]
+    assert len(starts) == 1
+    return starts[0]
+
+
+def test_a_track_ends_where_a_passive_joint_leaves_its_range(mech):
+    from spherekin.core.angles import RANGE_TOL
+
+    ranged = with_range(mech, "gamma1", GAMMA1_RANGE)
+    geometry = geometry_of(mech)
+    tr = track(ranged, RANGE_PATH, _range_start(mech))
+    st = tr.stop
+    assert st is not None and st.kind == "range" and st.joint == "gamma1"
+    assert st.between_rows == (13, 14) and st.joint_range == GAMMA1_RANGE
+    assert [p.row for p in tr.poses] == list(range(14))            # nothing after the exit is reported
+    for p in tr.poses:                                              # every reported pose inside, by IK
+        x = np.array(list(p.inputs.values()))
+        assert GAMMA1_RANGE[0] < _gamma1_by_ik(mech, p.platform_rotation, x) < GAMMA1_RANGE[1]
+    # where gamma1 of this branch reaches -0.9 pi: bisection on beta1 with the degree-8 eigenvalue
+    # reference (its pose nearest the tracked pose of row 13: the branch) and inverse kinematics
+    near = tr.poses[13].platform_rotation
+    lo, hi = RANGE_PATH[13, 0], RANGE_PATH[14, 0]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        x = np.array([mid, 2.83, -2.24])
+        pose = min(direct_kinematics(geometry, x), key=lambda r: np.abs(r - near).max())
+        if _gamma1_by_ik(mech, pose, x) > GAMMA1_RANGE[0]:
+            lo = mid
+        else:
+            hi = mid
+    x_star = 0.5 * (lo + hi)
+    # gamma1 moves ~1 rad per rad of beta1 here: RANGE_TOL on the angle is ~RANGE_TOL on the input
+    assert abs(st.last_proven_inputs["beta1"] - x_star) < 10 * RANGE_TOL
+    assert abs(st.exit_inputs["beta1"] - x_star) < 10 * RANGE_TOL
+    assert 0 < st.exit_inputs["beta1"] - st.last_proven_inputs["beta1"] <= st.bracket + 1e-15
+    assert st.bracket <= 1e-12
+    assert abs(st.joint_angle - GAMMA1_RANGE[0]) <= RANGE_TOL + 1e-12
+    assert st.fraction == pytest.approx((st.last_proven_inputs["beta1"] - RANGE_PATH[13, 0]) / 0.015, abs=1e-9)
+    # the full solve agrees on both sides: the branch's pose is a solution 1e-6 before, not 1e-6 after
+    problem = compile_problem(ranged)
+    for d, found in ((-1e-6, True), (1e-6, False)):
+        x = np.array([x_star + d, 2.83, -2.24])
+        pose = min(direct_kinematics(geometry, x), key=lambda r: np.abs(r - near).max())
+        hits = [s for s in problem.solve(x).solutions if np.abs(s.platform_rotation - pose).max() < 1e-8]
+        assert bool(hits) is found
+    # a start outside the ranges is refused, naming the joint
+    free = track(mech, RANGE_PATH[:21], _range_start(mech))            # the same branch, gamma1 unlimited
+    assert free.complete and free.poses[20].passive_angles["gamma1"] < GAMMA1_RANGE[0]      # outside the range
+    with pytest.raises(ValueError, match=r"start: gamma1 = .* outside its joint range"):
+        track(ranged, RANGE_PATH[20:], free.poses[20].platform_rotation)
+
+
+def _closure_map(mech, inputs, passive):
+    """The loop closures, as rotation vectors of R_1^T R_j (legs 2 and 3 against leg 1), of the
+    three legs' forward kinematics at the given joint angles (radians): 6 numbers, 0 when they close.
+    Each leg: R = Rot(u_1, t_1 - t_1ref) Rot(u_2, ...) Rot(u_3, ...) (scipy's rotations)."""
+    angles = {**inputs, **passive}
+    rots = []
+    for leg in mech.legs:
+        r = Rotation.identity()
+        for j in leg.joints:
+            r = r * Rotation.from_rotvec((angles[j.name] - j.reference_angle) * np.asarray(j.axis))
+        rots.append(r)
+    return np.concatenate([(rots[0].inv() * r).as_rotvec() for r in rots[1:]])
+
+
+def test_the_parallel_measure_is_the_ratio_of_singular_values_of_the_closure_jacobian(mech):
+    path = np.column_stack([np.linspace(-3.0, -2.6, 17), np.zeros(17), np.full(17, 0.5)])
+    geometry = geometry_of(mech)
+    ratios = []
+    for start in direct_kinematics(geometry, path[0]):
+        tr = track(mech, path, start)
+        for p in tr.poses[::4]:
+            names = list(p.passive_angles)
+            q = np.array(list(p.passive_angles.values()))
+            assert np.abs(_closure_map(mech, p.inputs, p.passive_angles)).max() < 1e-9     # the pose closes
+            h = 1e-6
+            jac = np.array([(_closure_map(mech, p.inputs, dict(zip(names, q + h * e)))
+                             - _closure_map(mech, p.inputs, dict(zip(names, q - h * e)))) / (2 * h)
+                            for e in np.eye(len(q))]).T
+            s = np.linalg.svd(jac, compute_uv=False)
+            assert p.parallel_measure == pytest.approx(s[-1] / s[0], rel=1e-6, abs=1e-9)
+            ratios.append(p.parallel_measure)
+        if tr.stop is not None:                     # next to the fold: the measure tends to 0
+            assert tr.stop.parallel_measure < 1e-3
+    assert max(ratios) > 0.1
+
+
+def test_python_attribute_names_are_the_json_keys_and_the_repr_is_short(mech):
+    import dataclasses
+
+    path = np.column_stack([np.linspace(-3.0, -2.6, 17), np.zeros(17), np.full(17, 0.5)])
+    tracks = [track(mech, path, s) for s in direct_kinematics(geometry_of(mech), path[0])]
+    tracks.append(track(with_range(mech, "gamma1", GAMMA1_RANGE), RANGE_PATH, _range_start(mech)))
+    kinds = set()
+    for tr in tracks:
+        data = tr.as_dict()
+        assert data["schema"] == "spherekin.track/2"
+        for obj, d in [(tr, data), (tr.poses[0], data["poses"][0]), *([(tr.stop, data["stop"])] if tr.stop else [])]:
+            names = {f.name for f in dataclasses.fields(obj)}
+            assert names <= set(d) and set(d) - names <= {"schema", "spherekin_version", "complete"}
+            for n in names - {"poses", "stop"}:
+                value = getattr(obj, n)
+                expected = np.asarray(value).tolist() if isinstance(value, (np.ndarray, tuple)) else value
+                assert d[n] == expected, n
+        kinds.add(None if tr.stop is None else tr.stop.kind)
+    assert kinds == {None, "singular", "range"}
+
+
+def test_a_track_has_a_frame_and_a_short_repr(mech):
+    path = np.column_stack([np.linspace(-3.0, -2.8, 1000), np.zeros(1000), np.full(1000, 0.5)])
+    start = direct_kinematics(geometry_of(mech), path[0])[0]
+    tr = track(mech, path, start)
+    assert tr.complete and len(tr.poses) == 1000
+    text = repr(tr)
+    assert len(text) < 300 and "1000 of 1000 rows" in text and "row 999" in text
+    frame = tr.frame()
+    assert list(frame.columns) == ["row", "beta1", "beta2", "beta3", "gamma1", "delta1", "gamma2", "delta2", "gamma3",
+                                   "delta3", "qw", "qx", "qy", "qz", *(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)),
+                                   "residual", "parallel_measure", "proven_steps"]
+    assert len(frame) == 1000 and list(frame["row"]) == list(range(1000))
+    np.testing.assert_array_equal(frame["parallel_measure"], [p.parallel_measure for p in tr.poses])
+    np.testing.assert_array_equal(frame["beta1"], path[:, 0])
+    k = 500
+    np.testing.assert_allclose(frame.loc[k, ["r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33"]].to_numpy(float),
+                               tr.poses[k].platform_rotation.ravel(), atol=0)
+    w, x, y, z = frame.loc[k, ["qw", "qx", "qy", "qz"]].to_numpy(float)
+    np.testing.assert_allclose(Rotation.from_quat([x, y, z, w]).as_matrix(), tr.poses[k].platform_rotation, atol=1e-14)
