@@ -100,7 +100,9 @@ class Solution:
     """One entry of a solve: a solution, or a region or continuum of them, and what is proven of it.
 
     ``angles`` (radians, one per passive unknown) are polished (:mod:`spherekin.trust.solutions`);
-    ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull);
+    ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull) as the
+    search stored it; ``box_lo``/``box_hi``: the same box moved by whole turns next to ``angles`` (the
+    JSON's ``box_lo``/``box_hi``; :func:`box_near`);
     ``n_boxes``: accepted boxes of its cluster; ``platform_rotation``: R with v_i = R v_i^0;
     ``residual``: the largest entry of |F_n - I| over the loops; ``singularity``: the mechanism's
     classification ("regular", "serial", "parallel" or "serial+parallel"); ``status``: a
@@ -118,6 +120,16 @@ class Solution:
     evidence: dict = field(default_factory=dict)
     unknowns: tuple = field(default=(), compare=False)
     actuated: Mapping = field(default_factory=dict, compare=False)
+
+    @property
+    def box_lo(self) -> np.ndarray:
+        """The lower corner of the box (radians) next to the angles, as ``box_lo`` of the JSON."""
+        return box_near(self)[0]
+
+    @property
+    def box_hi(self) -> np.ndarray:
+        """The upper corner of the box (radians) next to the angles, as ``box_hi`` of the JSON."""
+        return box_near(self)[1]
 
     @property
     def passive_angles(self) -> dict[str, float]:
@@ -324,7 +336,7 @@ class SolveReport:
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
                  "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
-                 "box_lo": arr(box_near(s)[0]), "box_hi": arr(box_near(s)[1]), "n_boxes": s.n_boxes}
+                 "box_lo": arr(s.box_lo), "box_hi": arr(s.box_hi), "n_boxes": s.n_boxes}
                 for number, s in enumerate(self.solutions, start=1)],     # numbered as printed, from 1
             "statistics": self.stats.as_dict(),
         }
