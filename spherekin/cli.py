@@ -426,8 +426,9 @@ def _ik(args) -> int:
 
         out = {"schema": "spherekin.ik/1", "mechanism": mech.name, "platform_rotation": rot.tolist(),
                "quaternion": q.tolist(),
-               "solutions": [{"working_mode": list(s.working_mode), "inputs": dict(zip(mech.actuated, s.inputs)),
-                              "joint_angles": dict(s.joint_angles), "in_range": s.in_range} for s in sols]}
+               "solutions": [{"number": k, "working_mode": list(s.working_mode),       # numbered as printed
+                              "inputs": dict(zip(mech.actuated, s.inputs)), "joint_angles": dict(s.joint_angles),
+                              "in_range": s.in_range} for k, s in enumerate(sols, start=1)]}
         Path(args.json).write_text(json.dumps(out, indent=2))
         print(f"wrote {args.json}")
     return 0

@@ -314,3 +314,17 @@ def test_track_json_is_track_as_dict_and_python_gives_the_same_steps(tmp_path, c
     report = problem.solve(rows[0])
     tr = problem.track(rows, start=report.solutions[4])          # solution 5, as --start-solution 5
     assert json.loads(json.dumps(tr.as_dict())) == cli_json          # every number, step totals included
+
+
+def test_ik_json_numbers_its_solutions_as_printed(tmp_path, capsys):
+    js = tmp_path / "ik.json"
+    assert main(["ik", EXAMPLE, "--euler", "0.4,-0.3,1.1", "--json", str(js)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["#", "mode"])
+    names = lines[head].split()[2:-2]
+    printed = {int(line.split()[0]): [float(v) for v in line.split()[2:2 + len(names)]]
+               for line in lines[head + 1:] if line.split() and line.split()[0].isdigit()}
+    data = json.loads(js.read_text())
+    assert [s["number"] for s in data["solutions"]] == sorted(printed) == list(range(1, 9))
+    for s in data["solutions"]:
+        np.testing.assert_allclose(printed[s["number"]], [s["joint_angles"][n] for n in names], atol=1e-6)
