@@ -35,13 +35,13 @@ input, and the singular input located by bisection on the step (Newton from the 
 converging to a root with the Jacobian's determinant of the same sign: the branch exists), to
 LOCATE_TOL. Nothing beyond the last proven input is reported as a pose.
 
-Joint ranges: every tracked pose is tested with the test a solve uses (:func:`spherekin.core.angles.in_range`,
-closed ranges read modulo 2 pi with RANGE_TOL), on every joint, actuated and passive, at every path
-row and at the end of every proven step of the segment where a joint leaves its range. The track
-ends at the first pose outside (a :class:`RangeStop`): the crossing is located by bisection on the
-proven step, to LOCATE_TOL in input, and no row beyond it is reported. A joint that leaves its range
-and comes back between two rows whose segment was proven in one step is not seen (sample such a
-path more finely).
+Joint ranges: the test a solve uses (:func:`spherekin.core.angles.in_range`, closed ranges read
+modulo 2 pi with RANGE_TOL) holds on every joint, actuated and passive, over every proven step, not
+only at its ends: each joint's angle is enclosed over the step (its input segment and its box W) in
+interval arithmetic (:meth:`JointRanges.steps_inside`), and a step not proven inside is walked again
+in halves, each proven, until every part is proven inside or one ends outside. The track ends at the
+first pose outside (a :class:`RangeStop`): the crossing is located by bisection on the proven part,
+to LOCATE_TOL in input, and no row beyond it is reported.
 
 The parallel measure of each pose is the mechanism's (:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`:
 sigma_min / sigma_max of the passive-joint Jacobian K_p), the one batch and map report.
@@ -54,12 +54,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import intervals as iv
-from ..core.angles import in_range_many
+from ..core.angles import in_range_many, span_in_range_many
+from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
 from ..search.platform_orientation import passive_names, passive_readings_many, platform_legs
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
-           "SingularStop", "RangeStop", "Track", "LegEquations", "cayley", "krawczyk_step", "track"]
+           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -493,7 +494,38 @@ def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> np.ndarray:
 BATCH = 256
 
 
-class _JointRanges:
+#: Width (radians) added to each side of an enclosed joint angle (:meth:`JointRanges.steps_inside`):
+#: the arc's ends are atan2 of outward-rounded corners, each rounded (~1e-16); 1e-12 covers that
+#: with room and is far below RANGE_TOL, so an angle proven inside is inside.
+ARC_PAD = 1e-12
+
+
+def _cross_float(a: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """a x v for a float vector a (3,) and interval vectors v (2, ..., 3), outward-rounded."""
+    comps = [iv.sub(iv.scale(a[j], v[..., k]), iv.scale(a[k], v[..., j])) for j, k in ((1, 2), (2, 0), (0, 1))]
+    return np.stack(comps, axis=-1)
+
+
+def _rotate(axis: np.ndarray, c, s, v) -> np.ndarray:
+    """Rot(axis, theta) v (Rodrigues) for intervals c, s (2, N) of cos and sin theta and v (2, N, 3)."""
+    along = iv.isum(iv.scale(axis, v), -1)                                  # axis . v (2, N)
+    one_minus = iv.sub(iv.point(np.ones(c.shape[1:])), c)
+    out = iv.add(iv.mul(c[..., None], v), iv.mul(s[..., None], _cross_float(axis, v)))
+    return iv.add(out, iv.scale(axis, iv.mul(one_minus, along)[..., None]))
+
+
+def _arc(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (N,) enclosing atan2(Y, X) over the boxes X x Y (intervals (2, N)); NaN where a box
+    holds the origin (every angle)."""
+    corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
+    mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
+    off = np.mod(corners - mid + np.pi, 2 * np.pi) - np.pi                  # each corner next to the middle
+    lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
+    origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
+    return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
+
+
+class JointRanges:
     """Every joint's angle at tracked poses and the range test of a solve (module doc): the actuated
     joints (the inputs) then the passive ones, names in ``names``."""
 
@@ -506,6 +538,7 @@ class _JointRanges:
         self.names = (*self.actuated, *self.passive)
         self.order = [passive_names(legs).index(nm) for nm in self.passive]
         self.ranges = [mechanism.ranges[nm] for nm in self.names]
+        self.limited = any(r is not None for r in self.ranges)
 
     def angles(self, inputs, dcs) -> np.ndarray:
         """Every joint's angle (K, joints; radians) at inputs (K, 3) and displacements D (K, 3, 3)."""
@@ -525,6 +558,56 @@ class _JointRanges:
             return None
         return int(bad[0]), self.names[int(np.argmin(inside[bad[0]]))]
 
+    def steps_inside(self, dcs, w_lo, w_hi, beta0, beta1) -> np.ndarray:
+        """Whether every joint is proven inside its range over each of N proven steps: displacements
+        D_c (N, 3, 3) at the steps' starts, boxes [w_lo, w_hi] (N, 3) holding the root of every
+        input of the step (D = D_c C(w)), inputs from beta0 to beta1 (N, 3). Interval enclosures of
+        each joint's angle over the box and the segment (the readings' formulas of
+        :func:`~spherekin.search.platform_orientation.passive_readings_many`, the cos and sin of an
+        angle by outward-rounded interval arithmetic); False where one is not proven inside (a joint
+        may leave its range, or the enclosure is too wide to tell)."""
+        dcs = np.asarray(dcs, dtype=float)
+        n = len(dcs)
+        ok = np.ones(n, dtype=bool)
+        lo_b, hi_b = np.minimum(beta0, beta1), np.maximum(beta0, beta1)
+        for j, rng in enumerate(self.ranges[:len(self.actuated)]):
+            ok &= span_in_range_many(lo_b[:, j], hi_b[:, j], rng)
+        if not ok.any() or all(r is None for r in self.ranges[len(self.actuated):]):
+            return ok
+        w = iv.from_bounds(w_lo, w_hi)                                          # (2, N, 3)
+        zero = np.zeros((2, n))
+        kx = np.stack([np.stack([zero, iv.neg(w[..., 2]), w[..., 1]], -1),
+                       np.stack([w[..., 2], zero, iv.neg(w[..., 0])], -1),
+                       np.stack([iv.neg(w[..., 1]), w[..., 0], zero], -1)], -2)   # [w]x (2, N, 3, 3)
+        sq = iv.isum(iv.mul(w, w), -1)
+        f = iv.from_bounds(np.nextafter(4.0 / (4.0 + sq[1]), -np.inf),
+                           np.nextafter(4.0 / (4.0 + np.maximum(sq[0], 0.0)), np.inf))   # 4 / (4 + |w|^2)
+        cay = iv.add(iv.point(np.broadcast_to(np.eye(3), (n, 3, 3))),
+                     iv.mul(f[..., None, None], iv.add(kx, iv.scale(0.5, iv.matmul(kx, kx)))))
+        d = iv.fmatmul(dcs, cay)                                                 # D = D_c C(w) (2, N, 3, 3)
+        beta = iv.from_bounds(lo_b, hi_b)
+        pas = {nm: r for nm, r in zip(self.passive, self.ranges[len(self.actuated):])}
+        for i, leg in enumerate(self.legs):
+            c1, s1 = iv.cos_sin(iv.sub(beta[..., i], iv.point(leg.reference[0])))
+            m3 = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(leg.a3, d), -1))          # Rot(a1, -d1) D a3
+            xp = leg.a3 - (leg.a3 @ leg.a2) * leg.a2
+            d2_lo, d2_hi = _arc(iv.isum(iv.scale(xp, m3), -1), iv.isum(iv.scale(np.cross(leg.a2, xp), m3), -1))
+            g_name, e_name = leg.names[1], leg.names[2]
+            ok &= span_in_range_many(leg.reference[1] + d2_lo, leg.reference[1] + d2_hi, pas.get(g_name))
+            if pas.get(e_name) is None:
+                continue
+            known = np.isfinite(d2_lo)
+            ok &= known
+            if not known.any():
+                continue
+            p = perpendicular(leg.a3)
+            mp = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(p, d), -1))              # Rot(a1, -d1) D p
+            c2, s2 = iv.cos_sin(iv.from_bounds(np.where(known, d2_lo, 0.0), np.where(known, d2_hi, 0.0)))
+            n_p = _rotate(leg.a2, c2, iv.neg(s2), mp)                                     # Rot(a2, -d2) M p
+            d3_lo, d3_hi = _arc(iv.isum(iv.scale(p, n_p), -1), iv.isum(iv.scale(np.cross(leg.a3, p), n_p), -1))
+            ok &= span_in_range_many(leg.reference[2] + d3_lo, leg.reference[2] + d3_hi, pas[e_name])
+        return ok
+
     def measures(self, angles) -> np.ndarray:
         """The parallel measure (:meth:`~spherekin.mechanism.SphericalMechanism.parallel_measures`) at
         each row of :meth:`angles` (K, joints): shape (K,)."""
@@ -532,20 +615,63 @@ class _JointRanges:
         return self.mechanism.parallel_measures({n: angles[:, j] for j, n in enumerate(self.names)})
 
 
-def _locate_exit(eqs: LegEquations, joints: _JointRanges, x0, x1, dc0, record):
-    """Where a joint leaves its range on the proven steps ``record`` ((s, D, w) at the end of each
-    step, s along x0 -> x1, in order) from the in-range pose D = ``dc0`` at x0: the first step whose
-    end is outside, then bisection on it (Newton from the step's start: the step is proven, so every
-    input of it has exactly one root in its box, which the root found must lie in) to LOCATE_TOL in
-    input. Returns (s_in, s_out, D at s_in): the last input found in range and the first outside."""
+def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d_a, s_b: float, record: list):
+    """Re-walk the proven step from s_a (displacement ``d_a``) to s_b of the segment x0 -> x1 in
+    halves until every part is proven inside the ranges (:meth:`JointRanges.steps_inside`) or a part
+    ends outside them. Appends (s, D, w) at the end of each part to ``record``; returns D at s_b, or
+    None when the last part appended ends outside (the exit lies in it: :func:`_locate_exit`)."""
     direction = x1 - x0
-    s0, d0 = 0.0, dc0
-    for s1, d1, w1 in record:
-        if joints.first_outside(x0 + s1 * direction, d1) is not None:
-            break
-        s0, d0 = s1, d1
-    else:
-        raise AssertionError("no proven step ends outside the ranges")     # the caller saw one
+    span = float(np.abs(direction).max())
+    b_a, b_b = x0 + s_a * direction, (x1 if s_b == 1.0 else x0 + s_b * direction)
+    w = _predict(eqs, d_a, b_a, b_b)
+    proven = w is not None and bool(_certify_steps(eqs, d_a[None], w[None], b_a[None], b_b[None])[0])
+    if proven:
+        d_b = d_a @ cayley(w)
+        if joints.first_outside(b_b, d_b) is not None:
+            record.append((s_b, d_b, w))
+            return None
+        lo, hi = _boxes(w[None])
+        if (s_b - s_a) * span <= LOCATE_TOL or joints.steps_inside(d_a[None], lo, hi, b_a[None], b_b[None])[0]:
+            record.append((s_b, d_b, w))
+            return d_b
+    elif (s_b - s_a) * span <= MIN_STEP:
+        raise RuntimeError("track: a part of a proven step could not be proven again while testing the joint "
+                           "ranges")
+    s_m = 0.5 * (s_a + s_b)
+    d_m = _ranges_walk(eqs, joints, x0, x1, s_a, d_a, s_m, record)
+    return None if d_m is None else _ranges_walk(eqs, joints, x0, x1, s_m, d_m, s_b, record)
+
+
+def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
+    """Where a joint leaves its range on the proven ``steps`` of the segment x0 -> x1 from the
+    in-range displacement ``d0`` at x0: ``steps`` = (s, D, w) at the end of each, in order. None when
+    every step is proven inside the ranges; else (s_a, D_a, record): the last pose proven in range
+    and the proven parts after it, the last one ending outside (for :func:`_locate_exit`)."""
+    if not joints.limited or not steps:
+        return None
+    direction = x1 - x0
+    s_prev = np.array([0.0] + [st[0] for st in steps[:-1]])
+    d_prev = np.array([d0] + [st[1] for st in steps[:-1]])
+    s_end = np.array([st[0] for st in steps])
+    lo, hi = _boxes(np.array([st[2] for st in steps]))
+    ends = x0 + s_end[:, None] * direction
+    inside = joints.steps_inside(d_prev, lo, hi, x0 + s_prev[:, None] * direction, ends)
+    for j in np.flatnonzero(~inside):
+        record: list = []
+        if _ranges_walk(eqs, joints, x0, x1, float(s_prev[j]), d_prev[j], float(s_end[j]), record) is None:
+            s_a, d_a = (float(s_prev[j]), d_prev[j]) if len(record) == 1 else record[-2][:2]
+            return s_a, d_a, record[-1:]
+    return None
+
+
+def _locate_exit(eqs: LegEquations, joints: JointRanges, x0, x1, s0: float, d0, step):
+    """Where a joint leaves its range on the proven ``step`` = (s1, D, w) of the segment x0 -> x1,
+    from the pose D = ``d0`` at s0, in range, to s1, outside: bisection on it (Newton from the step's
+    start: the step is proven, so every input of it has exactly one root in its box, which the root
+    found must lie in) to LOCATE_TOL in input. Returns (s_in, s_out, D at s_in): the last input found
+    in range and the first outside."""
+    direction = x1 - x0
+    s1, _, w1 = step
     box_lo, box_hi = _boxes(np.asarray(w1)[None])
     b0 = x0 + s0 * direction
     lo, hi, d_lo = s0, s1, d0
@@ -587,7 +713,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
         raise ValueError(f"path: expected an array of shape (K, {len(legs)}), got shape {path.shape}")
     if not np.all(np.isfinite(path)):
         raise ValueError("path: expected finite inputs (radians)")
-    joints = _JointRanges(mechanism, legs)
+    joints = JointRanges(mechanism, legs)
     ref = joints.ref
     dc = np.asarray(start_rotation, dtype=float) @ ref.T
     res0 = float(np.abs(eqs.residual(dc, path[0])).max())
@@ -612,7 +738,7 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     n_steps = rejected = 0
     budget = MAX_STEPS + STEPS_PER_INPUT * n
     stop = None
-    leaves = None            # (segment k, its end input, proven steps (s, D, w)) where a joint leaves its range
+    leaves = None            # (segment k, _segment_exit's answer) where a joint leaves its range
     k = 0
     while k < n - 1:
         pred_dc, pred_w = [], []
@@ -634,13 +760,19 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
             for j in range(good):
                 dcs[k + j + 1] = dc_m[j] @ cayley(w_m[j])
                 steps_of[k + j + 1] = 1
-            out = joints.first_outside(path[k + 1:k + good + 1], dcs[k + 1:k + good + 1]) if good else None
-            if out is not None:                      # row k + out[0] + 1 is outside: its segment ends the track
-                e = k + out[0]
-                n_steps += out[0] + 1
-                leaves = (e, path[e + 1], [(1.0, dcs[e + 1], w_m[e - k])])
-                k = e
-                break
+            if joints.limited and good:              # each step proven inside the ranges, else walked finer
+                inside = joints.steps_inside(dc_m[:good], *_boxes(w_m[:good]), path[k:k + good],
+                                             path[k + 1:k + good + 1])
+                for j in np.flatnonzero(~inside):
+                    found = _segment_exit(eqs, joints, path[k + j], path[k + j + 1], dc_m[j],
+                                          [(1.0, dcs[k + j + 1], w_m[j])])
+                    if found is not None:
+                        leaves = (k + j, found)
+                        break
+                if leaves is not None:               # segment k + j ends the track
+                    n_steps += leaves[0] - k + 1
+                    k = leaves[0]
+                    break
             n_steps += good
             rejected += int(good < m)
             k += good
@@ -652,10 +784,9 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                                                         budget - n_steps - rejected)
         n_steps += steps
         rejected += rej
-        direction = path[k + 1] - path[k]
-        if record and joints.first_outside(path[k] + np.array([r[0] for r in record])[:, None] * direction,
-                                           np.array([r[1] for r in record])) is not None:
-            leaves, stop = (k, path[k + 1], record), None
+        found = _segment_exit(eqs, joints, path[k], path[k + 1], dcs[k], record)
+        if found is not None:                        # before the singularity, if any: the range ends the track
+            leaves, stop = (k, found), None
             break
         if stop is not None:
             stop = dict(stop, row=k)
@@ -673,13 +804,13 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     poses = tuple(TrackedPose(r, _named(act, angles[r, :na]), rotations[r], _named(pas, angles[r, na:]),
                               float(residuals[r]), float(measures[r]), int(steps_of[r])) for r in range(reached))
     if leaves is not None:
-        row, x1, record = leaves                       # x1 = path[row + 1]: s is the fraction of the segment
-        x0 = path[row]
-        s_in, s_out, d_in = _locate_exit(eqs, joints, x0, x1, dcs[row], record)
+        row, (s_a, d_a, parts) = leaves
+        x0, x1 = path[row], path[row + 1]
+        s_in, s_out, d_in = _locate_exit(eqs, joints, x0, x1, s_a, d_a, parts[-1])
         direction = x1 - x0
         here, there = x0 + s_in * direction, x0 + s_out * direction
         outside = (joints.first_outside(there, _exit_pose(eqs, d_in, here, there))
-                   or joints.first_outside(x1, record[-1][1]))      # the located exit, else the step's end
+                   or joints.first_outside(x0 + parts[-1][0] * direction, parts[-1][1]))   # else the part's end
         name = outside[1]
         at = joints.angles(here, d_in)[0]
         stop = RangeStop((row, row + 1), float(s_in), name, tuple(float(v) for v in mechanism.ranges[name]),
