@@ -63,7 +63,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         tr = problem.track(path, start=rots[0])
         t_track.append(time.perf_counter() - t0)
-        ok_track &= tr.complete and max(np.abs(p.rotation - r).max() for p, r in zip(tr.poses, rots)) < 1e-9
+        ok_track &= tr.complete and max(np.abs(p.platform_rotation - r).max() for p, r in zip(tr.poses, rots)) < 1e-9
         t0 = time.perf_counter()
         previous, followed = rots[0], []
         for x in path:
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     print(f"{'method':28s} {'seconds':>8s} {'ms per row':>11s} {'poses right':>12s}")
     print(f"{'track (every step proven)':28s} {track_s:8.3f} {1e3 * track_s / args.steps:11.3f} {str(ok_track):>12s}")
     print(f"{'full solves + nearest':28s} {full_s:8.3f} {1e3 * full_s / args.steps:11.3f} {str(ok_full):>12s}")
-    print(f"speedup of track: {full_s / track_s:.1f}x (target >= 50); proven steps {tr.steps}, halved {tr.rejected}")
+    print(f"speedup of track: {full_s / track_s:.1f}x (target >= 50); proven steps {tr.proven_steps}, rejected {tr.rejected_steps}")
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"machine": {"cores": os.cpu_count(), "processor": platform.processor(),

@@ -411,8 +411,9 @@ def _ik(args) -> int:
 
         out = {"schema": "spherekin.ik/1", "mechanism": mech.name, "platform_rotation": rot.tolist(),
                "quaternion": q.tolist(),
-               "solutions": [{"working_mode": list(s.working_mode), "inputs": dict(zip(mech.actuated, s.inputs)),
-                              "joint_angles": dict(s.joint_angles), "in_range": s.in_range} for s in sols]}
+               "solutions": [{"number": k, "working_mode": list(s.working_mode),       # numbered as printed
+                              "inputs": dict(zip(mech.actuated, s.inputs)), "joint_angles": dict(s.joint_angles),
+                              "in_range": s.in_range} for k, s in enumerate(sols, start=1)]}
         Path(args.json).write_text(json.dumps(out, indent=2))
         print(f"wrote {args.json}")
     return 0
@@ -441,7 +442,7 @@ def _track(args) -> int:
         start = rotation_from_quaternion(_parse_numbers("--start-quaternion", args.start_quaternion, 4),
                                          "--start-quaternion")
     else:
-        start = args.start_solution - 1          # 1..MAX_ASSEMBLIES, checked as the option was read
+        start = None        # --start-solution K (1..MAX_ASSEMBLIES, checked as read): below, after compiling
     if args.out:
         check_output_path(args.out, False, True)
     if args.json:
@@ -451,38 +452,52 @@ def _track(args) -> int:
 
         check_plot_path(args.plot, "--plot")
     problem = compile_problem(mech)
+    if args.start_solution is not None:          # numbered from 1, as solve prints them, the JSON and the CSV
+        solutions = problem.solve(path.values[0]).solutions
+        if args.start_solution > len(solutions):
+            raise ValueError(f"--start-solution: expected a solution number 1..{len(solutions)} of the solve at "
+                             f"the first input ({len(solutions)} solution(s)), got {args.start_solution}")
+        start = solutions[args.start_solution - 1]
     print(f"{mech.name or args.file}: tracking one assembly mode along {len(path)} input(s) of {args.path}")
     t0 = time.perf_counter()
     track = problem.track(path.values, start=start)
     seconds = time.perf_counter() - t0
     scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
-    names = list(mech.actuated) + list(track.names)
-    print(f"{len(track.poses)} of {len(path)} row(s) tracked, {track.steps} proven step(s) ({track.rejected} "
-          f"halved), {seconds:.3f} s; joint angles in {unit}:")
-    print("  row  " + " ".join(f"{n:>11s}" for n in names) + "   qw        qx        qy        qz     measure")
-    quats = quaternions_from_rotations(np.array([p.rotation for p in track.poses]))
+    names = list(track.actuated) + list(track.passive_joints)
+    print(f"{len(track.poses)} of {len(path)} row(s) tracked, {track.proven_steps} proven step(s) "
+          f"({track.rejected_steps} rejected), {seconds:.3f} s; joint angles in {unit}:")
+    print("  row  " + " ".join(f"{n:>11s}" for n in names)
+          + "   qw        qx        qy        qz     parallel_measure")
+    quats = quaternions_from_rotations(np.array([p.platform_rotation for p in track.poses]))
     for p, q in zip(track.poses, quats):
-        vals = list(p.inputs) + p.passive.tolist()
+        vals = list(p.inputs.values()) + list(p.passive_angles.values())
         print(f"{p.row:5d}  " + " ".join(format_number(v * scale, "+11.6f") for v in vals)
-              + "  " + " ".join(format_number(c) for c in q) + f"  {p.measure:9.2e}")
+              + "  " + " ".join(format_number(c) for c in q) + f"  {p.parallel_measure:16.4e}")
     st = track.stop
     if st is not None:
-        print(f"stopped between rows {st.row} and {st.row + 1}: {st.reason}. Last proven input "
-              f"{', '.join(format_number(v * scale, '+.9g') for v in st.last_inputs)} "
-              f"({st.fraction:.6g} of the way); the "
-              f"singular input, located by bisection to {st.bracket:.1e} rad: "
-              f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs)} "
-              f"({st.distance:.2e} rad further); "
-              f"singularity measure at the last proven pose {st.measure:.2e}")
+        last = ", ".join(format_number(v * scale, "+.12g") for v in st.last_proven_inputs.values())
+        print(f"stopped between rows {st.between_rows[0]} and {st.between_rows[1]}: {st.reason}. ", end="")
+        if st.kind == "range":
+            print(f"Last input in range {last} ({st.fraction:.6g} of the way), {st.joint} = "
+                  f"{st.joint_angle * scale:+.9g} {unit} there; it leaves within {st.bracket:.1e} rad of input "
+                  f"further; parallel_measure there {st.parallel_measure:.3g}")
+        else:
+            print(f"Last proven input {last} ({st.fraction:.6g} of the way); the singular input, located by "
+                  f"bisection to {st.bracket:.1e} rad: "
+                  f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs.values())} ({st.distance:.2e} rad "
+                  f"further); parallel_measure at the last proven pose {st.parallel_measure:.3g}")
+    data = track.as_dict()
     code = 0
     if args.check is not None:
         rows = sorted({*range(0, len(track.poses), args.check), len(track.poses) - 1})
         bad = []
         for k in rows:
-            report = problem.solve(track.poses[k].inputs)
-            if not any(s.platform_rotation is not None and np.abs(s.platform_rotation - track.poses[k].rotation).max()
-                       <= CHECK_MATCH for s in report.solutions):
+            report = problem.solve(list(track.poses[k].inputs.values()))
+            if not any(s.platform_rotation is not None
+                       and np.abs(s.platform_rotation - track.poses[k].platform_rotation).max() <= CHECK_MATCH
+                       for s in report.solutions):
                 bad.append(k)
+        data["check"] = {"rows": rows, "mismatched_rows": bad, "passed": not bad}
         if bad:
             print(f"check: the tracked pose is NOT among the solutions of the full solve at row(s) "
                   f"{', '.join(map(str, bad))}", file=sys.stderr)
@@ -492,19 +507,7 @@ def _track(args) -> int:
     if args.json:
         import json
 
-        out = {"schema": "spherekin.track/1", "mechanism": mech.name, "actuated": list(mech.actuated),
-               "steps": track.steps, "halved": track.rejected,
-               "rows": [{"row": p.row, "inputs": dict(zip(mech.actuated, p.inputs)),
-                         "passive_angles": dict(zip(track.names, p.passive.tolist())),
-                         "platform_rotation": p.rotation.tolist(), "residual": p.residual,
-                         "singularity_measure": p.measure, "proven_steps": p.steps} for p in track.poses],
-               "stop": None if st is None else {
-                   "between_rows": [st.row, st.row + 1], "fraction": st.fraction,
-                   "last_proven_inputs": dict(zip(mech.actuated, st.last_inputs)),
-                   "singular_inputs": dict(zip(mech.actuated, st.singular_inputs)),
-                   "distance": st.distance, "bracket": st.bracket, "singularity_measure": st.measure,
-                   "reason": st.reason}}
-        Path(args.json).write_text(json.dumps(out, indent=2))
+        Path(args.json).write_text(json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.out:
         from .batch.rows import track_rows

@@ -516,8 +516,9 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
 def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     """Draw a tracked path (:class:`spherekin.trust.continuation.Track`): top, the platform's
     orientation along the path (the unit quaternion's components, w >= 0 at the start, kept
-    continuous); below, the singularity measure of the tracker (log scale; 0 at a parallel singularity), with the singular input where
-    the track stopped marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
+    continuous); below, the parallel measure (sigma_min / sigma_max of the passive-joint Jacobian, as
+    batch and map report it; log scale; 0 at a parallel singularity), with where the track stopped
+    marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
     from matplotlib.figure import Figure
 
     from .core.orientation import quaternions_from_rotations
@@ -526,7 +527,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     if path is not None:
         out, fmt = check_plot_path(path)
     rows = np.array([p.row for p in track.poses], dtype=float)
-    q = quaternions_from_rotations(np.array([p.rotation for p in track.poses]))
+    q = quaternions_from_rotations(np.array([p.platform_rotation for p in track.poses]))
     for k in range(1, len(q)):                   # q and -q are one rotation: keep the curve continuous
         if q[k] @ q[k - 1] < 0:
             q[k] = -q[k]
@@ -538,20 +539,22 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     ax.legend(loc="best", fontsize=8, ncol=4)
     ax.grid(alpha=0.3)
     st = track.stop
-    where = None if st is None else st.row + st.fraction
+    where = None if st is None else st.between_rows[0] + st.fraction
     m_rows = list(rows) + ([] if st is None else [where])            # the last proven pose, where it stopped
-    m_vals = [p.measure for p in track.poses] + ([] if st is None else [st.measure])
+    m_vals = [p.parallel_measure for p in track.poses] + ([] if st is None else [st.parallel_measure])
     ax2.semilogy(m_rows, np.maximum(m_vals, 1e-16), color="black", lw=1.2)
-    ax2.set_ylabel("singularity measure\n(sigma_min / sigma_max, leg normals)")
+    ax2.set_ylabel("parallel_measure\n(sigma_min / sigma_max of K_p)")
     ax2.set_xlabel("path row")
     ax2.grid(alpha=0.3, which="both")
     title = f"{mechanism.name}: one assembly mode tracked over {len(track.poses)} row(s)"
     if st is not None:
         for a in (ax, ax2):
             a.axvline(where, color="tab:red", ls="--", lw=1)
-        ax2.annotate("parallel singularity:\nthe mode ends", (where, max(st.measure, 1e-16)), color="tab:red",
+        label = "parallel singularity:\nthe mode ends" if st.kind == "singular" else f"{st.joint} leaves\nits range"
+        ax2.annotate(label, (where, max(st.parallel_measure, 1e-16)), color="tab:red",
                      fontsize=8, xytext=(-6, 0), textcoords="offset points", ha="right", va="bottom")
-        title += f"\nstopped at a parallel singularity between rows {st.row} and {st.row + 1}"
+        title += (f"\nstopped between rows {st.between_rows[0]} and {st.between_rows[1]}: "
+                  + ("a parallel singularity" if st.kind == "singular" else f"{st.joint} leaves its range"))
     fig.suptitle(title, fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     if out is not None:

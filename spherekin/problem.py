@@ -296,12 +296,15 @@ class Problem:
         """Follow one assembly mode along ``path`` (K inputs, shape (K, number of actuated joints),
         radians), every step proven (:mod:`spherekin.trust.continuation`): a
         :class:`~spherekin.trust.continuation.Track` with the pose at each row reached, and where it
-        stopped when the mode ends at a parallel singularity.
+        stopped: where the mode ends at a parallel singularity, or where a joint leaves its range.
 
-        ``start``: the platform rotation R (3x3) of an assembly at path[0], or an int K: solution K
-        (0-based) of the full solve at path[0], which must be proven (certified). For mechanisms the
-        platform formulation applies to (three R-R-R legs with the base joints actuated).
+        ``start``: a :class:`~spherekin.results.Solution` of the solve at path[0] (e.g.
+        ``report.solutions[4]``, the solution numbered 5 in printed tables, JSON and CSV), which
+        must be certified; or an int K: ``report.solutions[K]`` (0-based, Python's indexing) of
+        the full solve at path[0]; or the platform rotation R (3x3) of an assembly at path[0]. For
+        mechanisms the platform formulation applies to (three R-R-R legs with the base joints actuated).
         """
+        from .results import Solution
         from .trust.continuation import track
 
         rows = self._checked_rows("path", path)
@@ -317,11 +320,16 @@ class Problem:
             if not 0 <= int(start) < n:
                 raise ValueError(f"start: expected a solution index 0..{n - 1} of the solve at the first input "
                                  f"({n} solution(s)), got {int(start)}")
-            sol = report.solutions[int(start)]
-            if sol.status != "certified" or sol.platform_rotation is None:
-                raise ValueError(f"start: solution {int(start)} at the first input is {sol.status}, not certified; "
+            start = report.solutions[int(start)]
+        if isinstance(start, Solution):
+            given = tuple(start.actuated.values())
+            if given and np.abs(np.array(given, dtype=float) - rows[0]).max() > RANGE_TOL:
+                raise ValueError(f"start: expected a solution of the solve at the first input of the path "
+                                 f"{rows[0].tolist()}, got one at {list(given)}")
+            if start.status != "certified" or start.platform_rotation is None:
+                raise ValueError(f"start: the solution at the first input is {start.status}, not certified; "
                                  "a track starts from a proven, isolated assembly")
-            start = sol.platform_rotation
+            start = start.platform_rotation
         else:
             from .mechanism.checks import check_rotation
 

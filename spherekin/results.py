@@ -18,6 +18,9 @@ from typing import Mapping
 
 import numpy as np
 
+from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler_convention,
+                               quaternions_from_rotations)
+
 __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
@@ -112,7 +115,9 @@ class Solution:
     """One entry of a solve: a solution, or a region or continuum of them, and what is proven of it.
 
     ``angles`` (radians, one per passive unknown) are polished (:mod:`spherekin.trust.solutions`);
-    ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull);
+    ``lo``/``hi``: the box the status speaks of (the certified box, or the cluster's hull) as the
+    search stored it; ``box_lo``/``box_hi``: the same box moved by whole turns next to ``angles`` (the
+    JSON's ``box_lo``/``box_hi``; :func:`box_near`);
     ``n_boxes``: accepted boxes of its cluster; ``platform_rotation``: R with v_i = R v_i^0;
     ``residual``: the largest entry of |F_n - I| over the loops; ``singularity``: the mechanism's
     classification ("regular", "serial", "parallel" or "serial+parallel"); ``status``: a
@@ -132,6 +137,16 @@ class Solution:
     actuated: Mapping = field(default_factory=dict, compare=False)
 
     @property
+    def box_lo(self) -> np.ndarray:
+        """The lower corner of the box (radians) next to the angles, as ``box_lo`` of the JSON."""
+        return box_near(self)[0]
+
+    @property
+    def box_hi(self) -> np.ndarray:
+        """The upper corner of the box (radians) next to the angles, as ``box_hi`` of the JSON."""
+        return box_near(self)[1]
+
+    @property
     def passive_angles(self) -> dict[str, float]:
         """The passive angles by joint name (radians), as ``passive_angles`` of the JSON."""
         return {n: float(a) for n, a in zip(self.unknowns, self.angles)}
@@ -147,8 +162,6 @@ class Solution:
         """The platform rotation as a unit quaternion (w, x, y, z), w >= 0 (None without a rotation)."""
         if self.platform_rotation is None:
             return None
-        from .core.orientation import quaternions_from_rotations
-
         return quaternions_from_rotations(self.platform_rotation)
 
     def euler(self, convention: str = "ZYX") -> np.ndarray | None:
@@ -157,8 +170,6 @@ class Solution:
         if self.platform_rotation is None:
             return None
         from scipy.spatial.transform import Rotation
-
-        from .core.orientation import check_euler_convention
 
         return Rotation.from_matrix(self.platform_rotation).as_euler(check_euler_convention(convention))
 
@@ -288,10 +299,6 @@ class EmptyReason:
                 "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
 
 
-QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
-ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
-
-
 def table_columns(actuated, unknowns) -> tuple[str, ...]:
     """The columns of the results table (:func:`solution_table`) of a mechanism with these actuated
     joints and passive unknowns (names)."""
@@ -308,8 +315,6 @@ def solution_table(actuated, unknowns, items, measure=None):
     ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
     (:mod:`spherekin.batch.rows`), so the columns cannot drift apart."""
     import pandas as pd
-
-    from .core.orientation import quaternions_from_rotations
 
     names, actuated = list(unknowns), list(actuated)
     idx, sol, status, sing, resid, meas, angles, rots, inp = [], [], [], [], [], [], [], [], []
@@ -331,7 +336,7 @@ def solution_table(actuated, unknowns, items, measure=None):
                 continue
             a = np.asarray(s.angles, dtype=float)
             a = a if order is None else a[order]
-            sol.append(j)
+            sol.append(j + 1)                  # numbered from 1, as printed tables and the JSON
             status.append(str(s.status))
             sing.append(s.singularity)
             resid.append(np.nan if s.residual is None else float(s.residual))
@@ -466,12 +471,12 @@ class SolveReport:
             "unknowns": list(self.unknowns),
             "count": {"proven": self.proven_count, "exact": self.count_exact, "entries": len(self.solutions)},
             "solutions": [
-                {"passive_angles": dict(zip(self.unknowns, arr(s.angles))),
+                {"number": number, "passive_angles": dict(zip(self.unknowns, arr(s.angles))),
                  "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
                  "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
-                 "box_lo": arr(box_near(s)[0]), "box_hi": arr(box_near(s)[1]), "n_boxes": s.n_boxes}
-                for s in self.solutions],
+                 "box_lo": arr(s.box_lo), "box_hi": arr(s.box_hi), "n_boxes": s.n_boxes}
+                for number, s in enumerate(self.solutions, start=1)],     # numbered as printed, from 1
             "statistics": self.stats.as_dict(),
             **({} if self.empty_reason is None else {"empty_reason": self.empty_reason.as_dict()}),
         }

@@ -41,7 +41,7 @@ def test_one_row_per_solution_and_one_empty_row_for_an_input_without_any(mech, s
     assert np.isnan(empty[["gamma1", "qw", "r11", "residual", "parallel_measure"]].to_numpy(dtype=float)).all()
     np.testing.assert_array_equal(empty[["beta1", "beta2", "beta3"]].to_numpy(dtype=float), rows[1])
     first = frame[frame["input"] == 40]
-    assert list(first["solution"]) == list(range(counts[0]))
+    assert list(first["solution"]) == list(range(1, counts[0] + 1))          # numbered from 1, as printed
     for (_, row), sol in zip(first.iterrows(), reports[0].solutions):
         np.testing.assert_array_equal(row[list(reports[0].unknowns)].to_numpy(dtype=float), sol.angles)
         rot = row[[f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(dtype=float).reshape(3, 3)

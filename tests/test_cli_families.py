@@ -166,14 +166,14 @@ def test_track_writes_the_rows_json_and_checks_against_full_solves(tmp_path, cap
     assert list(frame.columns) == list(columns(general_3rrr()))
     assert list(frame["input"]) == list(range(9)) and (frame["status"] == "certified").all()
     data = json.loads(js.read_text())
-    assert data["stop"] is None and len(data["rows"]) == 9
+    assert data["stop"] is None and len(data["poses"]) == 9
     # the same start by rotation gives the same rows
-    rot = np.array(data["rows"][0]["platform_rotation"])
+    rot = np.array(data["poses"][0]["platform_rotation"])
     assert main(["track", EXAMPLE, "--path", str(path), "--start-rotation",
                  ",".join(repr(float(v)) for v in rot.ravel()), "--json", str(js)]) == 0
     again = json.loads(js.read_text())
-    np.testing.assert_allclose([r["platform_rotation"] for r in again["rows"]],
-                               [r["platform_rotation"] for r in data["rows"]], atol=1e-13)
+    np.testing.assert_allclose([r["platform_rotation"] for r in again["poses"]],
+                               [r["platform_rotation"] for r in data["poses"]], atol=1e-13)
 
 
 def test_track_reports_the_singularity_where_the_mode_ends(tmp_path, capsys):
@@ -222,3 +222,142 @@ def test_batch_in_degrees_says_the_table_holds_radians(tmp_path, capsys):
     frame = pd.read_csv(out)
     np.testing.assert_allclose(sorted(set(frame["beta1"])), [-np.pi / 2, np.pi / 2], rtol=1e-15)
     np.testing.assert_allclose(frame["beta3"], np.pi / 6, rtol=1e-15)
+
+
+# ---------------------------------------------------------------- track: ranges, numbers, names (issue 27)
+
+#: The path of tests/test_continuation.py along which gamma1 of one assembly leaves [-0.9 pi, 0.9 pi]
+#: between rows 13 and 14.
+RANGE_XS = np.linspace(0.07, 0.67, 41)
+
+
+def _ranged_example(tmp_path) -> Path:
+    """examples/general_3rrr.toml with gamma1 = ["-0.9*pi", "0.9*pi"] (docs/mechanism-format.md)."""
+    text = Path(EXAMPLE).read_text().replace("# [joint_ranges]", "[joint_ranges]")
+    text = text.replace('# beta1 = ["-pi/2", "pi/2"]', 'gamma1 = ["-0.9*pi", "0.9*pi"]')
+    assert 'gamma1 = ["-0.9*pi"' in text
+    out = tmp_path / "ranged.toml"
+    out.write_text(text)
+    return out
+
+
+def test_track_stops_where_a_joint_leaves_its_range_in_stdout_json_and_csv(tmp_path, capsys):
+    from spherekin import compile as compile_problem
+    from spherekin.mechanism import load_mechanism
+
+    toml = _ranged_example(tmp_path)
+    path = tmp_path / "path.csv"
+    path.write_text("beta1,beta2,beta3\n" + "".join(f"{float(x)!r},2.83,-2.24\n" for x in RANGE_XS))
+    report = compile_problem(load_mechanism(toml)).solve([RANGE_XS[0], 2.83, -2.24])
+    number = 1 + next(k for k, s in enumerate(report.solutions) if -2.7 < s.passive_angles["gamma1"] < -2.6)
+    out, js = tmp_path / "t.csv", tmp_path / "t.json"
+    assert main(["track", str(toml), "--path", str(path), "--start-solution", str(number), "--check", "5",
+                 "--out", str(out), "--json", str(js)]) == 0
+    text = capsys.readouterr().out
+    assert "14 of 41 row(s) tracked" in text
+    assert "stopped between rows 13 and 14: gamma1 leaves its joint range" in text
+    data = json.loads(js.read_text())
+    assert data["complete"] is False and len(data["poses"]) == 14
+    stop = data["stop"]
+    assert stop["kind"] == "range" and stop["joint"] == "gamma1" and stop["between_rows"] == [13, 14]
+    assert stop["joint_range"] == pytest.approx([-0.9 * np.pi, 0.9 * np.pi], abs=1e-15)
+    assert 0.2717 < stop["last_proven_inputs"]["beta1"] < stop["exit_inputs"]["beta1"] < 0.2719
+    assert all(abs(p["passive_angles"]["gamma1"]) <= 0.9 * np.pi for p in data["poses"])
+    assert data["check"] == {"rows": [0, 5, 10, 13], "mismatched_rows": [], "passed": True}
+    # one measure: the CSV's parallel_measure (batch's column), the JSON's and the printed one
+    frame = pd.read_csv(out)
+    assert len(frame) == 14 and list(frame["solution"]) == [1] * 14
+    measures = [p["parallel_measure"] for p in data["poses"]]
+    np.testing.assert_allclose(frame["parallel_measure"], measures, rtol=1e-12)
+    lines = text.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:1] == ["row"])
+    assert lines[head].split()[-1] == "parallel_measure"
+    printed = [float(line.split()[-1]) for line in lines[head + 1:head + 15]]
+    np.testing.assert_allclose(printed, measures, rtol=1e-4)
+
+
+def test_track_check_mismatch_exits_1_and_the_json_says_so(tmp_path, capsys, monkeypatch):
+    import spherekin.cli as cli
+
+    monkeypatch.setattr(cli, "CHECK_MATCH", -1.0)          # no full solve can then match a tracked pose
+    path = _write_path(tmp_path, np.linspace(-3.0, -2.8, 5))
+    js = tmp_path / "t.json"
+    assert main(["track", EXAMPLE, "--path", str(path), "--start-solution", "2", "--check", "2",
+                 "--json", str(js)]) == 1
+    assert "NOT among the solutions of the full solve at row(s) 0, 2, 4" in capsys.readouterr().err
+    assert json.loads(js.read_text())["check"] == {"rows": [0, 2, 4], "mismatched_rows": [0, 2, 4], "passed": False}
+
+
+def test_one_number_for_a_solution_in_the_table_the_json_the_csv_and_start_solution(tmp_path, capsys):
+    from spherekin import compile as compile_problem
+    from spherekin.mechanism import load_mechanism
+
+    x = [-3.0, 0.0, 0.5]
+    js = tmp_path / "s.json"
+    assert main(["solve", EXAMPLE, "--inputs", ",".join(map(str, x)), "--json", str(js)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.lstrip().startswith("#"))
+    printed = {int(line.split()[0]): [float(v) for v in line.split()[1:7]]
+               for line in lines[head + 1:] if line.split() and line.split()[0].isdigit()}
+    assert sorted(printed) == list(range(1, 7))
+    data = json.loads(js.read_text())
+    assert [s["number"] for s in data["solutions"]] == list(range(1, 7))
+    inputs = tmp_path / "in.csv"
+    inputs.write_text("beta1,beta2,beta3\n" + ",".join(map(str, x)) + "\n")
+    out = tmp_path / "b.csv"
+    assert main(["batch", EXAMPLE, "--inputs", str(inputs), "--out", str(out)]) == 0
+    frame = pd.read_csv(out)
+    assert list(frame["solution"]) == list(range(1, 7))
+    path = _write_path(tmp_path, np.linspace(-3.0, -2.9, 3))
+    mech = load_mechanism(EXAMPLE)
+    problem = compile_problem(mech)
+    report = problem.solve(x)
+    names = list(mech.loop_unknowns)
+    for number in range(1, 7):
+        from_json = next(s for s in data["solutions"] if s["number"] == number)["passive_angles"]
+        from_csv = frame[frame["solution"] == number][names].to_numpy(float)[0]
+        np.testing.assert_allclose(printed[number], [from_json[n] for n in names], atol=1e-6)
+        np.testing.assert_allclose(from_csv, [from_json[n] for n in names], atol=1e-12)
+        tj = tmp_path / f"t{number}.json"
+        assert main(["track", EXAMPLE, "--path", str(path), "--start-solution", str(number), "--json", str(tj)]) == 0
+        first = json.loads(tj.read_text())["poses"][0]["passive_angles"]
+        np.testing.assert_allclose([first[n] for n in names], [from_json[n] for n in names], atol=1e-12)
+        # Python: report.solutions[number - 1] is solution `number`; start= takes it, or its index
+        for start in (report.solutions[number - 1], number - 1):
+            tr = problem.track(np.array([x, x]), start=start)
+            np.testing.assert_allclose(list(tr.poses[0].passive_angles.values()), [from_json[n] for n in names],
+                                       atol=1e-12)
+    capsys.readouterr()
+
+
+def test_track_json_is_track_as_dict_and_python_gives_the_same_steps(tmp_path, capsys):
+    from spherekin import compile as compile_problem
+    from spherekin.batch import read_inputs_csv
+    from spherekin.mechanism import load_mechanism
+
+    path = str(ROOT / "examples" / "path_general_3rrr.csv")
+    js = tmp_path / "t.json"
+    assert main(["track", EXAMPLE, "--path", path, "--start-solution", "5", "--json", str(js)]) == 0
+    capsys.readouterr()
+    cli_json = json.loads(js.read_text())
+    assert cli_json["stop"]["kind"] == "singular"               # the README's example: it meets the fold
+    mech = load_mechanism(EXAMPLE)
+    problem = compile_problem(mech)
+    rows = read_inputs_csv(mech, path).values
+    report = problem.solve(rows[0])
+    tr = problem.track(rows, start=report.solutions[4])          # solution 5, as --start-solution 5
+    assert json.loads(json.dumps(tr.as_dict())) == cli_json          # every number, step totals included
+
+
+def test_ik_json_numbers_its_solutions_as_printed(tmp_path, capsys):
+    js = tmp_path / "ik.json"
+    assert main(["ik", EXAMPLE, "--euler", "0.4,-0.3,1.1", "--json", str(js)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["#", "mode"])
+    names = lines[head].split()[2:-2]
+    printed = {int(line.split()[0]): [float(v) for v in line.split()[2:2 + len(names)]]
+               for line in lines[head + 1:] if line.split() and line.split()[0].isdigit()}
+    data = json.loads(js.read_text())
+    assert [s["number"] for s in data["solutions"]] == sorted(printed) == list(range(1, 9))
+    for s in data["solutions"]:
+        np.testing.assert_allclose(printed[s["number"]], [s["joint_angles"][n] for n in names], atol=1e-6)

@@ -1,7 +1,8 @@
 """The results table of a batch: one row per solution of every input (docs/results-format.md).
 
 Columns, in order: ``input`` (the input's 0-based row number), the actuated joints by name
-(radians), ``solution`` (0-based index among the input's solutions), ``status``, every passive
+(radians), ``solution`` (the solution's number among the input's entries, from 1: the number
+``solve`` prints, the JSON's ``number`` and ``--start-solution`` take), ``status``, every passive
 angle by name (radians), the platform rotation as a unit quaternion ``qw, qx, qy, qz`` (qw >= 0) and
 as a matrix ``r11 ... r33`` (row-major; v_i = R v_i^0), ``residual`` (largest |F_n - I| entry),
 ``singularity`` (the mechanism's classification) and ``parallel_measure``: the normalized distance
@@ -40,10 +41,10 @@ def track_rows(mechanism, track):
 
     items = []
     for p in track.poses:
-        joints = {**dict(zip(mechanism.actuated, p.inputs)), **dict(zip(track.names, p.passive.tolist()))}
-        sol = Solution(p.passive, p.passive, p.passive, 0, p.rotation, p.residual,
-                       mechanism.singularity(joints).kind, Status.CERTIFIED)
-        items.append((p.row, np.asarray(p.inputs), track.names, (sol,)))
+        angles = np.array(list(p.passive_angles.values()))
+        sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual,
+                       mechanism.singularity({**p.inputs, **p.passive_angles}).kind, Status.CERTIFIED)
+        items.append((p.row, np.array(list(p.inputs.values())), tuple(p.passive_angles), (sol,)))
     return solution_rows(mechanism, items)
 
 

@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-__all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "into_range",
-           "beyond_turn", "turn_error", "check_turn", "near_groups"]
+__all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
+           "into_range", "beyond_turn", "turn_error", "check_turn", "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -55,6 +55,19 @@ def in_range_many(theta, rng, tol: float = RANGE_TOL) -> np.ndarray:
         return np.ones(theta.shape, dtype=bool)
     lo, hi = float(rng[0]), float(rng[1])
     return np.mod(theta - (lo - tol), TWO_PI) <= (hi - lo) + 2.0 * tol
+
+
+def span_in_range_many(lo, hi, rng, tol: float = RANGE_TOL) -> np.ndarray:
+    """Whether every angle of the arcs [lo, hi] (radians, arrays of one shape, hi - lo < 2 pi; NaN
+    or infinite: an unknown arc) lies in ``rng``, by the rule of :func:`in_range`: the arc's start
+    is in the range and its end no farther than the range's widened end."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if rng is None:
+        return np.ones(np.broadcast_shapes(lo.shape, hi.shape), dtype=bool)
+    a, b = float(rng[0]), float(rng[1])
+    with np.errstate(invalid="ignore"):
+        start = np.mod(lo - (a - tol), TWO_PI)           # from the widened start of the range
+        return np.isfinite(lo) & np.isfinite(hi) & (start + (hi - lo) <= (b - a) + 2.0 * tol)
 
 
 def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:

@@ -18,7 +18,12 @@ import numpy as np
 from .angles import check_turn
 
 __all__ = ["quaternion_matrix", "rotation_from_quaternion", "quaternions_from_rotations", "rotation_from_euler",
-           "EULER_AXES", "check_euler_convention"]
+           "EULER_AXES", "check_euler_convention", "QUATERNION_COLUMNS", "ROTATION_COLUMNS"]
+
+#: Column names of a platform rotation in a table (batch's results, a track's frame): the unit
+#: quaternion (qw >= 0) and the matrix R row-major (v_i = R v_i^0).
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+ROTATION_COLUMNS = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
 
 #: The axis letters of an Euler convention.
 EULER_AXES = "xyz"

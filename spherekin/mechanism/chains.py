@@ -77,12 +77,18 @@ def chain_rotation(axes: np.ndarray, displacements) -> np.ndarray:
 
 
 def current_axes(axes: np.ndarray, displacements) -> np.ndarray:
-    """Columns a_i(q) = Rot(a_1, d_1) ... Rot(a_{i-1}, d_{i-1}) a_i of a leg's Jacobian, shape (3, k)."""
-    cols, rot = [], np.eye(3)
-    for a, d in zip(axes, displacements):
+    """Columns a_i(q) = Rot(a_1, d_1) ... Rot(a_{i-1}, d_{i-1}) a_i of a leg's Jacobian, shape (3, k)
+    for displacements (k,); for displacements (..., k) (many configurations at once), (..., 3, k)."""
+    axes = np.asarray(axes, dtype=float)
+    d = np.asarray(displacements, dtype=float)
+    rot = np.broadcast_to(np.eye(3), d.shape[:-1] + (3, 3))
+    cols = []
+    for i, a in enumerate(axes):
         cols.append(rot @ a)
-        rot = rot @ axis_rotation(a, d)
-    return np.array(cols).T
+        k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])    # Rodrigues, batched
+        t = d[..., i, None, None]
+        rot = rot @ (np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k))
+    return np.stack(cols, axis=-1)
 
 
 def serial_ik(axes: np.ndarray, target: np.ndarray) -> list[tuple[float, ...]]:

@@ -690,23 +690,33 @@ class SphericalMechanism:
         ``K_a``, ``K_p``: its actuated and passive columns (K_a qdot_a + K_p qdot_p = 0).
         """
         readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        leg_j, k_mat = self._constraints({n: np.array([v]) for n, v in readings.items()})
         names = self.joint_names
+        act = [names.index(n) for n in self.actuated]
+        pas = [names.index(n) for n in self.passive]
+        k_mat = k_mat[0]
+        return {"legs": {n: j[0] for n, j in leg_j.items()}, "constraints": k_mat, "K_a": k_mat[:, act],
+                "K_p": k_mat[:, pas]}
+
+    def _constraints(self, readings: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray]:
+        """(leg name -> current axes (N, 3, k), K (N, 3(l-1), n_joints)) at N configurations: every
+        joint's readings (N,), radians (see :meth:`jacobians`)."""
+        names = self.joint_names
+        n = len(next(iter(readings.values())))
         leg_j = {}
         for leg in self.legs:
             axes = np.array([j.axis for j in leg.joints])
-            leg_j[leg.name] = current_axes(axes, [readings[j.name] - j.reference_angle for j in leg.joints])
+            disp = np.stack([np.asarray(readings[j.name], dtype=float) - j.reference_angle for j in leg.joints], axis=-1)
+            leg_j[leg.name] = current_axes(axes, disp)
         rows = []
         for g in self.loop_geometry:
             up, down = g.legs
-            block = np.zeros((3, len(names)))
+            block = np.zeros((n, 3, len(names)))
             for leg_name, sgn in ((up, 1.0), (down, -1.0)):
                 for k, j in enumerate(self.leg(leg_name).joints):
-                    block[:, names.index(j.name)] += sgn * leg_j[leg_name][:, k]
+                    block[:, :, names.index(j.name)] += sgn * leg_j[leg_name][:, :, k]
             rows.append(block)
-        k_mat = np.vstack(rows)
-        act = [names.index(n) for n in self.actuated]
-        pas = [names.index(n) for n in self.passive]
-        return {"legs": leg_j, "constraints": k_mat, "K_a": k_mat[:, act], "K_p": k_mat[:, pas]}
+        return leg_j, np.concatenate(rows, axis=1)
 
     def without_ranges(self, names: Sequence[str] | None = None) -> "SphericalMechanism":
         """The same mechanism with the joints ``names`` (default: every joint) unlimited."""
@@ -722,13 +732,24 @@ class SphericalMechanism:
         parallel singularity (where assembly modes meet). K_p's columns are the passive joints'
         current axes (unit vectors) combined loop by loop, so the ratio is dimensionless and does not
         depend on the number of loops. NaN without passive joints; 0 with more of them than rows."""
-        kp = self.jacobians(joint_angles)["K_p"]
-        if kp.shape[1] == 0:
-            return float("nan")
+        readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        return float(self.parallel_measures({n: [v] for n, v in readings.items()})[0])
+
+    def parallel_measures(self, joint_angles: Mapping[str, Sequence[float]]) -> np.ndarray:
+        """:meth:`parallel_measure` at N configurations at once: ``joint_angles`` every joint's name
+        -> N readings (radians); shape (N,). (A tracked path of 1,000 poses: one call, not 1,000.)"""
+        missing = [n for n in self.joint_names if n not in joint_angles]
+        if missing:
+            raise ValueError(f"joint_angles: missing angle(s) for {missing}")
+        _, k_mat = self._constraints({n: np.asarray(joint_angles[n], dtype=float).reshape(-1) for n in self.joint_names})
+        pas = [self.joint_names.index(n) for n in self.passive]
+        kp = k_mat[:, :, pas]
+        if kp.shape[2] == 0:
+            return np.full(len(kp), np.nan)
+        if kp.shape[2] > kp.shape[1]:
+            return np.zeros(len(kp))
         s = np.linalg.svd(kp, compute_uv=False)
-        if kp.shape[1] > kp.shape[0] or s[0] == 0.0:
-            return 0.0
-        return float(s[-1] / s[0])
+        return np.where(s[:, 0] == 0.0, 0.0, s[:, -1] / np.where(s[:, 0] == 0.0, 1.0, s[:, 0]))
 
     def singularity(self, joint_angles: Mapping[str, float], tol: float = SINGULARITY_TOL) -> SingularityReport:
         """Classify a configuration as regular, serial-, parallel- or doubly singular (see

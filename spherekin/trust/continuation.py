@@ -34,6 +34,17 @@ MIN_STEP (radians of input) cannot be proven, the tracker stops and reports wher
 input, and the singular input located by bisection on the step (Newton from the last proven pose
 converging to a root with the Jacobian's determinant of the same sign: the branch exists), to
 LOCATE_TOL. Nothing beyond the last proven input is reported as a pose.
+
+Joint ranges: the test a solve uses (:func:`spherekin.core.angles.in_range`, closed ranges read
+modulo 2 pi with RANGE_TOL) holds on every joint, actuated and passive, over every proven step, not
+only at its ends: each joint's angle is enclosed over the step (its input segment and its box W) in
+interval arithmetic (:meth:`JointRanges.steps_inside`), and a step not proven inside is walked again
+in halves, each proven, until every part is proven inside or one ends outside. The track ends at the
+first pose outside (a :class:`RangeStop`): the crossing is located by bisection on the proven part,
+to LOCATE_TOL in input, and no row beyond it is reported.
+
+The parallel measure of each pose is the mechanism's (:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`:
+sigma_min / sigma_max of the passive-joint Jacobian K_p), the one batch and map report.
 """
 
 from __future__ import annotations
@@ -43,10 +54,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import intervals as iv
+from ..core.angles import in_range_many, span_in_range_many
+from ..mechanism.chains import perpendicular
+from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
 from ..search.platform_orientation import passive_names, passive_readings_many, platform_legs
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
-           "SingularStop", "Track", "LegEquations", "cayley", "krawczyk_step", "track"]
+           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -81,56 +95,166 @@ FIRST_STEP = 0.1
 STEP_GROWTH = 1.5
 
 
+def _named(names, values) -> dict:
+    """{name: float} of ``values`` in the order of ``names`` (radians)."""
+    return {n: float(v) for n, v in zip(names, values)}
+
+
 @dataclass(frozen=True)
 class TrackedPose:
-    """The tracked assembly at path row ``row``: ``inputs`` (radians), platform ``rotation`` R (3, 3),
-    ``passive`` angles (radians, in ``Track.names`` order), ``residual`` (largest |Eq. (1)| over the
-    legs), ``measure``: the singularity measure (:meth:`LegEquations.measure`: 0 at a parallel
-    singularity), ``steps``: proven steps from the previous row."""
+    """The tracked assembly at path row ``row`` (0-based, the row of the path's CSV or array).
+
+    ``inputs``: the actuated joints' angles by name (radians); ``platform_rotation``: R (3, 3),
+    v_i = R v_i^0; ``passive_angles``: by name (radians, in ``Track.passive_joints`` order);
+    ``residual``: the largest |Eq. (1)| over the legs; ``parallel_measure``: sigma_min / sigma_max
+    of the passive-joint Jacobian (:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`,
+    0 at a parallel singularity); ``proven_steps``: proven steps from the previous row. The
+    attribute names are the keys of :meth:`as_dict` (the JSON of ``spherekin track``).
+    """
 
     row: int
-    inputs: tuple
-    rotation: np.ndarray = field(repr=False)
-    passive: np.ndarray = field(repr=False)
+    inputs: dict
+    platform_rotation: np.ndarray = field(repr=False)
+    passive_angles: dict = field(repr=False)
     residual: float
-    measure: float
-    steps: int
+    parallel_measure: float
+    proven_steps: int
+
+    def as_dict(self) -> dict:
+        return {"row": self.row, "inputs": dict(self.inputs),
+                "platform_rotation": np.asarray(self.platform_rotation, dtype=float).tolist(),
+                "passive_angles": dict(self.passive_angles), "residual": self.residual,
+                "parallel_measure": self.parallel_measure, "proven_steps": self.proven_steps}
 
 
 @dataclass(frozen=True)
 class SingularStop:
-    """Where a track ended before the end of the path: between rows ``row`` and ``row + 1``.
+    """Where a track ended at a parallel singularity: between rows ``between_rows`` = (r, r + 1).
 
-    ``fraction``: how far along that segment the last proven pose is (0..1); ``last_inputs``: its
-    inputs; ``singular_inputs``: the singular input located by bisection (the branch exists up to
-    it), with ``distance`` = largest |last_inputs - singular_inputs| (radians) and ``bracket`` the
-    width of the final bisection interval; ``measure``: the singularity measure at the last proven pose.
+    ``fraction``: how far along that segment the last proven pose is (0..1); ``last_proven_inputs``:
+    its inputs by name (radians); ``singular_inputs``: the singular input located by bisection (the
+    branch exists up to it), with ``distance`` = largest |last_proven_inputs - singular_inputs|
+    (radians) and ``bracket`` the width of the final bisection interval (radians);
+    ``parallel_measure``: at the last proven pose. Names = the keys of :meth:`as_dict`.
     """
 
-    row: int
+    between_rows: tuple
     fraction: float
-    last_inputs: tuple
-    singular_inputs: tuple
+    last_proven_inputs: dict
+    singular_inputs: dict
     distance: float
     bracket: float
-    measure: float
+    parallel_measure: float
     reason: str
+    kind: str = "singular"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "between_rows": list(self.between_rows), "fraction": self.fraction,
+                "last_proven_inputs": dict(self.last_proven_inputs), "singular_inputs": dict(self.singular_inputs),
+                "distance": self.distance, "bracket": self.bracket, "parallel_measure": self.parallel_measure,
+                "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class RangeStop:
+    """Where a track ended because joint ``joint`` left its range ``joint_range`` (lo, hi; radians,
+    closed, read modulo 2 pi as a solve reads it): between rows ``between_rows`` = (r, r + 1).
+
+    ``last_proven_inputs``: the last input (by name, radians) of the proven track where every joint
+    is in its range, ``fraction`` of the way along the segment; ``exit_inputs``: the first input
+    found with ``joint`` outside, ``bracket`` (radians of input, at most LOCATE_TOL) further;
+    ``joint_angle``: the joint's angle at the last proven input (radians, next to a range end);
+    ``parallel_measure``: there. Names = the keys of :meth:`as_dict`.
+    """
+
+    between_rows: tuple
+    fraction: float
+    joint: str
+    joint_range: tuple
+    joint_angle: float
+    last_proven_inputs: dict
+    exit_inputs: dict
+    bracket: float
+    parallel_measure: float
+    reason: str
+    kind: str = "range"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "between_rows": list(self.between_rows), "fraction": self.fraction,
+                "joint": self.joint, "joint_range": [float(v) for v in self.joint_range],
+                "joint_angle": self.joint_angle, "last_proven_inputs": dict(self.last_proven_inputs),
+                "exit_inputs": dict(self.exit_inputs), "bracket": self.bracket,
+                "parallel_measure": self.parallel_measure, "reason": self.reason}
+
+
+#: The version of :meth:`Track.as_dict` (the JSON of ``spherekin track``; docs/results-format.md).
+#: 2: Python's attribute names everywhere ("poses", "proven_steps", "rejected_steps", "parallel_measure"),
+#: the stop's "kind" and the range stop.
+TRACK_SCHEMA = "spherekin.track/2"
 
 
 @dataclass(frozen=True)
 class Track:
-    """A tracked path: ``poses`` (one per path row reached, in order), ``stop`` (None when the whole
-    path was tracked), ``names`` (the passive joints), ``steps`` proven and ``rejected`` steps."""
+    """A tracked path: ``poses`` (one :class:`TrackedPose` per path row reached, in order), ``stop``
+    (None when the whole path was tracked, else a :class:`SingularStop` or :class:`RangeStop`),
+    ``mechanism`` (its name), ``actuated`` and ``passive_joints`` (names), ``path_rows`` (rows of
+    the path given), ``proven_steps`` and ``rejected_steps`` (every step tried: those of the
+    segment where the track stopped included). Names = the keys of :meth:`as_dict`."""
 
-    names: tuple
-    poses: tuple
-    stop: SingularStop | None
-    steps: int
-    rejected: int
+    mechanism: str | None
+    actuated: tuple
+    passive_joints: tuple
+    path_rows: int
+    poses: tuple = field(repr=False)
+    stop: SingularStop | RangeStop | None
+    proven_steps: int
+    rejected_steps: int
 
     @property
     def complete(self) -> bool:
         return self.stop is None
+
+    def as_dict(self) -> dict:
+        """JSON-ready (schema TRACK_SCHEMA): the attributes above, each pose and the stop by their ``as_dict``."""
+        from .. import __version__
+
+        return {"schema": TRACK_SCHEMA, "spherekin_version": __version__, "mechanism": self.mechanism,
+                "actuated": list(self.actuated), "passive_joints": list(self.passive_joints),
+                "path_rows": self.path_rows, "complete": self.complete, "proven_steps": self.proven_steps,
+                "rejected_steps": self.rejected_steps, "poses": [p.as_dict() for p in self.poses],
+                "stop": None if self.stop is None else self.stop.as_dict()}
+
+    def frame(self):
+        """A pandas DataFrame, one row per pose: ``row``, the inputs and passive angles by joint name
+        (radians), the platform rotation as ``qw qx qy qz`` and ``r11 ... r33`` (the columns of
+        batch's table), ``residual``, ``parallel_measure``, ``proven_steps``."""
+        import pandas as pd
+
+        names = [*self.actuated, *self.passive_joints]
+        rots = np.array([p.platform_rotation for p in self.poses], dtype=float).reshape(-1, 3, 3)
+        quats = quaternions_from_rotations(rots) if len(rots) else np.empty((0, 4))
+        data = {"row": np.array([p.row for p in self.poses], dtype=np.int64)}
+        data.update({n: np.array([{**p.inputs, **p.passive_angles}[n] for p in self.poses], dtype=float)
+                     for n in names})
+        data.update({c: quats[:, j] for j, c in enumerate(QUATERNION_COLUMNS)})
+        data.update({c: rots.reshape(-1, 9)[:, j] for j, c in enumerate(ROTATION_COLUMNS)})
+        for key in ("residual", "parallel_measure"):
+            data[key] = np.array([getattr(p, key) for p in self.poses], dtype=float)
+        data["proven_steps"] = np.array([p.proven_steps for p in self.poses], dtype=np.int64)
+        return pd.DataFrame(data)
+
+    def __repr__(self) -> str:
+        def at(p):
+            return f"row {p.row} ({', '.join(f'{v:.4g}' for v in p.inputs.values())})"
+
+        head = (f"Track({self.mechanism or 'mechanism'}: {len(self.poses)} of {self.path_rows} rows, "
+                f"{self.proven_steps} proven steps ({self.rejected_steps} rejected)")
+        if self.poses:
+            head += f"; {at(self.poses[0])}" + (f" to {at(self.poses[-1])}" if len(self.poses) > 1 else "")
+        if self.stop is None:
+            return head + "; complete)"
+        what = "a parallel singularity" if self.stop.kind == "singular" else f"{self.stop.joint} leaves its range"
+        return head + f"; stopped between rows {self.stop.between_rows[0]} and {self.stop.between_rows[1]}: {what})"
 
 
 def cayley(w) -> np.ndarray:
@@ -188,15 +312,6 @@ class LegEquations:
     def residual(self, d, beta) -> np.ndarray:
         """Eq. (1) at the displacements D (..., 3, 3): e_i . (D a3_i) - c_i per leg (..., 3)."""
         return np.einsum("...ij,...ij->...i", self.elbow(beta), np.swapaxes(d @ self.b.T, -1, -2)) - self.c
-
-    def measure(self, dc, beta) -> np.ndarray:
-        """sigma_min / sigma_max of the Jacobian of Eq. (1) in the platform's rotation, its rows
-        (the legs' constraint normals (D a3_i) x e_i) normalized: 0 at a parallel singularity, where
-        the assembly meets another. Shape (...,) for displacements (..., 3, 3) and inputs (..., 3)."""
-        _, jac = self.values(dc, np.zeros(np.shape(beta)), beta)
-        norms = np.linalg.norm(jac, axis=-1, keepdims=True)
-        s = np.linalg.svd(jac / np.where(norms > 0, norms, 1.0), compute_uv=False)
-        return np.where(s[..., 0] > 0, s[..., -1] / np.where(s[..., 0] > 0, s[..., 0], 1.0), 0.0)
 
     # ---------------------------------------------------------------- intervals
 
@@ -379,18 +494,217 @@ def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> np.ndarray:
 BATCH = 256
 
 
+#: Width (radians) added to each side of an enclosed joint angle (:meth:`JointRanges.steps_inside`):
+#: the arc's ends are atan2 of outward-rounded corners, each rounded (~1e-16); 1e-12 covers that
+#: with room and is far below RANGE_TOL, so an angle proven inside is inside.
+ARC_PAD = 1e-12
+
+
+def _cross_float(a: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """a x v for a float vector a (3,) and interval vectors v (2, ..., 3), outward-rounded."""
+    comps = [iv.sub(iv.scale(a[j], v[..., k]), iv.scale(a[k], v[..., j])) for j, k in ((1, 2), (2, 0), (0, 1))]
+    return np.stack(comps, axis=-1)
+
+
+def _rotate(axis: np.ndarray, c, s, v) -> np.ndarray:
+    """Rot(axis, theta) v (Rodrigues) for intervals c, s (2, N) of cos and sin theta and v (2, N, 3)."""
+    along = iv.isum(iv.scale(axis, v), -1)                                  # axis . v (2, N)
+    one_minus = iv.sub(iv.point(np.ones(c.shape[1:])), c)
+    out = iv.add(iv.mul(c[..., None], v), iv.mul(s[..., None], _cross_float(axis, v)))
+    return iv.add(out, iv.scale(axis, iv.mul(one_minus, along)[..., None]))
+
+
+def _arc(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (N,) enclosing atan2(Y, X) over the boxes X x Y (intervals (2, N)); NaN where a box
+    holds the origin (every angle)."""
+    corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
+    mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
+    off = np.mod(corners - mid + np.pi, 2 * np.pi) - np.pi                  # each corner next to the middle
+    lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
+    origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
+    return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
+
+
+class JointRanges:
+    """Every joint's angle at tracked poses and the range test of a solve (module doc): the actuated
+    joints (the inputs) then the passive ones, names in ``names``."""
+
+    def __init__(self, mechanism, legs):
+        self.mechanism = mechanism
+        self.legs = legs
+        self.ref = np.array(mechanism.platform_reference_matrix, dtype=float)
+        self.actuated = tuple(mechanism.actuated)
+        self.passive = tuple(mechanism.loop_unknowns)
+        self.names = (*self.actuated, *self.passive)
+        self.order = [passive_names(legs).index(nm) for nm in self.passive]
+        self.ranges = [mechanism.ranges[nm] for nm in self.names]
+        self.limited = any(r is not None for r in self.ranges)
+
+    def angles(self, inputs, dcs) -> np.ndarray:
+        """Every joint's angle (K, joints; radians) at inputs (K, 3) and displacements D (K, 3, 3)."""
+        inputs = np.asarray(inputs, dtype=float).reshape(-1, len(self.actuated))
+        rotations = np.asarray(dcs, dtype=float).reshape(-1, 3, 3) @ self.ref
+        passive = passive_readings_many(self.legs, inputs, rotations, self.ref)[:, self.order]
+        return np.concatenate([inputs, passive], axis=1)
+
+    def first_outside(self, inputs, dcs) -> tuple[int, str] | None:
+        """(first pose, first joint) with a joint outside its range (:func:`in_range_many`), or None."""
+        angles = self.angles(inputs, dcs)
+        inside = np.ones(angles.shape, dtype=bool)
+        for j, rng in enumerate(self.ranges):
+            inside[:, j] = in_range_many(angles[:, j], rng)
+        bad = np.flatnonzero(~inside.all(axis=1))
+        if not len(bad):
+            return None
+        return int(bad[0]), self.names[int(np.argmin(inside[bad[0]]))]
+
+    def steps_inside(self, dcs, w_lo, w_hi, beta0, beta1) -> np.ndarray:
+        """Whether every joint is proven inside its range over each of N proven steps: displacements
+        D_c (N, 3, 3) at the steps' starts, boxes [w_lo, w_hi] (N, 3) holding the root of every
+        input of the step (D = D_c C(w)), inputs from beta0 to beta1 (N, 3). Interval enclosures of
+        each joint's angle over the box and the segment (the readings' formulas of
+        :func:`~spherekin.search.platform_orientation.passive_readings_many`, the cos and sin of an
+        angle by outward-rounded interval arithmetic); False where one is not proven inside (a joint
+        may leave its range, or the enclosure is too wide to tell)."""
+        dcs = np.asarray(dcs, dtype=float)
+        n = len(dcs)
+        ok = np.ones(n, dtype=bool)
+        lo_b, hi_b = np.minimum(beta0, beta1), np.maximum(beta0, beta1)
+        for j, rng in enumerate(self.ranges[:len(self.actuated)]):
+            ok &= span_in_range_many(lo_b[:, j], hi_b[:, j], rng)
+        if not ok.any() or all(r is None for r in self.ranges[len(self.actuated):]):
+            return ok
+        w = iv.from_bounds(w_lo, w_hi)                                          # (2, N, 3)
+        zero = np.zeros((2, n))
+        kx = np.stack([np.stack([zero, iv.neg(w[..., 2]), w[..., 1]], -1),
+                       np.stack([w[..., 2], zero, iv.neg(w[..., 0])], -1),
+                       np.stack([iv.neg(w[..., 1]), w[..., 0], zero], -1)], -2)   # [w]x (2, N, 3, 3)
+        sq = iv.isum(iv.mul(w, w), -1)
+        f = iv.from_bounds(np.nextafter(4.0 / (4.0 + sq[1]), -np.inf),
+                           np.nextafter(4.0 / (4.0 + np.maximum(sq[0], 0.0)), np.inf))   # 4 / (4 + |w|^2)
+        cay = iv.add(iv.point(np.broadcast_to(np.eye(3), (n, 3, 3))),
+                     iv.mul(f[..., None, None], iv.add(kx, iv.scale(0.5, iv.matmul(kx, kx)))))
+        d = iv.fmatmul(dcs, cay)                                                 # D = D_c C(w) (2, N, 3, 3)
+        beta = iv.from_bounds(lo_b, hi_b)
+        pas = {nm: r for nm, r in zip(self.passive, self.ranges[len(self.actuated):])}
+        for i, leg in enumerate(self.legs):
+            c1, s1 = iv.cos_sin(iv.sub(beta[..., i], iv.point(leg.reference[0])))
+            m3 = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(leg.a3, d), -1))          # Rot(a1, -d1) D a3
+            xp = leg.a3 - (leg.a3 @ leg.a2) * leg.a2
+            d2_lo, d2_hi = _arc(iv.isum(iv.scale(xp, m3), -1), iv.isum(iv.scale(np.cross(leg.a2, xp), m3), -1))
+            g_name, e_name = leg.names[1], leg.names[2]
+            ok &= span_in_range_many(leg.reference[1] + d2_lo, leg.reference[1] + d2_hi, pas.get(g_name))
+            if pas.get(e_name) is None:
+                continue
+            known = np.isfinite(d2_lo)
+            ok &= known
+            if not known.any():
+                continue
+            p = perpendicular(leg.a3)
+            mp = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(p, d), -1))              # Rot(a1, -d1) D p
+            c2, s2 = iv.cos_sin(iv.from_bounds(np.where(known, d2_lo, 0.0), np.where(known, d2_hi, 0.0)))
+            n_p = _rotate(leg.a2, c2, iv.neg(s2), mp)                                     # Rot(a2, -d2) M p
+            d3_lo, d3_hi = _arc(iv.isum(iv.scale(p, n_p), -1), iv.isum(iv.scale(np.cross(leg.a3, p), n_p), -1))
+            ok &= span_in_range_many(leg.reference[2] + d3_lo, leg.reference[2] + d3_hi, pas[e_name])
+        return ok
+
+    def measures(self, angles) -> np.ndarray:
+        """The parallel measure (:meth:`~spherekin.mechanism.SphericalMechanism.parallel_measures`) at
+        each row of :meth:`angles` (K, joints): shape (K,)."""
+        angles = np.asarray(angles, dtype=float).reshape(-1, len(self.names))
+        return self.mechanism.parallel_measures({n: angles[:, j] for j, n in enumerate(self.names)})
+
+
+def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d_a, s_b: float, record: list):
+    """Re-walk the proven step from s_a (displacement ``d_a``) to s_b of the segment x0 -> x1 in
+    halves until every part is proven inside the ranges (:meth:`JointRanges.steps_inside`) or a part
+    ends outside them. Appends (s, D, w) at the end of each part to ``record``; returns D at s_b, or
+    None when the last part appended ends outside (the exit lies in it: :func:`_locate_exit`)."""
+    direction = x1 - x0
+    span = float(np.abs(direction).max())
+    b_a, b_b = x0 + s_a * direction, (x1 if s_b == 1.0 else x0 + s_b * direction)
+    w = _predict(eqs, d_a, b_a, b_b)
+    proven = w is not None and bool(_certify_steps(eqs, d_a[None], w[None], b_a[None], b_b[None])[0])
+    if proven:
+        d_b = d_a @ cayley(w)
+        if joints.first_outside(b_b, d_b) is not None:
+            record.append((s_b, d_b, w))
+            return None
+        lo, hi = _boxes(w[None])
+        if (s_b - s_a) * span <= LOCATE_TOL or joints.steps_inside(d_a[None], lo, hi, b_a[None], b_b[None])[0]:
+            record.append((s_b, d_b, w))
+            return d_b
+    elif (s_b - s_a) * span <= MIN_STEP:
+        raise RuntimeError("track: a part of a proven step could not be proven again while testing the joint "
+                           "ranges")
+    s_m = 0.5 * (s_a + s_b)
+    d_m = _ranges_walk(eqs, joints, x0, x1, s_a, d_a, s_m, record)
+    return None if d_m is None else _ranges_walk(eqs, joints, x0, x1, s_m, d_m, s_b, record)
+
+
+def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
+    """Where a joint leaves its range on the proven ``steps`` of the segment x0 -> x1 from the
+    in-range displacement ``d0`` at x0: ``steps`` = (s, D, w) at the end of each, in order. None when
+    every step is proven inside the ranges; else (s_a, D_a, record): the last pose proven in range
+    and the proven parts after it, the last one ending outside (for :func:`_locate_exit`)."""
+    if not joints.limited or not steps:
+        return None
+    direction = x1 - x0
+    s_prev = np.array([0.0] + [st[0] for st in steps[:-1]])
+    d_prev = np.array([d0] + [st[1] for st in steps[:-1]])
+    s_end = np.array([st[0] for st in steps])
+    lo, hi = _boxes(np.array([st[2] for st in steps]))
+    ends = x0 + s_end[:, None] * direction
+    inside = joints.steps_inside(d_prev, lo, hi, x0 + s_prev[:, None] * direction, ends)
+    for j in np.flatnonzero(~inside):
+        record: list = []
+        if _ranges_walk(eqs, joints, x0, x1, float(s_prev[j]), d_prev[j], float(s_end[j]), record) is None:
+            s_a, d_a = (float(s_prev[j]), d_prev[j]) if len(record) == 1 else record[-2][:2]
+            return s_a, d_a, record[-1:]
+    return None
+
+
+def _locate_exit(eqs: LegEquations, joints: JointRanges, x0, x1, s0: float, d0, step):
+    """Where a joint leaves its range on the proven ``step`` = (s1, D, w) of the segment x0 -> x1,
+    from the pose D = ``d0`` at s0, in range, to s1, outside: bisection on it (Newton from the step's
+    start: the step is proven, so every input of it has exactly one root in its box, which the root
+    found must lie in) to LOCATE_TOL in input. Returns (s_in, s_out, D at s_in): the last input found
+    in range and the first outside."""
+    direction = x1 - x0
+    s1, _, w1 = step
+    box_lo, box_hi = _boxes(np.asarray(w1)[None])
+    b0 = x0 + s0 * direction
+    lo, hi, d_lo = s0, s1, d0
+    scale = float(np.abs(direction).max())
+    while (hi - lo) * scale > LOCATE_TOL:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        x = x0 + mid * direction
+        w = _predict(eqs, d0, b0, x)
+        if (w is not None and np.all(w >= box_lo[0]) and np.all(w <= box_hi[0])
+                and joints.first_outside(x, d0 @ cayley(w)) is None):
+            lo, d_lo = mid, d0 @ cayley(w)
+        else:
+            hi = mid
+    return lo, hi, d_lo
+
+
 def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     """Follow the assembly at pose ``start_rotation`` (R, 3x3) along ``path`` (K, 3 inputs, radians).
 
     ``mechanism``: one the platform formulation applies to (three R-R-R legs, base joints
     actuated; ValueError otherwise). The start pose must close the legs at path[0] to ``start_tol``
-    (largest |Eq. (1)|); it is polished by Newton and proven (a point Krawczyk test) first.
+    (largest |Eq. (1)|) with every joint in its range; it is polished by Newton and proven (a point
+    Krawczyk test) first.
 
     How: segments are predicted in floats (tangent + Newton, one step per path segment) up to
     BATCH at a time, then all their steps are proven in one batch of interval arithmetic; from the
     first segment whose step is not proven, that segment is walked in adaptive proven steps (halved
     on failure, grown after success), and prediction resumes after it. Every accepted step has its
-    own proof; none depends on the prediction being right.
+    own proof; none depends on the prediction being right. Every row reached, and the end of every
+    adaptive step, is tested against the joint ranges (module doc); the track ends at the first
+    pose outside (a :class:`RangeStop`) or at a parallel singularity (a :class:`SingularStop`).
     """
     legs = platform_legs(mechanism)
     eqs = LegEquations(legs)
@@ -399,7 +713,8 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
         raise ValueError(f"path: expected an array of shape (K, {len(legs)}), got shape {path.shape}")
     if not np.all(np.isfinite(path)):
         raise ValueError("path: expected finite inputs (radians)")
-    ref = np.array(mechanism.platform_reference_matrix, dtype=float)
+    joints = JointRanges(mechanism, legs)
+    ref = joints.ref
     dc = np.asarray(start_rotation, dtype=float) @ ref.T
     res0 = float(np.abs(eqs.residual(dc, path[0])).max())
     if res0 > start_tol:
@@ -413,10 +728,17 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     n = len(path)
     dcs = np.empty((n, 3, 3))
     dcs[0] = dc @ cayley(w0)
+    out0 = joints.first_outside(path[0], dcs[0])
+    if out0 is not None:
+        name = out0[1]
+        angle = joints.angles(path[0], dcs[0])[0, joints.names.index(name)]
+        raise ValueError(f"start: {name} = {angle:.6g} rad at the start pose is outside its joint range "
+                         f"{list(mechanism.ranges[name])}; give an assembly inside the ranges")
     steps_of = np.zeros(n, dtype=int)
     n_steps = rejected = 0
     budget = MAX_STEPS + STEPS_PER_INPUT * n
     stop = None
+    leaves = None            # (segment k, _segment_exit's answer) where a joint leaves its range
     k = 0
     while k < n - 1:
         pred_dc, pred_w = [], []
@@ -438,6 +760,19 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
             for j in range(good):
                 dcs[k + j + 1] = dc_m[j] @ cayley(w_m[j])
                 steps_of[k + j + 1] = 1
+            if joints.limited and good:              # each step proven inside the ranges, else walked finer
+                inside = joints.steps_inside(dc_m[:good], *_boxes(w_m[:good]), path[k:k + good],
+                                             path[k + 1:k + good + 1])
+                for j in np.flatnonzero(~inside):
+                    found = _segment_exit(eqs, joints, path[k + j], path[k + j + 1], dc_m[j],
+                                          [(1.0, dcs[k + j + 1], w_m[j])])
+                    if found is not None:
+                        leaves = (k + j, found)
+                        break
+                if leaves is not None:               # segment k + j ends the track
+                    n_steps += leaves[0] - k + 1
+                    k = leaves[0]
+                    break
             n_steps += good
             rejected += int(good < m)
             k += good
@@ -445,9 +780,14 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                 continue                             # every predicted step proven: predict the next batch
         if k >= n - 1:
             break
-        d, steps, rej, stop = _adaptive_segment(eqs, dcs[k], path[k], path[k + 1], budget - n_steps - rejected)
+        d, steps, rej, stop, record = _adaptive_segment(eqs, dcs[k], path[k], path[k + 1],
+                                                        budget - n_steps - rejected)
         n_steps += steps
         rejected += rej
+        found = _segment_exit(eqs, joints, path[k], path[k + 1], dcs[k], record)
+        if found is not None:                        # before the singularity, if any: the range ends the track
+            leaves, stop = (k, found), None
+            break
         if stop is not None:
             stop = dict(stop, row=k)
             break
@@ -456,35 +796,58 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
         k += 1
     reached = k + 1
     rotations = dcs[:reached] @ ref
-    names = tuple(mechanism.loop_unknowns)
-    order = [passive_names(legs).index(nm) for nm in names]
-    passive = passive_readings_many(legs, path[:reached], rotations, ref)[:, order]
+    angles = joints.angles(path[:reached], dcs[:reached])
     residuals = np.abs(eqs.residual(dcs[:reached], path[:reached])).max(axis=1)
-    measures = eqs.measure(dcs[:reached], path[:reached])
-    poses = tuple(TrackedPose(r, tuple(float(v) for v in path[r]), rotations[r], passive[r], float(residuals[r]),
-                              float(measures[r]), int(steps_of[r])) for r in range(reached))
-    if stop is not None:
+    act, pas = joints.actuated, joints.passive
+    na = len(act)
+    measures = joints.measures(angles)
+    poses = tuple(TrackedPose(r, _named(act, angles[r, :na]), rotations[r], _named(pas, angles[r, na:]),
+                              float(residuals[r]), float(measures[r]), int(steps_of[r])) for r in range(reached))
+    if leaves is not None:
+        row, (s_a, d_a, parts) = leaves
+        x0, x1 = path[row], path[row + 1]
+        s_in, s_out, d_in = _locate_exit(eqs, joints, x0, x1, s_a, d_a, parts[-1])
+        direction = x1 - x0
+        here, there = x0 + s_in * direction, x0 + s_out * direction
+        outside = (joints.first_outside(there, _exit_pose(eqs, d_in, here, there))
+                   or joints.first_outside(x0 + parts[-1][0] * direction, parts[-1][1]))   # else the part's end
+        name = outside[1]
+        at = joints.angles(here, d_in)[0]
+        stop = RangeStop((row, row + 1), float(s_in), name, tuple(float(v) for v in mechanism.ranges[name]),
+                         float(at[joints.names.index(name)]), _named(act, here), _named(act, there),
+                         float(np.abs(there - here).max()), float(joints.measures(at)[0]),
+                         f"{name} leaves its joint range {[float(v) for v in mechanism.ranges[name]]} (radians): "
+                         "no pose beyond is reported")
+    elif stop is not None:
         row = stop["row"]
         x0, direction = path[row], path[row + 1] - path[row]
         here = x0 + stop["s"] * direction
         singular = stop["b0"] + 0.5 * (stop["lo"] + stop["hi"]) * direction
-        stop = SingularStop(row, float(stop["s"]), tuple(float(v) for v in here), tuple(float(v) for v in singular),
+        stop = SingularStop((row, row + 1), float(stop["s"]), _named(act, here), _named(act, singular),
                             float(np.abs(singular - here).max()),
                             float((stop["hi"] - stop["lo"]) * np.abs(direction).max()),
-                            float(eqs.measure(stop["dc"], here)),
-                            f"no step longer than {MIN_STEP:g} rad of input could be proven: the assembly mode meets another "
-                            "(a parallel singularity) and ends")
-    return Track(names, poses, stop, n_steps, rejected)
+                            float(joints.measures(joints.angles(here, stop["dc"]))[0]),
+                            f"no step longer than {MIN_STEP:g} rad of input could be proven: the assembly mode "
+                            "meets another (a parallel singularity) and ends")
+    return Track(mechanism.name, act, pas, n, poses, stop, n_steps, rejected)
+
+
+def _exit_pose(eqs: LegEquations, d_in, here, there):
+    """The pose at ``there`` (within LOCATE_TOL of ``here``) continued from D = ``d_in`` at ``here``."""
+    w = _predict(eqs, d_in, here, there)
+    return d_in if w is None else d_in @ cayley(w)
 
 
 def _adaptive_segment(eqs: LegEquations, dc, x0, x1, budget: int):
     """Walk the segment x0 -> x1 in proven steps (halved on failure, grown after success):
-    (displacement at x1, steps, rejected, None), or (None, steps, rejected, where it stopped) when
-    no step of MIN_STEP can be proven (module doc)."""
+    (displacement at x1, steps, rejected, None, record), or (None, steps, rejected, where it
+    stopped, record) when no step of MIN_STEP can be proven (module doc). ``record``: (s, D, w) at
+    the end of every proven step (s along the segment, D the displacement there, w its Cayley step)."""
     direction = x1 - x0
     span = float(np.abs(direction).max())
     s, h = 0.0, 1.0 if span <= FIRST_STEP else FIRST_STEP / span
     steps = rejected = 0
+    record = []
     while s < 1.0:
         if steps + rejected > budget:
             raise RuntimeError(f"track: more than MAX_STEPS + STEPS_PER_INPUT per input steps ({budget} left)")
@@ -495,10 +858,11 @@ def _adaptive_segment(eqs: LegEquations, dc, x0, x1, budget: int):
             dc = dc @ cayley(w1)
             s, h = t, h * STEP_GROWTH
             steps += 1
+            record.append((s, dc, w1))
             continue
         rejected += 1
         h *= 0.5
         if h * span < MIN_STEP:
             lo, hi = _locate(eqs, dc, b0, direction, 0.0, 1.0 - s)
-            return None, steps, rejected, {"s": s, "b0": b0, "lo": lo, "hi": hi, "dc": dc}
-    return dc, steps, rejected, None
+            return None, steps, rejected, {"s": s, "b0": b0, "lo": lo, "hi": hi, "dc": dc}, record
+    return dc, steps, rejected, None, record
