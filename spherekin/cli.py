@@ -532,9 +532,9 @@ def _no_names(args) -> dict[str, str]:
 
 def _track_names(args) -> dict[str, str]:
     """The Python names of track's errors that depend on the options given: ``start`` is the start
-    option typed, when it is a pose (with --start-solution, Python's ``start`` counts from 0 and its
-    messages are left as they are rather than be given the option's numbers)."""
-    given = [o for o in ("start_rotation", "start_quaternion") if getattr(args, o, None) is not None]
+    option typed (with --start-solution the command hands Problem.track the Solution itself, whose
+    messages carry no index)."""
+    given = [o for o in ("start_rotation", "start_quaternion", "start_solution") if getattr(args, o, None) is not None]
     return {"start": "--" + given[0].replace("_", "-")} if len(given) == 1 else {}
 
 

@@ -270,6 +270,18 @@ def test_tracks_start_is_named_as_the_option_given(capsys):
     assert err.startswith("spherekin: error: --start-quaternion: the start pose does not close the legs"), err
 
 
+def test_a_start_solution_that_is_not_certified_is_named_as_the_option(tmp_path, capsys):
+    import spherekin
+
+    path = tmp_path / "p.csv"
+    path.write_text("beta1,beta2,beta3\n0.3,-0.2,0.5\n0.31,-0.2,0.5\n")
+    report = spherekin.solve(spherekin.load_mechanism(GOSSELIN), [0.3, -0.2, 0.5])
+    k = next(i for i, s in enumerate(report.solutions, start=1) if s.status != "certified")   # a serial singularity
+    assert main(["track", GOSSELIN, "--path", str(path), "--start-solution", str(k)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("spherekin: error: --start-solution: the solution"), err
+
+
 def test_the_top_level_help_is_a_description_and_the_commands(capsys):
     from spherekin.cli import build_parser
 

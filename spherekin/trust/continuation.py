@@ -850,7 +850,9 @@ def _adaptive_segment(eqs: LegEquations, dc, x0, x1, budget: int):
     record = []
     while s < 1.0:
         if steps + rejected > budget:
-            raise RuntimeError(f"track: more than MAX_STEPS + STEPS_PER_INPUT per input steps ({budget} left)")
+            raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
+                               "(proven and rejected): the path is too long or too close to a singularity for "
+                               "one track; split it into shorter paths")
         t = min(1.0, s + h)
         b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
         w1 = _predict(eqs, dc, b0, b1)
