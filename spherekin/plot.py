@@ -370,8 +370,9 @@ def _label_joints(fig, panels) -> list:
                 for turn in (0, 1, -1, 2, -2, 3, -3, 4):
                     a = base + turn * math.pi / 4
                     c, s = math.cos(a), math.sin(a)
-                    ha = "left" if c > 0.38 else "right" if c < -0.38 else "center"
-                    va = "bottom" if s > 0.38 else "top" if s < -0.38 else "center"
+                    side = math.sin(math.pi / 8)       # within 22.5 deg of vertical (horizontal): centred
+                    ha = "left" if c > side else "right" if c < -side else "center"
+                    va = "bottom" if s > side else "top" if s < -side else "center"
                     pos = ax.transAxes.inverted().transform(xy + radius * np.array([c, s]))
                     t = ax.text2D(*pos, text, transform=ax.transAxes, fontsize=7, ha=ha, va=va, color=colour,
                                   zorder=31, path_effects=[withStroke(linewidth=2.0, foreground="white")])
