@@ -18,13 +18,17 @@ ROOT = HERE.parent
 from experiments import _common  # the shared argument parser
 
 from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
-                            _view_direction, great_circle_arc)
+                            _view_direction, great_circle_arc, residual_text)
 
 __all__ = ["HERE", "DPI", "parser", "experiment_data", "save", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
-           "view_for", "great_circle_arc", "polygon", "along", "away"]
+           "view_for", "great_circle_arc", "polygon", "along", "away", "residual_phrase"]
 
 #: Resolution of the PNG files: 150 dpi keeps 9-point labels sharp on screen and in the README.
 DPI = 150
+#: File metadata left out of the written figures: the matplotlib version (PNG "Software", PDF
+#: "Creator"/"Producer") and the PDF's creation date. Without them the same drawing gives the same
+#: bytes, so `make figures` leaves the committed PNGs unchanged unless a figure changed.
+METADATA = {"png": {"Software": None}, "pdf": {"Creator": None, "Producer": None, "CreationDate": None}}
 #: Labels are pushed this far outside the sphere (radial factor) so they do not sit on the arcs.
 LABEL_RADIUS = 1.13
 
@@ -52,27 +56,33 @@ def experiment_data(name: str, path: Path | None = None) -> tuple[dict, bool]:
     if full.exists():
         return json.loads(full.read_text()), False
     if not quick.exists():
-        importlib.import_module(name).main(["--quick"])
+        importlib.import_module(f"experiments.{name}").main(["--quick"])
     return json.loads(quick.read_text()), True
 
 
-def save(fig, out_dir, name: str, *, quick: bool = False) -> list[Path]:
-    """Write ``<out_dir>/<name>.png`` and ``.pdf``; return both paths. A figure of ``quick`` data is
-    not written over the committed figures of paper_figures/ (they come from full runs): it goes to
-    paper_figures/quick/ instead, and a line says so."""
+def save(fig, out_dir, name: str, *, quick: bool = False, dpi: float = DPI) -> list[Path]:
+    """Write ``<out_dir>/<name>.png`` and ``.pdf`` (without METADATA: same drawing, same bytes); return
+    both paths. A figure of ``quick`` data is not written over the committed figures of paper_figures/
+    (they come from full runs): it goes to paper_figures/quick/ (not committed) instead, and a line says so."""
     out = Path(out_dir)
     if quick and out.resolve() == HERE:
         out = HERE / "quick"
-        print(f"note: {name} is drawn from a quick run of its experiment; written to {out.relative_to(ROOT)}/, "
-              f"not over the committed figure (run 'make experiments FULL=1', then 'make figures', to redraw it)")
+        print(f"note: {name} is drawn from a quick run of its experiment; written to {out}/, not over the "
+              f"committed figure (run 'make experiments FULL=1', then 'make figures', to redraw it)")
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for fmt in ("png", "pdf"):
         path = out / f"{name}.{fmt}"
-        fig.savefig(path, format=fmt, dpi=DPI)
+        fig.savefig(path, format=fmt, dpi=dpi, metadata=METADATA[fmt])
         paths.append(path)
     print(f"wrote {paths[0]} and {paths[1]}")
     return paths
+
+
+def residual_phrase(residual: float) -> str:
+    """"< 1e-12" (rounding noise, spherekin.plot.residual_text) or "= 3.1e-05", to follow "|F - I|" on a figure."""
+    text = residual_text(residual)
+    return text if text.startswith("<") else f"= {text}"
 
 
 def view_for(points) -> tuple[np.ndarray, float, float]:

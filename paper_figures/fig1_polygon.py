@@ -147,7 +147,7 @@ def draw(data: dict):
         ft.draw_point(ax, a, v, "black")
         ft.label_at(ax, ft.away(a, centre, 0.1) - 0.12 * bis, f"p{k + 1}", v, "black", radius=1.0, fontsize=12,
                     fontweight="bold")
-    ax.text2D(0.5, 0.0, f"|Π Rx(θk) Rz(αk) − I| = {data['residual_eq1']:.1e}", transform=ax.transAxes,
+    ax.text2D(0.5, 0.0, f"|Π Rx(θk) Rz(αk) − I| {ft.residual_phrase(data['residual_eq1'])}", transform=ax.transAxes,
               ha="center", va="top", fontsize=11)
 
     # ---- right: the normalized polygon of Eq. (2)
@@ -164,7 +164,7 @@ def draw(data: dict):
         ft.label_at(ax, ft.away(q[i], centre, 0.1 if not odd else -0.1), f"q{i + 1}", v,
                     "black" if odd else NORMALIZED_COLOUR, radius=1.0, fontsize=11, fontweight="bold",
                     bbox=LABEL_BOX)
-    ax.text2D(0.5, 0.0, f"|Π Rx(φi) Z − I| = {data['residual_eq2']:.1e}", transform=ax.transAxes,
+    ax.text2D(0.5, 0.0, f"|Π Rx(φi) Z − I| {ft.residual_phrase(data['residual_eq2'])}", transform=ax.transAxes,
               ha="center", va="top", fontsize=11)
     rows = [f"φ{i + 1} = {names[i]} + π = {math.degrees(data['phis'][i]) % 360:5.1f}°" for i in range(2 * m)]
     fig.text(0.755, 0.5, "angles of Eq. (2)\n(exterior angle at q_i)\n\n" + "\n".join(rows), ha="left", va="center",

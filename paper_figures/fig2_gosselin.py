@@ -240,7 +240,7 @@ def draw(data: dict):
     for k, loop in enumerate(data["loops"]):
         up, down = loop["legs"]
         title = (f"({'cd'[k]}) loop {k + 1}: up {up}, across the platform, down {down}, across the base\n"
-                 f"6 sides of 90°; |Π Rx(φi) Z − I| = {data['residuals'][k]:.1e}")
+                 f"6 sides of 90°; |Π Rx(φi) Z − I| {ft.residual_phrase(data['residuals'][k])}")
         ax = ft.sphere_axes(fig, grid[1, 2 * k], view, title)
         rows = _loop_panel(ax, mech, axes["displaced"], loop, view)
         tab = fig.add_subplot(grid[1, 2 * k + 1])

@@ -42,9 +42,8 @@ def main(argv=None) -> dict:
     report = data["report"]
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / f"{NAME}.{fmt}" for fmt in ("png", "pdf")]
-    for path in paths:
-        plot_solutions(data["mechanism"], data["inputs"], report, path)
+    fig = plot_solutions(data["mechanism"], data["inputs"], report)
+    paths = ft.save(fig, out, NAME, dpi=fig.dpi)          # the resolution of spherekin solve --plot
     counts = Counter(s.status for s in report.solutions)
     print(f"{len(report.solutions)} solutions at inputs {data['inputs']} rad: {dict(counts)}; "
           f"max residual {max(s.residual for s in report.solutions):.1e}; solve {report.stats.time_total:.2f} s")
@@ -54,7 +53,6 @@ def main(argv=None) -> dict:
         dets = [float(np.linalg.det(a)) for a in axes.values()]   # 0: the leg's three axes are coplanar
         print(f"  {k}: {s.status:10s} {s.singularity:16s} " + " ".join(f"{a:+.4f}" for a in s.angles)
               + "   " + " ".join(f"{d:+.3f}" for d in dets))
-    print(f"wrote {paths[0]} and {paths[1]}")
     data["paths"] = paths
     return data
 

@@ -49,6 +49,9 @@ __all__ = [
     "check_plot_path",
     "plot_assembly_map",
     "plot_track",
+    "residual_text",
+    "RESIDUAL_NOISE",
+    "NO_ASSEMBLY_LABEL",
 ]
 
 #: Points per link arc. Reason: a chord of an arc of at most pi split into 63 pieces deviates from
@@ -88,12 +91,16 @@ ZOOM = 1.35
 VIEW_CANDIDATES = 2000
 VISIBLE_DOT = 0.2
 
-#: Joint names are written at this radial factor from their axis point, just off the sphere, so that
-#: they sit beside the dot and not on the arcs.
-LABEL_OFFSET = 1.12
+#: Joint names are written this far (points) from their dot, and a dot counts as this half-width
+#: (points) when labels avoid dots; two dots closer than that on screen share one label.
+LABEL_GAP = 4.0
+LABEL_DOT = 3.5
 #: Colours: legs cycle through these (distinct from the base's black and the platform's red).
 LEG_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:cyan", "tab:pink",
                "tab:olive")
+#: Closure residuals below this are rounding noise of double precision (1e-16..1e-14 whose digits
+#: depend on the CPU's BLAS kernel): figures print them as "< 1e-12" and stay the same on every machine.
+RESIDUAL_NOISE = 1e-12
 BASE_COLOUR = "#262626"  # near-black, distinct from the black of the text
 PLATFORM_COLOUR = "tab:red"
 
@@ -291,16 +298,103 @@ def _configuration_arcs(mechanism: SphericalMechanism, axes: Mapping[str, np.nda
 
 
 def _draw_configuration(ax, mechanism: SphericalMechanism, axes: Mapping[str, np.ndarray], arcs, view) -> None:
+    """Links and joint dots of one configuration (the names: :func:`_label_joints`, once all panels exist)."""
     for points, colour, width, zorder in arcs:
         _draw_curve(ax, points, view, colour, width, zorder)
     for i, leg in enumerate(mechanism.legs):
         colour = LEG_COLOURS[i % len(LEG_COLOURS)]
         for joint, p in zip(leg.joints, axes[leg.name]):
             _draw_point(ax, p, view, colour, "s" if joint.actuated else "o")
-            if float(p @ view) >= 0.0:           # the joint's name beside its axis (near side: readable)
-                q = p * LABEL_OFFSET
-                ax.text(q[0], q[1], q[2], joint.name, fontsize=7, color=colour, ha="center", va="center",
-                        zorder=31)
+
+
+def _screen_points(ax, points) -> np.ndarray:
+    """Display coordinates (pixels), shape (N, 2), of 3-D points (N, 3) on a drawn 3-D axes."""
+    from mpl_toolkits.mplot3d import proj3d
+
+    pts = np.asarray(points, dtype=float).reshape(-1, 3)
+    x, y, _ = proj3d.proj_transform(pts[:, 0], pts[:, 1], pts[:, 2], ax.get_proj())
+    return ax.transData.transform(np.column_stack([x, y]))
+
+
+def _label_joints(fig, panels) -> list:
+    """Write the names of the near-side joints beside their dots, none on another label, a dot, the
+    x/y/z letters or the panel title, and inside the panel; joints at one point on screen share one
+    label ("beta3, delta3"). Returns the Text artists.
+
+    ``panels``: (3-D axes, mechanism, joint axes {leg: (k, 3)}, view direction (3,)) per drawn panel.
+    Placement is in display space and needs the panels' projections, so the figure is drawn once
+    (Agg) first. Candidates, in order: LABEL_GAP points from the dot along the outward direction
+    from the sphere's centre on screen, then turned by 45, 90, ... degrees, then twice as far; the
+    first candidate whose box is free wins (if none is, the first candidate).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.patheffects import withStroke   # a white halo keeps a name readable over an arc
+    from matplotlib.transforms import Bbox
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    gap = LABEL_GAP * fig.dpi / 72.0
+    dot = LABEL_DOT * fig.dpi / 72.0
+    texts = []
+    for ax, mechanism, axes, view in panels:
+        centre = _screen_points(ax, np.zeros(3))[0]
+        taken = [Bbox.from_bounds(x - dot, y - dot, 2 * dot, 2 * dot)
+                 for leg in mechanism.legs for x, y in _screen_points(ax, axes[leg.name])]
+        taken.append(ax.title.get_window_extent(renderer))
+        for letter in list(ax.texts):                      # the x, y, z letters (3-D texts) as drawn
+            xy = ax.transAxes.inverted().transform(_screen_points(ax, letter.get_position_3d())[0])
+            probe = ax.text2D(*xy, letter.get_text(), transform=ax.transAxes, fontsize=letter.get_fontsize(),
+                              ha=letter.get_ha(), va=letter.get_va())
+            taken.append(probe.get_window_extent(renderer))
+            probe.remove()
+        groups: list[tuple[np.ndarray, list[str], list[str]]] = []
+        for i, leg in enumerate(mechanism.legs):
+            colour = LEG_COLOURS[i % len(LEG_COLOURS)]
+            for joint, p, xy in zip(leg.joints, axes[leg.name], _screen_points(ax, axes[leg.name])):
+                if float(p @ view) < 0.0:                  # far side: no name (it would sit on the near side)
+                    continue
+                for g_xy, names, colours in groups:
+                    if np.hypot(*(g_xy - xy)) <= dot:      # one point on screen: one label
+                        names.append(joint.name)
+                        colours.append(colour)
+                        break
+                else:
+                    groups.append((xy, [joint.name], [colour]))
+        for xy, names, colours in groups:
+            text = ", ".join(names)
+            colour = colours[0] if len(set(colours)) == 1 else "0.2"    # several legs: neutral
+            out = xy - centre
+            base = math.atan2(out[1], out[0]) if np.hypot(*out) > dot else math.pi / 2
+            chosen = None
+            for radius in (gap, 2 * gap):
+                for turn in (0, 1, -1, 2, -2, 3, -3, 4):
+                    a = base + turn * math.pi / 4
+                    c, s = math.cos(a), math.sin(a)
+                    side = math.sin(math.pi / 8)       # within 22.5 deg of vertical (horizontal): centred
+                    ha = "left" if c > side else "right" if c < -side else "center"
+                    va = "bottom" if s > side else "top" if s < -side else "center"
+                    pos = ax.transAxes.inverted().transform(xy + radius * np.array([c, s]))
+                    t = ax.text2D(*pos, text, transform=ax.transAxes, fontsize=7, ha=ha, va=va, color=colour,
+                                  zorder=31, path_effects=[withStroke(linewidth=2.0, foreground="white")])
+                    box = t.get_window_extent(renderer)
+                    free = (ax.bbox.contains(box.x0, box.y0) and ax.bbox.contains(box.x1, box.y1)
+                            and not any(box.overlaps(b) for b in taken))
+                    if chosen is None or free:
+                        if chosen is not None:
+                            chosen[0].remove()
+                        chosen = (t, box)
+                        if free:
+                            break
+                    else:
+                        t.remove()
+                else:
+                    continue
+                break
+            taken.append(chosen[1])
+            texts.append(chosen[0])
+    return texts
 
 
 def _fibonacci_directions(n: int) -> np.ndarray:
@@ -338,8 +432,16 @@ def _title(mechanism: SphericalMechanism, values: tuple, n: int, degrees: bool) 
 def _panel_title(k: int, sol) -> str:
     status = getattr(sol, "status", None)
     head = f"solution {k}" + (f": {status}" if status else "")
-    residual = "-" if sol.residual is None else f"{sol.residual:.1e}"
-    return f"{head}\nsingularity {sol.singularity or '-'}, residual {residual}"
+    return f"{head}\nsingularity {sol.singularity or '-'}, residual {residual_text(sol.residual)}"
+
+
+def residual_text(residual: float | None) -> str:
+    """A closure residual as figure text: "< 1e-12" below RESIDUAL_NOISE, else 2 significant digits
+    ("3.1e-08"); "-" for None. Used by the panel titles and paper_figures/, so that a figure does not
+    change with the machine's rounding."""
+    if residual is None:
+        return "-"
+    return f"< {RESIDUAL_NOISE:.0e}" if abs(residual) < RESIDUAL_NOISE else f"{residual:.1e}"
 
 
 def _legend_handles(mechanism: SphericalMechanism):
@@ -422,6 +524,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
     fig.suptitle(title, fontsize=12, y=1.0 - 0.12 / height, va="top")
     arcs = [_configuration_arcs(mechanism, axes) for axes in configs]
     view, elev, azim = _view_direction(np.concatenate([a[0] for panel in arcs for a in panel]))
+    panels = []
     for k, (sol, axes) in enumerate(zip(report.solutions, configs)):
         ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d", computed_zorder=False)
         ax.set_proj_type("ortho")
@@ -434,8 +537,10 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
         _draw_sphere(ax, view)
         _draw_configuration(ax, mechanism, axes, arcs[k], view)
         ax.set_title(_panel_title(k + 1, sol), fontsize=9.5, pad=-4)
+        panels.append((ax, mechanism, axes, view))
     fig.legend(handles=handles, loc="lower center", ncol=legend_ncol, fontsize=9, frameon=False,
                bbox_to_anchor=(0.5, 0.5 * LEGEND_MARGIN_INCHES / height))
+    _label_joints(fig, panels)
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig
@@ -450,6 +555,12 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
 MEASURE_FLOOR = 1e-3
 #: Size of one map panel (inches).
 MAP_PANEL_INCHES = 5.0
+#: Legend entry of the blank cells of the measure panel: inputs without any assembly have no measure.
+NO_ASSEMBLY_LABEL = "no assembly (0 solutions): no measure"
+#: Track plot's y-labels, short enough to stay within their panels (the figure is TRACK_INCHES).
+TRACK_ORIENTATION_LABEL = "platform orientation\n(unit quaternion)"
+TRACK_MEASURE_LABEL = "parallel_measure\nσmin/σmax of K_p"
+TRACK_INCHES = (8.0, 6.0)
 
 
 def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool = False):
@@ -505,6 +616,11 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
         ax2.set_xlabel(f"{amap.x.name} ({unit})")
         ax2.set_ylabel(f"{amap.y.name} ({unit})")
         ax2.set_title("distance to a parallel singularity", fontsize=11)
+        ax2.set_facecolor("white")                                # what a NaN cell shows
+        if np.isnan(amap.measure).any():                          # say what the blank cells are
+            from matplotlib.patches import Patch
+            ax2.legend(handles=[Patch(facecolor="white", edgecolor="0.4", label=NO_ASSEMBLY_LABEL)],
+                       loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, frameon=False)  # under the axis
     fixed = ", ".join(f"{n} = {v * scale:.4g} {unit}" for n, v in amap.fixed.items())
     fig.suptitle(f"{amap.mechanism}" + (f" ({fixed})" if fixed else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
@@ -531,11 +647,11 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     for k in range(1, len(q)):                   # q and -q are one rotation: keep the curve continuous
         if q[k] @ q[k - 1] < 0:
             q[k] = -q[k]
-    fig = Figure(figsize=(8.0, 6.0), dpi=DPI)
+    fig = Figure(figsize=TRACK_INCHES, dpi=DPI, layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
     for j, label in enumerate(("qw", "qx", "qy", "qz")):
         ax.plot(rows, q[:, j], label=label, lw=1.5)
-    ax.set_ylabel("platform orientation (quaternion)")
+    ax.set_ylabel(TRACK_ORIENTATION_LABEL)
     ax.legend(loc="best", fontsize=8, ncol=4)
     ax.grid(alpha=0.3)
     st = track.stop
@@ -543,7 +659,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     m_rows = list(rows) + ([] if st is None else [where])            # the last proven pose, where it stopped
     m_vals = [p.parallel_measure for p in track.poses] + ([] if st is None else [st.parallel_measure])
     ax2.semilogy(m_rows, np.maximum(m_vals, 1e-16), color="black", lw=1.2)
-    ax2.set_ylabel("parallel_measure\n(sigma_min / sigma_max of K_p)")
+    ax2.set_ylabel(TRACK_MEASURE_LABEL)
     ax2.set_xlabel("path row")
     ax2.grid(alpha=0.3, which="both")
     title = f"{mechanism.name}: one assembly mode tracked over {len(track.poses)} row(s)"
@@ -556,7 +672,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
         title += (f"\nstopped between rows {st.between_rows[0]} and {st.between_rows[1]}: "
                   + ("a parallel singularity" if st.kind == "singular" else f"{st.joint} leaves its range"))
     fig.suptitle(title, fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.align_ylabels((ax, ax2))
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig

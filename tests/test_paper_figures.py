@@ -225,19 +225,62 @@ def test_fig5_eight_solutions_four_singular_each_closing(fig5):
             assert float(w @ (r @ np.array(platform0[leg], dtype=float))) == pytest.approx(0.0, abs=1e-9)
 
 
-def test_a_quick_run_never_replaces_a_committed_figure(capsys):
+def test_a_quick_run_never_replaces_a_committed_figure(capsys, monkeypatch, tmp_path):
     from matplotlib.figure import Figure
 
     from paper_figures import _figure_tools as ft
 
+    committed = tmp_path / "paper_figures"          # stands for paper_figures/: nothing is left in the checkout
+    committed.mkdir()
+    monkeypatch.setattr(ft, "HERE", committed)
     name = "zz_quick_probe"
-    try:
-        paths = ft.save(Figure(figsize=(1, 1)), ft.HERE, name, quick=True)
-        assert all(p.parent == ft.HERE / "quick" and p.exists() for p in paths)
-        assert not (ft.HERE / f"{name}.png").exists()
-        assert "drawn from a quick run" in capsys.readouterr().out
-        full = ft.save(Figure(figsize=(1, 1)), ft.HERE / "quick", name, quick=False)
-        assert full[0].parent == ft.HERE / "quick"
-    finally:
-        for suffix in ("png", "pdf"):
-            (ft.HERE / "quick" / f"{name}.{suffix}").unlink(missing_ok=True)
+    paths = ft.save(Figure(figsize=(1, 1)), committed, name, quick=True)
+    assert all(p.parent == committed / "quick" and p.exists() for p in paths)
+    assert not (committed / f"{name}.png").exists()
+    assert "drawn from a quick run" in capsys.readouterr().out
+    full = ft.save(Figure(figsize=(1, 1)), committed / "quick", name, quick=False)
+    assert full[0].parent == committed / "quick"
+
+
+def test_fig3_without_results_runs_the_quick_experiment_of_the_experiments_package(monkeypatch, tmp_path):
+    """From a fresh clone no results exist: the quick run is imported as experiments.convergence
+    (the scripts run as python -m paper_figures.figN, not from inside experiments/)."""
+    import json
+
+    from experiments import _common, convergence
+    from paper_figures import _figure_tools as ft
+
+    monkeypatch.setattr(_common, "RESULTS", tmp_path)
+    calls = []
+
+    def quick_main(argv):                         # stands for the real quick run (minutes): writes its JSON
+        calls.append(argv)
+        (tmp_path / "quick").mkdir(exist_ok=True)
+        (tmp_path / "quick" / "convergence.json").write_text(json.dumps({"probe": 1}))
+
+    monkeypatch.setattr(convergence, "main", quick_main)
+    assert ft.experiment_data("convergence") == ({"probe": 1}, True)
+    assert calls == [["--quick"]]
+
+
+def test_fig3_runs_as_a_module():
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-m", "paper_figures.fig3_convergence", "--help"], cwd=root,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "--results" in done.stdout
+
+
+def test_figures_are_byte_deterministic(fig1, tmp_path):
+    """A second run writes the same bytes (PNG and PDF): no version or date in the files, no randomness."""
+    out, _ = fig1
+    load("fig1_polygon").main(["--out-dir", str(tmp_path)])
+    for suffix in ("png", "pdf"):
+        first, second = (d / f"fig1_polygon.{suffix}" for d in (out, tmp_path))
+        assert first.read_bytes() == second.read_bytes(), suffix
+    png = (tmp_path / "fig1_polygon.png").read_bytes()
+    assert b"Software" not in png and b"Matplotlib" not in png
+    assert b"CreationDate" not in (tmp_path / "fig1_polygon.pdf").read_bytes()

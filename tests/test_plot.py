@@ -52,7 +52,8 @@ def svg_text(tmp_path, *args, **kwargs):
     path = tmp_path / "figure.svg"
     with matplotlib.rc_context({"svg.fonttype": "none"}):
         plot_solutions(*args, path, **kwargs)
-    return path.read_text()
+    import html
+    return html.unescape(path.read_text())          # "&lt; 1e-12" in the file reads "< 1e-12"
 
 
 # ------------------------------------------------------------------------------- arcs
@@ -229,7 +230,8 @@ def test_titles_name_every_solution_and_its_singularity(solved, tmp_path):
     assert "serial" in kinds and "regular" in kinds          # the example has both (tests/test_cli.py)
     for k, sol in enumerate(report.solutions, start=1):
         assert f"solution {k}" in text
-        assert f"singularity {sol.singularity}, residual {sol.residual:.1e}" in text
+        shown = "< 1e-12" if sol.residual < 1e-12 else f"{sol.residual:.1e}"   # rounding noise as a bound
+        assert f"singularity {sol.singularity}, residual {shown}" in text
     assert "solution 9" not in text
 
 
@@ -303,3 +305,98 @@ def test_plot_report_draws_a_report_from_what_it_holds(solved, tmp_path):
         plot_report(dataclasses.replace(report, mechanism=None))
     with pytest.raises(ValueError, match="got int"):
         plot_report(3)
+
+
+# ------------------------------------------------------------------------------- layout: nothing overlaps
+
+def _boxes_overlap(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def _joint_labels(ax):
+    """The joint-name labels of a 3-D panel: its 2-D texts (the x/y/z letters are 3-D texts)."""
+    from mpl_toolkits.mplot3d.art3d import Text3D
+    return [t for t in ax.texts if not isinstance(t, Text3D)]
+
+
+@pytest.mark.parametrize("inputs", [(0.3, -0.2, 0.5), (0.0, 0.0, 0.0)])
+def test_joint_labels_do_not_collide_and_coincident_joints_share_one(inputs):
+    """Gosselin at its reference inputs puts up to three joints on one axis (R = I: every axis is a
+    coordinate axis); each near-side joint is named exactly once, joints on one point in one label,
+    and no two labels, no label and the panel title, overlap (boxes from the Agg renderer)."""
+    mech = presets.gosselin()
+    report = solve(mech, inputs)
+    fig = plot_solutions(mech, inputs, report)
+    renderer = fig.canvas.get_renderer()
+    for ax, angles in zip(fig.axes, (s.angles for s in report.solutions)):
+        labels = _joint_labels(ax)
+        boxes = [t.get_window_extent(renderer) for t in labels]
+        for i in range(len(boxes)):
+            assert not _boxes_overlap(boxes[i], ax.title.get_window_extent(renderer)), labels[i].get_text()
+            assert ax.bbox.contains(boxes[i].x0, boxes[i].y0) and ax.bbox.contains(boxes[i].x1, boxes[i].y1)
+            for j in range(i):
+                assert not _boxes_overlap(boxes[i], boxes[j]), (labels[i].get_text(), labels[j].get_text())
+        # which joints share a point: from the joint axes themselves (independent of the drawing)
+        axes = current_joint_axes(mech, inputs, dict(zip(report.unknowns, angles)))
+        points = [(j.name, p) for leg in mech.legs for j, p in zip(leg.joints, axes[leg.name])]
+        names = [n for t in labels for n in t.get_text().split(", ")]
+        assert len(names) == len(set(names))                         # nobody named twice
+        for t in labels:
+            group = t.get_text().split(", ")
+            ps = [p for n, p in points if n in group]
+            assert len(ps) == len(group)
+            assert all(angle(ps[0], p) < 1e-6 for p in ps), group      # a shared label: one point
+    if inputs == (0.0, 0.0, 0.0):
+        assert any(len(t.get_text().split(", ")) == 3 for ax in fig.axes for t in _joint_labels(ax))
+
+
+def test_track_plot_labels_clear_their_ticks_and_panels():
+    from spherekin.plot import plot_track
+    from spherekin.trust.continuation import track
+
+    mech = presets.preset("general_3rrr")
+    path = np.loadtxt(Path(__file__).resolve().parent.parent / "examples" / "path_general_3rrr.csv",
+                      delimiter=",", skiprows=1)[:6]
+    start = solve(mech, path[0]).solutions[4].platform_rotation
+    fig = plot_track(mech, track(mech, path, start))
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    for ax in fig.axes:
+        label = ax.yaxis.label.get_window_extent(renderer)
+        assert ax.get_ylabel()
+        for tick in ax.get_yticklabels():
+            if tick.get_text():
+                assert not _boxes_overlap(label, tick.get_window_extent(renderer)), (ax.get_ylabel(), tick.get_text())
+        # the label stays beside its own panel: within its height, inside the page
+        assert ax.bbox.y0 - 1 <= label.y0 and label.y1 <= ax.bbox.y1 + 1, ax.get_ylabel()
+        assert page.x0 <= label.x0
+    top, bottom = (ax.yaxis.label.get_window_extent(renderer) for ax in fig.axes)
+    assert not _boxes_overlap(top, bottom)
+
+
+def test_map_explains_its_blank_no_assembly_cells():
+    from spherekin import batch
+    from spherekin.plot import NO_ASSEMBLY_LABEL, plot_assembly_map
+
+    mech = presets.preset("general_3rrr")
+    amap = batch.assembly_map(mech, "beta1=-pi:pi:6", "beta2=-pi:pi:6", {"beta3": 0.5}, workers=0)
+    empty = amap.solutions == 0
+    assert empty.any() and np.isnan(amap.measure[empty]).all()      # the blank cells of the measure panel
+    fig = plot_assembly_map(amap, measure=True)
+    legends = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()]
+    assert NO_ASSEMBLY_LABEL in legends and "no assembly" in NO_ASSEMBLY_LABEL
+    measure_ax = [ax for ax in fig.axes if ax.get_title() == "distance to a parallel singularity"][0]
+    assert measure_ax.get_legend() is not None
+    full = dataclasses.replace(amap, solutions=np.maximum(amap.solutions, 1), measure=np.nan_to_num(amap.measure, nan=0.5))
+    fig = plot_assembly_map(full, measure=True)
+    assert all(NO_ASSEMBLY_LABEL not in [t.get_text() for t in ax.get_legend().get_texts()]
+               for ax in fig.axes if ax.get_legend())
+
+
+def test_residual_text_bounds_rounding_noise():
+    from spherekin.plot import RESIDUAL_NOISE, residual_text
+    assert RESIDUAL_NOISE == 1e-12
+    assert residual_text(4.2e-16) == residual_text(5.1e-16) == "< 1e-12"    # two machines, one figure
+    assert residual_text(2.4e-8) == "2.4e-08" and residual_text(None) == "-"

@@ -80,7 +80,7 @@ def test_a_non_converged_point_is_never_singular():
 
 @pytest.mark.parametrize("tol", [0.5, 10.0])
 def test_a_coarse_tolerance_is_refused_with_the_reason(tol):
-    with pytest.raises(ValueError, match=rf"^tol: expected at most {MAX_TOL:g} rad, got {tol:g}: a coarser box"):
+    with pytest.raises(ValueError, match=rf"^tol: expected at most {MAX_TOL:g} rad, got {tol!r}: a coarser box"):
         solve(gosselin(), (0.3, -0.2, 0.5), tol=tol)
 
 

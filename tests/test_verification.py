@@ -326,3 +326,31 @@ def test_main_exit_status(quick_run, tmp_path, monkeypatch, capsys):
     with pytest.raises(SystemExit) as exc:
         cli.main(["--fast"])
     assert exc.value.code == 2
+
+
+# ---------------------------------------------------------------- a report that does not change run to run
+
+def test_rounded_bounds_rounding_noise_and_keeps_real_deviations():
+    from verification.result import ROUNDOFF, rounded
+    assert ROUNDOFF == 1e-12
+    assert rounded(6.6e-16) == rounded(-7.4e-16) == rounded(0.0) == "< 1e-12"
+    assert rounded(3.14159e-5) == "= 3.1e-05"
+    assert rounded(1e-12) == "= 1.0e-12"          # the bound itself is not noise
+
+
+def test_report_is_the_same_on_another_blas_kernel(quick_run, tmp_path):
+    """A second run in a fresh interpreter whose BLAS uses another kernel (OPENBLAS_CORETYPE=Prescott:
+    SSE3 instead of AVX2, as on an older machine) writes the same report, byte for byte: the residual
+    digits that differ between kernels (6.6e-16 here, 7.4e-16 there) are printed as a bound."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(verification.__file__).resolve().parent.parent
+    env = dict(os.environ, OPENBLAS_CORETYPE="Prescott", PYTHONPATH=str(root))
+    out = tmp_path / "REPORT.md"
+    done = subprocess.run([sys.executable, "-m", "verification", "--quick", "--report", str(out)], cwd=root,
+                          env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert out.read_text(encoding="utf-8") == verification.render_report(quick_run)

@@ -27,7 +27,7 @@ import numpy as np
 import sympy as sp
 
 from .gosselin_geometry import PAPER_CONVENTION, SEED as GEOMETRY_SEED, random_configurations
-from .result import ERRATUM, ClaimResult
+from .result import ERRATUM, ClaimResult, rounded
 from .scalar_equation import affine_substitute
 from .symbolic import bernstein_coefficients, chain, closure_polynomials, known_factor, shifted_factor
 
@@ -211,16 +211,18 @@ def check_quadratic_convergence(quick: bool) -> ClaimResult:
     if not ok:
         raise AssertionError(f"convergence: sos={sos_ok}, grad={grad_rel}, ranks={ranks}, "
                              f"ratios=[{ratio_lo}, {ratio_hi}], net={net_dev}, transversal={transversal}")
-    eig_text = "; ".join("[" + ", ".join(f"{e:.2g}" for e in eig) + "]" for eig in eig_report)
+    # eigenvalues below RANK_TOL of the largest are rounding noise (their digits change with the machine): "0"
+    eig_text = "; ".join("[" + ", ".join("0" if abs(e) <= RANK_TOL * np.abs(eig).max() else f"{e:.2g}" for e in eig)
+                         + "]" for eig in eig_report)
     example = transversal[0]
     return ClaimResult(
         "s4-quadratic-convergence", "Section 4, 'quadratically convergent to the roots' (citing [9])", ERRATUM,
         evidence=(f"sympy, exact over QQ for n = 1..{max_n}: 2 q_n f + sum_(i<=2, j) (fbar_ij - delta_ij q_n)^2 = 0, "
                   f"so f <= 0 and every real root of Eq. (9)/(10) is a double root. At a root of the two Gosselin "
-                  f"loops (geometric model, 4 unknowns each): |grad f| / max|coeff| = "
-                  f"{', '.join(f'{g:.1e}' for g in grad_rel)}; Hessian eigenvalues {eig_text} (rank {ranks}, < 4). "
+                  f"loops (geometric model, 4 unknowns each): |grad f| / max|coeff| "
+                  f"{', '.join(rounded(g) for g in grad_rel)}; Hessian eigenvalues {eig_text} (rank {ranks}, < 4; eigenvalues below {RANK_TOL:g} of the largest shown as 0). "
                   f"On every coordinate line through the root the control net of the 4-D box equals the 1-D control "
-                  f"polygon (deviation {net_dev:.1e}), so the slice lies in every hull and no box step of Section 4 "
+                  f"polygon (deviation {rounded(net_dev)}), so the slice lies in every hull and no box step of Section 4 "
                   f"can cut a side around a root by more than half."),
         correction=("Not quadratic on the paper's equations: every root of f = fbar11 + fbar22 - 2 q_n is a double "
                     "root (f = -(1/(2 q_n)) sum_(i<=2, j) (fbar_ij - delta_ij q_n)^2), and each hull step keeps at "

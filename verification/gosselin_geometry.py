@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .result import ERRATUM, VERIFIED, VERIFIED_UNDER_CONDITIONS, ClaimResult, ImplementationMismatch
+from .result import ERRATUM, VERIFIED, VERIFIED_UNDER_CONDITIONS, ClaimResult, ImplementationMismatch, rounded
 from .spherical import (exterior_angles, normalized_product, random_rotations, rotation_about,
                         side_lengths, signed_angle, wrap)
 
@@ -244,9 +244,9 @@ def check_normal_form(quick: bool) -> ClaimResult:
     return ClaimResult(
         "s21-normal-form", "Eqs. (3)-(4), Section 2.1", VERIFIED,
         evidence=(f"geometric model, {len(confs)} random poses: all 12 sides of the two axis hexagons "
-                  f"(u1 w1 v1 v2 w2 u2) and (u3 w3 v3 v2 w2 u2) equal pi/2 (max deviation {side_dev:.1e}), so Eq. (1) "
+                  f"(u1 w1 v1 v2 w2 u2) and (u3 w3 v3 v2 w2 u2) equal pi/2 (max deviation {rounded(side_dev)}), so Eq. (1) "
                   f"reads prod Rx(theta_i) Z = I with phi_i = theta_i; residual with the measured exterior angles "
-                  f"{res:.1e}. Each loop has 6 factors, 2 actuated and 4 passive."),
+                  f"{rounded(res)}. Each loop has 6 factors, 2 actuated and 4 passive."),
         statement="prod_{i=1..6} Rx(theta_i^1) Z = I and prod Rx(theta_i^2) Z = I are already in the normal form of Eq. (2)",
         data={"side_deviation": side_dev, "residual": res},
     )
@@ -285,7 +285,7 @@ def check_actuator_relations(quick: bool) -> ClaimResult:
         evidence=(f"geometric model with inverse kinematics. Convention search over base handedness x platform "
                   f"handedness x actuator senses (32 combinations, zeros free, {POSES[0]} poses each): exactly one "
                   f"makes all four relations and Eq. (5) hold. Under it, {len(confs)} random poses and working modes: "
-                  + "; ".join(f"{k} within {v:.1e}" for k, v in worst.items())
+                  + "; ".join(f"{k}: max deviation {rounded(v)}" for k, v in worst.items())
                   + ". With a right-handed base (u3 = +e3, zeros w1 = u2, w2 = -u3, w3 = -u1) the first, second and "
                   f"fourth still hold but theta6^2 - (pi - beta2) = pi at every pose (theta6^2 = -beta2)."),
         correction="Holds under these conventions, which the paper leaves to its figure: " + _CONVENTION_TEXT
@@ -308,9 +308,9 @@ def check_eq5(quick: bool) -> ClaimResult:
         raise AssertionError(f"Eq. (5): residuals {w4:.3g}, {w5:.3g}; mirrored platform differences {diffs[:3]}")
     return ClaimResult(
         "eq5", "Eq. (5), Section 2.1", VERIFIED_UNDER_CONDITIONS,
-        evidence=(f"geometric model, {len(confs)} random poses: |theta4^2 - theta4^1 - pi/2| <= {w4:.1e} "
+        evidence=(f"geometric model, {len(confs)} random poses: max |theta4^2 - theta4^1 - pi/2| {rounded(w4)} "
                   f"(both loops meet at v2 with the same outgoing side v2 -> w2; their incoming sides come from "
-                  f"v1 and v3, at right angles), |theta5^2 - theta5^1| <= {w5:.1e} (same sides v2 -> w2 -> u2 at w2). "
+                  f"v1 and v3, at right angles), max |theta5^2 - theta5^1| {rounded(w5)} (same sides v2 -> w2 -> u2 at w2). "
                   f"With a left-handed platform triad theta4^2 - theta4^1 = -pi/2 at every pose."),
         correction=("Holds when the platform axes v1, v2, v3 form a right-handed triad (with the loop orientations "
                     "and angle signs of the actuator relations); otherwise theta4^2 = theta4^1 - pi/2. "
@@ -330,7 +330,7 @@ def check_final_loop1(quick: bool) -> ClaimResult:
     return ClaimResult(
         "s21-final-loop1", "Section 2.1, first final equation", VERIFIED_UNDER_CONDITIONS,
         evidence=(f"geometric model, {len(confs)} random poses and working modes: the printed product with the "
-                  f"measured beta's and theta^1's equals I up to {res:.1e}."),
+                  f"measured beta's and theta^1's gives |product - I| {rounded(res)}."),
         correction="Under the conventions of the actuator relations: " + _CONVENTION_TEXT,
         statement="Rx(pi + beta1) Z Rx(theta2^1) Z Rx(theta3^1) Z Rx(theta4^1) Z Rx(theta5^1) Z Rx(pi/2 - beta2) Z = I",
         data={"residual": res},
@@ -378,7 +378,7 @@ def check_final_loop2(quick: bool) -> ClaimResult:
                    "Rx(3pi/2 + beta3) Z = I"),
         demonstration=(f"geometric model, {len(confs)} random poses and working modes: printed form "
                        f"|product - I| between {min(printed):.2f} and {max(printed):.2f}; corrected form "
-                       f"<= {fixed:.1e}."),
+                       f"max |product - I| {rounded(fixed)}."),
         data={"printed_min_residual": min(printed), "corrected_max_residual": fixed, "grid_min_residual": rescue},
     )
 
@@ -427,8 +427,8 @@ def check_impl_paper_gosselin(quick: bool) -> ClaimResult:
                                      f"(loop-1 residual {res1:.3g})")
     return ClaimResult(
         "impl:paper-gosselin", "spherekin.paper_gosselin (Section 2.1 final equations)", VERIFIED,
-        evidence=(f"factor angles equal the printed equations (max deviation {dev:.1e}); at geometric "
-                  f"configurations loop 1 closes ({res1:.1e}) and loop 2, in both the 'split' and 'offset' forms, "
+        evidence=(f"factor angles equal the printed equations (max deviation {rounded(dev)}); at geometric "
+                  f"configurations loop 1 closes (|product - I| {rounded(res1)}) and loop 2, in both the 'split' and 'offset' forms, "
                   f"misses I by >= {res2:.2f}: the module is a faithful transcription, so its loop 2 carries the "
                   f"erratum s21-final-loop2."),
         data={"max_angle_deviation": dev, "loop1_residual": res1, "loop2_min_residual": res2},

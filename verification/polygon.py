@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from .result import ERRATUM, VERIFIED, VERIFIED_UNDER_CONDITIONS, ClaimResult, ImplementationMismatch
+from .result import ERRATUM, VERIFIED, VERIFIED_UNDER_CONDITIONS, ClaimResult, ImplementationMismatch, rounded
 from .spherical import Z, exterior_angles, normalized_product, random_polygon, rx, rz, side_lengths
 from .symbolic import Z_SYM, rx_sym, rz_sym
 
@@ -69,10 +69,10 @@ def check_eq1(quick: bool) -> ClaimResult:
         evidence=(f"{count} random spherical polygons (m = {POLYGON_SIZES[0]}..{POLYGON_SIZES[-1]}), sides and "
                   f"exterior angles measured from the vertices (theta_i = signed angle from the pole of side "
                   f"i-1 to the pole of side i about p_i, right-hand rule; poles p_i x p_(i+1)): max "
-                  f"|prod Rx(theta_i) Rz(alpha_i) - I| = {res:.1e}; the frame walk of the text "
+                  f"|prod Rx(theta_i) Rz(alpha_i) - I| {rounded(res)}; the frame walk of the text "
                   f"(Rz(alpha_1) Rx(theta_2) ... Rz(alpha_m) Rx(theta_1), a cyclic conjugate of the printed "
-                  f"product) {res_frame:.1e}. With all exterior angles negated the product also closes "
-                  f"({res_mirror:.1e}: the mirror polygon), so the sign convention of theta only matters once "
+                  f"product) {rounded(res_frame)}. With all exterior angles negated the product also closes "
+                  f"(residual {rounded(res_mirror)}: the mirror polygon), so the sign convention of theta only matters once "
                   f"angles are tied to joints (Section 2.1)."),
         statement="prod_{i=1..m} Rx(theta_i) Rz(alpha_i) = I for a spherical polygon with sides alpha_i "
                   "and exterior angles theta_i",
@@ -110,7 +110,7 @@ def check_eq2_normalized(quick: bool) -> ClaimResult:
         "eq2-normalized", "Section 2, equation between Eq. (1) and Eq. (2)", VERIFIED_UNDER_CONDITIONS,
         evidence=(f"sympy: Rx(theta+pi) Z Rx(alpha+pi) Z = P Rx(theta) Rz(alpha) P^T with P = Rx(pi/2) "
                   f"(exact, symbolic theta, alpha), hence the whole products are conjugate by P; "
-                  f"{count} geometric polygons: max |normalized product - I| = {res:.1e}; for open chains "
+                  f"{count} geometric polygons: max |normalized product - I| {rounded(res)}; for open chains "
                   f"the two products differ by up to {max(differs):.2f}."),
         correction=("Equivalent to Eq. (1) as a closure equation (= I exactly when Eq. (1) holds), not as a "
                     "matrix identity: prod Rx(theta_i+pi) Z Rx(alpha_i+pi) Z = Rx(pi/2) [prod Rx(theta_i) "
@@ -145,7 +145,7 @@ def check_eq2_index_rule(quick: bool) -> ClaimResult:
         statement="phi_i = theta_{(i+1)/2} + pi for i even, alpha_{i/2} + pi for i odd",
         demonstration=(f"{len(printed)} random closed spherical polygons (m = 3..7): printed rule "
                        f"min |F_n(Phi) - I| = {res_bad:.2f} (never closes); corrected rule max |F_n(Phi) - I| "
-                       f"= {res_good:.1e}."),
+                       f"{rounded(res_good)}."),
         data={"printed_min_residual": res_bad, "corrected_max_residual": res_good},
     )
 
@@ -224,6 +224,6 @@ def check_impl_rotations(quick: bool) -> ClaimResult:
     return ClaimResult(
         "impl:rotations", "spherekin.core.rotations (Eq. 1, Eq. 2 corrected rule, Eq. 6)", VERIFIED,
         evidence=(f"polygon_closure equals the product of Eq. (1); normalize_polygon + normalized_closure close "
-                  f"{count} geometric polygons; split_angle reproduces Eq. (6): max deviation {worst:.1e}."),
+                  f"{count} geometric polygons; split_angle reproduces Eq. (6): max deviation {rounded(worst)}."),
         data={"max_deviation": worst},
     )

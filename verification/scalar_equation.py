@@ -13,7 +13,7 @@ from fractions import Fraction
 import numpy as np
 import sympy as sp
 
-from .result import VERIFIED_UNDER_CONDITIONS, ClaimResult
+from .result import VERIFIED_UNDER_CONDITIONS, ClaimResult, rounded
 from .spherical import normalized_product, random_rotations
 from .symbolic import (bernstein_coefficients, chain, closure_polynomials, known_factor, matmul,
                        permute_indices, shifted_factor, sigma_index, sigma_inverse_index)
@@ -59,7 +59,7 @@ def check_eq7(quick: bool) -> ClaimResult:
                   "f11 + f22 - 2 = -1/2 sum_{i<=2, j} (f_ij - delta_ij)^2 <= 0; so f11 + f22 = 2 forces rows "
                   "1, 2 of F to be e1, e2 and, with det F = +1, row 3 = e1 x e2 = e3: F = I. "
                   f"{ROTATIONS} random rotations: max(f11 + f22 - 2) = {vals.max():.1e}, identity residual "
-                  f"{dev:.1e}. The orthogonal F = diag(1, 1, -1) (det -1) satisfies Eq. (7) "
+                  f"{rounded(dev)}. The orthogonal F = diag(1, 1, -1) (det -1) satisfies Eq. (7) "
                   f"(value {refl_value:g}) but is not I."),
         correction=("Holds for F in SO(3) -- always the case for a product of Rx, Rz -- not for every "
                     "orthogonal F. Moreover f11 + f22 - 2 <= 0 everywhere, so every root is a maximum "
@@ -93,9 +93,9 @@ def check_eq8(quick: bool) -> ClaimResult:
         "eq8", "Eq. (8), Section 2.2", VERIFIED_UNDER_CONDITIONS,
         evidence=(f"sympy: (1+t^2) cos(2 atan t) = 1 - t^2 and (1+t^2) sin(2 atan t) = 2t exactly, so "
                   f"fbar_ij = q_n f_ij; the polynomial product matches q_n * prod Rx(phi_k) Z at random points "
-                  f"for n = 1..{_max_n(quick)} (relative deviation {worst:.1e}); q_n >= 1 for real t, so Eq. (8) "
+                  f"for n = 1..{_max_n(quick)} (relative deviation {rounded(worst)}); q_n >= 1 for real t, so Eq. (8) "
                   f"has the same real roots as Eq. (7). But t = tan(phi/2) never reaches phi = pi: for n = 2 the "
-                  f"only closure is phi = (pi, pi) (|F_2 - I| = {at_pi:.1e} there) while Eq. (8) reads {f2} = 0, which has "
+                  f"only closure is phi = (pi, pi) (|F_2 - I| {rounded(at_pi)} there) while Eq. (8) reads {f2} = 0, which has "
                   f"no real root."),
         correction=("Equivalent to Eq. (2) for real t and configurations with no unknown phi_k = pi (mod 2 pi); "
                     "closures with an unknown at pi are roots at infinity, recovered only by shifting the "
