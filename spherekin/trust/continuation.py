@@ -615,11 +615,25 @@ class JointRanges:
         return self.mechanism.parallel_measures({n: angles[:, j] for j, n in enumerate(self.names)})
 
 
-def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d_a, s_b: float, record: list):
+#: Largest number of parts one proven step is cut into while testing the joint ranges over it
+#: (:func:`_ranges_walk`). Reason: a step is halved only around the point where a joint reaches a
+#: range end, ~40 halvings from a step of 1 rad to LOCATE_TOL (two parts each), so ~100 parts suffice; the
+#: cap turns a part that can never be decided into an error instead of an endless walk.
+MAX_RANGE_PARTS = 1_000
+
+
+def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d_a, s_b: float, record: list,
+                 parts: list | None = None):
     """Re-walk the proven step from s_a (displacement ``d_a``) to s_b of the segment x0 -> x1 in
     halves until every part is proven inside the ranges (:meth:`JointRanges.steps_inside`) or a part
     ends outside them. Appends (s, D, w) at the end of each part to ``record``; returns D at s_b, or
-    None when the last part appended ends outside (the exit lies in it: :func:`_locate_exit`)."""
+    None when the last part appended ends outside (the exit lies in it: :func:`_locate_exit`).
+    ``parts`` counts the parts walked (RuntimeError beyond MAX_RANGE_PARTS)."""
+    parts = [] if parts is None else parts
+    parts.append(s_a)
+    if len(parts) > MAX_RANGE_PARTS:
+        raise RuntimeError(f"track: testing the joint ranges over one proven step took more than "
+                           f"{MAX_RANGE_PARTS:,} parts without deciding where a joint leaves its range")
     direction = x1 - x0
     span = float(np.abs(direction).max())
     b_a, b_b = x0 + s_a * direction, (x1 if s_b == 1.0 else x0 + s_b * direction)
@@ -638,8 +652,8 @@ def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d
         raise RuntimeError("track: a part of a proven step could not be proven again while testing the joint "
                            "ranges")
     s_m = 0.5 * (s_a + s_b)
-    d_m = _ranges_walk(eqs, joints, x0, x1, s_a, d_a, s_m, record)
-    return None if d_m is None else _ranges_walk(eqs, joints, x0, x1, s_m, d_m, s_b, record)
+    d_m = _ranges_walk(eqs, joints, x0, x1, s_a, d_a, s_m, record, parts)
+    return None if d_m is None else _ranges_walk(eqs, joints, x0, x1, s_m, d_m, s_b, record, parts)
 
 
 def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
