@@ -12,6 +12,7 @@ import socket
 import subprocess
 import sys
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,7 @@ EXAMPLE = str(ROOT / "examples" / "general_3rrr.toml")
 BIN = Path(sys.executable).parent
 GRID = ["--grid", "beta1=-3:3:6", "--grid", "beta2=-3:3:6", "--fix", "beta3=0.5"]     # 36 inputs
 SMALL = ["--grid", "beta1=0:1:3", "--fix", "beta2=0.2", "--fix", "beta3=0.5"]           # 3 inputs
+LONG_AGO = "2026-01-02T03:04:05+00:00"
 #: Deadline (seconds) of a wait for a child process to reach a state; not a measured time: only
 #: a bound that ends a test that would otherwise hang.
 DEADLINE = 120
@@ -60,9 +62,11 @@ def dead_pid() -> int:
     return child.pid
 
 
-def write_lock(out: Path, pid: int, host: str, token: str = "1-deadbeef") -> Path:
+def write_lock(out: Path, pid: int, host: str, token: str = "1-deadbeef", started: str | None = None) -> Path:
+    """The lock of another run (``started``: now by default, so a live ``pid`` is its holder)."""
+    started = started or datetime.now(timezone.utc).isoformat(timespec="seconds")
     lock = lock_path(out)
-    lock.write_text(json.dumps({"pid": pid, "host": host, "started": "2026-01-02T03:04:05+00:00",
+    lock.write_text(json.dumps({"pid": pid, "host": host, "started": started,
                                 "command": "spherekin batch other.toml", "token": token}) + "\n")
     return lock
 
@@ -157,7 +161,7 @@ def test_a_stale_lock_is_taken_over_with_a_note(tmp_path):
     out = tmp_path / "r.parquet"
     out.mkdir()
     pid = dead_pid()
-    write_lock(out, pid, socket.gethostname(), token=f"{pid}-0dead")
+    write_lock(out, pid, socket.gethostname(), token=f"{pid}-0dead", started=LONG_AGO)
     left = temporary_path(out / "part-000000000-000000003.parquet", f"{pid}-0dead")
     left.write_bytes(b"cut by kill -9")
     run = spherekin("batch", EXAMPLE, *SMALL, "--out", str(out), "--overwrite", "--workers", "0")
@@ -171,7 +175,7 @@ def test_a_stale_lock_is_taken_over_with_a_note(tmp_path):
 
 def test_a_lock_of_another_host_is_refused_with_the_advice(tmp_path):
     out = tmp_path / "r.csv"
-    lock = write_lock(out, 1, "elsewhere.invalid")
+    lock = write_lock(out, 1, "elsewhere.invalid", started=LONG_AGO)
     before = lock.read_text()
     run = spherekin("batch", EXAMPLE, *SMALL, "--out", str(out), "--workers", "0")
     assert run.returncode == 2
@@ -205,6 +209,22 @@ def test_the_lock_is_atomic_and_released_only_by_its_holder(tmp_path):
     write_lock(out, os.getpid(), socket.gethostname(), token="other")
     lock.release()                                                 # not its lock any more: left alone
     assert lock_path(out).exists()
+
+
+def test_a_lock_whose_pid_now_names_a_younger_process_is_stale(tmp_path, capsys):
+    out = tmp_path / "r.csv"
+    younger = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    try:
+        write_lock(out, younger.pid, socket.gethostname(), started=LONG_AGO)   # the pid reused since
+        with OutputLock.acquire(out) as lock:
+            assert lock.previous.pid == younger.pid
+        assert f"took over the lock of a run that is no longer alive (pid {younger.pid} " in capsys.readouterr().err
+        write_lock(out, younger.pid, socket.gethostname())                    # written after it started: its own
+        with pytest.raises(ValueError, match=f"another run is writing it \\(pid {younger.pid} "):
+            OutputLock.acquire(out)
+    finally:
+        younger.kill()
+        younger.wait()
 
 
 @pytest.mark.parametrize("command", [

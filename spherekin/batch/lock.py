@@ -9,7 +9,8 @@ work (:func:`check_unlocked`, called by :func:`spherekin.batch.sinks.check_outpu
 error naming the holder.
 
 A lock whose holder is gone is *stale*: same host and its pid no longer alive (a run killed with
-``kill -9``, a machine that lost power). The next run takes it over and says so. A lock written on
+``kill -9``, a machine that lost power), or alive but started after the lock was written (the pid
+reused by another process, as after a reboot; Linux). The next run takes it over and says so. A lock written on
 another host cannot be judged from here (its pid means nothing on this machine): it is refused,
 with the advice to delete it if that run is known to have ended.
 """
@@ -27,7 +28,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["LOCK_SUFFIX", "Holder", "OutputLock", "lock_path", "check_unlocked", "process_alive"]
+__all__ = ["LOCK_SUFFIX", "Holder", "OutputLock", "lock_path", "check_unlocked", "process_alive", "process_start"]
 
 #: The lock of output ``results.csv`` is ``results.csv.lock`` (of a dataset ``results.parquet/``,
 #: ``results.parquet.lock``, beside the directory: an --overwrite empties the directory, not its lock).
@@ -38,6 +39,10 @@ LOCK_SUFFIX = ".lock"
 LOCK_WAIT = 1.0
 #: Seconds between two reads of a lock file being written (or of a take-over under way).
 LOCK_POLL = 0.02
+#: Seconds by which a process must have started after a lock was written to be another process
+#: under a reused pid. Reason: the lock's time is truncated to the second, and Linux gives a
+#: process's start as the boot time (whole seconds) plus clock ticks: each is up to 1 s early.
+PID_REUSE_MARGIN = 2.0
 #: Characters of the holder's command shown in an error. Reason: a command line can be up to ~2 MB
 #: long, and an error is one readable line.
 COMMAND_SHOWN = 200
@@ -70,6 +75,7 @@ class Holder:
         try:
             d = json.loads(text)
             holder = cls(d["pid"], d["host"], d["started"], d["command"], d["token"])
+            datetime.fromisoformat(holder.started)
         except (ValueError, TypeError, KeyError) as exc:
             raise ValueError(f"not a lock line of spherekin ({type(exc).__name__})") from None
         if not (isinstance(holder.pid, int) and all(isinstance(v, str) for v in (holder.host, holder.started,
@@ -82,11 +88,15 @@ class Holder:
         return f"pid {self.pid} on host {self.host}, since {self.started}: {command}"
 
     def stale(self) -> bool | None:
-        """True: its run is gone (this host, pid not alive); False: alive here; None: another host
+        """True: its run is gone (this host, and its pid not alive, or alive but started after the
+        lock was written: the pid reused, as after a reboot); False: alive here; None: another host
         (cannot be told from here)."""
         if self.host != socket.gethostname():
             return None
-        return not process_alive(self.pid)
+        if not process_alive(self.pid):
+            return True
+        began = process_start(self.pid)
+        return began is not None and began > datetime.fromisoformat(self.started).timestamp() + PID_REUSE_MARGIN
 
 
 def process_alive(pid: int) -> bool:
@@ -100,6 +110,19 @@ def process_alive(pid: int) -> bool:
     except PermissionError:       # it exists, owned by someone else
         return True
     return True
+
+
+def process_start(pid: int) -> float | None:
+    """When process ``pid`` started (seconds since the epoch), from /proc (Linux); None where that
+    cannot be read (another system, a process gone meanwhile)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        boot = next(float(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines()
+                    if line.startswith("btime "))
+        ticks = int(stat.rsplit(")", 1)[1].split()[19])      # field 22, starttime; field 2 (the name) may hold spaces
+        return boot + ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, StopIteration, ValueError, IndexError):
+        return None
 
 
 def lock_path(out) -> Path:
