@@ -513,9 +513,8 @@ def _track(args) -> int:
         from .batch.rows import track_rows
         from .batch.sinks import open_sink
 
-        sink = open_sink(args.out, mech, path.values[:len(track.poses)], resume=False)
-        sink.write(0, len(track.poses), track_rows(mech, track))
-        sink.close()
+        with open_sink(args.out, mech, path.values[:len(track.poses)], resume=False) as sink:
+            sink.write(0, len(track.poses), track_rows(mech, track))
         print(f"wrote {args.out}")
     if args.plot:
         from .plot import plot_track

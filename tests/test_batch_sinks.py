@@ -8,7 +8,7 @@ import pytest
 
 from spherekin import compile as compile_problem
 from spherekin.batch.rows import report_rows
-from spherekin.batch.sinks import check_output_path, open_sink, read_results
+from spherekin.batch.sinks import check_output_path, open_sink, read_results, temporary_path
 from spherekin.mechanism import general_3rrr
 
 INPUTS = np.array([[0.3, -0.2, 0.5], [-2.5, 2.9, 0.1], [0.1, 0.2, 0.3], [1.0, 0.0, -1.0], [0.2, 0.2, 0.2]])
@@ -90,10 +90,13 @@ def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tm
     sink = open_sink(path, mech, INPUTS)
     sink.write(1, 2, frames[1])
     sink.write(3, 4, frames[3])
-    (path / "part-000000004-000000005.tmp").write_bytes(b"cut")
+    cut = temporary_path(path / "part-000000004-000000005.parquet", sink.lock.token)
+    cut.write_bytes(b"cut")                     # its write of input 4 cut short
+    sink.close()
     resumed = open_sink(path, mech, INPUTS, resume=True)
     assert list(resumed.done) == [False, True, False, True, False]
-    assert not list(path.glob("*.tmp"))
+    assert not cut.exists()
+    resumed.close()
 
 
 def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, frames):

@@ -98,8 +98,8 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     path = check_output_path(out, resume, overwrite)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
-        sink = open_sink(path, mechanism, inputs.values, resume)
-        return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
+        with open_sink(path, mechanism, inputs.values, resume) as sink:     # the output's lock, released on any exit
+            return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
 
 
 def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping[str, float] | Sequence[str] = (),

@@ -5,7 +5,8 @@ files ``part-<first>-<end>.parquet``, one per chunk of inputs [first, end), each
 temporary name and renamed, so a file that exists is complete; chunks are written in the order they
 finish. A **CSV file** gets one block of lines per chunk, appended in input order (the engine holds
 back a chunk that finishes before an earlier one); a run stopped mid-write leaves at most the last
-input's rows incomplete.
+input's rows incomplete. One run writes an output at a time: :func:`open_sink` takes its lock
+(``<out>.lock``, :mod:`spherekin.batch.lock`) before writing anything, the sink's close releases it.
 
 ``--resume`` (``resume=True``) reads what an earlier run wrote: the inputs it finished (for a CSV,
 every input before the last one present; the last one's rows are cut off and solved again), after
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .lock import OutputLock, check_unlocked
 from .rows import columns
 
 __all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "read_results"]
@@ -46,6 +48,7 @@ def check_output_path(path, resume: bool, overwrite: bool) -> Path:
         raise ValueError(f"--out {path}: the directory {parent} is not writable")
     if resume and overwrite:
         raise ValueError("--resume and --overwrite: expected at most one of them")
+    check_unlocked(path)                          # another run writing it: refused before any work
     is_parquet = path.suffix.lower() == ".parquet"
     if path.exists():
         if is_parquet and not path.is_dir():
@@ -64,6 +67,8 @@ class Sink:
     mask over the job's inputs of those already written (by an earlier run, with resume)."""
 
     ordered = False
+    #: The output's lock (:mod:`spherekin.batch.lock`), taken by :func:`open_sink`, released by close.
+    lock: OutputLock | None = None
 
     def __init__(self, path: Path, mechanism, inputs: np.ndarray):
         self.path, self.mechanism, self.inputs = path, mechanism, inputs
@@ -74,7 +79,18 @@ class Sink:
         raise NotImplementedError
 
     def close(self) -> None:
-        """Flush and release the output (every written chunk stays)."""
+        """Flush and release the output (every written chunk stays; idempotent)."""
+        if self.lock is not None:
+            self.lock.release()
+
+    def discard_temporaries(self, run: str) -> None:
+        """Delete the temporary files of run ``run`` (its lock token): none but a Parquet dataset's."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     @property
     def key_columns(self) -> list[str]:
@@ -111,8 +127,6 @@ class ParquetSink(Sink):
             for part in path.glob("part-*.parquet"):
                 part.unlink()
         path.mkdir(exist_ok=True)
-        for tmp in path.glob("*.tmp"):            # a write cut short by an earlier run
-            tmp.unlink()
         if resume:
             import pandas as pd
 
@@ -125,9 +139,25 @@ class ParquetSink(Sink):
 
     def write(self, first: int, end: int, frame) -> None:
         final = self.path / f"part-{first:09d}-{end:09d}.parquet"
-        tmp = final.with_suffix(".tmp")
+        tmp = temporary_path(final, self.lock.token if self.lock else "unlocked")
         frame.to_parquet(tmp, index=False)
         os.replace(tmp, final)
+
+    def discard_temporaries(self, run: str) -> None:
+        for tmp in self.path.glob(temporary_path(self.path / "part-*.parquet", run).name):
+            tmp.unlink(missing_ok=True)
+
+    def close(self) -> None:
+        if self.lock is not None:                 # a write cut short (an error, Ctrl-C): only this run's
+            self.discard_temporaries(self.lock.token)
+        super().close()
+
+
+def temporary_path(final: Path, run: str) -> Path:
+    """Where Parquet part ``final`` is written before its rename: hidden (a dot name, which pyarrow's
+    reading of the directory skips), named for run ``run`` (its lock token: pid and a random part),
+    so that a run finds and deletes only its own temporaries, never those of another run."""
+    return final.with_name(f".{final.name}.{run}.tmp")
 
 
 class CsvSink(Sink):
@@ -182,13 +212,25 @@ class CsvSink(Sink):
     def close(self) -> None:
         if not self._file.closed:
             self._file.close()
+        super().close()
 
 
 def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False) -> Sink:
-    """The sink of ``path`` (checked with :func:`check_output_path` first)."""
+    """The sink of ``path`` (checked with :func:`check_output_path` first), holding the output's lock
+    (taken before anything is written; ValueError if another run holds it) until its close: use it
+    in a ``with`` block."""
     path = Path(path)
     cls = ParquetSink if path.suffix.lower() == ".parquet" else CsvSink
-    return cls(path, mechanism, inputs, resume)
+    lock = OutputLock.acquire(path)
+    try:
+        sink = cls(path, mechanism, inputs, resume)
+        sink.lock = lock
+        if lock.previous is not None:              # a run killed while writing: its temporaries
+            sink.discard_temporaries(lock.previous.token)
+    except BaseException:
+        lock.release()
+        raise
+    return sink
 
 
 def _read_csv(source, usecols=None):
