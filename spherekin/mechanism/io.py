@@ -56,11 +56,15 @@ def load_mechanism(path) -> SphericalMechanism:
     except OSError as exc:
         raise MechanismFileError(f"{p}: cannot read the file: {exc.strerror or exc}") from None
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
+        text = raw.decode("utf-8-sig")       # a byte-order mark (some editors write one) is not TOML: dropped
     except UnicodeDecodeError as exc:
         raise MechanismFileError(f"{p}: not UTF-8 text: {exc.reason} at byte {exc.start}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise MechanismFileError(f"{p}: not valid TOML: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except RecursionError:
+        raise MechanismFileError(f"{p}: not valid TOML for spherekin: arrays or tables nested too deeply") from None
+    except ValueError as exc:                # TOMLDecodeError, or an integer of more than 4300 digits
+        raise MechanismFileError(f"{p}: not valid TOML: {' '.join(str(exc).split())}") from None
     return mechanism_from_dict(data, source=str(p))
 
 
@@ -72,6 +76,8 @@ def mechanism_from_dict(data: Mapping, source: str = "<mechanism>") -> Spherical
         raise
     except ValueError as exc:
         raise MechanismFileError(f"{source}: {exc}") from None
+    except RecursionError:                   # a value nested deeper than Python's recursion limit
+        raise MechanismFileError(f"{source}: a value is nested too deeply (lists in lists)") from None
 
 
 def _check_keys(where: str, table: Mapping, required, optional) -> None:

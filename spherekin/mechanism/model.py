@@ -49,10 +49,10 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import check_turn, in_range, into_range
+from ..core.angles import check_geometry_angle, check_turn, in_range, into_range
 from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
-from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
+from .checks import check_joint_name, check_name, check_range, check_rotation, check_unit_vector, parse_angle
 
 __all__ = [
     "PARALLEL_TOL",
@@ -113,13 +113,14 @@ class Joint:
     reference_angle: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "name", check_name("name", self.name))
+        object.__setattr__(self, "name", check_joint_name("name", self.name))
         object.__setattr__(self, "axis", check_unit_vector("axis", self.axis))
         if not isinstance(self.actuated, (bool, np.bool_)):
             raise ValueError(f"actuated: expected true or false, got {self.actuated!r}")
         object.__setattr__(self, "actuated", bool(self.actuated))
         object.__setattr__(self, "range", check_range("range", self.range))
-        object.__setattr__(self, "reference_angle", parse_angle("reference_angle", self.reference_angle))
+        object.__setattr__(self, "reference_angle", check_geometry_angle(
+            "reference_angle", parse_angle("reference_angle", self.reference_angle)))
 
 
 @dataclass(frozen=True)

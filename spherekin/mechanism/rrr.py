@@ -38,6 +38,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..core.angles import check_geometry_angle
 from ..core.rotations import cross
 from .chains import angle_about, axis_rotation, least_aligned_basis
 from .checks import check_range, check_unit_vector, parse_angle
@@ -250,7 +251,8 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
                 "(a proximal link angle of 0 or pi makes the two joints coaxial)"
             )
     ranges = _joint_table("joint_ranges", joint_ranges, "[lo, hi]", check_range)
-    offsets = _joint_table("joint_offsets", joint_offsets, "angle", parse_angle)
+    offsets = _joint_table("joint_offsets", joint_offsets, "angle",
+                           lambda key, v: check_geometry_angle(key, parse_angle(key, v)))
     geom = ThreeRRRGeometry(u, w0, v0, alpha2)
     rot = find_reference_pose(geom)
     if rot is None:
