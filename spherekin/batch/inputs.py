@@ -167,7 +167,8 @@ def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs
     counts = Counter(header)
     twice = [h for h, c in counts.items() if c > 1]
     if twice:
-        raise ValueError(f"{path} line {header_line}: column {_some(twice, str)} appears more than once")
+        raise ValueError(f"{path} line {header_line}: column{'s' if len(twice) > 1 else ''} {_some(twice, str)} "
+                         f"appear{'' if len(twice) > 1 else 's'} more than once")
     extra = [h for h in counts if h not in names]
     missing = [n for n in names if n not in counts]
     if extra or missing:

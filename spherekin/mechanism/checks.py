@@ -98,6 +98,8 @@ def parse_angle(key: str, value, *, degrees: bool = False) -> float:
             if den == 0.0:
                 raise ValueError(f"{key}: division by zero in {value!r}")
             out /= den
+        if not math.isfinite(out):                  # "1e400", "1e308*pi": beyond the range of a float
+            raise ValueError(f"{key}: expected a finite angle in radians, got {shown(value)}")
         return -out if m["sign"] == "-" else out
     try:
         out = float(value)

@@ -63,8 +63,11 @@ def load_mechanism(path) -> SphericalMechanism:
         data = tomllib.loads(text)
     except RecursionError:
         raise MechanismFileError(f"{p}: not valid TOML for spherekin: arrays or tables nested too deeply") from None
-    except ValueError as exc:                # TOMLDecodeError, or an integer of more than 4300 digits
-        raise MechanismFileError(f"{p}: not valid TOML: {' '.join(str(exc).split())}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise MechanismFileError(f"{p}: not valid TOML: {exc}") from None
+    except ValueError as exc:                # Python's limit on the digits of an integer
+        raise MechanismFileError(f"{p}: not valid TOML for spherekin: a number with more digits than Python "
+                                 f"reads ({str(exc).split(':')[0]})") from None
     return mechanism_from_dict(data, source=str(p))
 
 
