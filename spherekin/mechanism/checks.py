@@ -50,7 +50,9 @@ def shown(value) -> str:
     long for that as its number of digits, a longer text by its start and its length."""
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10 ** SHOWN_CHARS:
         return f"an integer of about {int(abs(value).bit_length() * math.log10(2)) + 1} digits"
-    text = repr(value) if not isinstance(value, (list, dict, tuple)) or len(value) < 100 else f"<{type(value).__name__} of {len(value)} items>"
+    if isinstance(value, (list, tuple, dict)) and len(value) > SHOWN_CHARS:   # not written out only to be cut
+        return f"a {type(value).__name__} of {len(value)} items"
+    text = repr(value)
     return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}... ({len(text)} characters)"
 
 
@@ -82,7 +84,7 @@ def parse_angle(key: str, value, *, degrees: bool = False) -> float:
             raise ValueError(f"{key}: with --degrees, expected a number of degrees, got {value.strip()!r} (radians)")
         return math.radians(parse_angle(key, value))
     if isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{key}: expected an angle in radians (a number or text like \"pi/2\"), got {value!r}")
+        raise ValueError(f"{key}: expected an angle in radians (a number or text like \"pi/2\"), got {shown(value)}")
     if isinstance(value, str):
         m = _PI_EXPR.match(check_ascii(key, value))
         ok = m is not None and bool(m["num"] or m["pi"]) and (not m["star"] or bool(m["num"] and m["pi"]))
@@ -140,7 +142,7 @@ def check_joint_name(key: str, value) -> str:
 def check_unit_vector(key: str, value) -> tuple[float, float, float]:
     """A unit 3-vector (norm 1 within UNIT_TOL), returned normalized to full precision."""
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ValueError(f"{key}: expected a unit vector [x, y, z], got {value!r}")
+        raise ValueError(f"{key}: expected a unit vector [x, y, z], got {shown(value)}")
     if len(value) != 3:
         raise ValueError(f"{key}: expected a unit vector of 3 components [x, y, z], got {len(value)} components")
     comps = []

@@ -23,6 +23,7 @@ from typing import Mapping
 
 import numpy as np
 
+from .checks import shown
 from .model import Joint, Leg, SphericalMechanism
 from .rrr import THREE_RRR_KEYS, three_rrr
 
@@ -102,7 +103,7 @@ def _build(data) -> SphericalMechanism:
         raise ValueError(f"kind: missing key; expected one of {KINDS}")
     kind = data["kind"]
     if kind not in KINDS:
-        raise ValueError(f"kind: expected one of {KINDS}, got {kind!r}")
+        raise ValueError(f"kind: expected one of {KINDS}, got {shown(kind)}")
     body = {k: v for k, v in data.items() if k != "kind"}
     if kind == "3-RRR":
         _check_keys("", body, THREE_RRR_KEYS, _RRR_OPTIONAL)
@@ -114,21 +115,21 @@ def _build(data) -> SphericalMechanism:
     _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
     legs_raw = body["legs"]
     if not isinstance(legs_raw, list) or not legs_raw:
-        raise ValueError("legs: expected one or more [[legs]] tables, got " + repr(legs_raw))
+        raise ValueError(f"legs: expected one or more [[legs]] tables, got {shown(legs_raw)}")
     legs = []
     for i, leg in enumerate(legs_raw):
         where = f"legs[{i}]"
         if not isinstance(leg, Mapping):
-            raise ValueError(f"{where}: expected a [[legs]] table, got {leg!r}")
+            raise ValueError(f"{where}: expected a [[legs]] table, got {shown(leg)}")
         _check_keys(where, leg, ("joints",), ("name",))
         joints_raw = leg["joints"]
         if not isinstance(joints_raw, list) or not joints_raw:
-            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {joints_raw!r}")
+            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {shown(joints_raw)}")
         joints = []
         for k, j in enumerate(joints_raw):
             jwhere = f"{where}.joints[{k}]"
             if not isinstance(j, Mapping):
-                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {j!r}")
+                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {shown(j)}")
             _check_keys(jwhere, j, ("name", "axis"), ("actuated", "range", "reference_angle"))
             try:
                 joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),
