@@ -93,6 +93,8 @@ def test_non_ascii_digits_are_refused_in_every_angle_and_count_typed(tmp_path, c
     line = _refused(["batch", GOSSELIN, "--grid", "beta1=0:1:3", "--fix", "beta2=0.\u0665", "--fix", "beta3=0",
                      "--out", str(tmp_path / "o.csv")], capsys)
     assert "--fix beta2: expected a number in the ASCII digits 0-9" in line
+    line = _refused(["ik", GOSSELIN, "--quaternion", "1,0,0,\u0660"], capsys)
+    assert "--quaternion: expected a number in the ASCII digits 0-9, got '1,0,0,\u0660'" in line
 
 
 def test_a_mechanism_file_with_a_byte_order_mark_reads_as_without(tmp_path):

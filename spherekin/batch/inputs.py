@@ -146,7 +146,8 @@ def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, f
 def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs") -> InputSet:
     """The inputs of a CSV file (module doc); with ``degrees`` its numbers are degrees. One
     ValueError naming the line and column of the first problem (a missing or extra column, an empty
-    cell, text, NaN, a value outside a joint range); ``key``: the option that named the file."""
+    cell, text, NaN, a digit other than 0-9, a field over csv's size limit, a value outside a joint
+    range); ``key``: the option that named the file."""
     path = Path(path)
     names = tuple(mechanism.actuated)
     try:
