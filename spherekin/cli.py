@@ -361,6 +361,9 @@ def _map(args) -> int:
 
 
 def _parse_numbers(key: str, text: str, n: int) -> list[float]:
+    from .mechanism.checks import check_ascii
+
+    check_ascii(key, text)                      # float() reads the digits of other scripts too
     try:
         values = [float(v) for v in text.replace(" ", ",").split(",") if v]
     except ValueError:

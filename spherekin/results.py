@@ -20,6 +20,7 @@ import numpy as np
 
 from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler_convention,
                                quaternions_from_rotations)
+from .core.columns import table_columns
 
 __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
@@ -297,13 +298,6 @@ class EmptyReason:
     def as_dict(self) -> dict:
         return {"kind": self.kind, "ranged_joints": list(self.ranged_joints),
                 "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
-
-
-def table_columns(actuated, unknowns) -> tuple[str, ...]:
-    """The columns of the results table (:func:`solution_table`) of a mechanism with these actuated
-    joints and passive unknowns (names)."""
-    return ("input", *actuated, "solution", "status", *unknowns, *QUATERNION_COLUMNS, *ROTATION_COLUMNS,
-            "residual", "singularity", "parallel_measure")
 
 
 def solution_table(actuated, unknowns, items, measure=None):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -20,7 +21,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..core.angles import beyond_turn, in_range_many, turn_error
-from ..mechanism.checks import parse_angle
+from ..mechanism.checks import check_ascii, parse_angle, shown
 
 __all__ = ["MAX_INPUTS", "GridAxis", "InputSet", "parse_grid", "parse_fix", "grid_inputs", "read_inputs_csv",
            "array_inputs", "check_inputs"]
@@ -29,6 +30,10 @@ __all__ = ["MAX_INPUTS", "GridAxis", "InputSet", "parse_grid", "parse_fix", "gri
 #: 3 angles are 240 MB); a grid spec beyond this is almost surely a typo (64000 for 64), and a
 #: family that large is better split into jobs that each finish.
 MAX_INPUTS = 10_000_000
+
+#: Columns of a CSV header named in an error about them; the rest are counted. Reason: an error is
+#: one line, and a header of 80,000 wrong columns is a wrong file, recognised by its first few.
+NAMED_COLUMNS = 5
 
 
 @dataclass(frozen=True)
@@ -81,9 +86,10 @@ def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
     lo = parse_angle(f"--grid {name} (lo)", parts[0], degrees=degrees)
     hi = parse_angle(f"--grid {name} (hi)", parts[1], degrees=degrees)
     try:
-        n = int(parts[2])
+        n = int(check_ascii(f"--grid {name} (n)", parts[2]))
     except ValueError:
-        raise ValueError(f"--grid {name}: expected a whole number of points n >= 2, got {parts[2]!r}") from None
+        raise ValueError(f"--grid {name}: expected a whole number of points n >= 2 (digits 0-9), "
+                         f"got {shown(parts[2])}") from None
     if n < 2:
         raise ValueError(f"--grid {name}: expected n >= 2 points (hold a joint still with --fix {name}=value), got {n}")
     if not lo < hi:
@@ -140,7 +146,8 @@ def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, f
 def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs") -> InputSet:
     """The inputs of a CSV file (module doc); with ``degrees`` its numbers are degrees. One
     ValueError naming the line and column of the first problem (a missing or extra column, an empty
-    cell, text, NaN, a value outside a joint range); ``key``: the option that named the file."""
+    cell, text, NaN, a digit other than 0-9, a field over csv's size limit, a value outside a joint
+    range); ``key``: the option that named the file."""
     path = Path(path)
     names = tuple(mechanism.actuated)
     try:
@@ -149,19 +156,25 @@ def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs
         raise ValueError(f"{key} {path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{key} {path}: cannot read it ({exc})") from None
-    rows = [(k + 1, r) for k, r in enumerate(csv.reader(text.splitlines())) if any(c.strip() for c in r)]
+    reader = csv.reader(text.splitlines())
+    try:
+        rows = [(k + 1, r) for k, r in enumerate(reader) if any(c.strip() for c in r)]
+    except csv.Error as exc:              # a field over csv.field_size_limit() characters, ...
+        raise ValueError(f"{path} line {reader.line_num}: not a CSV of numbers: {exc}") from None
     if not rows:
         raise ValueError(f"{path}: empty; expected a header line naming the actuated joints ({', '.join(names)})")
     header_line, header = rows[0]
     header = [h.strip() for h in header]
-    twice = sorted({h for h in header if header.count(h) > 1})
+    counts = Counter(header)
+    twice = [h for h, c in counts.items() if c > 1]
     if twice:
-        raise ValueError(f"{path} line {header_line}: column {', '.join(twice)} appears more than once")
-    extra = [h for h in header if h not in names]
-    missing = [n for n in names if n not in header]
+        raise ValueError(f"{path} line {header_line}: column{'s' if len(twice) > 1 else ''} {_some(twice, str)} "
+                         f"appear{'' if len(twice) > 1 else 's'} more than once")
+    extra = [h for h in counts if h not in names]
+    missing = [n for n in names if n not in counts]
     if extra or missing:
         what = "; ".join(filter(None, [f"missing column(s) {', '.join(missing)}" if missing else "",
-                                       f"unexpected column(s) {', '.join(repr(e) for e in extra)}" if extra else ""]))
+                                       f"unexpected column(s) {_some(extra)}" if extra else ""]))
         raise ValueError(f"{path} line {header_line}: {what}; expected exactly one column per actuated joint "
                          f"({', '.join(names)})")
     if len(rows) == 1:
@@ -176,17 +189,25 @@ def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs
             raise ValueError(f"{path} line {line}: expected {len(header)} values ({', '.join(header)}), got {len(row)}")
         for j, col in enumerate(order):
             cell = row[col].strip()
+            where = f"{path} line {line}, column {names[j]}"
             if not cell:
-                raise ValueError(f"{path} line {line}, column {names[j]}: empty; expected a number (radians"
+                raise ValueError(f"{where}: empty; expected a number (radians"
                                  f"{' or degrees with --degrees' if not degrees else ''})")
+            check_ascii(where, cell)
             try:
-                values[k, j] = parse_angle(f"{path} line {line}, column {names[j]}", cell, degrees=degrees)
+                values[k, j] = parse_angle(where, cell, degrees=degrees)
             except ValueError:
-                raise ValueError(f"{path} line {line}, column {names[j]}: expected a finite number, got {cell!r}") from None
+                raise ValueError(f"{where}: expected a finite number, got {shown(cell)}") from None
         lines[k] = line
     out = InputSet(names, values, str(path), lines=lines)
     check_inputs(mechanism, out)
     return out
+
+
+def _some(columns: Sequence[str], show=shown) -> str:
+    """The first NAMED_COLUMNS of ``columns`` (each as ``show`` writes it), and how many more there are."""
+    named = ", ".join(show(c) for c in columns[:NAMED_COLUMNS])
+    return named if len(columns) <= NAMED_COLUMNS else f"{named} and {len(columns) - NAMED_COLUMNS} more"
 
 
 def array_inputs(mechanism, inputs) -> InputSet:

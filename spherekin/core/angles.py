@@ -14,7 +14,8 @@ import math
 import numpy as np
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
-           "into_range", "beyond_turn", "turn_error", "check_turn", "near_groups"]
+           "into_range", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE", "check_geometry_angle",
+           "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -28,6 +29,12 @@ RANGE_TOL = 1e-10
 #: from a forgotten degrees flag (17 meant as 17 degrees) far more often than from a joint turned
 #: several times; far beyond a turn the reduction itself loses digits (at 1e17 rad, every one).
 MAX_INPUT_ANGLE = TWO_PI + RANGE_TOL
+#: Largest |angle| (radians) of a mechanism's geometry: a joint range's end, a joint's reference
+#: reading, a 3-RRR joint offset. Reason: these angles are used modulo 2 pi, and the reduction errs by
+#: the float's spacing at the angle (1.5e-11 at 1e5) plus the turns times the error of the double
+#: nearest 2 pi (1e5 / 2 pi * 2.4e-16 = 4e-12): below 1e5 together far under RANGE_TOL; beyond, the
+#: mechanism would be solved for another geometry than the one written (at 1e17, no digit is left).
+MAX_GEOMETRY_ANGLE = 1e5
 
 
 def wrap(angle):
@@ -95,6 +102,16 @@ def check_turn(key: str, theta: float) -> float:
     theta = float(theta)
     if abs(theta) > MAX_INPUT_ANGLE:
         raise ValueError(turn_error(key, theta))
+    return theta
+
+
+def check_geometry_angle(key: str, theta: float) -> float:
+    """``theta`` (radians) as a float when |theta| <= MAX_GEOMETRY_ANGLE, else ValueError naming ``key``
+    and the reason (the precision of the reduction modulo 2 pi)."""
+    theta = float(theta)
+    if not abs(theta) <= MAX_GEOMETRY_ANGLE:
+        raise ValueError(f"{key}: expected an angle within {MAX_GEOMETRY_ANGLE:g} rad of 0, got {theta:g}: angles "
+                         "are read modulo 2 pi, and reducing this one would lose digits; write the reduced angle")
     return theta
 
 

@@ -23,6 +23,7 @@ from typing import Mapping
 
 import numpy as np
 
+from .checks import shown
 from .model import Joint, Leg, SphericalMechanism
 from .rrr import THREE_RRR_KEYS, three_rrr
 
@@ -56,11 +57,18 @@ def load_mechanism(path) -> SphericalMechanism:
     except OSError as exc:
         raise MechanismFileError(f"{p}: cannot read the file: {exc.strerror or exc}") from None
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
+        text = raw.decode("utf-8-sig")       # a byte-order mark (some editors write one) is not TOML: dropped
     except UnicodeDecodeError as exc:
         raise MechanismFileError(f"{p}: not UTF-8 text: {exc.reason} at byte {exc.start}") from None
+    try:
+        data = tomllib.loads(text)
+    except RecursionError:
+        raise MechanismFileError(f"{p}: not valid TOML for spherekin: arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as exc:
         raise MechanismFileError(f"{p}: not valid TOML: {exc}") from None
+    except ValueError as exc:                # Python's limit on the digits of an integer
+        raise MechanismFileError(f"{p}: not valid TOML for spherekin: a number with more digits than Python "
+                                 f"reads ({str(exc).split(':')[0]})") from None
     return mechanism_from_dict(data, source=str(p))
 
 
@@ -72,6 +80,8 @@ def mechanism_from_dict(data: Mapping, source: str = "<mechanism>") -> Spherical
         raise
     except ValueError as exc:
         raise MechanismFileError(f"{source}: {exc}") from None
+    except RecursionError:                   # a value nested deeper than Python's recursion limit
+        raise MechanismFileError(f"{source}: a value is nested too deeply (lists in lists)") from None
 
 
 def _check_keys(where: str, table: Mapping, required, optional) -> None:
@@ -93,7 +103,7 @@ def _build(data) -> SphericalMechanism:
         raise ValueError(f"kind: missing key; expected one of {KINDS}")
     kind = data["kind"]
     if kind not in KINDS:
-        raise ValueError(f"kind: expected one of {KINDS}, got {kind!r}")
+        raise ValueError(f"kind: expected one of {KINDS}, got {shown(kind)}")
     body = {k: v for k, v in data.items() if k != "kind"}
     if kind == "3-RRR":
         _check_keys("", body, THREE_RRR_KEYS, _RRR_OPTIONAL)
@@ -105,21 +115,21 @@ def _build(data) -> SphericalMechanism:
     _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
     legs_raw = body["legs"]
     if not isinstance(legs_raw, list) or not legs_raw:
-        raise ValueError("legs: expected one or more [[legs]] tables, got " + repr(legs_raw))
+        raise ValueError(f"legs: expected one or more [[legs]] tables, got {shown(legs_raw)}")
     legs = []
     for i, leg in enumerate(legs_raw):
         where = f"legs[{i}]"
         if not isinstance(leg, Mapping):
-            raise ValueError(f"{where}: expected a [[legs]] table, got {leg!r}")
+            raise ValueError(f"{where}: expected a [[legs]] table, got {shown(leg)}")
         _check_keys(where, leg, ("joints",), ("name",))
         joints_raw = leg["joints"]
         if not isinstance(joints_raw, list) or not joints_raw:
-            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {joints_raw!r}")
+            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {shown(joints_raw)}")
         joints = []
         for k, j in enumerate(joints_raw):
             jwhere = f"{where}.joints[{k}]"
             if not isinstance(j, Mapping):
-                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {j!r}")
+                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {shown(j)}")
             _check_keys(jwhere, j, ("name", "axis"), ("actuated", "range", "reference_angle"))
             try:
                 joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),

@@ -49,10 +49,11 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import check_turn, in_range, into_range
+from ..core.angles import check_geometry_angle, check_turn, in_range, into_range
 from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
-from .checks import check_name, check_range, check_rotation, check_unit_vector, parse_angle
+from .checks import (check_joint_name, check_name, check_range, check_rotation, check_unit_vector, parse_angle,
+                     shown)
 
 __all__ = [
     "PARALLEL_TOL",
@@ -104,7 +105,9 @@ _IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 class Joint:
     """A revolute joint: its axis (unit vector, base frame, reference configuration), whether it is
     actuated, its range (lo, hi) in radians or None (unlimited: the full circle), and its reading
-    at the reference configuration (radians)."""
+    at the reference configuration (radians). The name is checked by
+    :func:`~.checks.check_joint_name` (it names a column of the results); the range ends and the
+    reference reading are within :data:`~spherekin.core.angles.MAX_GEOMETRY_ANGLE` of 0."""
 
     name: str
     axis: tuple
@@ -113,13 +116,14 @@ class Joint:
     reference_angle: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "name", check_name("name", self.name))
+        object.__setattr__(self, "name", check_joint_name("name", self.name))
         object.__setattr__(self, "axis", check_unit_vector("axis", self.axis))
         if not isinstance(self.actuated, (bool, np.bool_)):
-            raise ValueError(f"actuated: expected true or false, got {self.actuated!r}")
+            raise ValueError(f"actuated: expected true or false, got {shown(self.actuated)}")
         object.__setattr__(self, "actuated", bool(self.actuated))
         object.__setattr__(self, "range", check_range("range", self.range))
-        object.__setattr__(self, "reference_angle", parse_angle("reference_angle", self.reference_angle))
+        object.__setattr__(self, "reference_angle", check_geometry_angle(
+            "reference_angle", parse_angle("reference_angle", self.reference_angle)))
 
 
 @dataclass(frozen=True)
@@ -394,7 +398,7 @@ class SphericalMechanism:
                 seen[j.name] = f"legs[{i}].joints[{k}]"
         ref = leg_names[0] if self.reference_leg is None else self.reference_leg
         if ref not in leg_names:
-            raise ValueError(f"reference_leg: expected one of {leg_names}, got {ref!r}")
+            raise ValueError(f"reference_leg: expected one of {leg_names}, got {shown(ref)}")
         platform = check_rotation("platform_reference", self.platform_reference)
         object.__setattr__(self, "legs", legs)
         object.__setattr__(self, "reference_leg", ref)

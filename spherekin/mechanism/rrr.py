@@ -38,9 +38,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..core.angles import check_geometry_angle
 from ..core.rotations import cross
 from .chains import angle_about, axis_rotation, least_aligned_basis
-from .checks import check_range, check_unit_vector, parse_angle
+from .checks import check_range, check_unit_vector, parse_angle, shown
 from .model import PARALLEL_TOL, Joint, Leg, SphericalMechanism
 
 __all__ = [
@@ -125,7 +126,7 @@ class ThreeRRRGeometry:
 
 def _three_vectors(key: str, value) -> tuple:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ValueError(f"{key}: expected a list of 3 unit vectors, got {value!r}")
+        raise ValueError(f"{key}: expected a list of 3 unit vectors, got {shown(value)}")
     if len(value) != 3:
         raise ValueError(f"{key}: expected 3 unit vectors (one per leg), got {len(value)}")
     return tuple(check_unit_vector(f"{key}[{i}]", v) for i, v in enumerate(value))
@@ -133,7 +134,7 @@ def _three_vectors(key: str, value) -> tuple:
 
 def _three_angles(key: str, value) -> tuple:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ValueError(f"{key}: expected a list of 3 angles in radians, got {value!r}")
+        raise ValueError(f"{key}: expected a list of 3 angles in radians, got {shown(value)}")
     if len(value) != 3:
         raise ValueError(f"{key}: expected 3 angles (one per leg), got {len(value)}")
     out = tuple(parse_angle(f"{key}[{i}]", a) for i, a in enumerate(value))
@@ -217,12 +218,12 @@ def _joint_table(key: str, table, what: str, check) -> dict:
     if table is None:
         return {}
     if not isinstance(table, Mapping):
-        raise ValueError(f"{key}: expected a table joint name -> {what}, got {table!r}")
+        raise ValueError(f"{key}: expected a table joint name -> {what}, got {shown(table)}")
     names = rrr_joint_names()
     out = {}
     for n, v in table.items():
         if n not in names:
-            raise ValueError(f"{key}: unknown joint {n!r}; valid names: {', '.join(names)}")
+            raise ValueError(f"{key}: unknown joint {shown(n)}; valid names: {', '.join(names)}")
         out[n] = check(f"{key}.{n}", v)
     return out
 
@@ -250,7 +251,8 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
                 "(a proximal link angle of 0 or pi makes the two joints coaxial)"
             )
     ranges = _joint_table("joint_ranges", joint_ranges, "[lo, hi]", check_range)
-    offsets = _joint_table("joint_offsets", joint_offsets, "angle", parse_angle)
+    offsets = _joint_table("joint_offsets", joint_offsets, "angle",
+                           lambda key, v: check_geometry_angle(key, parse_angle(key, v)))
     geom = ThreeRRRGeometry(u, w0, v0, alpha2)
     rot = find_reference_pose(geom)
     if rot is None:
