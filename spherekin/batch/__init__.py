@@ -90,15 +90,21 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     .csv) as chunks finish; returns the :class:`~spherekin.batch.engine.RunSummary`.
 
     Everything (inputs, strategy, the output path, the scheduler) is checked before the first solve.
-    With ``resume`` only the inputs ``out`` does not hold yet are solved; ``overwrite`` replaces it.
+    With ``resume`` only the inputs ``out`` does not hold yet are solved, after checking that ``out``
+    was written by this job (mechanism, inputs, strategy, version: its fingerprint) and that its rows
+    are whole (:mod:`spherekin.batch.sinks`); ``overwrite`` replaces it.
     On Ctrl-C the finished chunks stay written and the summary says ``interrupted``.
     """
     from .engine import connect, run
 
+    from .fingerprint import Fingerprint, describe_inputs, strategy_of
+
     mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     path = check_output_path(out, resume, overwrite)
+    fingerprint = Fingerprint.of(mechanism, inputs.values, strategy_of(job.compile()),
+                                   describe_inputs(inputs))
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
-        sink = open_sink(path, mechanism, inputs.values, resume)
+        sink = open_sink(path, mechanism, inputs.values, resume, fingerprint)
         return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
 
 
