@@ -129,5 +129,9 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
                                 **strategy)
         if summary.interrupted:
             raise KeyboardInterrupt
+        if summary.note:                        # a repaired resume: said, as the CLI's batch says it
+            import warnings
+
+            warnings.warn(summary.note, UserWarning, stacklevel=2)
         frame = read_results(out, columns=MAP_COLUMNS)
     return aggregate(frame, x, y, inputs.fixed, mechanism.name)

@@ -19,14 +19,14 @@ this job's for their input number, inputs in order from 0 and each input's solut
 each once, and no two parts hold one input. What cannot be a run's cut is refused naming the file
 and line or part. A CSV's last input is solved again (a run stopped while writing it may have cut
 its rows), together with a line cut short and unreadable lines after it (what a crash leaves at the
-end of a file): the file is truncated there, with a warning when more than whole rows are dropped.
+end of a file): the file is truncated there, and ``Sink.note`` says so when more than whole rows
+are dropped.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +88,8 @@ class Sink:
         self.path, self.mechanism, self.inputs = path, mechanism, inputs
         self.columns = list(columns(mechanism))
         self.done = np.zeros(len(inputs), dtype=bool)
+        #: What a resume repaired (dropped beyond whole rows), for the user; "" when nothing.
+        self.note = ""
 
     def write(self, first: int, end: int, frame) -> None:
         raise NotImplementedError
@@ -225,7 +227,7 @@ class CsvSink(Sink):
             with open(path, "rb+") as f:           # verified first: a refused resume leaves the file as it was
                 f.truncate(offset)
             if note:
-                warnings.warn(f"--resume {path}: {note}", stacklevel=2)
+                self.note = f"--resume {path}: {note}"
             self.done[:n_done] = True
             self._file = open(path, "a", newline="")
             if not path.stat().st_size:
@@ -242,48 +244,60 @@ class CsvSink(Sink):
     def _verified_prefix(self) -> tuple[int, int, str]:
         """(byte length to keep, inputs it holds, what was dropped beyond whole rows: '' if nothing).
 
-        The header must be this mechanism's; every complete line after it is checked
-        (:meth:`_parse_row`); the lines from the first bad one on must all be bad (what a crash or a
-        second writer leaves at the end), else ValueError naming the first bad line. What is kept
-        ends before the last input held: only that one can have been written in part."""
+        The header must be this mechanism's. Every complete line after it must be a row of this
+        job's table (:meth:`_parse_row`) following the one before it: inputs from 0 in order, each
+        input's solutions numbered 1, 2, ... (or one row without a solution). Unreadable lines are
+        accepted only at the end, after every row (what a crash leaves); a line cut short too.
+        Anything else is a ValueError naming the line. What is kept ends before the last input
+        held: only that one can have been written in part."""
+        kept = (0, 0)                              # (byte offset, input) of the last input's first row
+        prev = None                                # (input, solution) of the last row
+        unreadable = None                          # (line number, why) of the first unreadable line
+        torn = offset = n = 0
         with open(self.path, "rb") as f:
-            data = f.read()
-        end = data.rfind(b"\n") + 1               # complete lines only
-        lines = data[:end].split(b"\n")[:-1]
-        if not lines:                              # not even a header line: written again
-            return 0, 0, ""
-        self._check_columns(str(self.path), lines[0].decode(errors="replace").rstrip("\r").split(","))
-        offset = len(lines[0]) + 1
-        kept = (offset, 0)                         # (byte offset, input) of the last input's first row
-        prev = None                                # (input, solution) of the last good row
-        first_bad = None
-        for n, raw in enumerate(lines[1:], start=2):
-            key, error = self._parse_row(raw, prev)
-            if error is None and first_bad is not None:
-                raise self._refuse(f"{self.path} line {first_bad[0]}", first_bad[1])
-            if error is None:
-                if prev is None or key[0] != prev[0]:
-                    kept = (offset, key[0])
-                prev = key
-            elif first_bad is None:
-                first_bad = (n, error)
-            offset += len(raw) + 1
+            for n, raw in enumerate(f, start=1):   # streamed: the table is never held in memory
+                if not raw.endswith(b"\n"):       # the last line, cut short
+                    torn = len(raw)
+                    n -= 1
+                    break
+                raw = raw[:-1]
+                if n == 1:
+                    self._check_columns(str(self.path), raw.decode(errors="replace").rstrip("\r").split(","))
+                    kept = (len(raw) + 1, 0)
+                    offset += len(raw) + 1
+                    continue
+                key, error = self._parse_row(raw)
+                if error is not None:
+                    unreadable = unreadable or (n, error)
+                elif unreadable is not None:       # a row after an unreadable line: not a crash's leftovers
+                    raise self._refuse(f"{self.path} line {unreadable[0]}", unreadable[1])
+                else:
+                    k, sol = key
+                    nxt = 0 if prev is None else prev[0] + 1
+                    if not (k == nxt and sol in (1, None) or prev and prev[1] and (k, sol) == (prev[0], prev[1] + 1)):
+                        after = "as the first row" if prev is None else \
+                            f"after input {prev[0]} solution {prev[1] or '(none)'}"
+                        raise self._refuse(f"{self.path} line {n}", f"input {k} solution {sol or '(none)'} {after} "
+                                           "(rows out of order or repeated: not what one run writes)")
+                    if prev is None or k != prev[0]:
+                        kept = (offset, k)
+                    prev = key
+                offset += len(raw) + 1
         dropped = []
-        if first_bad is not None:
-            dropped.append(f"line(s) {first_bad[0]}..{len(lines)} at its end, which do not continue the table "
-                           f"(line {first_bad[0]}: {first_bad[1]})")
-        if len(data) > end:
-            dropped.append(f"a last line cut short ({len(data) - end} bytes)")
+        if unreadable is not None:
+            span = f"line {n}" if unreadable[0] == n else f"lines {unreadable[0]}..{n}"
+            dropped.append(f"unreadable {span} at its end ({unreadable[1]})")
+        if torn:
+            dropped.append(f"a last line cut short ({torn} bytes)")
         note = ""
         if dropped:
             again = f"; input {kept[1]} is solved again (its rows may be incomplete)" if prev is not None else ""
             note = f"dropped {' and '.join(dropped)}{again}"
         return kept[0], kept[1], note
 
-    def _parse_row(self, raw: bytes, prev: tuple[int, int | None] | None):
-        """(key, None) when the CSV line ``raw`` is the next row of this job's table after the row
-        ``prev`` ((input, solution); None: the first row), key its (input, solution: None when
-        none); (None, why not) otherwise."""
+    def _parse_row(self, raw: bytes):
+        """(key, None) when the CSV line ``raw`` is a row of this job's table, key its (input,
+        solution: None when none); (None, why not) otherwise."""
         try:
             fields = raw.decode().rstrip("\r").split(",")
         except UnicodeDecodeError:
@@ -295,24 +309,21 @@ class CsvSink(Sink):
         values = [v for v in fields[3 + n_act:-2] + fields[-1:] if v]
         try:
             k = int(fields[0])
-            x = np.array([float(v) for v in fields[1:1 + n_act]])
+            x = [float(v) for v in fields[1:1 + n_act]]
             sol = int(fields[1 + n_act]) if fields[1 + n_act] else None
-            [float(v) for v in values]
+            for v in values:
+                float(v)
         except ValueError as exc:
             return None, f"a field is not a number ({exc})"
         if not 0 <= k < len(self.inputs):
             return None, f"input {k} is not one of this job's {len(self.inputs)}"
-        if not (np.abs(x - self.inputs[k]) <= RESUME_MATCH).all():    # NaN fails too
-            return None, f"input {k} is {fields[1:1 + n_act]} there, {self.inputs[k].tolist()} in this job"
+        want = self.inputs[k].tolist()
+        if not all(abs(a - b) <= RESUME_MATCH for a, b in zip(x, want)):     # NaN fails too
+            return None, f"input {k} is {fields[1:1 + n_act]} there, {want} in this job"
         if sol is None and (status or singularity or values):
             return None, "a row without a solution number has solution values"
-        if sol is not None and (status not in STATUSES or not singularity):
+        if sol is not None and (sol < 1 or status not in STATUSES or not singularity):
             return None, f"solution {sol} has status {status!r} and singularity {singularity!r}"
-        nxt = 0 if prev is None else prev[0] + 1
-        expected = [(nxt, 1), (nxt, None)] + ([(prev[0], prev[1] + 1)] if prev and prev[1] is not None else [])
-        if (k, sol) not in expected:
-            after = "as the first row" if prev is None else f"after input {prev[0]} solution {prev[1] or '(none)'}"
-            return None, f"input {k} solution {sol or '(none)'} {after} (rows out of order or repeated)"
         return (k, sol), None
 
     def write(self, first: int, end: int, frame) -> None:
