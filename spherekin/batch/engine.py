@@ -192,7 +192,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     finally:
         sink.close()
     return RunSummary(total, skipped, state["solved"] - skipped, state["rows"], workers,
-                      time.perf_counter() - t0, interrupted, sink.note)
+                      time.perf_counter() - t0, interrupted, getattr(sink, "note", ""))
 
 
 def _run_here(job: Job, inputs, todo, emit) -> None:

@@ -153,7 +153,7 @@ class ParquetSink(Sink):
             except Exception as exc:               # pyarrow's errors of a damaged file have no common base
                 raise self._refuse(where, f"it cannot be read ({type(exc).__name__}: {exc})") from None
             meta = (schema.metadata or {}).get(METADATA_KEY)
-            self._check_fingerprint(where, None if meta is None else Fingerprint.from_json(meta, where))
+            self._check_fingerprint(where, None if meta is None else Fingerprint.from_json(meta, f"--resume {where}"))
             self._check_columns(where, schema.names)
             self._check_part_rows(where, first, end, frame)
             held.append((first, end, part.name))
@@ -222,7 +222,8 @@ class CsvSink(Sink):
         side = sidecar_path(path)
         if resume:
             found = side.read_text() if side.is_file() else None
-            self._check_fingerprint(str(path), None if found is None else Fingerprint.from_json(found, str(side)))
+            found = None if found is None else Fingerprint.from_json(found, f"--resume {side}")
+            self._check_fingerprint(str(path), found)
             offset, n_done, note = self._verified_prefix()
             with open(path, "rb+") as f:           # verified first: a refused resume leaves the file as it was
                 f.truncate(offset)
@@ -336,7 +337,8 @@ class CsvSink(Sink):
             self._file.close()
 
 
-def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False, fingerprint: Fingerprint | None = None) -> Sink:
+def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False,
+              fingerprint: Fingerprint | None = None) -> Sink:
     """The sink of ``path`` (checked with :func:`check_output_path` first). ``fingerprint``: the
     job's (:class:`~spherekin.batch.fingerprint.Fingerprint`); None: of ``mechanism`` and ``inputs``
     with no strategy (an output not written by a batch)."""
