@@ -250,3 +250,16 @@ def test_parquet_part_without_fingerprint_is_refused(tmp_path, capsys, dataset, 
     code = batch(out, "--resume")
     err = capsys.readouterr().err
     assert code == 2 and f"{parts[0].name}: it has no fingerprint" in err and "--overwrite" in err, err
+
+
+def test_another_jobs_output_is_refused_before_a_cluster_is_reached(tmp_path, reference):
+    """The fingerprint is compared before connecting: the error is the fingerprint's, not the
+    unreachable scheduler's (nothing listens on port 1)."""
+    from spherekin.batch import grid_inputs, solve_to_file
+    from spherekin.mechanism import load_mechanism
+
+    out = fresh_csv(tmp_path, reference)
+    mech = load_mechanism(GOSSELIN)
+    inputs = grid_inputs(mech, ["beta1=-1:1:3", "beta2=-0.5:0.5:2"], ["beta3=0.3"])
+    with pytest.raises(ValueError, match="another job: strategy: tol 1e-06 there, 0.0001 in this job"):
+        solve_to_file(mech, inputs, out, resume=True, scheduler="tcp://127.0.0.1:1", tol=1e-4)

@@ -18,7 +18,7 @@ from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
 from .maps import MAP_COLUMNS, AssemblyMap, aggregate
-from .sinks import Sink, check_output_path, open_sink, read_results
+from .sinks import Sink, check_fingerprints, check_output_path, open_sink, read_results
 
 __all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]
@@ -103,6 +103,8 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     path = check_output_path(out, resume, overwrite)
     fingerprint = Fingerprint.of(mechanism, inputs.values, strategy_of(job.compile()),
                                    describe_inputs(inputs))
+    if resume:                                  # another job's output: refused before a cluster starts
+        check_fingerprints(path, fingerprint)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
         sink = open_sink(path, mechanism, inputs.values, resume, fingerprint)
         return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)

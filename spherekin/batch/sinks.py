@@ -35,7 +35,8 @@ from ..results import Status
 from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .rows import columns
 
-__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "read_results"]
+__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "check_fingerprints",
+           "read_results"]
 
 #: The output formats, by the output path's suffix.
 SUFFIXES = (".parquet", ".csv")
@@ -78,6 +79,41 @@ def check_output_path(path, resume: bool, overwrite: bool) -> Path:
     return path
 
 
+def _refused(where: str, what: str) -> ValueError:
+    return ValueError(f"--resume {where}: {what}; {REFUSED}")
+
+
+def check_fingerprints(path, fingerprint: Fingerprint) -> None:
+    """ValueError unless the earlier output at ``path`` was written by the job of ``fingerprint``:
+    the sidecar of a CSV file, every part of a Parquet dataset (module doc). Reads no rows: called
+    before a cluster starts, and again when the sink opens."""
+    path = Path(path)
+    if path.suffix.lower() == ".parquet":
+        found = [(f"{path}: {part.name}", _schema(part, f"{path}: {part.name}").metadata or {})
+                 for part in sorted(path.glob("part-*.parquet"))]
+        found = [(where, meta.get(METADATA_KEY)) for where, meta in found]
+    else:
+        side = sidecar_path(path)
+        found = [(str(path), side.read_text() if side.is_file() else None)]
+    for where, text in found:
+        if text is None:
+            raise _refused(where, "it has no fingerprint (written by a spherekin before 0.2, or not by "
+                                  "spherekin), so it cannot be checked to be this job's output")
+        diff = Fingerprint.from_json(text, f"--resume {where}").differences(fingerprint)
+        if diff:
+            raise _refused(where, "it is the output of another job: " + "; ".join(diff))
+
+
+def _schema(part: Path, where: str):
+    """The schema of the Parquet file ``part``; ValueError naming it (``where``) if it cannot be read."""
+    import pyarrow.parquet as pq
+
+    try:
+        return pq.read_schema(part)
+    except Exception as exc:                       # pyarrow's errors of a damaged file have no common base
+        raise _refused(where, f"it cannot be read ({type(exc).__name__}: {exc})") from None
+
+
 class Sink:
     """A results writer. ``ordered``: chunks must be written in input order. ``done``: a boolean
     mask over the job's inputs of those already written (by an earlier run, with resume)."""
@@ -103,16 +139,7 @@ class Sink:
         return ["input", *self.mechanism.actuated, "solution"]
 
     def _refuse(self, where: str, what: str):
-        return ValueError(f"--resume {where}: {what}; {REFUSED}")
-
-    def _check_fingerprint(self, where: str, found: Fingerprint | None) -> None:
-        """ValueError unless ``found`` (the fingerprint of the output at ``where``) is this job's."""
-        if found is None:
-            raise self._refuse(where, "it has no fingerprint (written by a spherekin before 0.2, or not by "
-                                      "spherekin), so it cannot be checked to be this job's output")
-        diff = found.differences(self.fingerprint)
-        if diff:
-            raise self._refuse(where, "it is the output of another job: " + "; ".join(diff))
+        return _refused(where, what)
 
     def _check_columns(self, where: str, names) -> None:
         if list(names) != self.columns:
@@ -133,6 +160,7 @@ class ParquetSink(Sink):
         for tmp in path.glob("*.tmp"):            # a write cut short by an earlier run
             tmp.unlink()
         if resume:
+            check_fingerprints(path, fingerprint)
             self._verify_parts()
 
     def _verify_parts(self) -> None:
@@ -147,13 +175,11 @@ class ParquetSink(Sink):
             if m is None or int(m[1]) >= int(m[2]):
                 raise self._refuse(where, "not the name of a part spherekin writes (part-<first>-<end>.parquet)")
             first, end = int(m[1]), int(m[2])
+            schema = _schema(part, where)
             try:
-                schema = pq.read_schema(part)
                 frame = pq.read_table(part, columns=self.key_columns).to_pandas()
             except Exception as exc:               # pyarrow's errors of a damaged file have no common base
                 raise self._refuse(where, f"it cannot be read ({type(exc).__name__}: {exc})") from None
-            meta = (schema.metadata or {}).get(METADATA_KEY)
-            self._check_fingerprint(where, None if meta is None else Fingerprint.from_json(meta, f"--resume {where}"))
             self._check_columns(where, schema.names)
             self._check_part_rows(where, first, end, frame)
             held.append((first, end, part.name))
@@ -221,9 +247,7 @@ class CsvSink(Sink):
         self.fingerprint = fingerprint
         side = sidecar_path(path)
         if resume:
-            found = side.read_text() if side.is_file() else None
-            found = None if found is None else Fingerprint.from_json(found, f"--resume {side}")
-            self._check_fingerprint(str(path), found)
+            check_fingerprints(path, fingerprint)
             offset, n_done, note = self._verified_prefix()
             with open(path, "rb+") as f:           # verified first: a refused resume leaves the file as it was
                 f.truncate(offset)
