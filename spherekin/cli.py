@@ -308,6 +308,8 @@ def _batch(args) -> int:
                                 progress=progress, **_strategy(args))
     finally:
         progress.close()
+    if summary.note:
+        print(f"spherekin: note: {summary.note}", file=sys.stderr)
     if summary.skipped:
         print(f"{summary.skipped} input(s) were already in {args.out} (resumed)")
     print(f"{_engine_note(summary)}; {summary.written} row(s) written to {args.out}")

@@ -104,16 +104,22 @@ def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, frames):
     before = path.read_bytes()
     other = INPUTS.copy()
     other[0, 1] += 1e-6
-    with pytest.raises(ValueError, match="input 0 there is .* in this job .*output of other inputs"):
+    with pytest.raises(ValueError, match="another job: inputs: 5 inputs .* there, 5 .* with other values"):
         open_sink(path, mech, other, resume=True)
     assert path.read_bytes() == before          # a refused resume changes nothing
-    with pytest.raises(ValueError, match="beyond this job's 1 inputs"):
+    with pytest.raises(ValueError, match="another job: inputs: 5 inputs .* there, 1 "):
         open_sink(path, mech, INPUTS[:1], resume=True)
 
 
 def test_resume_refuses_a_file_of_another_mechanism(tmp_path, mech):
     path = tmp_path / "r.csv"
     path.write_text("input,a,b\n0,1,2\n1,1,2\n")
+    with pytest.raises(ValueError, match="no fingerprint .*pass --overwrite"):
+        open_sink(path, mech, INPUTS, resume=True)
+    # with this job's fingerprint beside it, the columns are still checked
+    from spherekin.batch.fingerprint import Fingerprint, sidecar_path
+
+    sidecar_path(path).write_text(Fingerprint.of(mech, INPUTS).to_json())
     with pytest.raises(ValueError, match="columns are not those of this mechanism"):
         open_sink(path, mech, INPUTS, resume=True)
 
@@ -127,12 +133,11 @@ def test_a_small_job_in_this_process_is_one_parquet_file_and_resumes(tmp_path, m
     assert [p.name for p in out.glob("part-*.parquet")] == ["part-000000000-000000003.parquet"]
     # the rows: those of each input solved alone (the module's reference frames)
     pd.testing.assert_frame_equal(read_results(out), pd.concat(frames[:3], ignore_index=True))
-    # a resume over more inputs solves only the new ones, as one more file
-    again = solve_to_file(mech, INPUTS, out, resume=True)
-    assert (again.skipped, again.solved) == (3, 2)
-    assert sorted(p.name for p in out.glob("part-*.parquet")) == ["part-000000000-000000003.parquet",
-                                                                "part-000000003-000000005.parquet"]
-    pd.testing.assert_frame_equal(read_results(out), pd.concat(frames, ignore_index=True))
+    # a resume of the same job finds it complete; over more inputs it is another job (issue 28)
+    again = solve_to_file(mech, INPUTS[:3], out, resume=True)
+    assert (again.skipped, again.solved) == (3, 0)
+    with pytest.raises(ValueError, match="another job: inputs: 3 inputs \\(array\\) there, 5 \\(array\\)"):
+        solve_to_file(mech, INPUTS, out, resume=True)
     # chunks on workers still share the work out: 4 tasks per worker (cluster.TASKS_PER_WORKER)
     from spherekin.batch.engine import CHUNK_INPUTS, default_chunk_size
 

@@ -18,7 +18,7 @@ from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
 from .maps import MAP_COLUMNS, AssemblyMap, aggregate
-from .sinks import Sink, check_output_path, open_sink, read_results
+from .sinks import Sink, check_fingerprints, check_output_path, open_sink, read_results
 
 __all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]
@@ -90,15 +90,23 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     .csv) as chunks finish; returns the :class:`~spherekin.batch.engine.RunSummary`.
 
     Everything (inputs, strategy, the output path, the scheduler) is checked before the first solve.
-    With ``resume`` only the inputs ``out`` does not hold yet are solved; ``overwrite`` replaces it.
+    With ``resume`` only the inputs ``out`` does not hold yet are solved, after checking that ``out``
+    was written by this job (mechanism, inputs, strategy, version: its fingerprint) and that its rows
+    are whole (:mod:`spherekin.batch.sinks`); ``overwrite`` replaces it.
     On Ctrl-C the finished chunks stay written and the summary says ``interrupted``.
     """
     from .engine import connect, run
 
+    from .fingerprint import Fingerprint, describe_inputs, strategy_of
+
     mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     path = check_output_path(out, resume, overwrite)
+    fingerprint = Fingerprint.of(mechanism, inputs.values, strategy_of(job.compile()),
+                                   describe_inputs(inputs))
+    if resume:                                  # another job's output: refused before a cluster starts
+        check_fingerprints(path, fingerprint)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
-        with open_sink(path, mechanism, inputs.values, resume) as sink:     # the output's lock, released on any exit
+        with open_sink(path, mechanism, inputs.values, resume, fingerprint) as sink:   # the output's lock, released on any exit
             return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
 
 
@@ -123,5 +131,9 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
                                 **strategy)
         if summary.interrupted:
             raise KeyboardInterrupt
+        if summary.note:                        # a repaired resume: said, as the CLI's batch says it
+            import warnings
+
+            warnings.warn(summary.note, UserWarning, stacklevel=2)
         frame = read_results(out, columns=MAP_COLUMNS)
     return aggregate(frame, x, y, inputs.fixed, mechanism.name)

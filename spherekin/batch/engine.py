@@ -77,8 +77,8 @@ class Job:
 @dataclass(frozen=True)
 class RunSummary:
     """How a job ended: ``total`` inputs, ``skipped`` (finished by an earlier run, resumed), ``solved``
-    now, ``written`` rows, ``workers`` (0: in this process), ``seconds``, and whether it was
-    ``interrupted`` (Ctrl-C)."""
+    now, ``written`` rows, ``workers`` (0: in this process), ``seconds``, whether it was
+    ``interrupted`` (Ctrl-C), and ``note``: what a resume repaired in the output ("" if nothing)."""
 
     total: int
     skipped: int
@@ -87,6 +87,7 @@ class RunSummary:
     workers: int
     seconds: float
     interrupted: bool = False
+    note: str = ""
 
     @property
     def complete(self) -> bool:
@@ -191,7 +192,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     finally:
         sink.close()
     return RunSummary(total, skipped, state["solved"] - skipped, state["rows"], workers,
-                      time.perf_counter() - t0, interrupted)
+                      time.perf_counter() - t0, interrupted, getattr(sink, "note", ""))
 
 
 def _run_here(job: Job, inputs, todo, emit) -> None:

@@ -5,26 +5,41 @@ files ``part-<first>-<end>.parquet``, one per chunk of inputs [first, end), each
 temporary name and renamed, so a file that exists is complete; chunks are written in the order they
 finish. A **CSV file** gets one block of lines per chunk, appended in input order (the engine holds
 back a chunk that finishes before an earlier one); a run stopped mid-write leaves at most the last
-input's rows incomplete. One run writes an output at a time: :func:`open_sink` takes its lock
-(``<out>.lock``, :mod:`spherekin.batch.lock`) before writing anything, the sink's close releases it.
+input's rows incomplete, and maybe a line cut short. One run writes an output at a time:
+:func:`open_sink` takes its lock (``<out>.lock``, :mod:`spherekin.batch.lock`) before writing
+anything, the sink's close releases it.
 
-``--resume`` (``resume=True``) reads what an earlier run wrote: the inputs it finished (for a CSV,
-every input before the last one present; the last one's rows are cut off and solved again), after
-checking that the file is a results table of this mechanism (its columns) and of these inputs (the
-actuator values of every finished input, exactly as written). Then only the rest is solved.
+Every output carries the :class:`~spherekin.batch.fingerprint.Fingerprint` of the job that wrote it
+(mechanism, inputs, strategy, version), written before its first row: in each Parquet part's schema
+metadata, in a sidecar ``<file>.spherekin.json`` of a CSV file.
+
+``--resume`` (``resume=True``) completes an earlier run's output only if it is this job's and only
+with what it verifies, before any solve: the fingerprint equal to this job's (else ValueError naming
+what differs); then every row: a CSV's lines parse, with the table's columns, finite inputs equal to
+this job's for their input number, inputs in order from 0 and each input's solutions numbered 1, 2,
+... (or one row without a solution); a Parquet part's rows are those of the inputs its name gives,
+each once, and no two parts hold one input. What cannot be a run's cut is refused naming the file
+and line or part. A CSV's last input is solved again (a run stopped while writing it may have cut
+its rows), together with a line cut short and unreadable lines after it (what a crash leaves at the
+end of a file): the file is truncated there, and ``Sink.note`` says so when more than whole rows
+are dropped.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 
+from ..results import Status
+from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .lock import OutputLock, check_unlocked
 from .rows import columns
 
-__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "read_results"]
+__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "check_fingerprints",
+           "read_results"]
 
 #: The output formats, by the output path's suffix.
 SUFFIXES = (".parquet", ".csv")
@@ -32,6 +47,12 @@ SUFFIXES = (".parquet", ".csv")
 #: Reason: Parquet stores float64 exactly and pandas writes CSV floats in their shortest round-trip
 #: form, so the two are equal; 1e-12 only absorbs a file written by another CSV writer.
 RESUME_MATCH = 1e-12
+#: The name of a Parquet part: the chunk of inputs [first, end) it holds.
+PART_NAME = re.compile(r"part-(\d+)-(\d+)\.parquet")
+#: The statuses a solution row of the table can have.
+STATUSES = frozenset(str(s) for s in Status)
+#: What to do with an output a resume refuses (the end of every such message).
+REFUSED = "pass --overwrite to solve every input again"
 
 
 def check_output_path(path, resume: bool, overwrite: bool) -> Path:
@@ -62,6 +83,41 @@ def check_output_path(path, resume: bool, overwrite: bool) -> Path:
     return path
 
 
+def _refused(where: str, what: str) -> ValueError:
+    return ValueError(f"--resume {where}: {what}; {REFUSED}")
+
+
+def check_fingerprints(path, fingerprint: Fingerprint) -> None:
+    """ValueError unless the earlier output at ``path`` was written by the job of ``fingerprint``:
+    the sidecar of a CSV file, every part of a Parquet dataset (module doc). Reads no rows: called
+    before a cluster starts, and again when the sink opens."""
+    path = Path(path)
+    if path.suffix.lower() == ".parquet":
+        found = [(f"{path}: {part.name}", _schema(part, f"{path}: {part.name}").metadata or {})
+                 for part in sorted(path.glob("part-*.parquet"))]
+        found = [(where, meta.get(METADATA_KEY)) for where, meta in found]
+    else:
+        side = sidecar_path(path)
+        found = [(str(path), side.read_text() if side.is_file() else None)]
+    for where, text in found:
+        if text is None:
+            raise _refused(where, "it has no fingerprint (written by a spherekin before 0.2, or not by "
+                                  "spherekin), so it cannot be checked to be this job's output")
+        diff = Fingerprint.from_json(text, f"--resume {where}").differences(fingerprint)
+        if diff:
+            raise _refused(where, "it is the output of another job: " + "; ".join(diff))
+
+
+def _schema(part: Path, where: str):
+    """The schema of the Parquet file ``part``; ValueError naming it (``where``) if it cannot be read."""
+    import pyarrow.parquet as pq
+
+    try:
+        return pq.read_schema(part)
+    except Exception as exc:                       # pyarrow's errors of a damaged file have no common base
+        raise _refused(where, f"it cannot be read ({type(exc).__name__}: {exc})") from None
+
+
 class Sink:
     """A results writer. ``ordered``: chunks must be written in input order. ``done``: a boolean
     mask over the job's inputs of those already written (by an earlier run, with resume)."""
@@ -74,6 +130,8 @@ class Sink:
         self.path, self.mechanism, self.inputs = path, mechanism, inputs
         self.columns = list(columns(mechanism))
         self.done = np.zeros(len(inputs), dtype=bool)
+        #: What a resume repaired (dropped beyond whole rows), for the user; "" when nothing.
+        self.note = ""
 
     def write(self, first: int, end: int, frame) -> None:
         raise NotImplementedError
@@ -94,53 +152,93 @@ class Sink:
 
     @property
     def key_columns(self) -> list[str]:
-        """The columns a resume reads back: ``input`` and the actuated joints (not the whole table)."""
-        return ["input", *self.mechanism.actuated]
+        """The columns a resume reads back: ``input``, the actuated joints and ``solution``."""
+        return ["input", *self.mechanism.actuated, "solution"]
 
-    def _check_resumed(self, columns: list[str], frame) -> None:
-        """ValueError unless an earlier run's output, with ``columns`` and the rows ``frame`` (its
-        key columns), is of this mechanism and these inputs."""
-        if list(columns) != self.columns:
-            raise ValueError(f"--resume {self.path}: its columns are not those of this mechanism's results "
-                             f"({', '.join(self.columns[:6])}, ...); it cannot be completed by this job")
-        if not len(frame):
-            return
-        idx = frame["input"].to_numpy()
-        if idx.min() < 0 or idx.max() >= len(self.inputs):
-            raise ValueError(f"--resume {self.path}: it holds input {int(idx.max())}, beyond this job's "
-                             f"{len(self.inputs)} inputs; it cannot be completed by this job")
-        got = frame[list(self.mechanism.actuated)].to_numpy(dtype=float)
-        bad = np.abs(got - self.inputs[idx]).max(axis=1) > RESUME_MATCH
-        if bad.any():
-            k = int(idx[np.flatnonzero(bad)[0]])
-            raise ValueError(f"--resume {self.path}: input {k} there is {got[np.flatnonzero(bad)[0]].tolist()}, in "
-                             f"this job {self.inputs[k].tolist()}; the file is the output of other inputs")
-        self.done[np.unique(idx)] = True
+    def _refuse(self, where: str, what: str):
+        return _refused(where, what)
+
+    def _check_columns(self, where: str, names) -> None:
+        if list(names) != self.columns:
+            raise self._refuse(where, f"its columns are not those of this mechanism's results "
+                                      f"({', '.join(self.columns[:6])}, ...)")
 
 
 class ParquetSink(Sink):
     """A partitioned Parquet dataset (module doc)."""
 
-    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool):
+    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool, fingerprint: Fingerprint):
         super().__init__(path, mechanism, inputs)
+        self.fingerprint = fingerprint
         if path.exists() and not resume:          # --overwrite
             for part in path.glob("part-*.parquet"):
                 part.unlink()
         path.mkdir(exist_ok=True)
         if resume:
-            import pandas as pd
+            check_fingerprints(path, fingerprint)
+            self._verify_parts()
 
-            parts = sorted(path.glob("part-*.parquet"))
-            if parts:
-                import pyarrow.parquet as pq
+    def _verify_parts(self) -> None:
+        """Mark the inputs of the parts an earlier run wrote as done, after checking every part
+        (module doc); ValueError naming the part otherwise."""
+        import pyarrow.parquet as pq
 
-                for part in parts:
-                    self._check_resumed(pq.read_schema(part).names, pd.read_parquet(part, columns=self.key_columns))
+        held = []                                  # (first, end, name) of every part
+        for part in sorted(self.path.glob("part-*.parquet")):
+            where = f"{self.path}: {part.name}"
+            m = PART_NAME.fullmatch(part.name)
+            if m is None or int(m[1]) >= int(m[2]):
+                raise self._refuse(where, "not the name of a part spherekin writes (part-<first>-<end>.parquet)")
+            first, end = int(m[1]), int(m[2])
+            schema = _schema(part, where)
+            try:
+                frame = pq.read_table(part, columns=self.key_columns).to_pandas()
+            except Exception as exc:               # pyarrow's errors of a damaged file have no common base
+                raise self._refuse(where, f"it cannot be read ({type(exc).__name__}: {exc})") from None
+            self._check_columns(where, schema.names)
+            self._check_part_rows(where, first, end, frame)
+            held.append((first, end, part.name))
+        held.sort()
+        for (a0, a1, a), (b0, b1, b) in zip(held, held[1:]):
+            if b0 < a1:
+                raise self._refuse(f"{self.path}: {a} and {b}",
+                                   f"both hold inputs {b0}..{min(a1, b1) - 1} (written twice: every row "
+                                   "would be in the table twice)")
+        for first, end, _ in held:
+            self.done[first:end] = True
+
+    def _check_part_rows(self, where: str, first: int, end: int, frame) -> None:
+        """ValueError unless ``frame`` (the key columns of a part of inputs [first, end)) holds the
+        rows of exactly those inputs, this job's, each solution once, numbered 1, 2, ..."""
+        if end > len(self.inputs):
+            raise self._refuse(where, f"it holds inputs up to {end - 1}, beyond this job's {len(self.inputs)}")
+        idx = frame["input"].to_numpy()
+        if frame["input"].isna().any() or not np.array_equal(np.unique(idx), np.arange(first, end)):
+            raise self._refuse(where, f"its rows are not those of inputs {first}..{end - 1} (its name)")
+        idx = idx.astype(np.int64)
+        got = frame[list(self.mechanism.actuated)].to_numpy(dtype=float, na_value=np.nan)
+        bad = ~(np.abs(got - self.inputs[idx]) <= RESUME_MATCH).all(axis=1)     # NaN is bad too
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise self._refuse(where, f"input {idx[k]} there is {got[k].tolist()}, in this job "
+                                      f"{self.inputs[idx[k]].tolist()}")
+        sol = frame["solution"].to_numpy(dtype=float, na_value=np.nan)
+        order = np.lexsort((sol, idx))
+        idx, sol = idx[order], sol[order]
+        starts = np.r_[0, np.flatnonzero(np.diff(idx)) + 1]
+        rank = np.arange(len(idx)) - np.repeat(starts, np.diff(np.r_[starts, len(idx)]))
+        sizes = np.diff(np.r_[starts, len(idx)])
+        alone = np.repeat(sizes, sizes) == 1
+        ok = np.where(np.isnan(sol), alone, sol == rank + 1)
+        if not ok.all():
+            k = int(np.flatnonzero(~ok)[0])
+            raise self._refuse(where, f"input {idx[k]}'s solutions are not numbered 1, 2, ... once each "
+                                      "(a duplicated or missing row)")
 
     def write(self, first: int, end: int, frame) -> None:
         final = self.path / f"part-{first:09d}-{end:09d}.parquet"
         tmp = temporary_path(final, self.lock.token if self.lock else "unlocked")
-        frame.to_parquet(tmp, index=False)
+        _write_part(frame, tmp, self.fingerprint)
         os.replace(tmp, final)
 
     def discard_temporaries(self, run: str) -> None:
@@ -160,49 +258,129 @@ def temporary_path(final: Path, run: str) -> Path:
     return final.with_name(f".{final.name}.{run}.tmp")
 
 
+def _write_part(frame, path: Path, fingerprint: Fingerprint) -> None:
+    """``frame`` as a Parquet file at ``path``, the fingerprint in its schema metadata."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    table = table.replace_schema_metadata({**(table.schema.metadata or {}), METADATA_KEY: fingerprint.to_json()})
+    pq.write_table(table, path)
+
+
 class CsvSink(Sink):
-    """An appended CSV file (module doc)."""
+    """An appended CSV file and its fingerprint sidecar (module doc)."""
 
     ordered = True
 
-    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool):
+    def __init__(self, path: Path, mechanism, inputs: np.ndarray, resume: bool, fingerprint: Fingerprint):
         super().__init__(path, mechanism, inputs)
+        self.fingerprint = fingerprint
+        side = sidecar_path(path)
         if resume:
-            with open(path, newline="") as f:
-                header = f.readline().rstrip("\r\n").split(",")
-            if header != [""] and header != self.columns:
-                raise ValueError(f"--resume {self.path}: its columns are not those of this mechanism's results "
-                                 f"({', '.join(self.columns[:6])}, ...); it cannot be completed by this job")
-            offset = self._complete_prefix()
-            if offset:                                # validated first: a refused resume leaves the file as it was
-                with open(path, "rb") as f:
-                    self._check_resumed(header, _read_csv(f.read(offset), usecols=self.key_columns))
-            with open(path, "rb+") as f:
+            check_fingerprints(path, fingerprint)
+            offset, n_done, note = self._verified_prefix()
+            with open(path, "rb+") as f:           # verified first: a refused resume leaves the file as it was
                 f.truncate(offset)
+            if note:
+                self.note = f"--resume {path}: {note}"
+            self.done[:n_done] = True
             self._file = open(path, "a", newline="")
             if not path.stat().st_size:
                 self._file.write(",".join(self.columns) + "\n")
         else:
+            side.unlink(missing_ok=True)           # never an old fingerprint beside new rows
             self._file = open(path, "w", newline="")
+            tmp = side.with_name(f"{side.name}.{os.getpid()}.tmp")
+            tmp.write_text(fingerprint.to_json())
+            os.replace(tmp, side)                  # the fingerprint is there before the first row
             self._file.write(",".join(self.columns) + "\n")
         self._file.flush()
 
-    def _complete_prefix(self) -> int:
-        """The byte length of the file without the last input it holds (and any partial line): only
-        that input can have been written in part. 0 for a file without a complete header line."""
+    def _verified_prefix(self) -> tuple[int, int, str]:
+        """(byte length to keep, inputs it holds, what was dropped beyond whole rows: '' if nothing).
+
+        The header must be this mechanism's. Every complete line after it must be a row of this
+        job's table (:meth:`_parse_row`) following the one before it: inputs from 0 in order, each
+        input's solutions numbered 1, 2, ... (or one row without a solution). Unreadable lines are
+        accepted only at the end, after every row (what a crash leaves); a line cut short too.
+        Anything else is a ValueError naming the line. What is kept ends before the last input
+        held: only that one can have been written in part."""
+        kept = (0, 0)                              # (byte offset, input) of the last input's first row
+        prev = None                                # (input, solution) of the last row
+        unreadable = None                          # (line number, why) of the first unreadable line
+        torn = offset = n = 0
         with open(self.path, "rb") as f:
-            data = f.read()
-        end = data.rfind(b"\n") + 1                  # complete lines only
-        lines = data[:end].split(b"\n")[:-1]
-        if len(lines) <= 1:                           # a header (or nothing) only
-            return end
-        last = lines[-1].split(b",", 1)[0]
-        offset = end
-        for line in reversed(lines[1:]):
-            if line.split(b",", 1)[0] != last:
-                break
-            offset -= len(line) + 1
-        return offset
+            for n, raw in enumerate(f, start=1):   # streamed: the table is never held in memory
+                if not raw.endswith(b"\n"):       # the last line, cut short
+                    torn = len(raw)
+                    n -= 1
+                    break
+                raw = raw[:-1]
+                if n == 1:
+                    self._check_columns(str(self.path), raw.decode(errors="replace").rstrip("\r").split(","))
+                    kept = (len(raw) + 1, 0)
+                    offset += len(raw) + 1
+                    continue
+                key, error = self._parse_row(raw)
+                if error is not None:
+                    unreadable = unreadable or (n, error)
+                elif unreadable is not None:       # a row after an unreadable line: not a crash's leftovers
+                    raise self._refuse(f"{self.path} line {unreadable[0]}", unreadable[1])
+                else:
+                    k, sol = key
+                    nxt = 0 if prev is None else prev[0] + 1
+                    if not (k == nxt and sol in (1, None) or prev and prev[1] and (k, sol) == (prev[0], prev[1] + 1)):
+                        after = "as the first row" if prev is None else \
+                            f"after input {prev[0]} solution {prev[1] or '(none)'}"
+                        raise self._refuse(f"{self.path} line {n}", f"input {k} solution {sol or '(none)'} {after} "
+                                           "(rows out of order or repeated: not what one run writes)")
+                    if prev is None or k != prev[0]:
+                        kept = (offset, k)
+                    prev = key
+                offset += len(raw) + 1
+        dropped = []
+        if unreadable is not None:
+            span = f"line {n}" if unreadable[0] == n else f"lines {unreadable[0]}..{n}"
+            dropped.append(f"unreadable {span} at its end ({unreadable[1]})")
+        if torn:
+            dropped.append(f"a last line cut short ({torn} bytes)")
+        note = ""
+        if dropped:
+            again = f"; input {kept[1]} is solved again (its rows may be incomplete)" if prev is not None else ""
+            note = f"dropped {' and '.join(dropped)}{again}"
+        return kept[0], kept[1], note
+
+    def _parse_row(self, raw: bytes):
+        """(key, None) when the CSV line ``raw`` is a row of this job's table, key its (input,
+        solution: None when none); (None, why not) otherwise."""
+        try:
+            fields = raw.decode().rstrip("\r").split(",")
+        except UnicodeDecodeError:
+            return None, "not UTF-8 text"
+        if len(fields) != len(self.columns):
+            return None, f"expected {len(self.columns)} fields, got {len(fields)}"
+        n_act = len(self.mechanism.actuated)
+        status, singularity = fields[2 + n_act], fields[-2]
+        values = [v for v in fields[3 + n_act:-2] + fields[-1:] if v]
+        try:
+            k = int(fields[0])
+            x = [float(v) for v in fields[1:1 + n_act]]
+            sol = int(fields[1 + n_act]) if fields[1 + n_act] else None
+            for v in values:
+                float(v)
+        except ValueError as exc:
+            return None, f"a field is not a number ({exc})"
+        if not 0 <= k < len(self.inputs):
+            return None, f"input {k} is not one of this job's {len(self.inputs)}"
+        want = self.inputs[k].tolist()
+        if not all(abs(a - b) <= RESUME_MATCH for a, b in zip(x, want)):     # NaN fails too
+            return None, f"input {k} is {fields[1:1 + n_act]} there, {want} in this job"
+        if sol is None and (status or singularity or values):
+            return None, "a row without a solution number has solution values"
+        if sol is not None and (sol < 1 or status not in STATUSES or not singularity):
+            return None, f"solution {sol} has status {status!r} and singularity {singularity!r}"
+        return (k, sol), None
 
     def write(self, first: int, end: int, frame) -> None:
         frame.to_csv(self._file, header=False, index=False, lineterminator="\n")
@@ -215,15 +393,19 @@ class CsvSink(Sink):
         super().close()
 
 
-def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False) -> Sink:
+def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False,
+              fingerprint: Fingerprint | None = None) -> Sink:
     """The sink of ``path`` (checked with :func:`check_output_path` first), holding the output's lock
     (taken before anything is written; ValueError if another run holds it) until its close: use it
-    in a ``with`` block."""
+    in a ``with`` block. ``fingerprint``: the job's (:class:`~spherekin.batch.fingerprint.Fingerprint`);
+    None: of ``mechanism`` and ``inputs`` with no strategy (an output not written by a batch)."""
     path = Path(path)
+    if fingerprint is None:
+        fingerprint = Fingerprint.of(mechanism, inputs)
     cls = ParquetSink if path.suffix.lower() == ".parquet" else CsvSink
     lock = OutputLock.acquire(path)
     try:
-        sink = cls(path, mechanism, inputs, resume)
+        sink = cls(path, mechanism, inputs, resume, fingerprint)
         sink.lock = lock
         if lock.previous is not None:              # a run killed while writing: its temporaries
             sink.discard_temporaries(lock.previous.token)
