@@ -101,7 +101,7 @@ def check_fingerprints(path, fingerprint: Fingerprint) -> None:
         found = [(str(path), side.read_text() if side.is_file() else None)]
     for where, text in found:
         if text is None:
-            raise _refused(where, "it has no fingerprint (written by a spherekin before 0.2, or not by "
+            raise _refused(where, "it has no fingerprint (written before spherekin recorded one, or not by "
                                   "spherekin), so it cannot be checked to be this job's output")
         diff = Fingerprint.from_json(text, f"--resume {where}").differences(fingerprint)
         if diff:
