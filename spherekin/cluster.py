@@ -17,6 +17,10 @@
 the items' order. The families of inputs (:mod:`spherekin.batch`), the box loop's chart groups
 (``jobs``) and the benchmark sweeps all run through this module: one engine, no process pool of
 our own. ``distributed`` is imported only when a cluster is asked for.
+
+A job never waits in silence on a cluster that is gone: :func:`wait_any` (used by
+:func:`map_in_order` and the batch engine) raises :class:`ClusterLost` when the scheduler is lost or
+when there has been no worker for NO_WORKER_TIMEOUT seconds.
 """
 
 from __future__ import annotations
