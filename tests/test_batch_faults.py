@@ -254,3 +254,20 @@ def test_two_runs_of_one_job_from_one_client_name_their_plugins_apart():
     job = Job.of(general_3rrr(), {"tol": 1e-6})
     a, b = CompiledProblem(job, "Client-1"), CompiledProblem(job, "Client-1")
     assert a.name != b.name and a.name.startswith(job.token) and a.name.endswith("@Client-1")
+
+
+def test_map_in_order_on_a_cluster_whose_workers_are_all_killed_raises_cluster_lost(monkeypatch):
+    from spherekin import cluster as cl
+    from distributed import Client
+
+    monkeypatch.setattr(cl, "NO_WORKER_TIMEOUT", SHORT_NO_WORKER)
+    c = Cluster()
+    try:
+        with Client(c.address, timeout=10) as client:
+            results = cl.map_in_order(client, lambda x: time.sleep(0.2) or x * x, range(40))
+            assert next(results) == 0                   # running; then no worker is left
+            c.kill_workers()
+            with pytest.raises(cl.ClusterLost, match=f"the workers of {c.address} are gone"):
+                list(results)
+    finally:
+        c.close()
