@@ -36,7 +36,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
 __all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "NO_WORKER_TIMEOUT", "WATCH_INTERVAL", "ClusterLost",
-           "connect", "map_in_order", "wait_any", "result_of", "default_workers", "n_workers", "dask_setup", "local_cluster_unsafe"]
+           "connect", "map_in_order", "wait_any", "result_of", "scheduler_address", "default_workers", "n_workers", "dask_setup", "local_cluster_unsafe"]
 
 #: Log level of an embedded cluster's scheduler and workers. Reason: at shutdown (the end of a job,
 #: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
