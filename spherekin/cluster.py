@@ -292,14 +292,19 @@ def scheduler_address(client) -> str:
 
 def result_of(client, future, address: str):
     """``future.result()`` (a future :func:`wait_any` gave): the task's value, or its error raised
-    here; ClusterLost when it is not the task's error but a scheduler lost meanwhile (the future
-    cancelled, or its result's transfer cut: an OSError)."""
-    try:
-        return future.result()
-    except Exception as exc:
-        if future.status != "error" and (client.status != "running" or isinstance(exc, OSError)):
-            raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is") from None
-        raise
+    here. ClusterLost when it is not the task's error but a scheduler lost meanwhile (the future
+    cancelled, or its result's transfer cut: an OSError), or when the result was lost with the
+    worker that held it and no worker is left to compute it again (as in :func:`wait_any`)."""
+    since = None                            # when the cluster was first seen without a worker
+    while True:
+        try:
+            return future.result(timeout=WATCH_INTERVAL)
+        except TimeoutError:                # a result lost with its worker, being computed again
+            since = _watch(client, address, since)
+        except Exception as exc:
+            if future.status != "error" and (client.status != "running" or isinstance(exc, OSError)):
+                raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is") from None
+            raise
 
 
 def wait_any(client, futures, address: str) -> set:
@@ -307,7 +312,7 @@ def wait_any(client, futures, address: str) -> set:
     or cancelled), waiting until there is at least one. ClusterLost instead when ``client`` has lost
     its scheduler (at ``address``: the futures are cancelled then), or when the cluster has had no
     worker for NO_WORKER_TIMEOUT seconds (its tasks would wait for ever): a task's own error is the
-    caller's, from ``future.result()``."""
+    caller's, from :func:`result_of`."""
     from distributed import wait
     from distributed.client import FIRST_COMPLETED, FuturesCancelledError
 
@@ -322,17 +327,23 @@ def wait_any(client, futures, address: str) -> set:
                 return done
         except TimeoutError:                # none finished yet: look at the cluster
             pass
-        except FuturesCancelledError:     # cancelled: by the lost scheduler, or as the caller's error
+        except FuturesCancelledError:       # cancelled: by the lost scheduler, or as the caller's error
             if client.status != "running":
                 raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is") from None
             return {f for f in futures if f.status != "pending"}
-        if client.status != "running":
-            raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is")
-        if client.scheduler_info(n_workers=1).get("workers"):     # one is enough: a small reply
-            since = None
-            continue
-        now = time.monotonic()
-        since = now if since is None else since
-        if now - since >= NO_WORKER_TIMEOUT:
-            raise ClusterLost(f"the workers of {address} are gone (none for {NO_WORKER_TIMEOUT:g} s)", "workers are")
+        since = _watch(client, address, since)
 
+
+def _watch(client, address: str, since: float | None) -> float | None:
+    """One look at the cluster of a job waiting for a result: ClusterLost when ``client`` has lost
+    its scheduler, or when it has had no worker since ``since`` (time.monotonic; None: it had one
+    at the last look) for NO_WORKER_TIMEOUT seconds; else the new ``since``."""
+    if client.status != "running":
+        raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is")
+    if client.scheduler_info(n_workers=1).get("workers"):     # one is enough: a small reply
+        return None
+    now = time.monotonic()
+    since = now if since is None else since
+    if now - since >= NO_WORKER_TIMEOUT:
+        raise ClusterLost(f"the workers of {address} are gone (none for {NO_WORKER_TIMEOUT:g} s)", "workers are")
+    return since

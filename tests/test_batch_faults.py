@@ -86,7 +86,7 @@ class Cluster:
 
 @pytest.fixture
 def cluster():
-    c = Cluster()
+    c = Cluster(2)
     yield c
     c.close()
 
@@ -96,9 +96,10 @@ def spherekin(*args):
 
 
 def client_process(*args) -> subprocess.Popen:
-    """`spherekin ARGS` as a process of its own, with the no-worker wait SHORT_NO_WORKER seconds."""
-    code = ("import sys, spherekin.cluster as c; c.NO_WORKER_TIMEOUT = %r; from spherekin.cli import main; "
-            "sys.exit(main(sys.argv[1:]))" % SHORT_NO_WORKER)
+    """`spherekin ARGS` as a process of its own (the console script's entry point), with the
+    no-worker wait SHORT_NO_WORKER seconds."""
+    code = ("import spherekin.cluster as c; c.NO_WORKER_TIMEOUT = %r; from spherekin.cli import run; run()"
+            % SHORT_NO_WORKER)
     return subprocess.Popen([sys.executable, "-c", code, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, env=ENV)
 
