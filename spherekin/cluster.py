@@ -224,8 +224,10 @@ def _remote(address: str):
         c.close()
         raise ValueError(f"--scheduler {address}: the scheduler has no workers ({exc})") from None
     # Quiet as an embedded cluster's (QUIET_LOGS): a scheduler lost mid-job makes Dask's client log
-    # closed streams and its failed reconnection with tracebacks; the job says it once (ClusterLost).
-    logs = [logging.getLogger(name) for name in ("distributed", "distributed.client")]   # Dask sets both
+    # closed streams and its failed reconnection with tracebacks, and a fetch of a result cut by the
+    # close (result_of) is reported by asyncio ("Task exception was never retrieved"); the job says
+    # what happened once (ClusterLost). Dask sets the levels of both of its loggers named here.
+    logs = [logging.getLogger(name) for name in ("distributed", "distributed.client", "asyncio")]
     levels = [log.level for log in logs]
     for log in logs:
         log.setLevel(QUIET_LOGS)
