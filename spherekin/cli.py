@@ -19,6 +19,7 @@ import os
 import re
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 # numpy and the package's modules are imported by the functions that use them (build_parser imports
@@ -891,17 +892,59 @@ def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
     # the package's Python names in this command's words: its options, and names that depend on them
     options = {**_OPTION_OF, **parser.command(args.command).options(),
                **getattr(args, "python_names", _no_names)(args)}
+    with _sigterm_as_interrupt() as terminated:
+        code = _run_command(args, options)
+    return SIGTERM_STATUS if terminated and code == INTERRUPT_STATUS else code
+
+
+#: Exit status after Ctrl-C (SIGINT) and after SIGTERM: 128 + the signal's number, as a shell reports
+#: a process the signal ended (so a scheduler or script sees how the command stopped).
+INTERRUPT_STATUS, SIGTERM_STATUS = 130, 143
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread by :func:`main`'s handler. A KeyboardInterrupt, so that it
+    stops a command as Ctrl-C does (a search hands over what it found, a batch keeps its finished
+    chunks); its text names the signal."""
+
+
+@contextmanager
+def _sigterm_as_interrupt():
+    """While a command runs: SIGTERM raises :class:`Terminated` (the yielded list gets the signal),
+    and the handler found is restored afterwards. Only in the main thread (where Python runs handlers)."""
+    import signal
+    import threading
+
+    got: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield got
+        return
+
+    def handler(signum, frame):
+        if not got:                     # a second SIGTERM while stopping: let the first one finish
+            got.append(signum)
+            raise Terminated("SIGTERM")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield got
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run_command(args, options: dict[str, str]) -> int:
     try:
         return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback
         print(error_line(str(exc), options), file=sys.stderr)
         return 2
-    except RuntimeError as exc:  # a solve that failed on a worker: what was written stays
+    except RuntimeError as exc:  # a solve that failed on a worker, a cluster lost: what was written stays
         print(f"{ERROR_PREFIX}{' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("\nspherekin: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(f"\nspherekin: {'terminated (' + str(exc) + ')' if isinstance(exc, Terminated) else 'interrupted'}",
+              file=sys.stderr)
+        return INTERRUPT_STATUS
     except BrokenPipeError:      # the reader went away (spherekin ... | head): nothing left to say
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

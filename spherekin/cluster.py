@@ -17,6 +17,10 @@
 the items' order. The families of inputs (:mod:`spherekin.batch`), the box loop's chart groups
 (``jobs``) and the benchmark sweeps all run through this module: one engine, no process pool of
 our own. ``distributed`` is imported only when a cluster is asked for.
+
+A job never waits in silence on a cluster that is gone: :func:`wait_any` (used by
+:func:`map_in_order` and the batch engine) raises :class:`ClusterLost` when the scheduler is lost or
+when there has been no worker for NO_WORKER_TIMEOUT seconds.
 """
 
 from __future__ import annotations
@@ -26,12 +30,13 @@ import logging
 import os
 import sys
 import threading
+import time
 import warnings
 from contextlib import contextmanager
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "connect", "map_in_order", "default_workers", "n_workers", "dask_setup",
-           "local_cluster_unsafe"]
+__all__ = ["QUIET_LOGS", "CONNECT_TIMEOUT", "TASKS_PER_WORKER", "NO_WORKER_TIMEOUT", "WATCH_INTERVAL", "ClusterLost",
+           "connect", "map_in_order", "wait_any", "result_of", "scheduler_address", "default_workers", "n_workers", "dask_setup", "local_cluster_unsafe"]
 
 #: Log level of an embedded cluster's scheduler and workers. Reason: at shutdown (the end of a job,
 #: Ctrl-C) they log lost heartbeats and closed streams at ERROR level, which say nothing about the
@@ -47,9 +52,30 @@ CONNECT_TIMEOUT = 10.0
 #: while its next task travels; 4 also absorb uneven tasks, and the results held back for input
 #: order stay a few tasks per worker.
 TASKS_PER_WORKER = 4
+#: Seconds a job waits while its cluster has no worker at all before it stops (:class:`ClusterLost`).
+#: Reason: a worker that dies is replaced within seconds where anything replaces it (a nanny, a
+#: LocalCluster, an adaptive or batch-system cluster starting one); a cluster with no worker for 30 s
+#: is down for this job, and waiting on in silence only hides that: what is finished is written, and
+#: the job is resumed once workers are back. (Three times CONNECT_TIMEOUT, the wait for a first worker
+#: at start-up, as a worker restarting mid-job also has to import numpy and spherekin again.)
+NO_WORKER_TIMEOUT = 30.0
+#: Seconds between two looks at the cluster while a job waits for its tasks (:func:`wait_any`).
+#: Reason: one look is one small scheduler call (~1 ms); once a second costs nothing and sees a
+#: cluster without workers within a second of NO_WORKER_TIMEOUT.
+WATCH_INTERVAL = 1.0
 #: The reason a job first ran in this process instead of on a local cluster (empty: none yet). The
 #: warning that says so is given once per process: the later jobs of a script run here for the same reason.
 _IN_PROCESS_SAID: list[str] = []
+
+
+class ClusterLost(RuntimeError):
+    """The cluster of a job cannot go on: its scheduler is lost, or it has had no worker for
+    NO_WORKER_TIMEOUT seconds. The message says which, with the scheduler's address; ``back`` is
+    what must come back before the job can go on ("the scheduler is", "workers are")."""
+
+    def __init__(self, message: str, back: str):
+        super().__init__(message)
+        self.back = back
 
 
 def default_workers() -> int:
@@ -197,10 +223,22 @@ def _remote(address: str):
     except (OSError, TimeoutError) as exc:
         c.close()
         raise ValueError(f"--scheduler {address}: the scheduler has no workers ({exc})") from None
+    # Quiet as an embedded cluster's (QUIET_LOGS): a scheduler lost mid-job makes Dask's client log
+    # closed streams and its failed reconnection with tracebacks, and a fetch of a result cut by the
+    # close (result_of) is reported by asyncio ("Task exception was never retrieved"); the job says
+    # what happened once (ClusterLost). Dask sets the levels of both of its loggers named here.
+    logs = [logging.getLogger(name) for name in ("distributed", "distributed.client", "asyncio")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(QUIET_LOGS)
     try:
         yield c
     finally:
-        c.close()
+        try:
+            c.close()
+        finally:
+            for log, level in zip(logs, levels):
+                log.setLevel(level)
 
 
 def _probe(address: str) -> None:
@@ -233,6 +271,7 @@ def map_in_order(client, fn: Callable, items: Iterable) -> Iterator:
     from collections import deque
 
     window = max(1, n_workers(client)) * TASKS_PER_WORKER
+    address = scheduler_address(client)
     pending: deque = deque()
     nxt = 0
     try:
@@ -240,7 +279,73 @@ def map_in_order(client, fn: Callable, items: Iterable) -> Iterator:
             while nxt < len(items) and len(pending) < window:
                 pending.append(client.submit(fn, items[nxt], pure=False))
                 nxt += 1
-            yield pending.popleft().result()
+            while pending[0].status == "pending":
+                wait_any(client, [pending[0]], address)
+            yield result_of(client, pending.popleft(), address)
     finally:
-        if pending:
+        if pending and client.status == "running":
             client.cancel(list(pending))
+
+
+def scheduler_address(client) -> str:
+    """The address of ``client``'s scheduler (for the messages of :class:`ClusterLost`)."""
+    return client.scheduler_info().get("address") or str(getattr(client.scheduler, "address", "?"))
+
+
+def result_of(client, future, address: str):
+    """``future.result()`` (a future :func:`wait_any` gave): the task's value, or its error raised
+    here. ClusterLost when it is not the task's error but a scheduler lost meanwhile (the future
+    cancelled, or its result's transfer cut: an OSError), or when the result was lost with the
+    worker that held it and no worker is left to compute it again (as in :func:`wait_any`)."""
+    since = None                            # when the cluster was first seen without a worker
+    while True:
+        try:
+            return future.result(timeout=WATCH_INTERVAL)
+        except TimeoutError:                # a result lost with its worker, being computed again
+            since = _watch(client, address, since)
+        except Exception as exc:
+            if future.status != "error" and (client.status != "running" or isinstance(exc, OSError)):
+                raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is") from None
+            raise
+
+
+def wait_any(client, futures, address: str) -> set:
+    """The futures of ``futures`` (of ``client``, not empty) that are finished (a result, an error
+    or cancelled), waiting until there is at least one. ClusterLost instead when ``client`` has lost
+    its scheduler (at ``address``: the futures are cancelled then), or when the cluster has had no
+    worker for NO_WORKER_TIMEOUT seconds (its tasks would wait for ever): a task's own error is the
+    caller's, from :func:`result_of`."""
+    from distributed import wait
+    from distributed.client import FIRST_COMPLETED, FuturesCancelledError
+
+    futures = list(futures)
+    since = None                            # when the cluster was first seen without a worker
+    while True:
+        try:
+            with client.as_current():       # distributed.wait waits on the current client
+                done, _ = wait(futures, timeout=WATCH_INTERVAL, return_when=FIRST_COMPLETED)
+            done = {f for f in done if f.done()}    # not "lost" (a result to be computed again)
+            if done:
+                return done
+        except TimeoutError:                # none finished yet: look at the cluster
+            pass
+        except FuturesCancelledError:       # cancelled: by the lost scheduler, or as the caller's error
+            if client.status != "running":
+                raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is") from None
+            return {f for f in futures if f.status != "pending"}
+        since = _watch(client, address, since)
+
+
+def _watch(client, address: str, since: float | None) -> float | None:
+    """One look at the cluster of a job waiting for a result: ClusterLost when ``client`` has lost
+    its scheduler, or when it has had no worker since ``since`` (time.monotonic; None: it had one
+    at the last look) for NO_WORKER_TIMEOUT seconds; else the new ``since``."""
+    if client.status != "running":
+        raise ClusterLost(f"lost the scheduler at {address}", "the scheduler is")
+    if client.scheduler_info(n_workers=1).get("workers"):     # one is enough: a small reply
+        return None
+    now = time.monotonic()
+    since = now if since is None else since
+    if now - since >= NO_WORKER_TIMEOUT:
+        raise ClusterLost(f"the workers of {address} are gone (none for {NO_WORKER_TIMEOUT:g} s)", "workers are")
+    return since

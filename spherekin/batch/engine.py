@@ -17,7 +17,13 @@ rows of an input do not depend on where or with what else it was solved, so the 
 row for row, for any number of workers.
 
 Ctrl-C (KeyboardInterrupt) stops the job: the chunks in flight are cancelled, every finished chunk
-that can be written is written, and the summary says how far it got (``interrupted``).
+that can be written is written, and the summary says how far it got (``interrupted``). A cluster
+that cannot go on (its scheduler lost, or no worker for NO_WORKER_TIMEOUT seconds) stops it the same
+way, with :class:`~spherekin.cluster.ClusterLost`: what was lost, what is kept, and ``--resume``.
+
+The worker plugin is named per run (the job's token, a random part, and the client's id), and
+unregistered when the run ends, however it ends; one left behind by a client that was killed (no
+``finally`` runs then) is unregistered by the next run on that scheduler, as its client is gone.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import math
 import pickle
+import secrets
 import time
 from collections import deque
 from contextlib import contextmanager
@@ -35,7 +42,7 @@ import numpy as np
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..cluster import connect as cluster_connect
-from ..cluster import TASKS_PER_WORKER, n_workers
+from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
 from .rows import report_rows
 
 __all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
@@ -70,7 +77,8 @@ class Job:
 
     @property
     def token(self) -> str:
-        """A name for the job's worker plugin: the same mechanism and strategy give the same one."""
+        """The job's name: the same mechanism and strategy give the same one (the first part of its
+        worker plugin's name, :class:`CompiledProblem`)."""
         return "spherekin-" + hashlib.sha1(pickle.dumps((self.mechanism, self.strategy))).hexdigest()[:16]
 
 
@@ -97,13 +105,15 @@ class RunSummary:
 class CompiledProblem(WorkerPlugin):
     """A Dask worker plugin holding the job's compiled problem, made when a worker sets it up (the
     plugin travels as the mechanism and strategy; every worker, also one that joins later, compiles
-    once)."""
+    once). Named ``TOKEN-RANDOM@CLIENT_ID``: one run's own (two runs of one job, from one client or
+    two, never share one, so neither unregisters the other's), and that of a client the scheduler
+    knows (``owner``, ``Client.id``), so a plugin whose client is gone is known to be stale."""
 
     idempotent = True
 
-    def __init__(self, job: Job):
+    def __init__(self, job: Job, owner: str):
         self.job = job
-        self.name = job.token
+        self.name = f"{job.token}-{secrets.token_hex(6)}@{owner}"
         self.problem = None
 
     def setup(self, worker=None):
@@ -189,6 +199,12 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
             _run_dask(job, inputs, todo, emit, client, workers, sink.ordered)
     except KeyboardInterrupt:
         interrupted = True
+    except ClusterLost as exc:              # what was lost, then what is kept and how to finish
+        path = getattr(sink, "path", None)
+        kept = (f"{state['solved']} of {total} inputs ({state['rows']} rows written now) are kept in {path}; "
+                f"run the same command with --resume once {exc.back} back" if path is not None
+                else f"the table was held in memory: nothing is kept ({state['solved']} of {total} inputs were done)")
+        raise ClusterLost(f"{exc}; {kept}", exc.back) from None
     finally:
         sink.close()
     return RunSummary(total, skipped, state["solved"] - skipped, state["rows"], workers,
@@ -203,46 +219,63 @@ def _run_here(job: Job, inputs, todo, emit) -> None:
 
 
 def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
-    from distributed import as_completed
-
-    plugin = CompiledProblem(job)
-    client.register_plugin(plugin, name=plugin.name)
+    address = scheduler_address(client)
+    plugin = CompiledProblem(job, client.id)
+    _register(client, plugin)
     queue = deque(todo)
     window = max(1, workers) * TASKS_PER_WORKER
     futures = {}
     held = {}                                   # finished out of order (ordered sinks)
     order = deque(todo)                         # the next chunk to write, for an ordered sink
 
-    def submit(pool):
+    def submit():
         while queue and len(futures) < window:
             first, end = queue.popleft()
             fut = client.submit(solve_chunk, plugin.name, first, inputs[first:end], pure=False)
             futures[fut] = (first, end)
-            pool.add(fut)
 
-    pool = as_completed([])
     try:
-        submit(pool)
-        for fut in pool:
-            first, end = futures.pop(fut)
-            try:
-                frame = fut.result()
-            except Exception as exc:            # a solve that raised on a worker: stop, keep what is written
-                raise RuntimeError(f"inputs {first}..{end - 1}: the solve failed on a worker "
-                                   f"({type(exc).__name__}: {exc})") from exc
-            if not ordered:
-                emit(first, end, frame)
-            else:
-                held[first] = (end, frame)
-                while order and order[0][0] in held:
-                    a, _ = order.popleft()
-                    b, fr = held.pop(a)
-                    emit(a, b, fr)
-            submit(pool)
+        submit()
+        while futures:
+            for fut in sorted(wait_any(client, futures, address), key=lambda f: futures[f]):
+                first, end = futures.pop(fut)
+                try:
+                    frame = result_of(client, fut, address)
+                except ClusterLost:
+                    raise
+                except Exception as exc:        # a solve that raised on a worker: stop, keep what is written
+                    raise RuntimeError(f"inputs {first}..{end - 1}: the solve failed on a worker "
+                                       f"({type(exc).__name__}: {exc})") from exc
+                if not ordered:
+                    emit(first, end, frame)
+                else:
+                    held[first] = (end, frame)
+                    while order and order[0][0] in held:
+                        a, _ = order.popleft()
+                        b, fr = held.pop(a)
+                        emit(a, b, fr)
+            submit()
     finally:
         if futures:
-            client.cancel(list(futures))
+            try:
+                client.cancel(list(futures))
+            except Exception:                   # a client that lost its scheduler: nothing to cancel there
+                pass
         try:
             client.unregister_worker_plugin(plugin.name)
         except Exception:                       # a cluster going down with Ctrl-C: nothing left to clean
             pass
+
+
+def _register(client, plugin: CompiledProblem) -> None:
+    """Register ``plugin`` on ``client``'s scheduler, after unregistering every CompiledProblem there
+    whose client the scheduler no longer knows (left by a client that was killed: module doc)."""
+
+    def stale(dask_scheduler=None):             # runs on the scheduler (sent by value: spherekin need not be there)
+        return [name for name in dask_scheduler.worker_plugins
+                if name.startswith("spherekin-") and "@" in name
+                and name.rpartition("@")[2] not in dask_scheduler.clients]
+
+    for name in client.run_on_scheduler(stale):
+        client.unregister_worker_plugin(name)
+    client.register_plugin(plugin, name=plugin.name)

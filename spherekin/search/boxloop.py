@@ -302,9 +302,10 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
                 right_lo[rows, axis] = mid
                 stack.append((np.concatenate([right_lo, slo]), np.concatenate([shi, left_hi]),
                               np.concatenate([sd, sd]), np.concatenate([sc, sc])))
-    except KeyboardInterrupt:
-        # Ctrl-C: stop now, hand over what was accepted so far (the pipeline reports it, not exact)
-        raise SearchInterrupted("interrupted (Ctrl-C) after "
+    except KeyboardInterrupt as exc:
+        # Ctrl-C (or the command line's SIGTERM, whose text names it): stop now, hand over what was
+        # accepted so far (the pipeline reports it, not exact)
+        raise SearchInterrupted(f"interrupted ({exc or 'Ctrl-C'}) after "
                                 f"{counts['boxes_processed']} boxes", *stopped()) from None
     return accepted, isolated, counts, (t_restrict, t_prune, t_isolate)
 
