@@ -8,10 +8,20 @@ else.
 from __future__ import annotations
 
 import math
+import signal
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+
+def pytest_configure(config):
+    """Ctrl-C as a user's terminal delivers it, whatever started the tests: a shell that runs a command
+    in the background (``make test &`` from a script) ignores SIGINT for it, and the ignore is
+    inherited by every process the tests start, so their Ctrl-C tests would see SIGINT do nothing. A
+    Python handler is reset to the default in a child (exec), where Python installs KeyboardInterrupt."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
 
 #: The paper's Gosselin example inputs (Section 5), radians.
 GOSSELIN_INPUTS = (0.3, -0.2, 0.5)
