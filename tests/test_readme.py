@@ -188,3 +188,33 @@ def test_readme_command_lines_parse():
             parser.parse_args(protect_negative_values(words))
         except SystemExit:
             pytest.fail(f"the README's `spherekin {shlex.join(words)}` does not parse")
+
+
+# ------------------------------------------------------------------ the guides' python blocks
+
+MECHANISM_FORMAT = ROOT / "docs" / "mechanism-format.md"
+
+
+def test_mechanism_format_python_blocks_run_as_scripts_from_the_repository_root(tmp_path):
+    """docs/mechanism-format.md's blocks, each a script in a fresh interpreter (run from the checkout's
+    root, where its example files are): the names it prints are those its comment shows, and every
+    inverse-kinematics solution of the identity pose closes: the degree-8 eigenvalue reference
+    (benchmarks/peers_closed_form.py) has the identity among its poses at those inputs."""
+    code = re.findall(r"^```python\n(.*?)^```", MECHANISM_FORMAT.read_text(), re.S | re.M)
+    assert len(code) == 2, "a new python block in docs/mechanism-format.md needs a check here"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    outs = []
+    for k, block in enumerate(code):
+        (tmp_path / f"block{k}.py").write_text(block)
+        run = subprocess.run([sys.executable, str(tmp_path / f"block{k}.py")], cwd=ROOT, env=env, capture_output=True,
+                             text=True, timeout=BLOCK_TIMEOUT)
+        assert run.returncode == 0, run.stderr[-2000:]
+        outs.append(run.stdout)
+    assert outs[0].startswith("('beta1', 'beta2', 'beta3') ('gamma1', 'delta1'")
+    lines = outs[1].strip().splitlines()
+    assert 1 <= len(lines) <= 8
+    geometry = geometry_of(general_3rrr())
+    for line in lines:
+        inputs = [float(v) for v in re.match(r"^\(([^)]*)\)", line)[1].split(",")]
+        poses = direct_kinematics(geometry, inputs)
+        assert min(np.abs(p - np.eye(3)).max() for p in poses) < 1e-8, line
