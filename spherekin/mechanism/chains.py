@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.rotations import cross
 
-__all__ = ["IK_TOL", "axis_rotation", "angle_about", "least_aligned_basis", "perpendicular", "wrap", "chain_rotation",
+__all__ = ["IK_TOL", "axis_rotation", "axis_rotations", "angle_about", "least_aligned_basis", "perpendicular", "wrap", "chain_rotation",
            "current_axes", "serial_ik", "sphere_point"]
 
 #: Residual (max |entry| of the rotation mismatch) under which a leg's inverse kinematics is
@@ -34,6 +34,14 @@ def axis_rotation(axis, angle: float) -> np.ndarray:
     a = np.asarray(axis, dtype=float)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
     return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+
+
+def axis_rotations(axis, angles) -> np.ndarray:
+    """Rot(a, t) for an array of angles t (radians, shape (...)): shape (..., 3, 3) (Rodrigues, batched)."""
+    a = np.asarray(axis, dtype=float)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    t = np.asarray(angles, dtype=float)[..., None, None]
+    return np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k)
 
 
 def angle_about(axis, x, y) -> float:
@@ -85,9 +93,7 @@ def current_axes(axes: np.ndarray, displacements) -> np.ndarray:
     cols = []
     for i, a in enumerate(axes):
         cols.append(rot @ a)
-        k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])    # Rodrigues, batched
-        t = d[..., i, None, None]
-        rot = rot @ (np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k))
+        rot = rot @ axis_rotations(a, d[..., i])
     return np.stack(cols, axis=-1)
 
 

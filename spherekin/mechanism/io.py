@@ -1,6 +1,11 @@
 """Mechanism files (TOML): load, validate, write. The format is documented in docs/mechanism-format.md.
 
-Two kinds:
+Three kinds, one model (every kind builds the same graph of links and joints, :mod:`.graph`):
+
+* ``kind = "graph"``: ``ground`` (the fixed link), optional ``output`` (the link whose rotation is
+  the pose) and ``name``, and ``[[joints]]`` tables (``name``, ``links = [a, b]`` (the joint turns
+  b relative to a), ``axis`` (in the reference assembly, where every joint reads 0), optional
+  ``actuated``, ``range``); the loops are found by the program;
 
 * ``kind = "3-RRR"``: keys ``base_axes``, ``elbow_axes_at_zero``, ``platform_axes``,
   ``distal_link_angles`` (radians), optional ``joint_ranges`` (table joint name -> [lo, hi];
@@ -24,17 +29,22 @@ from typing import Mapping
 import numpy as np
 
 from .checks import shown
-from .model import Joint, Leg, SphericalMechanism
+from .graph import Joint, MechanismGraph
+from .model import Leg, SphericalMechanism
 from .rrr import THREE_RRR_KEYS, three_rrr
 
 __all__ = ["MechanismFileError", "KINDS", "load_mechanism", "mechanism_from_dict", "dumps_mechanism"]
 
-KINDS = ("3-RRR", "general")
+KINDS = ("3-RRR", "general", "graph")
 _RRR_OPTIONAL = ("name", "reference_leg", "joint_ranges", "joint_offsets")
 _GENERAL_REQUIRED = ("legs",)
 _GENERAL_OPTIONAL = ("name", "reference_leg", "platform_reference")
 _LEG_KEYS = ("name", "joints")
 _JOINT_KEYS = ("name", "axis", "actuated", "range", "reference_angle")
+_GRAPH_REQUIRED = ("ground", "joints")
+_GRAPH_OPTIONAL = ("name", "output")
+_GRAPH_JOINT_REQUIRED = ("name", "links", "axis")
+_GRAPH_JOINT_OPTIONAL = ("actuated", "range", "reference_angle")
 
 _KEY_HELP = {
     "base_axes": "the 3 base (actuated) joint axes u_i, unit vectors in the base frame",
@@ -42,6 +52,9 @@ _KEY_HELP = {
     "platform_axes": "the 3 platform joint axes v_i^0, unit vectors in the platform frame",
     "distal_link_angles": "the 3 angles alpha2_i = angle(w_i, v_i) in radians",
     "legs": "the legs, as [[legs]] tables each holding [[legs.joints]] tables",
+    "ground": "the name of the fixed link",
+    "joints": "the joints, as [[joints]] tables (name, links, axis, optional actuated and range)",
+    "links": "the two links the joint joins, [a, b]: the joint turns b relative to a",
 }
 
 
@@ -112,6 +125,8 @@ def _build(data) -> SphericalMechanism:
             body.get("joint_ranges"), name=body.get("name", "3-RRR"), reference_leg=body.get("reference_leg", "leg1"),
             joint_offsets=body.get("joint_offsets"),
         )
+    if kind == "graph":
+        return _build_graph(body)
     _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
     legs_raw = body["legs"]
     if not isinstance(legs_raw, list) or not legs_raw:
@@ -148,6 +163,33 @@ def _build(data) -> SphericalMechanism:
     )
 
 
+def _build_graph(body: Mapping) -> SphericalMechanism:
+    _check_keys("", body, _GRAPH_REQUIRED, _GRAPH_OPTIONAL)
+    raw = body["joints"]
+    if not isinstance(raw, list) or not raw:
+        raise ValueError(f"joints: expected one or more [[joints]] tables, got {shown(raw)}")
+    joints, links = [], []
+    for k, j in enumerate(raw):
+        where = f"joints[{k}]"
+        if not isinstance(j, Mapping):
+            raise ValueError(f"{where}: expected a [[joints]] table, got {shown(j)}")
+        _check_keys(where, j, _GRAPH_JOINT_REQUIRED, _GRAPH_JOINT_OPTIONAL)
+        try:
+            joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),
+                                j.get("reference_angle", 0.0)))
+        except ValueError as exc:
+            raise ValueError(f"{where}.{exc}") from None
+        pair = j["links"]
+        if not isinstance(pair, list) or len(pair) != 2 or not all(isinstance(x, str) for x in pair):
+            raise ValueError(f"{where}.links: expected two link names [a, b], got {shown(pair)}")
+        links.append(tuple(pair))
+    for key in ("ground", "output"):
+        if key in body and not isinstance(body[key], str):
+            raise ValueError(f"{key}: expected a link name (text), got {shown(body[key])}")
+    graph = MechanismGraph(tuple(joints), tuple(links), body["ground"], body.get("output"))
+    return SphericalMechanism(graph=graph, name=body.get("name", "mechanism"), kind="graph")
+
+
 # --------------------------------------------------------------------------------------------
 # Writing
 # --------------------------------------------------------------------------------------------
@@ -173,7 +215,7 @@ def _str(s: str) -> str:
 
 
 def dumps_mechanism(mech: SphericalMechanism) -> str:
-    """The TOML text of a mechanism (3-RRR kind if it was built as one, else general); loads back equal."""
+    """The TOML text of a mechanism (the kind it was built as: graph, 3-RRR or general); loads back equal."""
     lines = []
     if mech.kind == "3-RRR" and mech.geometry is not None:
         g = mech.geometry
@@ -189,6 +231,21 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
                  if abs(p.reference_angle - j.reference_angle) > OFFSET_ROUNDING]
         if moved:
             lines += ["", "[joint_offsets]"] + [f"{n} = {_num(v)}" for n, v in moved]
+        return "\n".join(lines) + "\n"
+    if mech.graph is not None:
+        g = mech.graph
+        lines += ['kind = "graph"', f"name = {_str(mech.name)}", f"ground = {_str(g.ground)}"]
+        if g.output is not None:
+            lines.append(f"output = {_str(g.output)}")
+        for j, (a, b) in zip(g.joints, g.links):
+            lines += ["", "[[joints]]", f"name = {_str(j.name)}", f"links = [{_str(a)}, {_str(b)}]",
+                      f"axis = {_vec(j.axis)}"]
+            if j.actuated:
+                lines.append("actuated = true")
+            if j.range is not None:
+                lines.append(f"range = {_vec(j.range)}")
+            if j.reference_angle != 0.0 or math.copysign(1.0, j.reference_angle) < 0:
+                lines.append(f"reference_angle = {_num(j.reference_angle)}")
         return "\n".join(lines) + "\n"
     lines += ['kind = "general"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
     if not np.array_equal(mech.platform_reference_matrix, np.eye(3)):

@@ -49,11 +49,11 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import check_geometry_angle, check_turn, in_range, into_range
+from ..core.angles import check_turn, in_range, into_range
 from ..core.rotations import cross, normalize_polygon, normalized_closure
-from .chains import chain_rotation, current_axes, perpendicular, serial_ik, wrap
-from .checks import (check_joint_name, check_name, check_range, check_rotation, check_unit_vector, parse_angle,
-                     shown)
+from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik, wrap
+from .checks import check_name, check_range, check_rotation, parse_angle, shown
+from .graph import Joint, MechanismGraph, Step
 
 __all__ = [
     "PARALLEL_TOL",
@@ -100,31 +100,6 @@ _IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 # --------------------------------------------------------------------------------------------
 # Data: joints, legs, loops, results
 # --------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Joint:
-    """A revolute joint: its axis (unit vector, base frame, reference configuration), whether it is
-    actuated, its range (lo, hi) in radians or None (unlimited: the full circle), and its reading
-    at the reference configuration (radians). The name is checked by
-    :func:`~.checks.check_joint_name` (it names a column of the results); the range ends and the
-    reference reading are within :data:`~spherekin.core.angles.MAX_GEOMETRY_ANGLE` of 0."""
-
-    name: str
-    axis: tuple
-    actuated: bool = False
-    range: tuple | None = None
-    reference_angle: float = 0.0
-
-    def __post_init__(self):
-        object.__setattr__(self, "name", check_joint_name("name", self.name))
-        object.__setattr__(self, "axis", check_unit_vector("axis", self.axis))
-        if not isinstance(self.actuated, (bool, np.bool_)):
-            raise ValueError(f"actuated: expected true or false, got {shown(self.actuated)}")
-        object.__setattr__(self, "actuated", bool(self.actuated))
-        object.__setattr__(self, "range", check_range("range", self.range))
-        object.__setattr__(self, "reference_angle", check_geometry_angle(
-            "reference_angle", parse_angle("reference_angle", self.reference_angle)))
-
 
 @dataclass(frozen=True)
 class Leg:
@@ -185,17 +160,23 @@ class FactorSpec(NamedTuple):
 
 @dataclass(frozen=True)
 class LoopGeometry:
-    """The spherical polygon of one independent loop (Eq. 1): up ``legs[0]``, down ``legs[1]``.
+    """The spherical polygon of one independent loop (Eq. 1): up the ``up`` chain, down the ``down`` one.
 
-    ``vertices[k]`` is p_k; ``sides[k]`` is the side (link twist, radians in [0, pi]) from p_k to
-    p_{k+1}, the last one being the base side back to p_1. ``right_angled`` is True when every
-    side is pi/2 (within RIGHT_ANGLE_TOL), so that Eq. (1) is already in the form of Eq. (2).
+    ``up``/``down``: the loop's two chains from its root link (:class:`~.graph.Step` tuples, see
+    :class:`~.graph.GraphLoop`); for a mechanism written as legs they are leg j and the reference
+    leg, both from the base, and ``legs`` names them (up, down); for a graph, ``legs`` is
+    ("loop closed by X", root link). ``vertices[k]`` is p_k (up's joints, then down's reversed);
+    ``sides[k]`` is the side (link twist, radians in [0, pi]) from p_k to p_{k+1}, the last one
+    being the root link's side back to p_1. ``right_angled`` is True when every side is pi/2
+    (within RIGHT_ANGLE_TOL), so that Eq. (1) is already in the form of Eq. (2).
     """
 
     legs: tuple
     vertices: tuple
     sides: tuple
     right_angled: bool
+    up: tuple = ()
+    down: tuple = ()
 
     def factor_specs(self, form: str = "auto") -> tuple[FactorSpec, ...]:
         """The factors of Eq. (2) as :class:`FactorSpec` (offset, joint name or None, sign): phi = offset + sign * reading.
@@ -352,31 +333,77 @@ class SingularityReport:
 
 @dataclass(frozen=True)
 class SphericalMechanism:
-    """A spherical parallel mechanism: base, platform and l >= 2 legs of revolute joints (see module doc).
+    """A spherical mechanism: a graph of links and revolute joints (see module doc and :mod:`.graph`).
 
-    ``legs``: the legs (each base -> platform); ``reference_leg``: name of the leg shared by all
-    loops (default: the first leg); ``platform_reference``: the platform pose R at the reference
-    configuration (default I: the platform frame coincides with the base frame there). The pose of
-    the platform at other configurations is R = D R_ref with D the rotation of the platform relative
-    to its reference position (the product of exponentials of the reference leg, see
-    :meth:`pose_from_passive`). ``kind`` and ``geometry`` record how it was built (e.g. "3-RRR").
+    Two ways to write one, one model:
 
-    Public derived data: ``actuated`` and ``passive`` (joint names, leg order), ``ranges``,
-    ``loop_geometry`` (one :class:`LoopGeometry` per independent loop).
+    * ``graph``: a :class:`~.graph.MechanismGraph` (links named by the joints, a ground, an optional
+      output link; the file kind "graph"); ``legs`` is then derived: the graph's chains from the
+      ground to the output when it is legs (:meth:`~.graph.MechanismGraph.chains`), else ().
+    * ``legs``: a base, a platform and l >= 2 legs, each base -> platform (the kinds "general" and
+      "3-RRR"), a front end that builds the graph (ground "base", output "platform", the links of
+      leg L named "L/1", "L/2", ...) with the spanning tree of the paper's Eq. (5): the
+      ``reference_leg`` (default: the first) whole and every other leg without its last joint.
+
+    ``platform_reference``: the output link's pose R at the reference configuration (default I:
+    its frame coincides with the base frame there). The pose at other configurations is R = D R_ref
+    with D the output link's rotation relative to its reference position (the product of
+    exponentials along the tree, see :meth:`pose_from_passive`). ``kind`` and ``geometry`` record how
+    it was built ("graph", "general", "3-RRR").
+
+    Public derived data: ``actuated`` and ``passive`` (joint names, in the order written), ``ranges``,
+    ``link_graph`` (the :class:`~.graph.MechanismGraph`, also for legs), ``loop_geometry`` (one
+    :class:`LoopGeometry` per independent loop), ``output`` (the output link, or None).
     """
 
-    legs: tuple
+    legs: tuple = ()
     name: str = "mechanism"
     reference_leg: str | None = None
     platform_reference: tuple = _IDENTITY
     kind: str = "general"
     geometry: object = None
+    graph: MechanismGraph | None = None
+    link_graph: MechanismGraph | None = field(init=False, repr=False, compare=False, default=None)
     loop_geometry: tuple = field(init=False, repr=False, compare=False, default=())
 
     # ---------------------------------------------------------------- construction
 
     def __post_init__(self):
         object.__setattr__(self, "name", check_name("name", self.name))
+        if self.graph is not None:
+            self._from_graph()
+        else:
+            self._from_legs()
+        platform = check_rotation("platform_reference", self.platform_reference)
+        object.__setattr__(self, "platform_reference", tuple(tuple(float(v) for v in row) for row in platform))
+        graph = self.link_graph
+        if not self.actuated:
+            raise ValueError(f"{'joints' if self.graph is not None else 'legs'}: expected at least one actuated "
+                             "joint, got none")
+        n_loops = len(graph.loops)
+        if self.graph is not None:
+            if n_loops == 0:
+                raise ValueError("joints: the links form no closed loop (an open chain): its direct kinematics is "
+                                 "the chain's product of rotations, nothing to solve; a mechanism needs a loop")
+            mob = graph.mobility
+            if len(self.actuated) < mob:
+                raise ValueError(
+                    f"joints: under-actuated: the mobility is M = 3 (links - 1) - 2 joints = 3 x {len(graph.link_names) - 1}"
+                    f" - 2 x {len(graph.joints)} = {mob}, but {len(self.actuated)} joint(s) are actuated "
+                    f"({', '.join(self.actuated)}); mark {mob - len(self.actuated)} more as actuated (more than M "
+                    "is redundant actuation, allowed)")
+            self._check_binary_links()
+        elif len(self.passive) > 3 * n_loops:
+            raise ValueError(
+                f"legs: the {n_loops} loop(s) give {3 * n_loops} scalar equations, which fix at most that many "
+                f"passive joints, but {len(self.passive)} joints are passive ({', '.join(self.passive)}); the "
+                "direct kinematics would have a continuum of solutions: mark more joints as actuated"
+            )
+        joints = {j.name: j for j in graph.joints}
+        loops = tuple(self._polygon(self._loop_labels(lp), lp.up, lp.down, joints) for lp in graph.loops)
+        object.__setattr__(self, "loop_geometry", loops)
+
+    def _from_legs(self) -> None:
         if isinstance(self.legs, (str, bytes)) or not isinstance(self.legs, (Sequence, tuple)):
             raise ValueError(f"legs: expected a list of legs, got {self.legs!r}")
         legs = tuple(self.legs)
@@ -399,27 +426,66 @@ class SphericalMechanism:
         ref = leg_names[0] if self.reference_leg is None else self.reference_leg
         if ref not in leg_names:
             raise ValueError(f"reference_leg: expected one of {leg_names}, got {shown(ref)}")
-        platform = check_rotation("platform_reference", self.platform_reference)
         object.__setattr__(self, "legs", legs)
         object.__setattr__(self, "reference_leg", ref)
-        object.__setattr__(self, "platform_reference", tuple(tuple(float(v) for v in row) for row in platform))
-        n_loops = len(legs) - 1
-        if not self.actuated:
-            raise ValueError("legs: expected at least one actuated joint, got none")
-        if len(self.passive) > 3 * n_loops:
-            raise ValueError(
-                f"legs: the {n_loops} loop(s) give {3 * n_loops} scalar equations, which fix at most that many "
-                f"passive joints, but {len(self.passive)} joints are passive ({', '.join(self.passive)}); the "
-                "direct kinematics would have a continuum of solutions: mark more joints as actuated"
-            )
-        ref_leg = legs[leg_names.index(ref)]
-        loops = tuple(self._polygon(leg, ref_leg) for leg in legs if leg.name != ref)
-        object.__setattr__(self, "loop_geometry", loops)
+        # the front end: links "base", "platform" and "L/k"; the tree of Eq. (5) (reference leg whole)
+        joints, links, tree = [], [], []
+        for leg in legs:
+            chain = ["base", *[f"{leg.name}/{k}" for k in range(1, len(leg.joints))], "platform"]
+            for k, j in enumerate(leg.joints):
+                joints.append(j)
+                links.append((chain[k], chain[k + 1]))
+                if leg.name == ref or k < len(leg.joints) - 1:
+                    tree.append(j.name)
+        object.__setattr__(self, "link_graph", MechanismGraph(tuple(joints), tuple(links), "base", "platform",
+                                                              tuple(tree)))
+
+    def _from_graph(self) -> None:
+        graph = self.graph
+        if not isinstance(graph, MechanismGraph):
+            raise ValueError(f"graph: expected a MechanismGraph, got {type(graph).__name__}")
+        object.__setattr__(self, "link_graph", graph)     # legs given with a graph are its own, derived again
+        chains = graph.chains()
+        legs, ref = (), None
+        if chains is not None and len(chains) >= 2:
+            try:
+                legs = tuple(Leg(f"leg{i + 1}", tuple(graph.joints[k] for k in chain))
+                             for i, chain in enumerate(chains))
+            except ValueError:
+                legs = ()                              # parallel axes in series: reported by _check_binary_links
+            last = graph.parent[graph.output][0]
+            ref = next((f"leg{i + 1}" for i, chain in enumerate(chains) if last in chain), None)
+        object.__setattr__(self, "legs", legs)
+        object.__setattr__(self, "reference_leg", ref if legs else None)
+
+    def _check_binary_links(self) -> None:
+        """A moving link with exactly two joints whose axes are parallel turns about one axis: the two
+        joints act as one and the loops through it have a continuum of solutions."""
+        graph = self.link_graph
+        for link in graph.link_names:
+            on = graph.joints_of(link)
+            if link == graph.ground or len(on) != 2:
+                continue
+            a, b = (np.array(graph.joints[k].axis) for k in on)
+            if np.linalg.norm(cross(a, b)) < PARALLEL_TOL:
+                names = [graph.joints[k].name for k in on]
+                raise ValueError(
+                    f"joints: inconsistent geometry: link {link!r} has only the joints {names[0]!r} and {names[1]!r}, "
+                    "and their axes are parallel (link twist 0 or pi): two coaxial joints in series act as one "
+                    "joint (the loops through them have a continuum of solutions)")
+
+    def _loop_labels(self, loop) -> tuple[str, str]:
+        """(up, down) leg names of a loop of legs; ("loop closed by X", root link) of a graph's."""
+        if self.graph is None:
+            joints_leg = {j.name: leg.name for leg in self.legs for j in leg.joints}
+            return joints_leg[loop.up[-1].joint], self.reference_leg
+        return f"loop closed by {loop.closing}", loop.root
 
     @staticmethod
-    def _polygon(up: Leg, down: Leg) -> LoopGeometry:
-        """Spherical polygon of the loop up ``up`` and down ``down`` at the reference configuration."""
-        verts = [(j, 1) for j in up.joints] + [(j, -1) for j in reversed(down.joints)]
+    def _polygon(labels, up, down, joints) -> LoopGeometry:
+        """Spherical polygon of the loop up ``up`` and down ``down`` (chains of :class:`~.graph.Step`
+        from the loop's root link) at the reference configuration."""
+        verts = [(joints[s.joint], s.sign) for s in up] + [(joints[s.joint], -s.sign) for s in reversed(down)]
         p = np.array([j.axis for j, _ in verts])
         nxt = np.roll(p, -1, axis=0)
         normals = cross(p, nxt)
@@ -431,7 +497,7 @@ class SphericalMechanism:
             if sines[k] >= PARALLEL_TOL:
                 poles[k] = normals[k] / sines[k]
             elif np.array_equal(p[k], nxt[k]) or np.array_equal(p[k], -nxt[k]):
-                poles[k] = perpendicular(p[k])  # coaxial base or platform joints: any fixed normal
+                poles[k] = perpendicular(p[k])  # coaxial joints on one link: any fixed normal
             else:
                 raise ValueError(
                     f"legs: inconsistent geometry: the axes of joints {names[k]!r} and "
@@ -445,13 +511,14 @@ class SphericalMechanism:
             for (j, s), th in zip(verts, exterior)
         )
         right = bool(np.all(np.abs(sides - math.pi / 2) < RIGHT_ANGLE_TOL))
-        return LoopGeometry((up.name, down.name), vertices, tuple(float(s) for s in sides), right)
+        return LoopGeometry(tuple(labels), vertices, tuple(float(s) for s in sides), right, tuple(up), tuple(down))
 
     # ---------------------------------------------------------------- names and ranges
 
     @property
     def joints(self) -> tuple[Joint, ...]:
-        return tuple(j for leg in self.legs for j in leg.joints)
+        """Every joint, in the order written (leg by leg, base to platform, for legs)."""
+        return self.link_graph.joints
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -459,13 +526,18 @@ class SphericalMechanism:
 
     @property
     def actuated(self) -> tuple[str, ...]:
-        """Names of the actuated joints: the inputs, in order (legs in order, base to platform)."""
+        """Names of the actuated joints: the inputs, in order (the order written)."""
         return tuple(j.name for j in self.joints if j.actuated)
 
     @property
     def passive(self) -> tuple[str, ...]:
         """Names of the passive joints, in the same order."""
         return tuple(j.name for j in self.joints if not j.actuated)
+
+    @property
+    def output(self) -> str | None:
+        """The output link (whose rotation is the pose), or None."""
+        return self.link_graph.output
 
     @property
     def ranges(self) -> Mapping[str, tuple[float, float] | None]:
@@ -495,8 +567,18 @@ class SphericalMechanism:
                 return leg
         raise ValueError(f"name: expected one of {[leg.name for leg in self.legs]}, got {name!r}")
 
+    def _not_legs(self) -> str:
+        """Why a graph has no legs (for messages)."""
+        graph = self.link_graph
+        if graph.output is None:
+            return "no output link is named"
+        other = [n for n in graph.link_names if n not in (graph.ground, graph.output) and len(graph.joints_of(n)) != 2]
+        if other:
+            return f"link {other[0]!r} has {len(graph.joints_of(other[0]))} joints"
+        return "a chain from the ground does not end at the output, or a joint is written output side first"
+
     def link_twists(self) -> dict[str, tuple[float, ...]]:
-        """Leg name -> link twist angles (radians) between its consecutive joints."""
+        """Leg name -> link twist angles (radians) between its consecutive joints (legs only)."""
         return {leg.name: leg.twists for leg in self.legs}
 
     # ---------------------------------------------------------------- input checks
@@ -596,38 +678,66 @@ class SphericalMechanism:
 
     # ---------------------------------------------------------------- poses and forward evaluation
 
-    def _leg_pose(self, leg: Leg, readings: Mapping[str, float]) -> np.ndarray:
-        axes = np.array([j.axis for j in leg.joints])
-        disp = [readings[j.name] - j.reference_angle for j in leg.joints]
-        return chain_rotation(axes, disp) @ self.platform_reference_matrix
+    def _steps_rotation(self, steps, readings: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Product of Rot(a_k, s_k (reading_k - reference_k)) along ``steps`` (:class:`~.graph.Step`),
+        at N configurations (readings: name -> (N,) radians): shape (N, 3, 3)."""
+        n = len(next(iter(readings.values()))) if readings else 1
+        out = np.broadcast_to(np.eye(3), (n, 3, 3))
+        for st in steps:
+            j = self.joint(st.joint)
+            out = out @ axis_rotations(j.axis, st.sign * (np.asarray(readings[st.joint], dtype=float) - j.reference_angle))
+        return out
 
-    def pose_from_passive(self, inputs, passive_angles: Mapping[str, float]) -> np.ndarray:
-        """Platform pose R (3x3) from actuator inputs and solved passive readings (radians).
+    def link_rotations(self, joint_angles: Mapping[str, float]) -> dict[str, np.ndarray]:
+        """Link name -> its rotation D (3x3) relative to the reference assembly at the joint readings
+        (radians) of the spanning tree's joints (product of exponentials from the ground: R_b =
+        R_a Rot(axis, reading - reference) for a joint [a, b]); the ground's is I."""
+        readings = {n: np.array([float(v)]) for n, v in joint_angles.items()}
+        graph = self.link_graph
+        need = {st.joint for link in graph.link_names for st in graph.path(link)}
+        missing = [n for n in self.joint_names if n in need and n not in readings]
+        if missing:
+            raise ValueError(f"joint_angles: missing angle(s) for {missing}")
+        return {link: self._steps_rotation(graph.path(link), readings)[0] for link in graph.link_names}
 
-        R = Rot(a_1, d_1) ... Rot(a_k, d_k) R_ref along the reference leg (product of exponentials,
-        axes a_i in the reference configuration, d_i = reading_i - reference_angle_i); for a 3-RRR
-        this is the R with v_i = R v_i^0. Only the reference leg's passive joints are needed.
+    def pose_from_passive(self, inputs, passive_angles: Mapping[str, float]) -> np.ndarray | None:
+        """The output link's pose R (3x3) from actuator inputs and solved passive readings (radians),
+        or None for a mechanism without an output link.
+
+        R = Rot(a_1, d_1) ... Rot(a_k, d_k) R_ref along the spanning tree's path from the ground to
+        the output (product of exponentials, axes a_i in the reference configuration, d_i = +-(reading_i
+        - reference_angle_i)); for legs, the reference leg (a 3-RRR: the R with v_i = R v_i^0). Only
+        that path's passive joints are needed.
         """
         values = dict(zip(self.actuated, self.check_inputs(inputs)))
-        ref = self.leg(self.reference_leg)
-        need = [j.name for j in ref.joints if not j.actuated]
+        if self.output is None:
+            return None
+        path = self.link_graph.path(self.output)
+        need = [st.joint for st in path if st.joint not in values]
         angles = self._check_angles("passive_angles", passive_angles, need)
         bad = [n for n in angles if n in values]
         if bad:
             raise ValueError(f"passive_angles: {bad} are actuated joints; give them in inputs")
-        return self._leg_pose(ref, {**angles, **values})
+        readings = {n: np.array([v]) for n, v in {**angles, **values}.items()}
+        return self._steps_rotation(path, readings)[0] @ self.platform_reference_matrix
 
     def forward(self, joint_angles: Mapping[str, float], form: str = "auto") -> ForwardResult:
-        """Forward evaluation: every joint reading (radians) -> pose and per-loop closure residuals."""
+        """Forward evaluation: every joint reading (radians) -> pose (None without an output link), the
+        pose along each leg (legs only) and per-loop closure residuals."""
         readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
-        leg_poses = tuple(self._leg_pose(leg, readings) for leg in self.legs)
-        names = [leg.name for leg in self.legs]
+        arrays = {n: np.array([v]) for n, v in readings.items()}
+        ref = self.platform_reference_matrix
+        leg_poses = tuple(self._steps_rotation([Step(j.name, 1) for j in leg.joints], arrays)[0] @ ref
+                          for leg in self.legs)
         residuals = tuple(
             float(np.linalg.norm(normalized_closure(g.factor_angles(readings, form)) - np.eye(3)))
             for g in self.loop_geometry
         )
+        pose = None
+        if self.output is not None:
+            pose = self._steps_rotation(self.link_graph.path(self.output), arrays)[0] @ ref
         return ForwardResult(
-            pose=leg_poses[names.index(self.reference_leg)],
+            pose=pose,
             leg_poses=leg_poses,
             loop_residuals=residuals,
             loop_legs=tuple(g.legs for g in self.loop_geometry),
@@ -645,6 +755,10 @@ class SphericalMechanism:
         joint range are dropped.
         """
         rot = check_rotation("R", R)
+        if not self.legs:
+            raise ValueError(
+                f"R: this mechanism is not legs from the ground to an output link ({self._not_legs()}); its inverse "
+                "kinematics is solved on the loop equations: spherekin.inverse_kinematics(mechanism, R)")
         target = rot @ self.platform_reference_matrix.T
         per_leg = []
         for leg in self.legs:
@@ -688,9 +802,10 @@ class SphericalMechanism:
     def jacobians(self, joint_angles: Mapping[str, float]) -> dict[str, np.ndarray]:
         """Velocity Jacobians at given readings (radians).
 
-        ``legs``: per leg, J_i = [a_1 .. a_k] (current axes, base frame; omega = J_i qdot_i);
-        ``constraints``: K (3(l-1) x n_joints, columns in ``joint_names`` order), the loop velocity
-        constraints J_j qdot_j - J_r qdot_r = 0 of each loop (leg j vs the reference leg r);
+        ``legs``: per leg, J_i = [a_1 .. a_k] (current axes, base frame; omega = J_i qdot_i; legs
+        only); ``constraints``: K (3 loops x n_joints, columns in ``joint_names`` order), each
+        loop's velocity constraint: the angular velocity of its closing link along ``up`` minus that
+        along ``down`` (sum of sign x current axis x rate), 0 (for legs: J_j qdot_j - J_r qdot_r);
         ``K_a``, ``K_p``: its actuated and passive columns (K_a qdot_a + K_p qdot_p = 0).
         """
         readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
@@ -703,8 +818,9 @@ class SphericalMechanism:
                 "K_p": k_mat[:, pas]}
 
     def _constraints(self, readings: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray]:
-        """(leg name -> current axes (N, 3, k), K (N, 3(l-1), n_joints)) at N configurations: every
-        joint's readings (N,), radians (see :meth:`jacobians`)."""
+        """(leg name -> current axes (N, 3, k), K (N, 3 loops, n_joints)) at N configurations: every
+        joint's readings (N,), radians (see :meth:`jacobians`). A joint [a, b]'s current axis is
+        R_a a_0 (the link it turns relative to does not move it)."""
         names = self.joint_names
         n = len(next(iter(readings.values())))
         leg_j = {}
@@ -712,13 +828,22 @@ class SphericalMechanism:
             axes = np.array([j.axis for j in leg.joints])
             disp = np.stack([np.asarray(readings[j.name], dtype=float) - j.reference_angle for j in leg.joints], axis=-1)
             leg_j[leg.name] = current_axes(axes, disp)
+        graph = self.link_graph
+        first_link = {j.name: pair[0] for j, pair in zip(graph.joints, graph.links)}
+        rotations: dict[str, np.ndarray] = {}
+
+        def current(joint: str) -> np.ndarray:
+            link = first_link[joint]
+            if link not in rotations:
+                rotations[link] = self._steps_rotation(graph.path(link), readings)
+            return rotations[link] @ np.asarray(self.joint(joint).axis)
+
         rows = []
         for g in self.loop_geometry:
-            up, down = g.legs
             block = np.zeros((n, 3, len(names)))
-            for leg_name, sgn in ((up, 1.0), (down, -1.0)):
-                for k, j in enumerate(self.leg(leg_name).joints):
-                    block[:, :, names.index(j.name)] += sgn * leg_j[leg_name][:, :, k]
+            for steps, sgn in ((g.up, 1.0), (g.down, -1.0)):
+                for st in steps:
+                    block[:, :, names.index(st.joint)] += sgn * st.sign * current(st.joint)
             rows.append(block)
         return leg_j, np.concatenate(rows, axis=1)
 
@@ -726,8 +851,13 @@ class SphericalMechanism:
         """The same mechanism with the joints ``names`` (default: every joint) unlimited."""
         import dataclasses
 
-        legs = tuple(Leg(leg.name, tuple(dataclasses.replace(j, range=None) if names is None or j.name in names else j
-                                         for j in leg.joints)) for leg in self.legs)
+        def free(j):
+            return dataclasses.replace(j, range=None) if names is None or j.name in names else j
+
+        if self.graph is not None:
+            return dataclasses.replace(self, graph=dataclasses.replace(
+                self.graph, joints=tuple(free(j) for j in self.graph.joints)))
+        legs = tuple(Leg(leg.name, tuple(free(j) for j in leg.joints)) for leg in self.legs)
         return dataclasses.replace(self, legs=legs)
 
     def parallel_measure(self, joint_angles: Mapping[str, float]) -> float:

@@ -22,7 +22,10 @@ convention (:mod:`spherekin.mechanism.model`):
   exponentials; Rodrigues' formula Rot(a, d) = cos d I + sin d [a]x + (1 - cos d) a a^T); the
   platform rotation along the leg is D R_ref (R_ref = ``platform_reference``, I by default);
 * one loop per leg k other than the reference leg r; the loop closes iff both legs place the
-  platform alike, D_r = D_k, i.e. M_k = D_r^T D_k = I. (M_k = R_ref (R_r^T R_k) R_ref^T for the
+  platform alike, D_r = D_k, i.e. M_k = D_r^T D_k = I. For a mechanism written as a graph the two
+  "legs" of a loop are its two chains from its root link (``LoopGeometry.up``/``down``; a joint
+  crossed from its second link to its first turns by -d), and the loop closes iff both turn the
+  closing link alike: the same condition. (M_k = R_ref (R_r^T R_k) R_ref^T for the
   platform rotations R = D R_ref: the same condition, written so that the float R_ref, orthogonal
   only to rounding, does not enter; M_k = R_r^T R_k exactly when R_ref = I, as in every preset.)
 
@@ -64,6 +67,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..mechanism import SphericalMechanism
 from .krawczyk import BoxTests, KrawczykResult, check_radii
 from .transversal import check_angles
 
@@ -240,7 +244,7 @@ def leg_rotations_extended(mechanism, joint_angles: Mapping[str, float]) -> dict
     x = [ctx.mpf(readings[n]) for n in plan.names]
     ref = [[ctx.mpf(float(v)) for v in row] for row in mechanism.platform_reference]
     out = {}
-    for k, name in enumerate(plan.leg_names):
+    for k, name in enumerate(plan.chain_names[:plan.n_legs]):
         d, _ = plan.leg_rotation(k, x, jacobian=False)
         bounds = [[_outward(v) for v in row] for row in _matmul(d, ref)]
         out[name] = (np.array([[b[0] for b in row] for row in bounds]),
@@ -265,15 +269,18 @@ class _Numbers:
 
 
 class _JointPlan:
-    """One joint in one number system: its unit axis a (enclosed, for intervals), a a^T, its
-    reference angle, and either the index of its unknown or its rotation Rot(a, input - reference)."""
+    """One joint on one chain in one number system: its unit axis a (enclosed, for intervals), a a^T,
+    its reference angle, the sign it turns with along the chain (+1, or -1 when the chain crosses it
+    from its second link to its first), and either the index of its unknown or its rotation
+    Rot(a, sign (input - reference))."""
 
-    __slots__ = ("axis", "outer", "reference", "unknown", "rotation")
+    __slots__ = ("axis", "outer", "reference", "sign", "unknown", "rotation")
 
-    def __init__(self, axis, outer, reference, unknown, rotation):
+    def __init__(self, axis, outer, reference, sign, unknown, rotation):
         self.axis = axis
         self.outer = outer
         self.reference = reference
+        self.sign = sign
         self.unknown = unknown
         self.rotation = rotation
 
@@ -282,13 +289,14 @@ class _Plan:
     """Everything one call needs, built per call: the equations in a private mpmath ``iv`` context
     at EXTENDED_DIGITS (``exact``) and in floats (``approx``, for C and the singular values only).
 
-    ``names``: the unknowns (``mechanism.loop_unknowns``); ``leg_names``; ``loops``: (index of leg
-    k, index of the reference leg r) per loop; ``n_eq`` = 3 * loops, ``m`` = unknowns, ``square``.
+    ``names``: the unknowns (``mechanism.loop_unknowns``); ``chain_names``: a label per chain (the
+    legs first, for legs, then each loop's chains from its root link: ``mechanism.loop_geometry``'s
+    ``up`` and ``down``); ``loops``: (index of the up chain k, index of the down chain r) per loop;
+    ``n_eq`` = 3 * loops, ``m`` = unknowns, ``square``.
     """
 
     def __init__(self, mechanism, inputs, check_ranges: bool = True):
         from mpmath.ctx_iv import MPIntervalContext
-        from ..mechanism import SphericalMechanism
 
         if not isinstance(mechanism, SphericalMechanism):
             raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
@@ -299,25 +307,42 @@ class _Plan:
         self.exact_numbers = _Numbers(lambda d: _interval_cos_sin(ctx, d), ctx.mpf(0), ctx.mpf(1))
         self.float_numbers = _Numbers(lambda d: (math.cos(d), math.sin(d)), 0.0, 1.0)
         self.names = tuple(mechanism.loop_unknowns)
-        self.leg_names = tuple(leg.name for leg in mechanism.legs)
         known = dict(zip(mechanism.actuated, values))
         index = {n: i for i, n in enumerate(self.names)}
-        exact, approx = [], []
+        for j in mechanism.joints:
+            if j.name not in known and j.name not in index:
+                raise ValueError(f"mechanism: passive joint {j.name!r} appears in no loop")
+        # every chain once: the legs (leg_rotations_extended), then the loops' chains
+        chains: dict[tuple, int] = {}
+        labels = []
         for leg in mechanism.legs:
-            for j in leg.joints:
-                if j.name not in known and j.name not in index:
-                    raise ValueError(f"mechanism: passive joint {j.name!r} appears in no loop")
-            exact.append(tuple(self._joint(j, known, index, True) for j in leg.joints))
-            approx.append(tuple(self._joint(j, known, index, False) for j in leg.joints))
+            chains.setdefault(tuple((j.name, 1) for j in leg.joints), len(chains))
+            labels.append(leg.name)
+        self.n_legs = len(mechanism.legs)
+        loops = []
+        for g in mechanism.loop_geometry:
+            ends = []
+            for side, label in ((g.up, g.legs[0]), (g.down, g.legs[1])):
+                key = tuple((st.joint, st.sign) for st in side)
+                if key not in chains:
+                    chains[key] = len(chains)
+                    labels.append(label)
+                ends.append(chains[key])
+            loops.append(tuple(ends))
+        joints = {j.name: j for j in mechanism.joints}
+        exact, approx = [], []
+        for key in chains:
+            exact.append(tuple(self._joint(joints[n], sign, known, index, True) for n, sign in key))
+            approx.append(tuple(self._joint(joints[n], sign, known, index, False) for n, sign in key))
         self.exact = tuple(exact)
         self.approx = tuple(approx)
-        r = self.leg_names.index(mechanism.reference_leg)
-        self.loops = tuple((k, r) for k in range(len(self.leg_names)) if k != r)
+        self.chain_names = tuple(labels)
+        self.loops = tuple(loops)
         self.n_eq = 3 * len(self.loops)
         self.m = len(self.names)
         self.square = self.n_eq == self.m
 
-    def _joint(self, joint, known: dict, index: dict, exact: bool) -> _JointPlan:
+    def _joint(self, joint, sign: int, known: dict, index: dict, exact: bool) -> _JointPlan:
         if exact:
             ctx = self.ctx
             raw = [ctx.mpf(float(v)) for v in joint.axis]          # exact: mpf(float) is exact
@@ -332,14 +357,14 @@ class _Plan:
             fixed = known.get(joint.name)
         outer = [[axis[p] * axis[q] for q in range(3)] for p in range(3)]
         if fixed is None:
-            return _JointPlan(axis, outer, ref, index[joint.name], None)
-        return _JointPlan(axis, outer, ref, None, _rodrigues(num, axis, outer, fixed - ref))
+            return _JointPlan(axis, outer, ref, sign, index[joint.name], None)
+        return _JointPlan(axis, outer, ref, sign, None, _rodrigues(num, axis, outer, sign * (fixed - ref)))
 
     def leg_rotation(self, leg: int, x, jacobian: bool, exact: bool = True):
-        """D = Rot(a_1, d_1) ... Rot(a_k, d_k) of leg number ``leg`` at the unknowns x (intervals,
-        or floats when not ``exact``), and the current axes w_i = Rot(a_1, d_1) ...
-        Rot(a_{i-1}, d_{i-1}) a_i of its passive joints as (unknown index, w) pairs (empty unless
-        ``jacobian``)."""
+        """D = Rot(a_1, s_1 d_1) ... Rot(a_k, s_k d_k) of chain number ``leg`` at the unknowns x
+        (intervals, or floats when not ``exact``), and the rates of its passive joints' rotations,
+        s_i w_i with w_i = Rot(a_1, s_1 d_1) ... Rot(a_{i-1}, s_{i-1} d_{i-1}) a_i, as (unknown
+        index, s_i w_i) pairs (empty unless ``jacobian``)."""
         num = self.exact_numbers if exact else self.float_numbers
         p = None
         currents = []
@@ -348,8 +373,9 @@ class _Plan:
                 rot = jp.rotation
             else:
                 if jacobian:
-                    currents.append((jp.unknown, jp.axis if p is None else _matvec(p, jp.axis)))
-                rot = _rodrigues(num, jp.axis, jp.outer, x[jp.unknown] - jp.reference)
+                    w = jp.axis if p is None else _matvec(p, jp.axis)
+                    currents.append((jp.unknown, w if jp.sign > 0 else [-w[0], -w[1], -w[2]]))
+                rot = _rodrigues(num, jp.axis, jp.outer, jp.sign * (x[jp.unknown] - jp.reference))
             p = rot if p is None else _matmul(p, rot)
         return p, currents
 
@@ -358,7 +384,7 @@ class _Plan:
         of each M_k), the diagonal entries of each M_k (3 per loop), and J (n_eq rows of m values;
         None unless ``jacobian``)."""
         zero = (self.exact_numbers if exact else self.float_numbers).zero
-        legs = [self.leg_rotation(k, x, jacobian, exact) for k in range(len(self.leg_names))]
+        legs = [self.leg_rotation(k, x, jacobian, exact) for k in range(len(self.chain_names))]
         f, diag, jac = [], [], []
         for k, r in self.loops:
             dk, wk = legs[k]
@@ -514,7 +540,7 @@ def _test_box(plan: _Plan, base: dict, r: float, x, y, f_y, c) -> KrawczykResult
         loop, entry = divmod(i, 3)
         k_leg, r_leg = plan.loops[loop]
         why = (f"K(X) lies inside X (one root of the loop entries) but the diagonal entry ({entry + 1},{entry + 1}) "
-               f"of M = D_r^T D_k for the legs ({plan.leg_names[k_leg]!r}, {plan.leg_names[r_leg]!r}) is not > 0 "
+               f"of M = D_r^T D_k for the legs ({plan.chain_names[k_leg]!r}, {plan.chain_names[r_leg]!r}) is not > 0 "
                f"over X "
                f"(down to {_outward(v)[0]:.3g}): the root may be a half-turn M != I, not an assembly")
     else:
