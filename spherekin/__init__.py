@@ -7,6 +7,8 @@ Entry points (loaded on first use, so that ``import spherekin`` stays cheap; see
   actuated joint): a SolveReport (``report.table()``, ``report.frame()``, ``report.as_dict()``);
 * ``compile(mechanism, *, formulation=..., ...)`` -- a Problem compiled once for a strategy, then
   ``problem.solve(inputs)``, ``problem.solve_many(rows)``, ``problem.track(path, start=...)``;
+* ``inverse_kinematics(mechanism, R)`` -- every input set placing the output link at the pose R
+  (legs: their closed form; any graph: the loop equations with the knowns swapped);
 * ``load_mechanism(path)`` -- read a mechanism file (docs/mechanism-format.md);
 * ``solve_system(build, ranges, ...)`` -- the box loop on a system of closure equations of your own.
 
@@ -17,6 +19,7 @@ Subpackages, imported on first use too: ``spherekin.batch`` (families of inputs 
 __version__ = "0.1.0"
 
 _LAZY = {"solve": ("spherekin.problem", "solve"), "compile": ("spherekin.problem", "compile"),
+         "inverse_kinematics": ("spherekin.problem", "inverse_kinematics"),
          "solve_system": ("spherekin.search.boxloop", "solve_system"),
          "load_mechanism": ("spherekin.mechanism", "load_mechanism")}
 #: Subpackages reachable as attributes once ``spherekin`` is imported (imported on first use).

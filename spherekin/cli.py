@@ -399,19 +399,22 @@ def _ik(args) -> int:
     else:
         angles = _parse_angles("--euler", args.euler, ("a", "b", "c"), args.degrees, "three Euler angles")
         rot = rotation_from_euler(angles, args.convention or "ZYX", "--euler")
-    sols = mech.inverse_kinematics(rot, only_in_range=args.in_range)
+    from .problem import inverse_kinematics
+
+    sols = inverse_kinematics(mech, rot, only_in_range=args.in_range)
     scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
     q = quaternions_from_rotations(rot)
-    print(f"{mech.name or args.file}: inverse kinematics at the platform pose with quaternion "
-          f"w, x, y, z = {', '.join(format_number(c) for c in q)}")
+    print(f"{mech.name or args.file}: inverse kinematics at the {'platform' if mech.output == 'platform' else mech.output} "
+          f"pose with quaternion w, x, y, z = {', '.join(format_number(c) for c in q)}"
+          + ("" if mech.legs else " (solved on the loop equations: the output held, the inputs unknown)"))
     names = list(mech.actuated) + list(mech.passive)
     n_in = sum(s.in_range for s in sols)
     print(f"{len(sols)} solution(s) (working modes), {n_in} inside every joint range; joint angles in {unit}:")
-    print("  #  mode  " + " ".join(f"{n:>11s}" for n in names) + "  in range")
+    print("  #  mode  " + " ".join(f"{n:>11s}" for n in names) + "  in range" + ("" if mech.legs else "  status"))
     for k, s in enumerate(sols, start=1):
-        mode = "".join("+" if m > 0 else "-" if m < 0 else "0" for m in s.working_mode)
+        mode = "".join("+" if m > 0 else "-" if m < 0 else "0" for m in s.working_mode) or "-"
         print(f"{k:3d}  {mode:>4s}  " + " ".join(format_number(s.joint_angles[n] * scale, "+11.6f") for n in names)
-              + f"  {'yes' if s.in_range else 'no'}")
+              + f"  {'yes' if s.in_range else 'no':>8s}" + ("" if s.status is None else f"  {s.status}"))
     if args.json:
         import json
 
@@ -419,7 +422,7 @@ def _ik(args) -> int:
                "quaternion": q.tolist(),
                "solutions": [{"number": k, "working_mode": list(s.working_mode),       # numbered as printed
                               "inputs": dict(zip(mech.actuated, s.inputs)), "joint_angles": dict(s.joint_angles),
-                              "in_range": s.in_range} for k, s in enumerate(sols, start=1)]}
+                              "in_range": s.in_range, "status": s.status} for k, s in enumerate(sols, start=1)]}
         Path(args.json).write_text(json.dumps(out, indent=2))
         print(f"wrote {args.json}")
     return 0

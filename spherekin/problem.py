@@ -48,7 +48,7 @@ from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAUL
 
 __all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
-           "solve", "disagreement", "as_mechanism"]
+           "solve", "disagreement", "as_mechanism", "inverse_kinematics"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
@@ -537,3 +537,40 @@ def solve(
                       parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
                       max_depth=max_depth)
     return problem.solve(inputs, progress=progress, trace=trace)
+
+
+def inverse_kinematics(mechanism, rotation, *, only_in_range: bool = False, **strategy) -> tuple:
+    """Every input set (with every joint reading) that places the output link of ``mechanism`` at
+    ``rotation`` (3x3): a tuple of :class:`~spherekin.mechanism.IKSolution`.
+
+    Legs from the ground to the output (a 3-RRR, a five-bar written as legs or as a graph): the
+    closed form of each leg (:meth:`~spherekin.mechanism.SphericalMechanism.inverse_kinematics`:
+    Paden-Kahan, every working mode). Any other graph: the same loop machinery as the direct
+    kinematics with the knowns swapped (:meth:`~spherekin.mechanism.SphericalMechanism.held_output`:
+    the output held by a virtual actuated chain, the actuated joints unknown), solved with the
+    joint ranges lifted and ``strategy`` (the keywords of :func:`compile`); each solution's
+    ``status`` says what is proven of it, ``in_range`` whether every reading is in its range, and
+    ``only_in_range`` drops the others. Angles in radians.
+    """
+    from .core.angles import in_range, into_range
+    from .mechanism import IKSolution
+
+    mech = as_mechanism(mechanism)
+    if mech.legs:
+        return mech.inverse_kinematics(rotation, only_in_range=only_in_range)
+    held, inputs = mech.held_output(rotation)
+    report = compile(held.without_ranges(), **strategy).solve(inputs)
+    out = []
+    for sol in report.solutions:
+        readings = sol.joint_angles
+        angles, ok = {}, True
+        for j in mech.joints:
+            r = readings[j.name]
+            inside = in_range(r, j.range)
+            ok = ok and inside
+            angles[j.name] = into_range(r, j.range) if inside else r
+        if only_in_range and not ok:
+            continue
+        out.append(IKSolution(joint_angles=angles, inputs=tuple(angles[n] for n in mech.actuated),
+                              working_mode=(), in_range=ok, status=str(sol.status)))
+    return tuple(out)

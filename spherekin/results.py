@@ -181,6 +181,13 @@ class Solution:
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
 
 
+def _in_order(readings: dict, mechanism) -> dict:
+    """``readings`` (joint name -> radians) in the order the mechanism's file lists its joints
+    (as given when the mechanism is not known)."""
+    names = getattr(mechanism, "joint_names", ())
+    return {**{n: readings[n] for n in names if n in readings}, **readings}
+
+
 def box_near(sol: Solution) -> tuple[np.ndarray, np.ndarray]:
     """The box (lo, hi) of ``sol`` moved by whole turns, per angle, next to the solution's angle (a
     box found on a chart centred at pi may be stored around 3.44 for an angle reported as -2.84:
@@ -466,7 +473,7 @@ class SolveReport:
             "count": {"proven": self.proven_count, "exact": self.count_exact, "entries": len(self.solutions)},
             "solutions": [
                 {"number": number, "passive_angles": dict(zip(self.unknowns, arr(s.angles))),
-                 "joint_angles": {**actuated, **dict(zip(self.unknowns, arr(s.angles)))},
+                 "joint_angles": _in_order({**actuated, **dict(zip(self.unknowns, arr(s.angles)))}, self.mechanism),
                  "platform_rotation": arr(s.platform_rotation), "residual": s.residual,
                  "singularity": s.singularity, "status": str(s.status), "evidence": s.evidence,
                  "box_lo": arr(s.box_lo), "box_hi": arr(s.box_hi), "n_boxes": s.n_boxes}

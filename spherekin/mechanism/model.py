@@ -40,6 +40,7 @@ pole is then any fixed perpendicular. Inside a leg, consecutive joints must not 
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -60,6 +61,9 @@ __all__ = [
     "RIGHT_ANGLE_TOL",
     "SINGULARITY_TOL",
     "FORMS",
+    "HELD_JOINTS",
+    "HELD_LINKS",
+    "HELD_AXES",
     "Joint",
     "Leg",
     "LoopVertex",
@@ -92,6 +96,15 @@ SINGULARITY_TOL = 1e-7
 
 #: Forms of the normalized loop equation (Eq. 2) that :meth:`SphericalMechanism.loop_system` builds.
 FORMS = ("auto", "compact", "doubled")
+
+#: Names of the virtual chain of :meth:`SphericalMechanism.held_output` (joints, then its two links).
+HELD_JOINTS = ("held_1", "held_2", "held_3")
+HELD_LINKS = ("held_link_1", "held_link_2")
+#: Axes u, v of the virtual chain (u, v, u): perpendicular unit vectors in no special direction.
+#: Reason: Rot(u, a) Rot(v, b) Rot(u, c) reaches every rotation when u is perpendicular to v, and
+#: axes along no coordinate direction are unlikely to coincide with an axis of the mechanism, which
+#: would make a side of a loop's polygon degenerate.
+HELD_AXES = ((0.6, 0.64, 0.48), (0.8, -0.48, -0.36))
 
 _TWO_PI = 2.0 * math.pi
 _IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -271,13 +284,16 @@ class IKSolution:
     axes (the branch of the leg's inverse kinematics; 0 at a serial singularity) and 0 for legs
     with another number of joints (one branch). ``in_range`` tells whether every reading lies in
     its joint's range. Readings are reduced modulo 2 pi into [lo, lo + 2 pi) for a limited joint
-    and into [-pi, pi] otherwise.
+    and into [-pi, pi] otherwise. ``status``: None for the closed form of legs (exact); for a graph
+    solved on its loop equations (:func:`spherekin.problem.inverse_kinematics`), the status of the
+    direct-kinematics solution it is (docs/results-format.md).
     """
 
     joint_angles: Mapping
     inputs: tuple
     working_mode: tuple
     in_range: bool
+    status: str | None = None
 
     def passive(self, names: Sequence[str]) -> dict[str, float]:
         return {n: self.joint_angles[n] for n in names}
@@ -567,6 +583,41 @@ class SphericalMechanism:
                 return leg
         raise ValueError(f"name: expected one of {[leg.name for leg in self.legs]}, got {name!r}")
 
+    def held_output(self, R) -> tuple["SphericalMechanism", tuple[float, float, float]]:
+        """The inverse kinematics of any mechanism as a direct kinematics (the knowns swapped): this
+        mechanism with its output link held at the pose ``R`` (3x3), and the inputs that hold it.
+
+        A virtual chain of three actuated joints (names in :data:`HELD_JOINTS`, axes u, v, u with
+        u, v of :data:`HELD_AXES`, u perpendicular to v, so that Rot(u, a) Rot(v, b) Rot(u, c) reaches
+        every rotation: Davenport angles) joins the ground to the output link; its readings are the
+        Paden-Kahan solution of Rot(u, a) Rot(v, b) Rot(u, c) = R R_ref^T. The original actuated joints
+        become passive unknowns with their ranges (use :meth:`without_ranges` first to find every
+        solution). Every solution of the held mechanism's direct kinematics is an input set (with the
+        passive readings) of this one placing the output at R, and conversely. The held mechanism's
+        mobility is this one's; its three actuated joints over-actuate a mechanism of M < 3 (the pose
+        then exists only where the output can reach it: redundant actuation)."""
+        rot = check_rotation("R", R)
+        if self.output is None:
+            raise ValueError("R: this mechanism names no output link, so a pose fixes nothing; name one (output = "
+                             "\"link\" in the file)")
+        graph = self.link_graph
+        taken = set(self.joint_names) | set(graph.link_names)
+        clash = [n for n in (*HELD_JOINTS, *HELD_LINKS) if n in taken]
+        if clash:
+            raise ValueError(f"R: the names {clash} of the virtual chain are taken by this mechanism; rename them")
+        u, v = (np.array(a) for a in HELD_AXES)
+        axes = np.array([u, v, u])
+        found = serial_ik(axes, rot @ self.platform_reference_matrix.T)
+        if not found:
+            raise ValueError("R: no Davenport angles found for the pose (not a rotation?)")
+        virtual = tuple(Joint(n, tuple(a), actuated=True) for n, a in zip(HELD_JOINTS, axes))
+        swapped = tuple(dataclasses.replace(j, actuated=False) for j in graph.joints)
+        chain = (graph.ground, *HELD_LINKS, graph.output)
+        links = graph.links + tuple((chain[k], chain[k + 1]) for k in range(3))
+        held = MechanismGraph(swapped + virtual, links, graph.ground, graph.output)
+        mech = dataclasses.replace(self, legs=(), graph=held, kind="graph", name=f"{self.name} (output held)")
+        return mech, tuple(float(d) for d in found[0])
+
     def _not_legs(self) -> str:
         """Why a graph has no legs (for messages)."""
         graph = self.link_graph
@@ -849,8 +900,6 @@ class SphericalMechanism:
 
     def without_ranges(self, names: Sequence[str] | None = None) -> "SphericalMechanism":
         """The same mechanism with the joints ``names`` (default: every joint) unlimited."""
-        import dataclasses
-
         def free(j):
             return dataclasses.replace(j, range=None) if names is None or j.name in names else j
 
