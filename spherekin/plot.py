@@ -103,6 +103,18 @@ LEG_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown",
 RESIDUAL_NOISE = 1e-12
 BASE_COLOUR = "#262626"  # near-black, distinct from the black of the text
 PLATFORM_COLOUR = "tab:red"
+#: The joints of a mechanism that is not legs (a graph: its links take LEG_COLOURS): one neutral colour.
+JOINT_COLOUR = "0.25"
+#: The group name of :func:`current_joint_axes` for the joints of a mechanism that is not legs.
+GRAPH_JOINTS = "joints"
+
+
+def joint_groups(mechanism: SphericalMechanism) -> list[tuple[str, tuple, str]]:
+    """(name, joints, colour) of each group of joints a figure draws: the legs (LEG_COLOURS), or, for a
+    mechanism that is not legs (a graph), every joint as one group (:data:`GRAPH_JOINTS`, JOINT_COLOUR)."""
+    if mechanism.legs:
+        return [(leg.name, leg.joints, LEG_COLOURS[i % len(LEG_COLOURS)]) for i, leg in enumerate(mechanism.legs)]
+    return [(GRAPH_JOINTS, mechanism.joints, JOINT_COLOUR)]
 
 
 # --------------------------------------------------------------------------------------------
@@ -160,6 +172,10 @@ def current_joint_axes(mechanism: SphericalMechanism, inputs, passive_angles: Ma
         raise ValueError(f"passive_angles: missing angle(s) for {missing}")
     readings = {n: parse_angle(f"passive_angles[{n!r}]", v) for n, v in passive_angles.items()}
     readings.update(zip(mechanism.actuated, values))
+    if not mechanism.legs:        # a graph: joint [a, b]'s current axis is R_a a_0
+        rotations = mechanism.link_rotations(readings)
+        graph = mechanism.link_graph
+        return {GRAPH_JOINTS: np.array([rotations[a] @ np.asarray(j.axis) for j, (a, _) in zip(graph.joints, graph.links)])}
     legs = mechanism.jacobians(readings)["legs"]
     return {leg.name: np.array(legs[leg.name]).T for leg in mechanism.legs}
 
@@ -285,7 +301,26 @@ def _polygon_arcs(points: Sequence[np.ndarray]) -> list[tuple[np.ndarray, np.nda
 
 
 def _configuration_arcs(mechanism: SphericalMechanism, axes: Mapping[str, np.ndarray]) -> list[tuple]:
-    """The links of one configuration as (points (ARC_POINTS, 3), colour, line width, z-order), base first."""
+    """The links of one configuration as (points (ARC_POINTS, 3), colour, line width, z-order), base first.
+    A graph: each link the polygon of its joints' axes (one arc for a binary link), the ground in the
+    base's colour, the output link in the platform's, the others in LEG_COLOURS."""
+    if not mechanism.legs:
+        graph = mechanism.link_graph
+        current = dict(zip(mechanism.joint_names, axes[GRAPH_JOINTS]))
+        arcs = []
+        moving = [n for n in graph.link_names if n not in (graph.ground, graph.output)]
+        for link in graph.link_names:
+            points = [current[graph.joints[k].name] for k in graph.joints_of(link)]
+            if len(points) < 2:
+                continue
+            if link == graph.ground:
+                style = (BASE_COLOUR, 2.6, 2)
+            elif link == graph.output:
+                style = (PLATFORM_COLOUR, 2.6, 2)
+            else:
+                style = (LEG_COLOURS[moving.index(link) % len(LEG_COLOURS)], 2.2, 3)
+            arcs += [(great_circle_arc(p, q), *style) for p, q in _polygon_arcs(points)]
+        return arcs
     arcs = [(great_circle_arc(p, q), BASE_COLOUR, 2.6, 2)
             for p, q in _polygon_arcs([axes[leg.name][0] for leg in mechanism.legs])]
     arcs += [(great_circle_arc(p, q), PLATFORM_COLOUR, 2.6, 2)
@@ -301,9 +336,8 @@ def _draw_configuration(ax, mechanism: SphericalMechanism, axes: Mapping[str, np
     """Links and joint dots of one configuration (the names: :func:`_label_joints`, once all panels exist)."""
     for points, colour, width, zorder in arcs:
         _draw_curve(ax, points, view, colour, width, zorder)
-    for i, leg in enumerate(mechanism.legs):
-        colour = LEG_COLOURS[i % len(LEG_COLOURS)]
-        for joint, p in zip(leg.joints, axes[leg.name]):
+    for name, joints, colour in joint_groups(mechanism):
+        for joint, p in zip(joints, axes[name]):
             _draw_point(ax, p, view, colour, "s" if joint.actuated else "o")
 
 
@@ -341,7 +375,7 @@ def _label_joints(fig, panels) -> list:
     for ax, mechanism, axes, view in panels:
         centre = _screen_points(ax, np.zeros(3))[0]
         taken = [Bbox.from_bounds(x - dot, y - dot, 2 * dot, 2 * dot)
-                 for leg in mechanism.legs for x, y in _screen_points(ax, axes[leg.name])]
+                 for name, _, _ in joint_groups(mechanism) for x, y in _screen_points(ax, axes[name])]
         taken.append(ax.title.get_window_extent(renderer))
         for letter in list(ax.texts):                      # the x, y, z letters (3-D texts) as drawn
             xy = ax.transAxes.inverted().transform(_screen_points(ax, letter.get_position_3d())[0])
@@ -350,9 +384,8 @@ def _label_joints(fig, panels) -> list:
             taken.append(probe.get_window_extent(renderer))
             probe.remove()
         groups: list[tuple[np.ndarray, list[str], list[str]]] = []
-        for i, leg in enumerate(mechanism.legs):
-            colour = LEG_COLOURS[i % len(LEG_COLOURS)]
-            for joint, p, xy in zip(leg.joints, axes[leg.name], _screen_points(ax, axes[leg.name])):
+        for name, joints, colour in joint_groups(mechanism):
+            for joint, p, xy in zip(joints, axes[name], _screen_points(ax, axes[name])):
                 if float(p @ view) < 0.0:                  # far side: no name (it would sit on the near side)
                     continue
                 for g_xy, names, colours in groups:
@@ -447,10 +480,20 @@ def residual_text(residual: float | None) -> str:
 def _legend_handles(mechanism: SphericalMechanism):
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], color=BASE_COLOUR, lw=2.6, label="base")]
-    handles += [Line2D([], [], color=LEG_COLOURS[i % len(LEG_COLOURS)], lw=2.2, label=leg.name)
-                for i, leg in enumerate(mechanism.legs)]
-    handles += [Line2D([], [], color=PLATFORM_COLOUR, lw=2.6, label="platform"),
+    if mechanism.legs:
+        handles = [Line2D([], [], color=BASE_COLOUR, lw=2.6, label="base")]
+        handles += [Line2D([], [], color=LEG_COLOURS[i % len(LEG_COLOURS)], lw=2.2, label=leg.name)
+                    for i, leg in enumerate(mechanism.legs)]
+        handles += [Line2D([], [], color=PLATFORM_COLOUR, lw=2.6, label="platform")]
+    else:
+        graph = mechanism.link_graph
+        moving = [n for n in graph.link_names if n not in (graph.ground, graph.output)]
+        handles = [Line2D([], [], color=BASE_COLOUR, lw=2.6, label=f"{graph.ground} (ground)")]
+        handles += [Line2D([], [], color=LEG_COLOURS[i % len(LEG_COLOURS)], lw=2.2, label=n)
+                    for i, n in enumerate(moving)]
+        if graph.output is not None:
+            handles += [Line2D([], [], color=PLATFORM_COLOUR, lw=2.6, label=f"{graph.output} (output)")]
+    handles += [
                 Line2D([], [], color="0.3", ls="", marker="s", label="actuated joint"),
                 Line2D([], [], color="0.3", ls="", marker="o", label="passive joint"),
                 Line2D([], [], color="0.3", lw=1.2, ls=(0, (3, 2)), alpha=0.6, label="far side")]
