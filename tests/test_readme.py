@@ -201,7 +201,7 @@ def test_mechanism_format_python_blocks_run_as_scripts_from_the_repository_root(
     inverse-kinematics solution of the identity pose closes: the degree-8 eigenvalue reference
     (benchmarks/peers_closed_form.py) has the identity among its poses at those inputs."""
     code = re.findall(r"^```python\n(.*?)^```", MECHANISM_FORMAT.read_text(), re.S | re.M)
-    assert len(code) == 2, "a new python block in docs/mechanism-format.md needs a check here"
+    assert len(code) == 3, "a new python block in docs/mechanism-format.md needs a check here"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
     outs = []
     for k, block in enumerate(code):
@@ -211,7 +211,12 @@ def test_mechanism_format_python_blocks_run_as_scripts_from_the_repository_root(
         assert run.returncode == 0, run.stderr[-2000:]
         outs.append(run.stdout)
     assert outs[0].startswith("('beta1', 'beta2', 'beta3') ('gamma1', 'delta1'")
-    lines = outs[1].strip().splitlines()
+    # the Watt six-bar: loops closed by C and F (counted by hand in tests/test_mechanism_graph.py), its 4
+    # assemblies at 0.7 (two four-bars in series, checked there in closed form), the input given back twice
+    watt = outs[1].strip().splitlines()
+    assert watt[0] == "['C', 'F'] 1" and watt[1].startswith("4 solutions (count proven")
+    assert watt[2:] == ["0.7 certified", "0.7 certified"]
+    lines = outs[2].strip().splitlines()
     assert 1 <= len(lines) <= 8
     geometry = geometry_of(general_3rrr())
     for line in lines:
