@@ -83,6 +83,13 @@ def test_a_strategy_makes_the_platform_system_decline(kw, words):
     assert why is not None and all(w in why for w in words), why
 
 
+def test_a_mechanism_without_legs_is_declined_with_that_reason():
+    # a mechanism written as a graph that is not leg-shaped has no legs (an empty tuple)
+    no_legs = type("NoLegs", (), {"legs": ()})()
+    assert "has none" in Platform.accepts(no_legs)
+    assert "has none" in Platform.accepts(type("Plain", (), {})())
+
+
 def test_the_platform_formulation_asked_for_by_name_keeps_its_own_variables():
     # formulation "platform" (and system "platform") ignore the loop equations' parameterization, as before
     assert Platform.accepts(gosselin(), strategy(formulation="platform", parameterization="sin-cos")) is None
@@ -131,8 +138,13 @@ def test_both_systems_find_the_same_eight_assemblies_of_the_agile_eye():
     loops = spherekin.solve(gosselin(), GOSSELIN_INPUTS, system="loops")
     assert (fast.settings.system, loops.settings.system) == ("platform", "loops")
     assert fast.proven_count == loops.proven_count == 8
+    assert fast.unknowns == loops.unknowns == gosselin().loop_unknowns
     for s in fast.solutions:
-        assert min(np.abs(s.platform_rotation - t.platform_rotation).max() for t in loops.solutions) < 1e-9
+        match = min(loops.solutions, key=lambda t: np.abs(s.platform_rotation - t.platform_rotation).max())
+        assert np.abs(s.platform_rotation - match.platform_rotation).max() < 1e-9
+        # the platform system's readings (mapped back from the pose) are the loop system's unknowns
+        turns = (np.asarray(s.angles) - np.asarray(match.angles)) / (2 * math.pi)
+        np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)
 
 
 # ---------------------------------------------------------------- Eq. (1) once

@@ -167,8 +167,9 @@ def not_applicable(mechanism) -> str | None:
     """Why the platform formulation does not apply to ``mechanism`` (None when it does): its loops
     must close through one output link held by three R-R-R chains from the ground (its legs), each
     with the base joint actuated."""
-    if getattr(mechanism, "legs", None) is None:
-        return "the platform formulation needs legs from the ground to one output link, the mechanism has none"
+    if not getattr(mechanism, "legs", None):
+        return ("the platform formulation needs three legs from the ground to one output link, "
+                "the mechanism has none (its loops do not close through one output link)")
     if len(mechanism.legs) != 3:
         return (f"the platform formulation needs 3 legs (3 equations in 3 unknowns), "
                 f"got {len(mechanism.legs)}")
