@@ -159,7 +159,7 @@ def _solve(args) -> int:
     # the strategy's names and numbers: --tol, --jobs)
     problem = compile_problem(mech, formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
                               parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate,
-                              jobs=args.jobs)
+                              jobs=args.jobs, system=args.system)
     if args.json:
         _check_output_file("--json", args.json, (".json",))
     if args.plot:
@@ -184,6 +184,7 @@ def _solve(args) -> int:
           + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
+    print(as_options(used.system_text()))
     if used.fallback:
         print(f"note: {as_options(used.fallback)}")
     limit = used.limit
@@ -267,8 +268,12 @@ def _check_strategy(mech, args) -> None:
 
 
 def _strategy(args) -> dict:
+    from .problem import DEFAULT_SYSTEM
+
+    # --system only when asked for: the default strategy (and a batch's job name) stays as before
+    chosen = {} if args.system == DEFAULT_SYSTEM else dict(system=args.system)
     return dict(formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
-                parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate)
+                parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate, **chosen)
 
 
 def _family_inputs(mech, args):
@@ -713,14 +718,20 @@ def _add_strategy_options(so) -> None:
     """The strategy options of solve, batch and map (choices read from the registries)."""
     from .search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
     from .search.parameterizations import PARAMETERIZATIONS
-    from .problem import DEFAULT_FORMULATION, formulation_choices
+    from .problem import DEFAULT_FORMULATION, DEFAULT_SYSTEM, formulation_choices
     from .search.pruners import PRUNERS
+    from .systems import SYSTEMS, system_choices
     from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
     so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=list(PARAMETERIZATIONS),
                     help="variables of the loop equations: tan-half: t = tan(theta/2), the paper's (charts for "
                          "full ranges); sin-cos: c = cos, s = sin with c^2 + s^2 = 1 (Section 5; one chart). "
                          "Default %(default)s")
+    so.add_argument("--system", default=DEFAULT_SYSTEM, choices=system_choices(),
+                    help="the system of equations, fastest first: "
+                         + "; ".join(f"{name}: {cls.description}" for name, cls in SYSTEMS.items())
+                         + "; auto: the first that accepts the mechanism (the report says why the faster ones "
+                           "did not). Default %(default)s")
     so.add_argument("--formulation", default=DEFAULT_FORMULATION, choices=formulation_choices(),
                     help="platform: one equation per leg in the platform's orientation (quaternion charts; "
                          "3-RRR legs); paper: Eq. (10) only; transversal: three entries of F (simple roots) + "
@@ -741,7 +752,7 @@ def _add_strategy_options(so) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     from .paper_gosselin import DEFAULT_PASSIVE_RANGE
-    from .search.platform_orientation import MAX_ASSEMBLIES
+    from .systems.platform import MAX_ASSEMBLIES
 
     parser = _Parser(prog="spherekin", description=DESCRIPTION, formatter_class=_HelpFormatter,
                      epilog="'spherekin COMMAND --help' gives the options of a command; README.md has examples.")
@@ -846,7 +857,7 @@ def protect_negative_values(argv: list[str]) -> list[str]:
 
 #: Python keyword names of the strategy (those of spherekin.compile) and the options that set them:
 #: the words of every command with strategy options, and the default of :func:`as_options`.
-_OPTION_OF = {"lp_backend": "--lp-backend", "pruner": "--pruner", "formulation": "--formulation",
+_OPTION_OF = {"lp_backend": "--lp-backend", "pruner": "--pruner", "formulation": "--formulation", "system": "--system",
               "parameterization": "--parameterization", "tol": "--tol", "jobs": "--jobs", "isolate": "--no-isolate"}
 #: A keyword's value in the words of the command line, where it is not "--option value".
 _VALUE_WORDS = {("isolate", "True"): "isolation (no --no-isolate)", ("isolate", "False"): "--no-isolate"}

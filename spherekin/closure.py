@@ -64,6 +64,7 @@ __all__ = [
     "scalar_control_points",
     "ClosureLoop",
     "ROUTES",
+    "TRANSVERSAL_ENTRIES",
     "closure_at",
 ]
 
@@ -83,6 +84,11 @@ KNOWN_ANGLE_SNAP = 1e-14
 KNOWN_ENTRY_FLOOR = 0.25
 
 ROUTES = ("recursion", "product")
+#: Entries (row, column) of F_n (or q_n F_n) that vanish at closure with a Jacobian of full rank on
+#: so(3): the strictly lower triangle (F = I + [w]x gives (f21, f31, f32) = (w_z, -w_y, w_x)). The
+#: transversal formulation's equations (:mod:`spherekin.search.formulations`) and their interval
+#: enclosure (:mod:`spherekin.trust.transversal`) read them from here.
+TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))
 
 
 # --------------------------------------------------------------------------------------------

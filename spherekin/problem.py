@@ -1,9 +1,11 @@
 """The solve pipeline: a mechanism compiled once, then solved for one input or for many.
 
 ``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
-on the actuator inputs: the strategy checks, the unknowns and their ranges, and, for the platform
-formulation (:mod:`spherekin.search.platform_orientation`), Eq. (1)'s control-point tensors on the four
-quaternion charts and the pruner (for the LP pruners, the compiled LP models); the loop equations'
+on the actuator inputs: the strategy checks, the unknowns and their ranges, and the system of
+equations chosen from :data:`spherekin.systems.SYSTEMS`, compiled: for the platform system
+(:mod:`spherekin.systems.platform`), Eq. (1)'s control-point tensors on the four quaternion charts
+and the pruner (for the LP pruners, the compiled LP models); for the loop system
+(:mod:`spherekin.systems.loops`, also every platform problem's fallback), the loop builder, whose
 pruner (and its LP model) is built at its first use, once per chart layout, and kept. Then
 ``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
 
@@ -15,9 +17,11 @@ pruner (and its LP model) is built at its first use, once per chart layout, and 
 
 ``spherekin.solve(mechanism, inputs, ...)`` is ``compile(mechanism, ...).solve(inputs)``.
 
-Formulation ``"auto"`` (the default) is the platform formulation when it applies (legs R-R-R with
-the base joint actuated, three of them; the tan-half parameterization asked for; isolation on) and
-``"halves"`` otherwise. When the platform search cannot isolate every root (next to a parallel
+System ``"auto"`` with formulation ``"auto"`` (the defaults) is the first system of the registry
+that accepts the mechanism and strategy: the platform system when it applies (legs R-R-R with the
+base joint actuated, three of them; the tan-half parameterization asked for; isolation on), else
+the loop system in formulation ``"halves"``; ``settings.system`` says which, ``settings.declined``
+why the faster ones did not accept. When the platform search cannot isolate every root (next to a parallel
 singularity its Jacobian is singular; a cap), the input is solved again with the loop equations
 (``settings.fallback`` says why): everything issue 13 built for the edge (cluster resolution,
 refined searches, continua) works on those.
@@ -37,24 +41,25 @@ from .core.angles import RANGE_TOL
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
-from .search.platform_orientation import PlatformSystem, not_applicable, passive_names, passive_readings_many
-from .search.pruners import make_pruner
+from .systems import AUTO, LOOP_FORMULATION, SYSTEMS, Strategy, choose, system_choices
+from .systems.loops import CompiledLoops, Loops
+from .systems.platform import CompiledPlatform, Platform, not_applicable
 from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
                       EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
-                     check_strategy, clusters_in_range, partial_report, search_platform, solve_system,
+                     check_strategy, clusters_in_range, partial_report, search_platform,
                      SearchInterrupted)
 
-__all__ = ["DEFAULT_FORMULATION", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices", "CONTINUUM_TOL", "REFINE_FACTOR",
+__all__ = ["DEFAULT_FORMULATION", "DEFAULT_SYSTEM", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices",
+           "system_choices", "resolve_system", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
            "solve", "disagreement", "as_mechanism", "inverse_kinematics"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
-#: The loop formulation of "auto" and of the platform formulation's fallback (the fastest one that
-#: finds every solution, benchmarks/README.md).
-LOOP_FORMULATION = "halves"
+#: The default: the first system of :data:`spherekin.systems.SYSTEMS` that accepts the mechanism.
+DEFAULT_SYSTEM = AUTO
 #: The formulations a solve accepts beyond the registered loop formulations (FORMULATIONS).
 PIPELINE_FORMULATIONS = ("auto", "platform")
 
@@ -106,41 +111,37 @@ POSE_MATCH = 1e-8
 DUPLICATE_POSE = 1e-12
 
 
-@dataclass(frozen=True)
-class Strategy:
-    """How a problem is solved (see :func:`compile`); ``formulation`` is resolved ("auto" is gone)."""
-
-    formulation: str
-    pruner: str
-    lp_backend: str | None
-    parameterization: str
-    tol: float
-    isolate: bool
-    jobs: int
-    max_boxes: int
-    max_depth: int | None
-
-
 @dataclass(frozen=True, eq=False)
 class Problem:
     """A mechanism compiled for one strategy: call :meth:`solve` or :meth:`solve_many`.
 
     ``names``: the passive unknowns (order of every solution's angles); ``ranges``: their joint
-    ranges (None: the full circle); ``platform``: the compiled platform formulation, or None;
-    ``not_platform``: why "auto" chose the loop equations (None when it did not).
+    ranges (None: the full circle); ``system``: the name of the system that solves it (in
+    :data:`spherekin.systems.SYSTEMS`); ``platform``: the compiled platform system, or None;
+    ``loops``: the compiled loop system (the platform's fallback too); ``declined``: (name, reason)
+    of every system before ``system`` in the registry's order that "auto" passed over (empty when
+    a system or formulation was asked for by name).
     """
 
     mechanism: object
     strategy: Strategy
     names: tuple
     ranges: Mapping
-    platform: PlatformSystem | None
-    platform_pruner: object
-    not_platform: str | None
-    #: The loop equations' pruners, built on first use once per chart layout and kept for every
-    #: input (:func:`spherekin.search.boxloop.pruner_for`): for the LP pruners, the LP model is
-    #: compiled once, not per input.
-    loop_pruners: dict = dataclasses.field(default_factory=dict)
+    system: str
+    platform: CompiledPlatform | None
+    loops: CompiledLoops
+    declined: tuple = ()
+
+    @property
+    def not_platform(self) -> str | None:
+        """Why "auto" passed over the platform system (None when it did not)."""
+        return dict(self.declined).get(Platform.name)
+
+    @property
+    def loop_pruners(self) -> dict:
+        """The loop equations' pruners, built on first use once per chart layout and kept for every
+        input (:func:`spherekin.search.boxloop.pruner_for`)."""
+        return self.loops.pruners
 
     def __repr__(self) -> str:
         """One line: the mechanism's name and size and the strategy (not the whole mechanism)."""
@@ -156,7 +157,7 @@ class Problem:
     def strategy_keywords(self) -> dict:
         """The keywords of :func:`compile` that make this problem's strategy (for another mechanism)."""
         st = self.strategy
-        return dict(formulation=st.formulation if self.not_platform is None else DEFAULT_FORMULATION,
+        return dict(formulation=st.formulation if not self.declined else DEFAULT_FORMULATION,
                     pruner=st.pruner, lp_backend=st.lp_backend, parameterization=st.parameterization, tol=st.tol,
                     isolate=st.isolate, jobs=st.jobs, max_boxes=st.max_boxes, max_depth=st.max_depth)
 
@@ -226,11 +227,7 @@ class Problem:
                 return None
             box = {n: (float(a) - RANGE_TOL, float(b) + RANGE_TOL) for n, a, b in zip(self.names, lo, hi)}
             try:
-                sub = solve_system(self._builder(values), box, formulation=self._loop_formulation,
-                                   pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
-                                   tol=finer, isolate=s.isolate, jobs=1,
-                                   max_boxes=min(s.max_boxes, REFINE_MAX_BOXES), max_depth=s.max_depth,
-                                   pruners=self.loop_pruners)
+                sub = self.loops.search(values, box, tol=finer, jobs=1, max_boxes=min(s.max_boxes, REFINE_MAX_BOXES))
             except SolverLimitError:
                 return None
             refined.append(sub.stats)
@@ -244,9 +241,11 @@ class Problem:
     def _report(self, values, report: SearchReport, solutions, refined, t_final, fallback,
                 limit: SearchLimit | None) -> SolveReport:
         proven, exact = count_summary(solutions)
+        system = Platform.name if report.settings.formulation == Platform.name else Loops.name
         settings = dataclasses.replace(report.settings, mechanism=self.mechanism.name,
                                        actuated=tuple(self.mechanism.actuated), inputs=tuple(float(v) for v in values),
-                                       fallback=fallback, limit=limit, refined_searches=len(refined))
+                                       fallback=fallback, limit=limit, refined_searches=len(refined),
+                                       system=system, declined=self.declined)
         if limit is not None:
             exact = False
         stats = report.stats
@@ -340,13 +339,7 @@ class Problem:
 
     @property
     def _loop_formulation(self) -> str:
-        return LOOP_FORMULATION if self.strategy.formulation == "platform" else self.strategy.formulation
-
-    def _builder(self, values):
-        def build(chart):
-            system = self.mechanism.loop_system(values, chart)
-            return system.loops, system.unknowns
-        return build
+        return self.loops.formulation
 
     def _search_platform(self, values, progress):
         """(report, poses of the roots in range) from the platform search, or why the loop equations
@@ -356,7 +349,7 @@ class Problem:
         charts = self.platform.charts(values)
         t_setup = time.perf_counter() - t0
         try:
-            found = search_platform(charts, self.platform_pruner, s.tol, s.max_boxes, s.max_depth, progress)
+            found = search_platform(charts, self.platform.pruner, s.tol, s.max_boxes, s.max_depth, progress)
         except SearchInterrupted:
             raise KeyboardInterrupt from None            # a search of milliseconds: nothing worth keeping
         except SolverLimitError as exc:
@@ -373,10 +366,8 @@ class Problem:
             charts_of.append(int(chart))
         boxes, poses = [], []
         if distinct:
-            legs = self.platform.legs
-            order = [passive_names(legs).index(n) for n in self.names]
-            readings = passive_readings_many(legs, values, np.array(distinct), self.platform.platform_reference)
-            for pose, chart, angles in zip(distinct, charts_of, readings[:, order]):
+            readings = self.platform.readings(values, np.array(distinct))
+            for pose, chart, angles in zip(distinct, charts_of, readings):
                 box = AcceptedBox(angles, angles.copy(), chart)
                 if clusters_in_range([box], self.ranges, s.tol):
                     boxes.append(box)
@@ -394,10 +385,8 @@ class Problem:
         s = self.strategy
 
         def run(t):
-            return solve_system(self._builder(values), self.ranges, formulation=self._loop_formulation,
-                                pruner=s.pruner, lp_backend=s.lp_backend, parameterization=s.parameterization,
-                                tol=t, isolate=s.isolate, jobs=s.jobs, max_boxes=s.max_boxes,
-                                max_depth=s.max_depth, progress=progress, trace=trace, pruners=self.loop_pruners)
+            return self.loops.search(values, self.ranges, tol=t, jobs=s.jobs, max_boxes=s.max_boxes,
+                                     progress=progress, trace=trace)
 
         try:
             return run(tol), None, tol
@@ -460,6 +449,7 @@ def compile(
     jobs: int = 1,
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
+    system: str = DEFAULT_SYSTEM,
 ) -> Problem:
     """Compile ``mechanism`` (a :class:`spherekin.mechanism.SphericalMechanism`, or the path of a
     mechanism file) for a strategy (the keywords of :func:`solve`, same defaults); every name and
@@ -467,30 +457,45 @@ def compile(
     mechanism = as_mechanism(mechanism)
     if formulation not in formulation_choices():
         raise ValueError(f"formulation: expected one of {list(formulation_choices())}, got {formulation!r}")
+    if system not in system_choices():
+        raise ValueError(f"system: expected one of {list(system_choices())}, got {system!r}")
     check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner, lp_backend,
                    parameterization, tol, jobs)
-    why = not_applicable(mechanism)
-    if formulation == "platform":
-        if why is not None:
-            raise ValueError(f"formulation 'platform': {why}; use 'auto' or a loop formulation")
-        if not isolate:
-            raise ValueError("formulation 'platform': needs isolate=True (its roots are proven by the Krawczyk test)")
-    not_platform = None
-    if formulation == "auto":
-        if why is None and parameterization != "tan-half":
-            why = f"parameterization {parameterization!r} asked for (the platform formulation has its own variables)"
-        if why is None and not isolate:
-            why = "isolate=False asked for (the platform formulation proves its roots by the Krawczyk test)"
-        formulation, not_platform = ("platform", None) if why is None else (LOOP_FORMULATION, why)
-    names = mechanism.loop_unknowns
-    ranges = {n: mechanism.ranges[n] for n in names}
-    platform = pruner_obj = None
-    if formulation == "platform":
-        platform = PlatformSystem.from_mechanism(mechanism)
-        pruner_obj = make_pruner(pruner, [(len(platform.legs), 3, 3, 3)], lp_backend)
     strategy = Strategy(formulation, pruner, lp_backend, parameterization, float(tol), bool(isolate), jobs,
                         max_boxes, max_depth)
-    return Problem(mechanism, strategy, tuple(names), ranges, platform, pruner_obj, not_platform)
+    chosen, declined = resolve_system(mechanism, strategy, system)
+    resolved = formulation if formulation in FORMULATIONS else (
+        LOOP_FORMULATION if chosen is Loops else chosen.name)
+    strategy = dataclasses.replace(strategy, formulation=resolved)
+    names = mechanism.loop_unknowns
+    ranges = {n: mechanism.ranges[n] for n in names}
+    platform = Platform.compile(mechanism, strategy) if chosen is Platform else None
+    return Problem(mechanism, strategy, tuple(names), ranges, chosen.name, platform,
+                   Loops.compile(mechanism, strategy), declined)
+
+
+def resolve_system(mechanism, strategy: Strategy, system: str = DEFAULT_SYSTEM):
+    """(the system class that solves ``mechanism`` with ``strategy``, the (name, reason) of the
+    faster systems "auto" passed over). Formulation "platform" is the platform system, a loop
+    formulation the loop system; "auto" with system "auto" is the first system that accepts
+    (:func:`spherekin.systems.choose`). ValueError naming the keyword when the system asked for
+    does not accept the mechanism or the strategy, or when the two keywords disagree."""
+    formulation = strategy.formulation
+    asked, key = system, f"system {system!r}"
+    if formulation != AUTO:
+        by_formulation = Platform.name if formulation == Platform.name else Loops.name
+        if system not in (AUTO, by_formulation):
+            raise ValueError(f"system: expected 'auto' or {by_formulation!r} with formulation {formulation!r}, "
+                             f"got {system!r}")
+        asked, key = by_formulation, f"formulation {formulation!r}"
+    if asked == AUTO:
+        return choose(mechanism, strategy)
+    cls = SYSTEMS.lookup(asked)
+    probe = dataclasses.replace(strategy, formulation=cls.name) if formulation == AUTO else strategy
+    why = cls.accepts(mechanism, probe)
+    if why is not None:
+        raise ValueError(f"{key}: {why}; use 'auto' or a loop formulation")
+    return cls, ()
 
 
 def solve(
@@ -508,6 +513,7 @@ def solve(
     max_depth: int | None = None,
     progress: Callable[[dict], None] | None = None,
     trace: Callable[[dict], None] | None = None,
+    system: str = DEFAULT_SYSTEM,
 ) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
@@ -518,8 +524,11 @@ def solve(
     residual, status and its evidence (``report.frame()``: a DataFrame of them; an empty report
     says why in ``report.empty_reason``). The strategy, by name:
 
+    * ``system``: one of :func:`system_choices` ("auto": the first system of
+      :data:`spherekin.systems.SYSTEMS` that accepts the mechanism and strategy: "platform" where it
+      applies, else "loops"; ``report.settings`` says which solved it and why faster ones declined);
     * ``formulation``: one of :func:`formulation_choices` ("auto": the platform formulation where it
-      applies, else "halves");
+      applies, else "halves"; "platform" is the platform system, the others the loop system's);
     * ``pruner`` ("pp", "lp", "hybrid") and ``lp_backend`` (None: the pruner's default);
     * ``parameterization`` of the loop equations ("tan-half", "sin-cos");
     * ``tol``: the size (radians) of the boxes the search stops at; ``isolate``: Krawczyk isolation;
@@ -531,11 +540,11 @@ def solve(
     ``progress`` is called with the search's counters; ``trace`` (loop formulations only) records
     every batch of boxes.
     """
-    if trace is not None and formulation == "auto":
+    if trace is not None and formulation == "auto" and system in (AUTO, Loops.name):
         formulation = LOOP_FORMULATION                   # a trace records the boxes of the loop equations
     problem = compile(mechanism, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                       parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
-                      max_depth=max_depth)
+                      max_depth=max_depth, system=system)
     return problem.solve(inputs, progress=progress, trace=trace)
 
 

@@ -221,7 +221,10 @@ class Settings:
     ``parameterization``, ``tol``, ``isolate``, ``jobs``, ``charts``. A solve adds ``mechanism``
     (its name), ``actuated`` and ``inputs`` (radians), and when they happened ``fallback`` (why
     the loop equations answered instead of the platform formulation), ``limit``
-    (:class:`SearchLimit`) and ``refined_searches`` (clusters searched again at a finer tol).
+    (:class:`SearchLimit`) and ``refined_searches`` (clusters searched again at a finer tol). A
+    solve also says which ``system`` of equations solved it (:data:`spherekin.systems.SYSTEMS`) and
+    ``declined``: (system name, reason) of every faster system that did not accept the mechanism
+    or the strategy (empty when the fastest solved it, or a system was asked for by name).
     """
 
     formulation: str
@@ -238,6 +241,8 @@ class Settings:
     fallback: str | None = None
     limit: SearchLimit | None = None
     refined_searches: int = 0
+    system: str | None = None
+    declined: tuple = ()
 
     def as_dict(self) -> dict:
         """JSON-ready: the search's keys always, the others when set (the JSON schema of docs/results-format.md)."""
@@ -253,7 +258,18 @@ class Settings:
             out["actuated"], out["inputs"] = list(self.actuated), [float(v) for v in self.inputs]
         if self.limit is not None:
             out["limit"] = self.limit.as_dict()
+        if self.system is None:
+            del out["system"], out["declined"]
+        else:
+            out["declined"] = [{"system": name, "reason": reason} for name, reason in self.declined]
         return out
+
+    def system_text(self) -> str:
+        """One line: which system solved it and, when a faster one did not accept, why (the report's line)."""
+        if self.system is None:
+            return ""
+        why = "; ".join(f"{name} did not accept it: {reason}" for name, reason in self.declined)
+        return f"solved by the {self.system} system" + (f" ({why})" if why else "")
 
 
 @dataclass(frozen=True)

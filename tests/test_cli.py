@@ -10,6 +10,7 @@ import pytest
 
 from spherekin.cli import main
 from spherekin.problem import DEFAULT_FORMULATION, formulation_choices
+from spherekin.systems import SYSTEMS
 from spherekin.search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
 from spherekin.search.parameterizations import PARAMETERIZATIONS
 from spherekin.search.pruners import PRUNERS, ProjectedPolyhedron
@@ -92,6 +93,7 @@ def _help_choices(capsys) -> dict:
 
 def test_help_choices_are_the_registries(capsys):
     assert _help_choices(capsys) == {"--parameterization": list(PARAMETERIZATIONS),
+                                     "--system": ["auto", *SYSTEMS],
                                      "--formulation": list(formulation_choices()),
                                      "--pruner": list(PRUNERS), "--lp-backend": list(LP_BACKENDS)}
 

@@ -14,7 +14,7 @@ from benchmarks.sweep_roots import random_3rrr
 from spherekin import compile as compile_problem
 from spherekin.core import intervals as iv
 from spherekin.mechanism import five_bar, general_3rrr
-from spherekin.search.platform_orientation import platform_legs
+from spherekin.systems.platform import platform_legs
 from spherekin.trust.continuation import LegEquations, cayley, track
 
 

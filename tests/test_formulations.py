@@ -22,8 +22,9 @@ import pytest
 
 from spherekin.core import bernstein
 from spherekin.closure import ClosureLoop, Unknown
-from spherekin.search.formulations import (FORMULATIONS, ChartBilinear, Formulation, Halves, Paper, Transversal, embed,
-                                          formulate, formulate_polynomials)
+from spherekin.search.formulations import (FORMULATIONS, ChartBilinear, Formulation, Halves, Paper, Transversal,
+                                          formulate_polynomials)
+from tests.formulate_cases import embed, formulate
 from spherekin.core.rotations import normalize_polygon, normalized_closure
 from verification.spherical import exterior_angles, random_polygon, side_lengths
 from conftest import wrap

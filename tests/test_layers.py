@@ -5,8 +5,13 @@ functions). No module imports ``verification/``, no private name crosses a modul
 imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (README's tour):
 
 where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
-types (results) -> search (spherekin/search/) -> trust (spherekin/trust/) -> pipeline (problem) ->
+types (results) -> search (spherekin/search/) -> systems (spherekin/systems/) -> trust (spherekin/trust/) -> pipeline (problem) ->
 families of inputs (spherekin/batch/) -> interfaces (cli, plot).
+
+Rules of issue 29 beyond the order, each its own test: the search never imports the mechanism
+package (it works on equations handed over as data), the trust layer never imports the search
+(what both need lives below them: closure, core), and no cycle runs through imports inside
+functions either (the formulations <-> parameterizations cycle is gone).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ LAYERS = [
     ("mechanism model", {"mechanism"}),
     ("hand-over types", {"results"}),
     ("search", {"search"}),
+    ("systems", {"systems"}),
     ("trust", {"trust"}),
     ("pipeline", {"problem"}),
     ("families of inputs", {"batch"}),
@@ -140,6 +146,67 @@ def test_lower_layers_never_import_higher_ones(module):
         there = LEVEL.get(unit_of(target))
         assert there is not None and there <= here, (
             f"{module} ({LAYERS[here][0]}) imports {target} ({LAYERS[there][0] if there is not None else '?'})")
+
+
+def in_package(module: str, package: str) -> bool:
+    """``module`` is ``package`` or one of its submodules (dotted names)."""
+    return module == package or module.startswith(package + ".")
+
+
+def test_the_import_reader_sees_imports_inside_functions(tmp_path):
+    """Every rule below reads :func:`imports`: it must report an import in a function body as well."""
+    path = tmp_path / "probe.py"
+    path.write_text("def f():\n    from ..mechanism import model\n    import spherekin.search.boxloop\n")
+    found = {(t, top) for t, _, top in imports("spherekin.trust.probe", path)}
+    assert found == {("spherekin.mechanism", False), ("spherekin.search.boxloop", False)}
+
+
+def forbidden_imports(package: str, forbidden: str) -> list[str]:
+    """"module imports target" for every import (module level or in a function) of a module of
+    ``package`` from ``forbidden`` (a package, dotted)."""
+    return [f"{m} imports {t}" for m in ALL if in_package(m, package)
+            for t, _, _ in imports(m, ALL[m]) if in_package(t, forbidden)]
+
+
+def test_the_search_never_imports_the_mechanism_package():
+    bad = forbidden_imports("spherekin.search", "spherekin.mechanism")
+    assert not bad, "the search works on equations handed over as data, not on mechanisms: " + "; ".join(bad)
+
+
+def test_the_trust_layer_never_imports_the_search():
+    bad = forbidden_imports("spherekin.trust", "spherekin.search")
+    assert not bad, ("what the trust layer shares with the search belongs below both (closure, core) or in "
+                     "the systems: " + "; ".join(bad))
+
+
+def find_cycle(graph: dict[str, set]) -> list[str] | None:
+    """One cycle of ``graph`` (module -> imported modules) as a path m0 -> ... -> m0, or None."""
+    state: dict[str, int] = {}
+
+    def visit(m, stack):
+        state[m] = 1
+        for t in sorted(graph[m]):
+            if state.get(t) == 1:
+                return stack + [m, t]
+            if t not in state:
+                found = visit(t, stack + [m])
+                if found:
+                    return found
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            found = visit(m, [])
+            if found:
+                return found[found.index(found[-1]):]
+    return None
+
+
+def test_no_import_cycle_even_through_imports_inside_functions():
+    graph = {m: {t for t, _, _ in imports(m, ALL[m]) if t in ALL and t != m and not in_package(m, t)} for m in ALL}
+    cycle = find_cycle(graph)
+    assert cycle is None, "import cycle (counting imports inside functions): " + " -> ".join(cycle)
 
 
 def test_the_module_level_import_graph_has_no_cycle():

@@ -25,7 +25,7 @@ import pytest
 from scipy.optimize import linprog
 
 from spherekin.core import bernstein
-from spherekin.search.formulations import formulate
+from tests.formulate_cases import formulate
 from spherekin.search.lp_backends import (INFEASIBLE, LP_BACKENDS, LP_OPTIONS, OPTIMAL, OTHER, REJECTED_BACKEND_CLASSES,
                                           REJECTED_LP_BACKENDS,
                                           ClarabelBackend, HighsCvxpyBackend, HighspyBackend, LPBackend, LPStructure,

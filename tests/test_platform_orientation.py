@@ -1,4 +1,4 @@
-"""Tests for spherekin.search.platform_orientation (the platform formulation) and its solve path.
+"""Tests for spherekin.systems.platform (the platform formulation) and its solve path.
 
 References: Rodrigues' formula for the quaternion rotation; sympy for the chart polynomials and
 their Bernstein coefficients (exact rationals); the mechanism's own inverse kinematics (Paden-Kahan
@@ -17,7 +17,7 @@ from benchmarks.reference_roots import reference_roots
 from benchmarks.sweep_roots import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
-from spherekin.search.platform_orientation import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
+from spherekin.systems.platform import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
                                             chart_rotation, form_matrix, not_applicable, passive_names, passive_readings,
                                             passive_readings_many,
                                             quaternion_matrix)

@@ -19,7 +19,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from spherekin.core import bernstein
-from spherekin.search.formulations import formulate
+from tests.formulate_cases import formulate
 from spherekin.search.lp_backends import FEASIBILITY_TOL, LP_BOUND_MARGIN
 from spherekin.mechanism import gosselin
 from spherekin.search import lp_backends

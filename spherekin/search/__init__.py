@@ -1,5 +1,5 @@
-"""The search: strategies by name (parameterizations, formulations, pruners, LP backends), the platform
-formulation, Krawczyk isolation in Bernstein form and the box loop of Section 4.
+"""The search: strategies by name (parameterizations, formulations, pruners, LP backends), Krawczyk
+isolation in Bernstein form and the box loop of Section 4, on equations handed over as data.
 
-Nothing here imports the trust layer.
+Nothing here imports the mechanism package, the systems (:mod:`spherekin.systems`) or the trust layer.
 """

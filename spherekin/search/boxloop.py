@@ -380,7 +380,7 @@ class PlatformSearch:
     """What the box loop found on the quaternion charts of the platform formulation.
 
     ``points``: (chart, x) of every isolated root after Newton (x: the chart's unit coordinates,
-    :func:`spherekin.search.platform_orientation.chart_rotation`); ``unresolved``: boxes that reached the
+    :func:`spherekin.systems.platform.chart_rotation`); ``unresolved``: boxes that reached the
     tolerance without being isolated, plus isolated boxes Newton did not converge in (then the
     points are not the whole answer); ``stats``: the search's counters and timings.
     """
@@ -400,7 +400,7 @@ class PlatformSearch:
 def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
                     progress: Callable[[dict], None] | None = None) -> PlatformSearch:
     """Section 4's loop on the platform formulation's chart set
-    (:meth:`spherekin.search.platform_orientation.PlatformSystem.charts`), with Krawczyk isolation and
+    (:meth:`spherekin.systems.platform.PlatformSystem.charts`), with Krawczyk isolation and
     Newton; ``pruner`` is built by the caller (once per compiled problem). Caps as in
     :func:`solve_system` (a :class:`SolverLimitError` when reached)."""
     t0 = time.perf_counter()

@@ -33,15 +33,11 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
-from ..closure import ClosureLoop, Unknown
+from ..closure import TRANSVERSAL_ENTRIES
 from .registry import Registry
 
 __all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "ChartBilinear", "Formulation", "FORMULATIONS", "Paper", "Transversal", "Halves",
-           "TRANSVERSAL_ENTRIES", "formulate",
-           "formulate_polynomials", "embed", "embed_axes"]
-
-#: Entries (row, column) of q_n F_n used by the transversal formulation (strictly lower triangle).
-TRANSVERSAL_ENTRIES = ((1, 0), (2, 0), (2, 1))
+           "TRANSVERSAL_ENTRIES", "formulate_polynomials", "embed_axes"]
 
 
 class EquationBlock:
@@ -309,25 +305,6 @@ def embed_axes(tensor: np.ndarray, variables: Sequence[int], n_vars: int) -> np.
     return out.reshape(shape)
 
 
-def embed(loop: ClosureLoop, tensor: np.ndarray, unknowns: Sequence[Unknown]) -> np.ndarray:
-    """Place a loop tensor (one axis per loop unknown) on the global axes of ``unknowns``.
-
-    Axes of absent unknowns get length 1; axes are permuted into global order. Shape (..., n).
-    """
-    return embed_axes(tensor, _positions(loop, unknowns), len(unknowns))
-
-
-def _positions(loop: ClosureLoop, unknowns: Sequence[Unknown]) -> list[int]:
-    """The index in ``unknowns`` of each of the loop's unknowns (shared by identity)."""
-    pos = []
-    for u in loop.unknowns:
-        try:
-            pos.append(next(i for i, g in enumerate(unknowns) if g is u))
-        except StopIteration:
-            raise ValueError(f"unknowns: loop unknown {u.name!r} is not among the system's unknowns") from None
-    return pos
-
-
 def _block(lp: LoopPolynomials, n_vars: int, labels, tensors, mags, square=(), terms=None,
            prune=True) -> EquationBlock:
     """A block from dense tensors (loop axes), or, with ``terms``, from the bilinear form in the halves.
@@ -450,16 +427,3 @@ def formulate_polynomials(name: str, polys: Sequence[LoopPolynomials], n_vars: i
     if not polys:
         raise ValueError("loops: expected at least one closure loop, got none")
     return formulation().blocks(polys, n_vars)
-
-
-def formulate(name: str, loops: Sequence[ClosureLoop], unknowns: Sequence[Unknown]) -> list[EquationBlock]:
-    """Equation blocks of formulation ``name`` for tan-half loops (the paper's parameterization)."""
-    FORMULATIONS.lookup(name)
-    if not loops:
-        raise ValueError("loops: expected at least one closure loop, got none")
-    from .parameterizations import tan_half_loop
-
-    polys = []
-    for j, lp in enumerate(loops):
-        polys.append(tan_half_loop(j, lp, _positions(lp, unknowns)))
-    return formulate_polynomials(name, polys, len(unknowns))

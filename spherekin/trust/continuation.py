@@ -1,7 +1,7 @@
 """Certified tracking of one assembly mode along a path of actuator inputs (an addition to the paper).
 
-The equations are those of the platform formulation (:mod:`spherekin.search.platform_orientation`,
-Eq. (1) of each R-R-R leg): e_i(beta_i) . (D a3_i) = a2_i . a3_i, with D = R R_ref^T the platform's
+The equations are those of the platform system (:mod:`spherekin.systems.platform`, Eq. (1) of each
+R-R-R leg, its constants :class:`~spherekin.systems.platform.LegConstants` read from there): e_i(beta_i) . (D a3_i) = a2_i . a3_i, with D = R R_ref^T the platform's
 displacement and e_i(beta) = Rot(a1_i, beta - beta_ref) a2_i the leg's elbow axis. Near the current
 displacement D_c the unknown is a 3-vector w, D = D_c C(w), with the Cayley rotation
 C(w) = (I - [w]/2)^-1 (I + [w]/2) (turn by 2 atan(|w|/2) about w). Multiplied by 1 + |w|^2/4 > 0
@@ -57,7 +57,7 @@ from ..core import intervals as iv
 from ..core.angles import in_range_many, span_in_range_many
 from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
-from ..search.platform_orientation import passive_names, passive_readings_many, platform_legs
+from ..systems.platform import leg_constants, passive_names, passive_readings_many, platform_legs
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
            "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track"]
@@ -270,13 +270,8 @@ class LegEquations:
 
     def __init__(self, legs):
         self.legs = legs
-        self.ref = np.array([leg.reference[0] for leg in legs])
-        c1 = np.array([float(leg.a1 @ leg.a2) for leg in legs])
-        self.perp = np.array([leg.a2 - c * leg.a1 for leg, c in zip(legs, c1)])     # (3 legs, 3)
-        self.side = np.array([np.cross(leg.a1, leg.a2) for leg in legs])
-        self.axial = np.array([c * leg.a1 for leg, c in zip(legs, c1)])
-        self.b = np.array([leg.a3 for leg in legs])
-        self.c = np.array([float(leg.a2 @ leg.a3) for leg in legs])
+        self.constants = k = leg_constants(legs)            # Eq. (1)'s constants, from the platform system
+        self.ref, self.perp, self.side, self.axial, self.b, self.c = k.ref, k.perp, k.side, k.axial, k.b, k.c
         # [b_i]x: b_i x v = b_cross[i] @ v
         self.b_cross = np.array([[[0.0, -b[2], b[1]], [b[2], 0.0, -b[0]], [-b[1], b[0], 0.0]] for b in self.b])
 
@@ -284,13 +279,11 @@ class LegEquations:
 
     def elbow(self, beta) -> np.ndarray:
         """e_i(beta_i) (..., 3 legs, 3) for inputs beta (..., 3)."""
-        d = np.asarray(beta, dtype=float) - self.ref
-        return np.cos(d)[..., None] * self.perp + np.sin(d)[..., None] * self.side + self.axial
+        return self.constants.elbow(beta)
 
     def elbow_rate(self, beta) -> np.ndarray:
         """d e_i / d beta_i (..., 3 legs, 3)."""
-        d = np.asarray(beta, dtype=float) - self.ref
-        return -np.sin(d)[..., None] * self.perp + np.cos(d)[..., None] * self.side
+        return self.constants.elbow_rate(beta)
 
     def values(self, dc, w, beta) -> tuple[np.ndarray, np.ndarray]:
         """(h (..., 3), J = dh/dw (..., 3, 3)) at w (..., 3) near the displacements ``dc`` (..., 3, 3)
@@ -311,7 +304,7 @@ class LegEquations:
 
     def residual(self, d, beta) -> np.ndarray:
         """Eq. (1) at the displacements D (..., 3, 3): e_i . (D a3_i) - c_i per leg (..., 3)."""
-        return np.einsum("...ij,...ij->...i", self.elbow(beta), np.swapaxes(d @ self.b.T, -1, -2)) - self.c
+        return self.constants.residual(d, beta)
 
     # ---------------------------------------------------------------- intervals
 
@@ -563,7 +556,7 @@ class JointRanges:
         D_c (N, 3, 3) at the steps' starts, boxes [w_lo, w_hi] (N, 3) holding the root of every
         input of the step (D = D_c C(w)), inputs from beta0 to beta1 (N, 3). Interval enclosures of
         each joint's angle over the box and the segment (the readings' formulas of
-        :func:`~spherekin.search.platform_orientation.passive_readings_many`, the cos and sin of an
+        :func:`~spherekin.systems.platform.passive_readings_many`, the cos and sin of an
         angle by outward-rounded interval arithmetic); False where one is not proven inside (a joint
         may leave its range, or the enclosure is too wide to tell)."""
         dcs = np.asarray(dcs, dtype=float)

@@ -105,7 +105,7 @@ EXTENDED_RCOND_MIN = 1e-14
 
 #: The entries (row, column), 0-based, of M_k = D_r^T D_k that form the equations of each loop:
 #: (2,1), (3,1), (3,2) 1-based, i.e. (w_z, -w_y, w_x) of M = I + [w]x (the float test's choice,
-#: :data:`spherekin.search.formulations.TRANSVERSAL_ENTRIES`).
+#: :data:`spherekin.closure.TRANSVERSAL_ENTRIES`).
 LOOP_ENTRIES = ((1, 0), (2, 0), (2, 1))
 
 

@@ -5,7 +5,7 @@ For every loop of a :class:`~spherekin.mechanism.LoopSystem`, the entries (2,1),
 (f21, f31, f32) = (w_z, -w_y, w_x): simple roots where the mechanism is regular). The unknowns are
 the passive angles theta (radians), in ``LoopSystem.unknowns`` order; a factor angle is a known
 number or phi = offset + sign * theta. These are the entries of the ``transversal`` formulation
-(:data:`spherekin.search.formulations.TRANSVERSAL_ENTRIES`) without the tan-half-angle substitution and
+(:data:`spherekin.closure.TRANSVERSAL_ENTRIES`) without the tan-half-angle substitution and
 without the factor q_n, so the Jacobian is taken directly with respect to the joint angles.
 
 Values: :func:`transversal_equations` (floats). Enclosures of F and its Jacobian J over boxes, two
@@ -46,8 +46,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..core import intervals as iv_ops
-from ..closure import KNOWN_ANGLE_SNAP, Term, closure_at
-from ..search.formulations import TRANSVERSAL_ENTRIES
+from ..closure import KNOWN_ANGLE_SNAP, TRANSVERSAL_ENTRIES, Term, closure_at
 from ..core.intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
 from ..mechanism import LoopSystem
 

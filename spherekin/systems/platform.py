@@ -1,4 +1,4 @@
-"""The platform formulation: one equation per leg in the platform's orientation (an addition to the paper).
+"""The platform system: one equation per leg in the platform's orientation (an addition to the paper).
 
 For a mechanism whose legs all end at one platform and are R-R-R chains with the base joint
 actuated (the 3-RRR family: the Gosselin platform, general and random 3-RRR), the direct
@@ -27,11 +27,17 @@ Measured against the paper's configuration: 4 charts x 3 variables instead of 64
 variables (full ranges), see benchmarks/README.md. The loop formulations stay available and are
 the fallback when the platform search cannot isolate every root (a parallel singularity: see
 :func:`spherekin.problem.Problem.solve`).
+
+Eq. (1) is written once, here: :class:`LegConstants` holds its constants (e(d1) by Rodrigues, a3,
+a2 . a3), which the compiled chart tensors (:meth:`PlatformSystem.from_mechanism`) and certified
+tracking (:class:`spherekin.trust.continuation.LegEquations`) both read; :class:`Platform` is the
+system of the registry (:mod:`spherekin.systems.base`): what it accepts and what it compiles.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,11 +45,14 @@ from ..core.angles import wrap
 from ..core.orientation import quaternion_matrix
 from ..core.rotations import cross
 from ..mechanism.chains import angle_about, axis_rotation, perpendicular
-from .parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
+from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
+from ..search.pruners import make_pruner
+from .base import SYSTEMS, Compiled, System
 
-__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "PlatformSystem", "platform_legs", "not_applicable",
-           "quaternion_matrix", "form_matrix", "chart_control_points", "chart_quaternion", "chart_rotation",
-           "passive_readings", "passive_readings_many", "passive_names", "Quaternion", "MAX_ASSEMBLIES"]
+__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "LegConstants", "leg_constants", "PlatformSystem",
+           "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points",
+           "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
+           "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform"]
 
 #: Number of quaternion charts (one per component fixed to 1).
 CHARTS = 4
@@ -155,7 +164,12 @@ class PlatformLeg:
 
 
 def not_applicable(mechanism) -> str | None:
-    """Why the platform formulation does not apply to ``mechanism`` (None when it does)."""
+    """Why the platform formulation does not apply to ``mechanism`` (None when it does): its loops
+    must close through one output link held by three R-R-R chains from the ground (its legs), each
+    with the base joint actuated."""
+    if not getattr(mechanism, "legs", None):
+        return ("the platform formulation needs three legs from the ground to one output link, "
+                "the mechanism has none (its loops do not close through one output link)")
     if len(mechanism.legs) != 3:
         return (f"the platform formulation needs 3 legs (3 equations in 3 unknowns), "
                 f"got {len(mechanism.legs)}")
@@ -175,6 +189,50 @@ def platform_legs(mechanism) -> tuple[PlatformLeg, ...]:
         raise ValueError(f"formulation 'platform': {reason}")
     return tuple(PlatformLeg(tuple(j.name for j in leg.joints), *(np.array(j.axis, dtype=float) for j in leg.joints),
                              tuple(j.reference_angle for j in leg.joints)) for leg in mechanism.legs)
+
+
+@dataclass(frozen=True, eq=False)
+class LegConstants:
+    """The constants of Eq. (1) for L legs, the one place it is written:
+
+        e_i(d1) . (D a3_i) = c_i,   e_i(d1) = cos d1 perp_i + sin d1 side_i + axial_i   (Rodrigues about a1_i)
+
+    ``ref`` (L,): the actuated joints' reference readings (d1 = beta - ref); ``perp``, ``side``,
+    ``axial`` (L, 3): a2 - (a1 . a2) a1, a1 x a2, (a1 . a2) a1; ``b`` (L, 3): a3; ``c`` (L,): a2 . a3
+    (the twist the elbow and platform axes keep). Built by :func:`leg_constants`.
+    """
+
+    ref: np.ndarray
+    perp: np.ndarray
+    side: np.ndarray
+    axial: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+
+    def elbow(self, beta) -> np.ndarray:
+        """e_i(beta_i) (..., L legs, 3) for inputs beta (..., L; radians)."""
+        d = np.asarray(beta, dtype=float) - self.ref
+        return np.cos(d)[..., None] * self.perp + np.sin(d)[..., None] * self.side + self.axial
+
+    def elbow_rate(self, beta) -> np.ndarray:
+        """d e_i / d beta_i (..., L legs, 3)."""
+        d = np.asarray(beta, dtype=float) - self.ref
+        return -np.sin(d)[..., None] * self.perp + np.cos(d)[..., None] * self.side
+
+    def residual(self, d, beta) -> np.ndarray:
+        """Eq. (1) at platform displacements D (..., 3, 3): e_i . (D a3_i) - c_i per leg (..., L)."""
+        return np.einsum("...ij,...ij->...i", self.elbow(beta), np.swapaxes(d @ self.b.T, -1, -2)) - self.c
+
+
+def leg_constants(legs) -> LegConstants:
+    """The :class:`LegConstants` of ``legs`` (:class:`PlatformLeg`, from :func:`platform_legs`)."""
+    c1 = np.array([float(leg.a1 @ leg.a2) for leg in legs])
+    return LegConstants(ref=np.array([leg.reference[0] for leg in legs], dtype=float),
+                        perp=np.array([leg.a2 - c * leg.a1 for leg, c in zip(legs, c1)]),
+                        side=np.array([cross(leg.a1, leg.a2) for leg in legs]),
+                        axial=np.array([c * leg.a1 for leg, c in zip(legs, c1)]),
+                        b=np.array([leg.a3 for leg in legs]),
+                        c=np.array([float(leg.a2 @ leg.a3) for leg in legs]))
 
 
 def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, float]:
@@ -254,28 +312,27 @@ class PlatformSystem:
     ``parts`` (3 legs, 3 parts (c, s, 0), 4 charts, 3, 3, 3). Built by :meth:`from_mechanism`.
     """
 
-    __slots__ = ("legs", "parts", "platform_reference")
+    __slots__ = ("legs", "parts", "platform_reference", "constants")
 
     legs: tuple
     parts: np.ndarray
     platform_reference: np.ndarray
+    constants: LegConstants
 
-    def __init__(self, legs, parts, platform_reference):
+    def __init__(self, legs, parts, platform_reference, constants=None):
         self.legs = legs
         self.parts = parts
         self.platform_reference = platform_reference
+        self.constants = leg_constants(legs) if constants is None else constants
 
     @classmethod
     def from_mechanism(cls, mechanism) -> "PlatformSystem":
         legs = platform_legs(mechanism)
-        mats = []
-        for leg in legs:
-            c1 = float(leg.a1 @ leg.a2)
-            perp, side = leg.a2 - c1 * leg.a1, cross(leg.a1, leg.a2)      # Rodrigues: e = cos perp + sin side + c1 a1
-            cos_twist = float(leg.a2 @ leg.a3)
-            mats.append([form_matrix(perp, leg.a3, 0.0), form_matrix(side, leg.a3, 0.0),
-                         form_matrix(c1 * leg.a1, leg.a3, cos_twist)])
-        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix))
+        k = leg_constants(legs)
+        # q^T M q of cos d1 perp + sin d1 side + axial against a3, less c: three parts linear in (cos d1, sin d1, 1)
+        mats = [[form_matrix(k.perp[i], k.b[i], 0.0), form_matrix(k.side[i], k.b[i], 0.0),
+                 form_matrix(k.axial[i], k.b[i], float(k.c[i]))] for i in range(len(legs))]
+        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix), k)
 
     def control_points(self, inputs) -> np.ndarray:
         """Control points (4 charts, 3 legs, 3, 3, 3) of Eq. (1) at actuator ``inputs`` (radians, one per leg)."""
@@ -305,13 +362,9 @@ class PlatformSystem:
         return chart_rotation(chart, x) @ self.platform_reference
 
     def residuals(self, inputs, rotation) -> np.ndarray:
-        """Eq. (1) at a pose R (3,): e(d1) . (D a3) - a2 . a3 per leg (independent of the charts)."""
+        """Eq. (1) at a pose R (3, 3): e(d1) . (D a3) - a2 . a3 per leg (legs,; independent of the charts)."""
         d = np.asarray(rotation, dtype=float) @ self.platform_reference.T
-        out = []
-        for leg, beta in zip(self.legs, inputs):
-            e = axis_rotation(leg.a1, float(beta) - leg.reference[0]) @ leg.a2
-            out.append(float(e @ d @ leg.a3 - leg.a2 @ leg.a3))
-        return np.array(out)
+        return self.constants.residual(d, np.asarray(inputs, dtype=float))
 
 
 class Quaternion(Parameterization):
@@ -327,3 +380,71 @@ class Quaternion(Parameterization):
 
     def angles(self, charts, chart, x):
         return np.asarray(x, dtype=float)
+
+
+# ---------------------------------------------------------------------- the system of the registry
+
+class CompiledPlatform(Compiled):
+    """Eq. (1) compiled for one mechanism (:class:`PlatformSystem`) and its pruner, built once.
+
+    ``names``: the passive joints the pipeline reports (the mechanism's ``loop_unknowns`` order);
+    :meth:`readings` maps platform poses back to them.
+    """
+
+    def __init__(self, equations: PlatformSystem, pruner, names):
+        self.equations = equations
+        self.pruner = pruner
+        self.names = tuple(names)
+        self.order = [passive_names(equations.legs).index(n) for n in self.names]
+
+    @property
+    def legs(self):
+        return self.equations.legs
+
+    @property
+    def platform_reference(self) -> np.ndarray:
+        return self.equations.platform_reference
+
+    def charts(self, inputs) -> ChartSet:
+        """The box loop's chart set at actuator ``inputs`` (:meth:`PlatformSystem.charts`)."""
+        return self.equations.charts(inputs)
+
+    def pose(self, chart: int, x) -> np.ndarray:
+        """The platform pose R (3, 3) at the unit-box point x (3,) of chart ``chart``."""
+        return self.equations.pose(chart, x)
+
+    def residuals(self, inputs, rotation) -> np.ndarray:
+        return self.equations.residuals(inputs, rotation)
+
+    def readings(self, inputs, poses) -> np.ndarray:
+        """The passive joints' readings (K, len(names); radians, wrapped) at platform poses R (K, 3, 3)."""
+        return passive_readings_many(self.legs, inputs, np.asarray(poses, dtype=float),
+                                     self.platform_reference)[:, self.order]
+
+
+@SYSTEMS.register
+class Platform(System):
+    """Eq. (1): 3 unknowns (the output link's orientation, 4 quaternion charts) for three R-R-R legs."""
+
+    name = "platform"
+    description = "three equations in the output link's orientation (three R-R-R legs, base joints actuated)"
+
+    @classmethod
+    def accepts(cls, mechanism, strategy=None) -> str | None:
+        why = not_applicable(mechanism)
+        if why is not None or strategy is None:
+            return why
+        if strategy.formulation not in ("auto", cls.name):
+            return f"formulation {strategy.formulation!r} asked for (a loop formulation)"
+        if strategy.formulation != cls.name and strategy.parameterization != "tan-half":
+            return (f"parameterization {strategy.parameterization!r} asked for "
+                    "(the platform formulation has its own variables)")
+        if not strategy.isolate:
+            return "isolate=False asked for (the platform formulation proves its roots by the Krawczyk test)"
+        return None
+
+    @classmethod
+    def compile(cls, mechanism, strategy) -> CompiledPlatform:
+        equations = PlatformSystem.from_mechanism(mechanism)
+        pruner = make_pruner(strategy.pruner, [(len(equations.legs), 3, 3, 3)], strategy.lp_backend)
+        return CompiledPlatform(equations, pruner, mechanism.loop_unknowns)
