@@ -304,12 +304,12 @@ class Problem:
         mechanisms the platform formulation applies to (three R-R-R legs with the base joints actuated).
         """
         from .results import Solution
-        from .trust.continuation import track
+        from .trust.continuation import not_tracked, track
 
         rows = self._checked_rows("path", path)
         if not len(rows):
             raise ValueError("path: expected at least one row of inputs, got none")
-        why = not_applicable(self.mechanism)
+        why = not_tracked(self.mechanism)
         if why is not None:
             raise ValueError(f"track: follows the platform's orientation, which needs three R-R-R legs with "
                              f"the base joint actuated; {why}")

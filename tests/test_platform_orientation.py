@@ -9,6 +9,8 @@ of benchmarks/reference_roots.py for the solutions.
 import math
 from fractions import Fraction
 
+import dataclasses
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -96,7 +98,17 @@ def test_charts_cover_every_rotation_with_room_to_spare():
         assert hits >= 1
 
 
-@pytest.mark.parametrize("preset", [gosselin, general_3rrr])
+def driven_at(position):
+    """general_3rrr with each leg's joint at ``position`` (1 elbow, 2 platform joint) actuated instead."""
+    def make():
+        mech = general_3rrr()
+        legs = tuple(dataclasses.replace(leg, joints=tuple(dataclasses.replace(j, actuated=(k == position))
+                                                           for k, j in enumerate(leg.joints))) for leg in mech.legs)
+        return dataclasses.replace(mech, legs=legs)
+    return make
+
+
+@pytest.mark.parametrize("preset", [gosselin, general_3rrr, driven_at(1), driven_at(2)])
 def test_passive_readings_match_inverse_kinematics(preset):
     """For random poses, every inverse-kinematics working mode gives inputs and passive angles; the
     passive readings recovered from (inputs, pose) must be that working mode's, and Eq. (1) holds."""
@@ -118,7 +130,7 @@ def test_passive_readings_match_inverse_kinematics(preset):
     assert checked > 20
 
 
-@pytest.mark.parametrize("preset", [gosselin, general_3rrr])
+@pytest.mark.parametrize("preset", [gosselin, general_3rrr, driven_at(1), driven_at(2)])
 def test_batch_passive_readings_equal_the_reference_at_any_pose(preset):
     """The batch readings equal the one-pose reference column for column at random poses and inputs
     (poses that are no assembly of those inputs too: the formulas must agree everywhere)."""

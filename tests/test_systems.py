@@ -32,11 +32,16 @@ def strategy(**kw) -> Strategy:
     return Strategy(**{**base, **kw})
 
 
+def actuated_at(mech, *positions, name="elbow-actuated "):
+    """``mech`` with each leg's joints at ``positions`` actuated instead of its first (1: a P-A-P 3-RRR)."""
+    legs = tuple(dataclasses.replace(leg, joints=tuple(dataclasses.replace(j, actuated=(k in positions))
+                                                       for k, j in enumerate(leg.joints))) for leg in mech.legs)
+    return dataclasses.replace(mech, legs=legs, name=name + mech.name)
+
+
 def elbow_actuated(mech):
     """``mech`` with each leg's second joint actuated instead of its first (a P-A-P 3-RRR)."""
-    legs = tuple(dataclasses.replace(leg, joints=tuple(dataclasses.replace(j, actuated=(k == 1))
-                                                       for k, j in enumerate(leg.joints))) for leg in mech.legs)
-    return dataclasses.replace(mech, legs=legs, name="elbow-actuated " + mech.name)
+    return actuated_at(mech, 1)
 
 
 # ---------------------------------------------------------------- the registry
@@ -68,7 +73,8 @@ def test_the_platform_system_accepts_a_3rrr_with_base_joints_actuated(make):
 
 
 @pytest.mark.parametrize("make, words", [(four_bar, ["3 legs", "got 2"]), (five_bar, ["3 legs", "got 2"]),
-                                         (lambda: elbow_actuated(general_3rrr()), ["base joint actuated", "P-A-P"])])
+                                         (lambda: actuated_at(general_3rrr(), 0, 1, name="redundant "),
+                                          ["one joint actuated", "A-A-P"])])
 def test_the_platform_system_says_why_it_does_not_accept(make, words):
     why = Platform.accepts(make())
     assert why is not None and all(w in why for w in words), why
@@ -98,7 +104,8 @@ def test_the_platform_formulation_asked_for_by_name_keeps_its_own_variables():
 
 # ---------------------------------------------------------------- auto
 
-@pytest.mark.parametrize("make", [gosselin, general_3rrr])
+@pytest.mark.parametrize("make", [gosselin, general_3rrr, lambda: elbow_actuated(general_3rrr()),
+                                  lambda: actuated_at(gosselin(), 2, name="platform-joint-actuated ")])
 def test_auto_chooses_the_platform_system_for_a_3rrr(make):
     cls, declined = choose(make(), strategy())
     assert cls is Platform and declined == ()
@@ -106,7 +113,7 @@ def test_auto_chooses_the_platform_system_for_a_3rrr(make):
     assert (problem.system, problem.declined, problem.strategy.formulation) == ("platform", (), "platform")
 
 
-@pytest.mark.parametrize("make", [four_bar, five_bar, lambda: elbow_actuated(general_3rrr())])
+@pytest.mark.parametrize("make", [four_bar, five_bar, lambda: actuated_at(general_3rrr(), 0, 1, name="redundant ")])
 def test_auto_chooses_the_loops_system_with_the_platforms_reason(make):
     cls, declined = choose(make(), strategy())
     assert cls is Loops and declined == (("platform", Platform.accepts(make())),)
@@ -205,3 +212,28 @@ def test_solve_json_and_text_say_which_system_solved_and_why_not_the_fastest(tmp
     assert "\nsolved by the platform system\n" in capsys.readouterr().out
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--no-isolate"]) == 0
     assert "solved by the loops system (platform did not accept it: --no-isolate asked for" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("position", [1, 2])
+def test_a_3rrr_driven_at_its_elbows_or_platform_joints_is_solved_by_the_platform_system(position):
+    """The platform system with the actuated joint in the middle or at the platform (Eq. (1) as a1 . (D a3) =
+    a1 . Rot(a2, d2) a3, or a1 . (D Rot(a3, -d3) a2) = a1 . a2): every assembly the loop equations find,
+    each joint reading alike, and the assembly the inputs were read from (a solve of the base-actuated
+    mechanism, whose platform pose the solve must give back)."""
+    base = general_3rrr()
+    driven = actuated_at(base, position)
+    assert Platform.accepts(driven) is None
+    fast, loops = compile(driven), compile(driven, system="loops")
+    assert fast.system == "platform"
+    for beta in [(0.3, -0.2, 0.4), (1.0, 0.1, -0.7)]:
+        for made in compile(base).solve(beta).solutions:
+            inputs = [made.joint_angles[n] for n in driven.actuated]
+            a, b = fast.solve(inputs), loops.solve(inputs)
+            assert a.settings.system == "platform" and a.settings.fallback is None
+            assert a.count_exact and b.count_exact and a.proven_count == b.proven_count >= 1
+            assert min(np.abs(s.platform_rotation - made.platform_rotation).max() for s in a.solutions) < 1e-9
+            for s in a.solutions:
+                twin = min(b.solutions, key=lambda t: np.abs(t.platform_rotation - s.platform_rotation).max())
+                assert np.abs(twin.platform_rotation - s.platform_rotation).max() < 1e-9
+                assert max(abs(math.remainder(s.joint_angles[n] - twin.joint_angles[n], 2 * math.pi))
+                           for n in base.joint_names) < 1e-9

@@ -28,6 +28,13 @@ variables (full ranges), see benchmarks/README.md. The loop formulations stay av
 the fallback when the platform search cannot isolate every root (a parallel singularity: see
 :func:`spherekin.problem.Problem.solve`).
 
+Any one joint of a leg may be the actuated one (the elbow-actuated 3-RRR, a 3-RRR driven at the
+platform joints): with the elbow's displacement d2 known, the base and platform axes keep the angle
+across the elbow, a1 . (D a3) = a1 . Rot(a2, d2) a3; with the platform joint's d3 known, the base
+and elbow axes keep theirs, a1 . (D Rot(a3, -d3) a2) = a1 . a2. Each is (1)'s form e . (D b) = c with
+one of e, b, c linear in (cos d, sin d, 1) (:func:`leg_terms`), so the same compiled charts serve, and
+the passive displacements are again unique (:func:`passive_readings`).
+
 Eq. (1) is written once, here: :class:`LegConstants` holds its constants (e(d1) by Rodrigues, a3,
 a2 . a3), which the compiled chart tensors (:meth:`PlatformSystem.from_mechanism`) and certified
 tracking (:class:`spherekin.trust.continuation.LegEquations`) both read; :class:`Platform` is the
@@ -44,12 +51,13 @@ import numpy as np
 from ..core.angles import wrap
 from ..core.orientation import quaternion_matrix
 from ..core.rotations import cross
-from ..mechanism.chains import angle_about, axis_rotation, perpendicular
+from ..mechanism.chains import angle_about, axis_rotation, axis_rotations, perpendicular
 from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 from ..search.pruners import make_pruner
 from .base import SYSTEMS, Compiled, System
 
-__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "LegConstants", "leg_constants", "PlatformSystem",
+__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
+           "PlatformSystem",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
            "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform"]
@@ -145,28 +153,36 @@ def chart_rotation(chart: int, x) -> np.ndarray:
 
 
 class PlatformLeg:
-    """One R-R-R leg as Eq. (1) sees it: joint names, reference axes (base frame) and readings."""
+    """One R-R-R leg as Eq. (1) sees it: joint names, reference axes (base frame), readings, and which
+    joint (0 base, 1 elbow, 2 platform) is the actuated one."""
 
-    __slots__ = ("names", "a1", "a2", "a3", "reference")
+    __slots__ = ("names", "a1", "a2", "a3", "reference", "actuated")
 
     names: tuple
     a1: np.ndarray
     a2: np.ndarray
     a3: np.ndarray
     reference: tuple
+    actuated: int
 
-    def __init__(self, names, a1, a2, a3, reference):
+    def __init__(self, names, a1, a2, a3, reference, actuated: int = 0):
         self.names = names
         self.a1 = a1
         self.a2 = a2
         self.a3 = a3
         self.reference = reference
+        self.actuated = actuated
+
+    @property
+    def passive(self) -> tuple[str, str]:
+        """The names of its two passive joints, base side first."""
+        return tuple(n for k, n in enumerate(self.names) if k != self.actuated)
 
 
 def not_applicable(mechanism) -> str | None:
     """Why the platform formulation does not apply to ``mechanism`` (None when it does): its loops
     must close through one output link held by three R-R-R chains from the ground (its legs), each
-    with the base joint actuated."""
+    with one joint actuated (any of the three)."""
     if not getattr(mechanism, "legs", None):
         return ("the platform formulation needs three legs from the ground to one output link, "
                 "the mechanism has none (its loops do not close through one output link)")
@@ -175,10 +191,10 @@ def not_applicable(mechanism) -> str | None:
                 f"got {len(mechanism.legs)}")
     for leg in mechanism.legs:
         kinds = [j.actuated for j in leg.joints]
-        if kinds != [True, False, False]:
+        if len(kinds) != 3 or sum(kinds) != 1:
             pattern = "-".join("A" if a else "P" for a in kinds)
-            return (f"the platform formulation needs R-R-R legs with the base joint actuated (A-P-P), "
-                    f"leg {leg.name!r} is {pattern}")
+            return (f"the platform formulation needs R-R-R legs with one joint actuated (A-P-P, P-A-P or "
+                    f"P-P-A), leg {leg.name!r} is {pattern}")
     return None
 
 
@@ -188,7 +204,40 @@ def platform_legs(mechanism) -> tuple[PlatformLeg, ...]:
     if reason is not None:
         raise ValueError(f"formulation 'platform': {reason}")
     return tuple(PlatformLeg(tuple(j.name for j in leg.joints), *(np.array(j.axis, dtype=float) for j in leg.joints),
-                             tuple(j.reference_angle for j in leg.joints)) for leg in mechanism.legs)
+                             tuple(j.reference_angle for j in leg.joints),
+                             [j.actuated for j in leg.joints].index(True)) for leg in mechanism.legs)
+
+
+@dataclass(frozen=True, eq=False)
+class LegTerms:
+    """Eq. (1) of one leg, e(d) . (D b(d)) = c(d), each side linear in w = (cos d, sin d, 1) with d the
+    actuated joint's displacement: ``e`` (3 terms, 3), ``b`` (3, 3), ``c`` (3,): e(d) = w @ e, ... Only
+    one of e, b, c depends on d (:func:`leg_terms`)."""
+
+    e: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+
+
+def leg_terms(leg: PlatformLeg) -> LegTerms:
+    """The one place Eq. (1) is written, for the actuated joint at any position of the leg:
+
+    * base (d = d1): e = Rot(a1, d1) a2 = cos d1 (a2 - (a1.a2) a1) + sin d1 a1 x a2 + (a1.a2) a1, b = a3,
+      c = a2 . a3 (the elbow and platform axes keep their angle);
+    * elbow (d = d2): e = a1, b = a3, c = a1 . Rot(a2, d2) a3 (the base and platform axes keep the angle
+      across the elbow);
+    * platform joint (d = d3): e = a1, b = Rot(a3, -d3) a2, c = a1 . a2 (the base and elbow axes keep theirs).
+    """
+    def rod(axis, v, sign=1.0):             # Rot(axis, sign d) v as (cos, sin, 1) terms (Rodrigues)
+        along = float(axis @ v)
+        return np.array([v - along * axis, sign * cross(axis, v), along * axis])
+
+    zero, a1, a2, a3 = np.zeros(3), leg.a1, leg.a2, leg.a3
+    if leg.actuated == 0:
+        return LegTerms(rod(a1, a2), np.array([zero, zero, a3]), np.array([0.0, 0.0, float(a2 @ a3)]))
+    if leg.actuated == 1:
+        return LegTerms(np.array([zero, zero, a1]), np.array([zero, zero, a3]), rod(a2, a3) @ a1)
+    return LegTerms(np.array([zero, zero, a1]), rod(a3, a2, -1.0), np.array([0.0, 0.0, float(a1 @ a2)]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,14 +274,17 @@ class LegConstants:
 
 
 def leg_constants(legs) -> LegConstants:
-    """The :class:`LegConstants` of ``legs`` (:class:`PlatformLeg`, from :func:`platform_legs`)."""
-    c1 = np.array([float(leg.a1 @ leg.a2) for leg in legs])
+    """The :class:`LegConstants` of ``legs`` (:class:`PlatformLeg`, from :func:`platform_legs`), each
+    with its base joint actuated (the form tracking uses: :func:`leg_terms` with only e varying)."""
+    driven = [leg.names[leg.actuated] for leg in legs if leg.actuated != 0]
+    if driven:
+        raise ValueError(f"legs: the leg constants of Eq. (1) with e varying need the base joints actuated, "
+                         f"got {driven} actuated")
+    terms = [leg_terms(leg) for leg in legs]
     return LegConstants(ref=np.array([leg.reference[0] for leg in legs], dtype=float),
-                        perp=np.array([leg.a2 - c * leg.a1 for leg, c in zip(legs, c1)]),
-                        side=np.array([cross(leg.a1, leg.a2) for leg in legs]),
-                        axial=np.array([c * leg.a1 for leg, c in zip(legs, c1)]),
-                        b=np.array([leg.a3 for leg in legs]),
-                        c=np.array([float(leg.a2 @ leg.a3) for leg in legs]))
+                        perp=np.array([t.e[0] for t in terms]), side=np.array([t.e[1] for t in terms]),
+                        axial=np.array([t.e[2] for t in terms]), b=np.array([t.b[2] for t in terms]),
+                        c=np.array([t.c[2] for t in terms]))
 
 
 def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, float]:
@@ -240,19 +292,34 @@ def passive_readings(legs, inputs, rotation, platform_reference) -> dict[str, fl
 
     The slow, readable reference of :func:`passive_readings_many` (which the solver uses).
 
-    ``inputs``: the actuated readings, one per leg. R = D R_ref; per leg M = Rot(a1, -d1) D must be
-    Rot(a2, d2) Rot(a3, d3): d2 turns a3 onto M a3 about a2, d3 = the angle of Rot(a2, -d2) M about a3.
+    ``inputs``: the actuated readings, one per leg. R = D R_ref and D = Rot(a1, d1) Rot(a2, d2) Rot(a3, d3):
+    base actuated: M = Rot(a1, -d1) D, d2 turns a3 onto M a3 about a2, d3 = the angle of Rot(a2, -d2) M
+    about a3; elbow actuated: d1 turns Rot(a2, d2) a3 onto D a3 about a1, d3 what is left about a3;
+    platform joint actuated: with D' = D Rot(a3, -d3), d1 turns a2 onto D' a2 about a1, d2 what is left
+    about a2.
     """
     d = np.asarray(rotation, dtype=float) @ np.asarray(platform_reference, dtype=float).T
     out = {}
-    for leg, beta in zip(legs, inputs):
-        m = axis_rotation(leg.a1, -(float(beta) - leg.reference[0])) @ d
-        d2 = angle_about(leg.a2, leg.a3, m @ leg.a3)
-        n = axis_rotation(leg.a2, -d2) @ m
-        p = perpendicular(leg.a3)
-        d3 = angle_about(leg.a3, p, n @ p)
-        out[leg.names[1]] = wrap(leg.reference[1] + d2)
-        out[leg.names[2]] = wrap(leg.reference[2] + d3)
+    for leg, value in zip(legs, inputs):
+        known = float(value) - leg.reference[leg.actuated]
+        if leg.actuated == 0:
+            m = axis_rotation(leg.a1, -known) @ d
+            d2 = angle_about(leg.a2, leg.a3, m @ leg.a3)
+            p = perpendicular(leg.a3)
+            disp = (known, d2, angle_about(leg.a3, p, axis_rotation(leg.a2, -d2) @ m @ p))
+        elif leg.actuated == 1:
+            d1 = angle_about(leg.a1, axis_rotation(leg.a2, known) @ leg.a3, d @ leg.a3)
+            n = axis_rotation(leg.a2, -known) @ axis_rotation(leg.a1, -d1) @ d
+            p = perpendicular(leg.a3)
+            disp = (d1, known, angle_about(leg.a3, p, n @ p))
+        else:
+            dp = d @ axis_rotation(leg.a3, -known)
+            d1 = angle_about(leg.a1, leg.a2, dp @ leg.a2)
+            p = perpendicular(leg.a2)
+            disp = (d1, angle_about(leg.a2, p, axis_rotation(leg.a1, -d1) @ dp @ p), known)
+        for k in range(3):
+            if k != leg.actuated:
+                out[leg.names[k]] = wrap(leg.reference[k] + disp[k])
     return out
 
 
@@ -269,41 +336,41 @@ def _angles_about(axis: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def passive_names(legs) -> tuple[str, ...]:
     """The passive joints of the legs, in the column order of :func:`passive_readings_many`."""
-    return tuple(n for leg in legs for n in leg.names[1:])
+    return tuple(n for leg in legs for n in leg.passive)
 
 
 def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.ndarray:
     """Passive joint readings (K, 2 x legs; radians, wrapped to [-pi, pi)) at K platform poses.
 
-    The batch form of :func:`passive_readings` (its slow, readable reference), columns in the order
-    of :func:`passive_names`. ``rotations`` (K, 3, 3); ``inputs``: the actuated readings, one per leg
-    (shared by every pose), or one row of them per pose (K, legs).
-    With M = Rot(a1, -d1) D: d2 = the angle about a2 from a3 to M a3; then Rot(a2, -d2) M p, for a
-    fixed p normal to a3, written out by Rodrigues, gives d3 about a3.
+    The batch form of :func:`passive_readings` (its slow, readable reference; same steps), columns in
+    the order of :func:`passive_names`. ``rotations`` (K, 3, 3); ``inputs``: the actuated readings,
+    one per leg (shared by every pose), or one row of them per pose (K, legs).
     """
     d = np.asarray(rotations, dtype=float) @ np.asarray(platform_reference, dtype=float).T     # (K, 3, 3)
     inputs = np.asarray(inputs, dtype=float)
+    n = len(d)
     cols = []
     for i, leg in enumerate(legs):
-        if inputs.ndim == 1:
-            m = axis_rotation(leg.a1, -(float(inputs[i]) - leg.reference[0])) @ d
-        else:                                   # one input row per pose: Rot(a1, -d1) by Rodrigues, batched
-            k1 = np.array([[0.0, -leg.a1[2], leg.a1[1]], [leg.a1[2], 0.0, -leg.a1[0]], [-leg.a1[1], leg.a1[0], 0.0]])
-            t = -(inputs[:, i] - leg.reference[0])
-            rot = np.eye(3) + np.sin(t)[:, None, None] * k1 + (1.0 - np.cos(t))[:, None, None] * (k1 @ k1)
-            m = rot @ d
-        ma3 = m @ leg.a3
-        d2 = _angles_about(leg.a2, np.broadcast_to(leg.a3, ma3.shape), ma3)
-        p = perpendicular(leg.a3)
-        w = m @ p                                                 # M p, then Rot(a2, -d2) by Rodrigues
-        a = leg.a2
-        c, s = np.cos(d2)[:, None], -np.sin(d2)[:, None]
-        a_cross_w = np.stack((a[1] * w[:, 2] - a[2] * w[:, 1], a[2] * w[:, 0] - a[0] * w[:, 2],
-                              a[0] * w[:, 1] - a[1] * w[:, 0]), axis=1)
-        n_p = w * c + a_cross_w * s + np.outer(w @ a, a) * (1.0 - c)
-        d3 = _angles_about(leg.a3, np.broadcast_to(p, n_p.shape), n_p)
-        cols += [wrap(leg.reference[1] + d2), wrap(leg.reference[2] + d3)]
-    return np.stack(cols, axis=1).reshape(len(d), -1)
+        value = inputs[i] if inputs.ndim == 1 else inputs[:, i]
+        known = np.broadcast_to(np.asarray(value, dtype=float) - leg.reference[leg.actuated], (n,))
+        if leg.actuated == 0:
+            m = axis_rotations(leg.a1, -known) @ d
+            d2 = _angles_about(leg.a2, np.broadcast_to(leg.a3, (n, 3)), m @ leg.a3)
+            p = perpendicular(leg.a3)
+            disp = (d2, _angles_about(leg.a3, np.broadcast_to(p, (n, 3)), axis_rotations(leg.a2, -d2) @ m @ p))
+        elif leg.actuated == 1:
+            d1 = _angles_about(leg.a1, axis_rotations(leg.a2, known) @ leg.a3, d @ leg.a3)
+            rest = axis_rotations(leg.a2, -known) @ axis_rotations(leg.a1, -d1) @ d
+            p = perpendicular(leg.a3)
+            disp = (d1, _angles_about(leg.a3, np.broadcast_to(p, (n, 3)), rest @ p))
+        else:
+            dp = d @ axis_rotations(leg.a3, -known)
+            d1 = _angles_about(leg.a1, np.broadcast_to(leg.a2, (n, 3)), dp @ leg.a2)
+            p = perpendicular(leg.a2)
+            disp = (d1, _angles_about(leg.a2, np.broadcast_to(p, (n, 3)), axis_rotations(leg.a1, -d1) @ dp @ p))
+        refs = [leg.reference[k] for k in range(3) if k != leg.actuated]
+        cols += [wrap(refs[0] + disp[0]), wrap(refs[1] + disp[1])]
+    return np.stack(cols, axis=1).reshape(n, -1)
 
 
 class PlatformSystem:
@@ -323,20 +390,24 @@ class PlatformSystem:
         self.legs = legs
         self.parts = parts
         self.platform_reference = platform_reference
-        self.constants = leg_constants(legs) if constants is None else constants
+        self.constants = constants          # the tracker's form (base joints actuated), else None
 
     @classmethod
     def from_mechanism(cls, mechanism) -> "PlatformSystem":
         legs = platform_legs(mechanism)
-        k = leg_constants(legs)
-        # q^T M q of cos d1 perp + sin d1 side + axial against a3, less c: three parts linear in (cos d1, sin d1, 1)
-        mats = [[form_matrix(k.perp[i], k.b[i], 0.0), form_matrix(k.side[i], k.b[i], 0.0),
-                 form_matrix(k.axial[i], k.b[i], float(k.c[i]))] for i in range(len(legs))]
-        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix), k)
+        mats = []
+        for leg in legs:
+            # q^T M q of e(d) against b(d), less c(d): one of them varies, so M is linear in (cos d, sin d, 1)
+            t = leg_terms(leg)
+            mats.append([form_matrix(t.e[p], t.b[2], t.c[p]) + form_matrix(t.e[2], t.b[p], 0.0) for p in (0, 1)]
+                        + [form_matrix(t.e[2], t.b[2], t.c[2])])
+        constants = leg_constants(legs) if all(leg.actuated == 0 for leg in legs) else None
+        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix),
+                   constants)
 
     def control_points(self, inputs) -> np.ndarray:
         """Control points (4 charts, 3 legs, 3, 3, 3) of Eq. (1) at actuator ``inputs`` (radians, one per leg)."""
-        d1 = np.asarray(inputs, dtype=float) - np.array([leg.reference[0] for leg in self.legs])
+        d1 = np.asarray(inputs, dtype=float) - np.array([leg.reference[leg.actuated] for leg in self.legs])
         w = np.stack([np.cos(d1), np.sin(d1), np.ones_like(d1)], axis=1)            # (legs, 3)
         return np.moveaxis(np.einsum("lp,lpkabc->lkabc", w, self.parts), 1, 0)
 
@@ -350,7 +421,7 @@ class PlatformSystem:
         magnitude = np.moveaxis(magnitude.reshape(len(self.legs), CHARTS, -1).max(axis=2), 1, 0)
         tols = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(
             magnitude, np.abs(cps).reshape(CHARTS, len(self.legs), -1).max(axis=2))
-        names = tuple(leg.names[0] for leg in self.legs)
+        names = tuple(leg.names[leg.actuated] for leg in self.legs)
         variables = ("q_a", "q_b", "q_c")
         ones = np.full((CHARTS, 3), CHART_EXTENT)
         return ChartSet(Quaternion(), names, variables, [cps], [tols], [names], [tuple(range(len(self.legs)))],
@@ -362,9 +433,15 @@ class PlatformSystem:
         return chart_rotation(chart, x) @ self.platform_reference
 
     def residuals(self, inputs, rotation) -> np.ndarray:
-        """Eq. (1) at a pose R (3, 3): e(d1) . (D a3) - a2 . a3 per leg (legs,; independent of the charts)."""
+        """Eq. (1) at a pose R (3, 3): e(d) . (D b(d)) - c(d) per leg (legs,; independent of the charts)."""
         d = np.asarray(rotation, dtype=float) @ self.platform_reference.T
-        return self.constants.residual(d, np.asarray(inputs, dtype=float))
+        out = []
+        for leg, value in zip(self.legs, np.asarray(inputs, dtype=float)):
+            t = leg_terms(leg)
+            disp = float(value) - leg.reference[leg.actuated]
+            w = np.array([math.cos(disp), math.sin(disp), 1.0])
+            out.append(float((w @ t.e) @ d @ (w @ t.b) - w @ t.c))
+        return np.array(out)
 
 
 class Quaternion(Parameterization):
@@ -427,7 +504,7 @@ class Platform(System):
     """Eq. (1): 3 unknowns (the output link's orientation, 4 quaternion charts) for three R-R-R legs."""
 
     name = "platform"
-    description = "three equations in the output link's orientation (three R-R-R legs, base joints actuated)"
+    description = "three equations in the output link's orientation (three R-R-R legs, one joint of each actuated)"
 
     @classmethod
     def accepts(cls, mechanism, strategy=None) -> str | None:

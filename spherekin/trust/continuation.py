@@ -57,10 +57,12 @@ from ..core import intervals as iv
 from ..core.angles import in_range_many, span_in_range_many
 from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
-from ..systems.platform import leg_constants, passive_names, passive_readings_many, platform_legs
+from ..systems.platform import (leg_constants, not_applicable, passive_names, passive_readings_many,
+                                platform_legs)
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
-           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track"]
+           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track",
+           "not_tracked"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -697,6 +699,19 @@ def _locate_exit(eqs: LegEquations, joints: JointRanges, x0, x1, s0: float, d0, 
     return lo, hi, d_lo
 
 
+def not_tracked(mechanism) -> str | None:
+    """Why this tracker (the platform's orientation, Eq. (1) with the base joints actuated) does not
+    follow ``mechanism`` (None when it does)."""
+    why = not_applicable(mechanism)
+    if why is not None:
+        return why
+    driven = [leg.names[leg.actuated] for leg in platform_legs(mechanism) if leg.actuated != 0]
+    if driven:
+        return (f"the platform tracker follows R-R-R legs with the base joint actuated; {', '.join(driven)} "
+                "are not base joints")
+    return None
+
+
 def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     """Follow the assembly at pose ``start_rotation`` (R, 3x3) along ``path`` (K, 3 inputs, radians).
 
@@ -713,6 +728,9 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     adaptive step, is tested against the joint ranges (module doc); the track ends at the first
     pose outside (a :class:`RangeStop`) or at a parallel singularity (a :class:`SingularStop`).
     """
+    why = not_tracked(mechanism)
+    if why is not None:
+        raise ValueError(f"mechanism: {why}")
     legs = platform_legs(mechanism)
     eqs = LegEquations(legs)
     path = np.asarray(path, dtype=float)
