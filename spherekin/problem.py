@@ -18,8 +18,8 @@ pruner (and its LP model) is built at its first use, once per chart layout, and 
 ``spherekin.solve(mechanism, inputs, ...)`` is ``compile(mechanism, ...).solve(inputs)``.
 
 System ``"auto"`` with formulation ``"auto"`` (the defaults) is the first system of the registry
-that accepts the mechanism and strategy: the platform system when it applies (legs R-R-R with the
-base joint actuated, three of them; the tan-half parameterization asked for; isolation on), else
+that accepts the mechanism and strategy: the platform system when it applies (three R-R-R legs with
+one joint of each actuated; the tan-half parameterization asked for; isolation on), else
 the loop system in formulation ``"halves"``; ``settings.system`` says which, ``settings.declined``
 why the faster ones did not accept. When the platform search cannot isolate every root (next to a parallel
 singularity its Jacobian is singular; a cap), the input is solved again with the loop equations
