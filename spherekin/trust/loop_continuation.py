@@ -198,7 +198,7 @@ class LoopEquations:
         f_m = f[:, :n]                                                        # F(m, x1)      (2, N, E)
         ja = j[:, n:2 * n, :, self.m:]                                        # J_a(m, X)     (2, N, E, A)
         jp = j[:, 2 * n:, :, :self.m]                                         # J_p(W, X)     (2, N, E, M)
-        jp_mid = 0.5 * (j[0, :n, :, :self.m] + j[1, :n, :, :self.m])
+        jp_mid = 0.5 * (j[0, n:2 * n, :, :self.m] + j[1, n:2 * n, :, :self.m])     # J_p at m, mid-segment
         ok = np.isfinite(jp_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(jp_mid)) > 0)
         y = np.zeros_like(jp_mid)
         if ok.any():
