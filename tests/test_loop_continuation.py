@@ -254,3 +254,31 @@ def test_cli_tracks_a_four_bar_and_reports_the_branch_point_in_json(tmp_path, ca
     for p in data["poses"]:
         assert angle_gap(p["passive_angles"]["A"], crank_of_rocker(p["inputs"]["D"], sign)) < 1e-9
     assert out.read_text().count("\n") == n + 1
+
+
+def test_an_elbow_actuated_3rrr_two_loops_closes_every_row_and_returns_to_its_assembly(tmp_path):
+    from spherekin.mechanism import general_3rrr
+
+    base = general_3rrr()
+    text = 'kind = "general"\nname = "elbow-actuated 3-RRR"\nreference_leg = "leg1"\n'
+    for i in (1, 2, 3):
+        text += f'\n[[legs]]\nname = "leg{i}"\n'
+        for j in (f"beta{i}", f"gamma{i}", f"delta{i}"):
+            text += f'\n[[legs.joints]]\nname = "{j}"\naxis = {[float(v) for v in base.joint(j).axis]}\n'
+            text += "actuated = true\n" if j.startswith("gamma") else ""
+    (tmp_path / "elbow.toml").write_text(text)
+    mech = load_mechanism(tmp_path / "elbow.toml")
+    axes = {j.name: np.asarray(j.axis, dtype=float) for j in mech.joints}
+    t = np.linspace(0.0, 2 * math.pi, 41)
+    path = 0.15 * np.column_stack((np.sin(t), np.sin(2 * t), 1.0 - np.cos(t)))     # a closed loop from 0
+    problem = compile_problem(mech)
+    report = problem.solve(path[0])
+    start = next(s for s in report.solutions if max(abs(v) for v in s.passive_angles.values()) < 1e-9)
+    tr = problem.track(path, start=start)       # the reference assembly: every reading 0
+    assert tr.complete and len(tr.poses) == 41
+    for p in tr.poses:
+        q = {**p.inputs, **p.passive_angles}
+        legs = [rot(axes[f"beta{i}"], q[f"beta{i}"]) @ rot(axes[f"gamma{i}"], q[f"gamma{i}"])
+                @ rot(axes[f"delta{i}"], q[f"delta{i}"]) for i in (1, 2, 3)]
+        assert max(np.abs(legs[0] - r).max() for r in legs[1:]) < 1e-9      # the loops close
+    assert max(abs(v) for v in tr.poses[-1].passive_angles.values()) < 1e-9   # back in the start assembly
