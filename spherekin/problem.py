@@ -334,8 +334,9 @@ class Problem:
                 return track_loops(self.mechanism, rows, start.passive_angles)
             start = start.platform_rotation
         elif why is not None:
-            raise ValueError(f"start: a start rotation needs the platform formulation ({why}); give a solution "
-                             "of the solve at the first input (a Solution or its index)")
+            raise ValueError(f"start: a start rotation needs the platform formulation, which does not apply ({why}); "
+                             "start from a solution of the solve at the first input (--start-solution K; in Python "
+                             "a Solution or its index)")
         else:
             from .mechanism.checks import check_rotation
 
