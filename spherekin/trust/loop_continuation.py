@@ -258,11 +258,13 @@ class _Segment:
     """A walked segment: ``theta`` at its end (None when the track stopped in it), ``steps``,
     ``rejected``; where it stopped: ``kind`` ("singular" or "range"), ``s`` the last proven fraction,
     ``theta_s`` the pose there, ``lo``/``hi`` the bisection bracket (fractions of the segment),
-    ``joint`` (a range stop's joint)."""
+    ``joint`` (a range stop's joint); ``last_step``: the input change (radians, largest over the
+    inputs) of its last proven step, the first one the next segment tries."""
 
     theta: np.ndarray | None
     steps: int
     rejected: int
+    last_step: float = FIRST_STEP
     kind: str | None = None
     s: float = 0.0
     theta_s: np.ndarray | None = None
@@ -271,12 +273,17 @@ class _Segment:
     joint: str | None = None
 
 
-def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int) -> _Segment:
-    """Walk the segment x0 -> x1 from the proven root ``theta`` in proven steps (module doc)."""
+def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int, first: float = FIRST_STEP) -> _Segment:
+    """Walk the segment x0 -> x1 from the proven root ``theta`` in proven steps (module doc), the
+    first step min(``first``, FIRST_STEP) radians of input (the previous segment's last proven step:
+    where the provable steps are short, e.g. an elbow-actuated 3-RRR, the whole segment is not tried
+    and rejected at every row) or the whole segment when shorter."""
     direction = x1 - x0
     span = float(np.abs(direction).max(initial=0.0))
-    s, h = 0.0, 1.0 if span <= FIRST_STEP else FIRST_STEP / span
+    first = min(first, FIRST_STEP)
+    s, h = 0.0, 1.0 if span <= first else first / span
     steps = rejected = 0
+    last = first
     while s < 1.0:
         if steps + rejected > budget:
             raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
@@ -289,11 +296,12 @@ def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int) -> _S
             w_lo, w_hi = step_box(theta, theta1)
             if ranges.limited and ranges.outside(b1, theta1) is not None:
                 lo, hi, theta_in, joint = _locate_exit(eqs, ranges, theta, theta1, x0, direction, s, t, w_lo, w_hi)
-                return _Segment(None, steps, rejected, "range", lo, theta_in, lo, hi, joint)
+                return _Segment(None, steps, rejected, last, "range", lo, theta_in, lo, hi, joint)
             if ranges.limited and (t - s) * span > LOCATE_TOL and not ranges.step_inside(w_lo, w_hi, b0, b1):
                 rejected += 1                     # proven, but not inside the ranges: walked again in halves
                 h *= 0.5
                 continue
+            last = h * span if span else last     # the step tried (not cut at the segment end) was proven
             theta, s, h = theta1, t, h * STEP_GROWTH
             steps += 1
             continue
@@ -301,8 +309,8 @@ def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int) -> _S
         h *= 0.5
         if h * span < MIN_STEP:
             lo, hi = _locate_singular(eqs, theta, b0, direction, 1.0 - s)
-            return _Segment(None, steps, rejected, "singular", s, theta, s + lo, s + hi)
-    return _Segment(theta, steps, rejected)
+            return _Segment(None, steps, rejected, last, "singular", s, theta, s + lo, s + hi)
+    return _Segment(theta, steps, rejected, last)
 
 
 def _locate_exit(eqs, ranges, theta, theta1, x0, direction, s0, s1, w_lo, w_hi):
@@ -405,7 +413,8 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
     seg = None
     k = 0
     for k in range(n - 1):
-        seg = _walk(eqs, ranges, thetas[-1], path[k], path[k + 1], budget - n_steps - rejected)
+        seg = _walk(eqs, ranges, thetas[-1], path[k], path[k + 1], budget - n_steps - rejected,
+                    FIRST_STEP if seg is None else seg.last_step)
         n_steps += seg.steps
         rejected += seg.rejected
         if seg.theta is None:
