@@ -106,7 +106,8 @@ class TrackedPose:
 
     ``inputs``: the actuated joints' angles by name (radians); ``platform_rotation``: R (3, 3),
     v_i = R v_i^0 (None for a mechanism without an output link); ``passive_angles``: by name (radians, in ``Track.passive_joints`` order);
-    ``residual``: the largest |Eq. (1)| over the legs; ``parallel_measure``: sigma_min / sigma_max
+    ``residual``: the largest |Eq. (1)| over the legs (on the loop equations,
+    :mod:`spherekin.trust.loop_continuation`: the largest entry of |F_n - I|); ``parallel_measure``: sigma_min / sigma_max
     of the passive-joint Jacobian (:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`,
     0 at a parallel singularity); ``proven_steps``: proven steps from the previous row. The
     attribute names are the keys of :meth:`as_dict` (the JSON of ``spherekin track``).
