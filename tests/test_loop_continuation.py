@@ -289,3 +289,12 @@ def test_an_elbow_actuated_3rrr_two_loops_closes_every_row_and_returns_to_its_as
                 @ rot(axes[f"delta{i}"], q[f"delta{i}"]) for i in (1, 2, 3)]
         assert max(np.abs(legs[0] - r).max() for r in legs[1:]) < 1e-9      # the loops close
     assert max(abs(v) for v in tr.poses[-1].passive_angles.values()) < 1e-9   # back in the start assembly
+
+
+def test_an_input_leaving_its_range_between_two_rows_in_range_ends_the_track_at_the_range_end(tmp_path):
+    mech = load_mechanism(four_bar_file(tmp_path, "A", {"A": (2.5, 3.9)}))
+    path = np.array([[3.2], [3.0], [-2.6]])         # -2.6 is 3.68 modulo 2 pi, in range; the segment to it is not
+    tr = compile_problem(mech).track(path, start=0)
+    st = tr.stop
+    assert isinstance(st, RangeStop) and st.joint == "A" and st.between_rows == (1, 2) and len(tr.poses) == 2
+    assert abs(st.last_proven_inputs["A"] - (2.5 - 1e-10)) < 1e-9                # RANGE_TOL widens the end
