@@ -298,3 +298,22 @@ def test_an_input_leaving_its_range_between_two_rows_in_range_ends_the_track_at_
     st = tr.stop
     assert isinstance(st, RangeStop) and st.joint == "A" and st.between_rows == (1, 2) and len(tr.poses) == 2
     assert abs(st.last_proven_inputs["A"] - (2.5 - 1e-10)) < 1e-9                # RANGE_TOL widens the end
+
+
+def test_on_a_3rrr_the_loop_tracker_gives_the_platform_trackers_poses():
+    """Two formulations (the legs' Eq. (1) in the platform's orientation, the loops' Eq. (2) in the
+    passive joints) and two enclosures: the same assembly at every row."""
+    from spherekin.mechanism import general_3rrr
+    from spherekin.trust.loop_continuation import track_loops
+
+    mech = general_3rrr()
+    problem = compile_problem(mech)
+    path = np.column_stack((np.linspace(-3.0, -2.8, 9), np.zeros(9), np.full(9, 0.5)))
+    report = problem.solve(path[0])
+    for k in (0, 3):
+        platform = problem.track(path, start=k)
+        loops = track_loops(mech, path, report.solutions[k].passive_angles)
+        assert platform.complete and loops.complete
+        for a, b in zip(platform.poses, loops.poses):
+            assert np.abs(a.platform_rotation - b.platform_rotation).max() < 1e-12
+            assert max(angle_gap(a.passive_angles[n], b.passive_angles[n]) for n in mech.loop_unknowns) < 1e-12
