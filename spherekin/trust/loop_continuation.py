@@ -119,17 +119,23 @@ class LoopEquations:
                                           shared=tuple(n for n in names if counts[n] > 1))
         self.plan = plan_of(self.system)
         self.last_closure = float("nan")         # max |F_n - I| at the last :meth:`values` (see :meth:`closure`)
+        self._cached = None                      # (point, values, closure) of the last :meth:`values`
 
     # ---------------------------------------------------------------- floats
 
     def values(self, theta, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F (E,), J_p (E, M), J_a (E, A)) at passive angles ``theta`` (M,) and inputs ``x`` (A,)."""
-        f, j = closure_at(self.loops, self.unknowns, np.concatenate((theta, x)), jacobian=True,
-                          loop_indices=self.indices)
+        point = np.concatenate((theta, x))
+        if self._cached is not None and np.array_equal(point, self._cached[0]):
+            self.last_closure = self._cached[2]   # (Newton's last point is the next step's tangent point)
+            return self._cached[1]
+        f, j = closure_at(self.loops, self.unknowns, point, jacobian=True, loop_indices=self.indices)
         self.last_closure = float(np.abs(f - np.eye(3)).max(initial=0.0))
         f = np.stack((f[:, 1, 0], f[:, 2, 0], f[:, 2, 1]), axis=1).reshape(-1)
         j = np.stack((j[:, 1, 0], j[:, 2, 0], j[:, 2, 1]), axis=1).reshape(self.n_eq, -1)
-        return f, j[:, :self.m], j[:, self.m:]
+        out = (f, j[:, :self.m], j[:, self.m:])
+        self._cached = (point, out, self.last_closure)
+        return out
 
     def closure(self, theta, x) -> float:
         """The largest entry of |F_n - I| over the loops (radians-scale; 0 at a closure). The
