@@ -16,8 +16,8 @@ redundant actuation is refused.
 
 A step from input x0 to x1 (x(sigma) = x1 + sigma delta, delta = x1 - x0, sigma in [-1, 0]): Newton
 at x1 from the tangent predictor gives theta1; the box W = hull(theta0, theta1), widened by a margin
-(MARGIN_RELATIVE), holds the proven root at x0 and the new one. With m the middle of W,
-Y a float inverse of J_p(m, x1), X the hull of the segment, the parametric Krawczyk operator
+(MARGIN_RELATIVE), holds the proven root at x0 and the new one. With m the middle of W, X the
+hull of the segment, Y a float inverse of (the middle of) J_p(m, X), the parametric Krawczyk operator
 
     K = m - Y F(m, x1) - (Y J_a(m, X) delta) sigma + (I - Y J_p(W, X)) (W - m)
 
@@ -26,8 +26,11 @@ sigma J_a(m, X) delta by the mean-value theorem, one sigma for all rows, so Y ke
 correlation); K inside the interior of W proves that every input of the step has exactly one root
 in W and J_p is regular there: the root moves continuously from the proven one at x0 to the one at
 x1, never to another assembly. A point test at x1 (radius POINT_RADIUS around theta1) then proves
-the new root, which the next step's box holds: the chain of proofs is unbroken. Failed steps are
-halved, successful ones grow; a step below MIN_STEP that cannot be proven ends the track at a
+the new root, which the next step's box holds: the chain of proofs is unbroken. (The transversal
+entries also vanish where F_n is a half turn about a coordinate axis; a continuous path of roots
+from a closure stays one, since those matrices are isolated from I, and every Newton root is
+checked against the whole F_n.) Failed steps are halved, successful ones grow by STEP_GROWTH, and a
+segment's first step is the previous segment's last one (or the whole segment); a step below MIN_STEP that cannot be proven ends the track at a
 parallel singularity, located by bisection (Newton from the last proven pose converging with the
 sign of det J_p kept: the branch exists) to LOCATE_TOL. The constants (POINT_RADIUS, MIN_STEP,
 LOCATE_TOL, MARGIN, Newton's, FIRST_STEP) are those of the platform tracker, for the
@@ -137,6 +140,8 @@ class LoopEquations:
             return self._cached[1]
         f, j = closure_at(self.loops, self.unknowns, point, jacobian=True, loop_indices=self.indices)
         self.last_closure = float(np.abs(f - np.eye(3)).max(initial=0.0))
+        # the transversal entries (2,1), (3,1), (3,2) of each F_n, in the order of the enclosure's rows
+        # (search.formulations.TRANSVERSAL_ENTRIES; not imported: trust/ stops importing search/)
         f = np.stack((f[:, 1, 0], f[:, 2, 0], f[:, 2, 1]), axis=1).reshape(-1)
         j = np.stack((j[:, 1, 0], j[:, 2, 0], j[:, 2, 1]), axis=1).reshape(self.n_eq, -1)
         out = (f, j[:, :self.m], j[:, self.m:])
