@@ -218,8 +218,9 @@ def _solve(args) -> int:
 
 # ------------------------------------------------------------------ families of inputs
 
-#: A tracked pose and a solution of the full solve are the same assembly when their rotations agree to
-#: this (largest entry): both are Newton limits accurate to ~1e-14 (as problem.POSE_MATCH).
+#: A tracked pose and a solution of the full solve are the same assembly when their rotations (without an
+#: output link: passive angles, radians) agree to this (largest entry): both are Newton limits accurate
+#: to ~1e-14 (as problem.POSE_MATCH).
 CHECK_MATCH = 1e-8
 #: Seconds between progress lines of a batch when stderr is not a terminal (a log): often enough to
 #: see a job move, rarely enough that a run of hours leaves a log of a few hundred lines.
@@ -482,7 +483,7 @@ def _track(args) -> int:
           f"({track.rejected_steps} rejected), {seconds:.3f} s; joint angles in {unit}:")
     print("  row  " + " ".join(f"{n:>11s}" for n in names)
           + "   qw        qx        qy        qz     parallel_measure")
-    quats = quaternions_from_rotations(np.array([p.platform_rotation for p in track.poses]))
+    quats = quaternions_from_rotations(track.rotations)
     for p, q in zip(track.poses, quats):
         vals = list(p.inputs.values()) + list(p.passive_angles.values())
         print(f"{p.row:5d}  " + " ".join(format_number(v * scale, "+11.6f") for v in vals)
@@ -507,9 +508,7 @@ def _track(args) -> int:
         bad = []
         for k in rows:
             report = problem.solve(list(track.poses[k].inputs.values()))
-            if not any(s.platform_rotation is not None
-                       and np.abs(s.platform_rotation - track.poses[k].platform_rotation).max() <= CHECK_MATCH
-                       for s in report.solutions):
+            if not any(_same_assembly(s, track.poses[k]) for s in report.solutions):
                 bad.append(k)
         data["check"] = {"rows": rows, "mismatched_rows": bad, "passed": not bad}
         if bad:
@@ -536,6 +535,18 @@ def _track(args) -> int:
         plot_track(mech, track, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return code
+
+
+def _same_assembly(solution, pose) -> bool:
+    """Whether a solution of the full solve is the tracked ``pose``: their rotations agree to
+    CHECK_MATCH, or, without an output link, their passive angles do (modulo 2 pi)."""
+    import numpy as np
+
+    if pose.platform_rotation is not None:
+        return (solution.platform_rotation is not None
+                and np.abs(solution.platform_rotation - pose.platform_rotation).max() <= CHECK_MATCH)
+    got = solution.passive_angles
+    return all(abs(math.remainder(got[n] - v, 2 * math.pi)) <= CHECK_MATCH for n, v in pose.passive_angles.items())
 
 
 def _no_names(args) -> dict[str, str]:

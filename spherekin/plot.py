@@ -675,7 +675,7 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
 def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     """Draw a tracked path (:class:`spherekin.trust.continuation.Track`): top, the platform's
     orientation along the path (the unit quaternion's components, w >= 0 at the start, kept
-    continuous); below, the parallel measure (sigma_min / sigma_max of the passive-joint Jacobian, as
+    continuous; the passive joints' angles for a mechanism without an output link); below, the parallel measure (sigma_min / sigma_max of the passive-joint Jacobian, as
     batch and map report it; log scale; 0 at a parallel singularity), with where the track stopped
     marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
     from matplotlib.figure import Figure
@@ -686,15 +686,21 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     if path is not None:
         out, fmt = check_plot_path(path)
     rows = np.array([p.row for p in track.poses], dtype=float)
-    q = quaternions_from_rotations(np.array([p.platform_rotation for p in track.poses]))
+    q = quaternions_from_rotations(track.rotations)
     for k in range(1, len(q)):                   # q and -q are one rotation: keep the curve continuous
         if q[k] @ q[k - 1] < 0:
             q[k] = -q[k]
     fig = Figure(figsize=TRACK_INCHES, dpi=DPI, layout="constrained")
     ax, ax2 = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
-    for j, label in enumerate(("qw", "qx", "qy", "qz")):
-        ax.plot(rows, q[:, j], label=label, lw=1.5)
-    ax.set_ylabel(TRACK_ORIENTATION_LABEL)
+    if np.isfinite(q).all():
+        for j, label in enumerate(("qw", "qx", "qy", "qz")):
+            ax.plot(rows, q[:, j], label=label, lw=1.5)
+        ax.set_ylabel(TRACK_ORIENTATION_LABEL)
+    else:                                        # no output link: the passive joints' angles instead
+        scale = 180.0 / np.pi if degrees else 1.0
+        for name in track.passive_joints:
+            ax.plot(rows, [p.passive_angles[name] * scale for p in track.poses], label=name, lw=1.5)
+        ax.set_ylabel(f"passive joint angle ({'degrees' if degrees else 'radians'})")
     ax.legend(loc="best", fontsize=8, ncol=4)
     ax.grid(alpha=0.3)
     st = track.stop

@@ -43,7 +43,7 @@ from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
 from .systems import AUTO, LOOP_FORMULATION, SYSTEMS, Strategy, choose, system_choices
 from .systems.loops import CompiledLoops, Loops
-from .systems.platform import CompiledPlatform, Platform, not_applicable
+from .systems.platform import CompiledPlatform, Platform
 from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
                       EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize, is_proven
@@ -293,26 +293,27 @@ class Problem:
 
     def track(self, path, *, start):
         """Follow one assembly mode along ``path`` (K inputs, shape (K, number of actuated joints),
-        radians), every step proven (:mod:`spherekin.trust.continuation`): a
-        :class:`~spherekin.trust.continuation.Track` with the pose at each row reached, and where it
-        stopped: where the mode ends at a parallel singularity, or where a joint leaves its range.
+        radians), every step proven: a :class:`~spherekin.trust.continuation.Track` with the pose at
+        each row reached, and where it stopped: where the mode ends at a parallel singularity, or
+        where a joint leaves its range. Any mechanism: on the platform's orientation
+        (:mod:`spherekin.trust.continuation`) where it applies (three R-R-R legs with the base joints
+        actuated: :func:`~spherekin.trust.continuation.not_tracked`), else on the loop equations
+        (:mod:`spherekin.trust.loop_continuation`).
 
         ``start``: a :class:`~spherekin.results.Solution` of the solve at path[0] (e.g.
         ``report.solutions[4]``, the solution numbered 5 in printed tables, JSON and CSV), which
         must be certified; or an int K: ``report.solutions[K]`` (0-based, Python's indexing) of
-        the full solve at path[0]; or the platform rotation R (3x3) of an assembly at path[0]. For
-        mechanisms the platform formulation applies to (three R-R-R legs with the base joints actuated).
+        the full solve at path[0]; or, where the platform tracker applies, the platform
+        rotation R (3x3) of an assembly at path[0].
         """
         from .results import Solution
         from .trust.continuation import not_tracked, track
+        from .trust.loop_continuation import track_loops
 
         rows = self._checked_rows("path", path)
         if not len(rows):
             raise ValueError("path: expected at least one row of inputs, got none")
-        why = not_tracked(self.mechanism)
-        if why is not None:
-            raise ValueError(f"track: follows the platform's orientation, which needs three R-R-R legs with "
-                             f"the base joint actuated; {why}")
+        why = not_tracked(self.mechanism)          # None: the platform tracker follows it
         if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
             report = self.solve(rows[0])
             n = len(report.solutions)
@@ -325,10 +326,16 @@ class Problem:
             if given and np.abs(np.array(given, dtype=float) - rows[0]).max() > RANGE_TOL:
                 raise ValueError(f"start: expected a solution of the solve at the first input of the path "
                                  f"{rows[0].tolist()}, got one at {list(given)}")
-            if start.status != "certified" or start.platform_rotation is None:
+            if start.status != "certified" or (why is None and start.platform_rotation is None):
                 raise ValueError(f"start: the solution at the first input is {start.status}, not certified; "
                                  "a track starts from a proven, isolated assembly")
+            if why is not None:
+                return track_loops(self.mechanism, rows, start.passive_angles)
             start = start.platform_rotation
+        elif why is not None:
+            raise ValueError(f"start: a start rotation needs the platform tracker, which does not apply ({why}); "
+                             "start from a solution of the solve at the first input (--start-solution K; in Python "
+                             "a Solution or its index)")
         else:
             from .mechanism.checks import check_rotation
 

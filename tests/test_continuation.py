@@ -182,8 +182,8 @@ def test_start_errors_are_named(mech):
     problem = compile_problem(mech)
     with pytest.raises(ValueError, match="start: expected a solution index 0..7"):
         problem.track(path, start=8)
-    with pytest.raises(ValueError, match="track: follows the platform's orientation"):
-        compile_problem(five_bar()).track([[0.1, 0.2]], start=0)
+    with pytest.raises(ValueError, match="start: a start rotation needs the platform tracker"):
+        compile_problem(five_bar()).track([[0.1, 0.2]], start=np.eye(3))
     with pytest.raises(ValueError, match="path: expected an array of shape"):
         problem.track([[0.1, 0.2]], start=0)
     tr = problem.track(path, start=3)

@@ -107,8 +107,9 @@ class TrackedPose:
     """The tracked assembly at path row ``row`` (0-based, the row of the path's CSV or array).
 
     ``inputs``: the actuated joints' angles by name (radians); ``platform_rotation``: R (3, 3),
-    v_i = R v_i^0; ``passive_angles``: by name (radians, in ``Track.passive_joints`` order);
-    ``residual``: the largest |Eq. (1)| over the legs; ``parallel_measure``: sigma_min / sigma_max
+    v_i = R v_i^0 (None for a mechanism without an output link); ``passive_angles``: by name (radians, in ``Track.passive_joints`` order);
+    ``residual``: the largest |Eq. (1)| over the legs (on the loop equations,
+    :mod:`spherekin.trust.loop_continuation`: the largest entry of |F_n - I|); ``parallel_measure``: sigma_min / sigma_max
     of the passive-joint Jacobian (:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`,
     0 at a parallel singularity); ``proven_steps``: proven steps from the previous row. The
     attribute names are the keys of :meth:`as_dict` (the JSON of ``spherekin track``).
@@ -116,7 +117,7 @@ class TrackedPose:
 
     row: int
     inputs: dict
-    platform_rotation: np.ndarray = field(repr=False)
+    platform_rotation: np.ndarray | None = field(repr=False)
     passive_angles: dict = field(repr=False)
     residual: float
     parallel_measure: float
@@ -124,7 +125,8 @@ class TrackedPose:
 
     def as_dict(self) -> dict:
         return {"row": self.row, "inputs": dict(self.inputs),
-                "platform_rotation": np.asarray(self.platform_rotation, dtype=float).tolist(),
+                "platform_rotation": (None if self.platform_rotation is None
+                                      else np.asarray(self.platform_rotation, dtype=float).tolist()),
                 "passive_angles": dict(self.passive_angles), "residual": self.residual,
                 "parallel_measure": self.parallel_measure, "proven_steps": self.proven_steps}
 
@@ -216,6 +218,12 @@ class Track:
     def complete(self) -> bool:
         return self.stop is None
 
+    @property
+    def rotations(self) -> np.ndarray:
+        """Every pose's platform rotation, shape (K, 3, 3); NaN where a pose has none (no output link)."""
+        return np.array([np.full((3, 3), np.nan) if p.platform_rotation is None else p.platform_rotation
+                         for p in self.poses], dtype=float).reshape(-1, 3, 3)
+
     def as_dict(self) -> dict:
         """JSON-ready (schema TRACK_SCHEMA): the attributes above, each pose and the stop by their ``as_dict``."""
         from .. import __version__
@@ -229,11 +237,11 @@ class Track:
     def frame(self):
         """A pandas DataFrame, one row per pose: ``row``, the inputs and passive angles by joint name
         (radians), the platform rotation as ``qw qx qy qz`` and ``r11 ... r33`` (the columns of
-        batch's table), ``residual``, ``parallel_measure``, ``proven_steps``."""
+        batch's table; NaN without an output link), ``residual``, ``parallel_measure``, ``proven_steps``."""
         import pandas as pd
 
         names = [*self.actuated, *self.passive_joints]
-        rots = np.array([p.platform_rotation for p in self.poses], dtype=float).reshape(-1, 3, 3)
+        rots = self.rotations
         quats = quaternions_from_rotations(rots) if len(rots) else np.empty((0, 4))
         data = {"row": np.array([p.row for p in self.poses], dtype=np.int64)}
         data.update({n: np.array([{**p.inputs, **p.passive_angles}[n] for p in self.poses], dtype=float)
