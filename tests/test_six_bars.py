@@ -1,0 +1,101 @@
+"""The Watt and Stephenson six-bars written as graphs (examples/*.toml) through the commands a linkage
+designer runs: solve, track (and map, with circuits: tests/test_branches.py). References written here:
+the Watt six-bar as two four-bars in series (tests/test_mechanism_graph.py's closed form), the
+Stephenson six-bar's singular input as the root of its closure equations plus det = 0, solved by
+scipy on rotation products written in this file."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import fsolve
+from scipy.spatial.transform import Rotation
+
+import spherekin as sk
+from spherekin.mechanism import load_mechanism
+from test_mechanism_graph import close, watt_reference
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def rot(axis, angle) -> np.ndarray:
+    a = np.asarray(axis, dtype=float)
+    return Rotation.from_rotvec(a / np.linalg.norm(a) * angle).as_matrix()
+
+
+def test_a_watt_six_bar_tracked_along_its_input_stays_on_one_of_its_four_branches():
+    mech = load_mechanism(EXAMPLES / "watt_six_bar.toml")
+    path = np.linspace(0.3, 1.5, 25)[:, None]
+    problem = sk.compile(mech)
+    for start in range(4):
+        track = problem.track(path, start=start)
+        assert track.complete and len(track.poses) == len(path)
+        labels = set()
+        for pose, a_in in zip(track.poses, path[:, 0]):
+            refs = watt_reference(mech, float(a_in))             # enumerated in the same order at every input
+            gaps = [max(close(pose.passive_angles[n], r[n]) for n in "BCDEFG") for r in refs]
+            k = int(np.argmin(gaps))
+            assert gaps[k] < 1e-9 and sorted(gaps)[1] > 1e-3
+            assert np.abs(pose.platform_rotation - refs[k]["pose"]).max() < 1e-9
+            labels.add(k)
+        assert len(labels) == 1                                # never another assembly
+
+
+def stephenson_closures(mech):
+    """closures(x) for x = (A, B, ..., G): the skew parts of ternary2's rotation along B-C against D-E and
+    F-G (6 equations), every rotation a scipy product of Rot(axis, reading)."""
+    ax = {j.name: np.array(j.axis) for j in mech.joints}
+
+    def closures(x):
+        r = dict(zip("ABCDEFG", x))
+        t1 = rot(ax["A"], r["A"])
+        via_bc = t1 @ rot(ax["B"], r["B"]) @ rot(ax["C"], r["C"])
+        via_de = t1 @ rot(ax["D"], r["D"]) @ rot(ax["E"], r["E"])
+        via_fg = rot(ax["F"], r["F"]) @ rot(ax["G"], r["G"])
+        out = []
+        for other in (via_de, via_fg):
+            m = via_bc.T @ other
+            out += [m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]]
+        return np.array(out)
+
+    return closures
+
+
+def test_a_stephenson_six_bar_tracked_into_a_fold_stops_at_the_singular_input():
+    """The fold is where the input A is extreme along the assembly's curve: with B as the curve's
+    parameter (regular there), A(B) from the closures by scipy's fsolve, maximized by minimize_scalar."""
+    from scipy.optimize import minimize_scalar
+
+    mech = load_mechanism(EXAMPLES / "stephenson_six_bar.toml")
+    path = np.linspace(0.3, 1.5, 61)[:, None]
+    track = sk.compile(mech).track(path, start=1)
+    stop = track.stop
+    assert stop is not None and stop.kind == "singular"
+    last = track.poses[-1]
+    closures = stephenson_closures(mech)
+    x_last = np.array([last.inputs["A"], *(last.passive_angles[n] for n in "BCDEFG")])
+    solved = {}                                  # B -> the other readings, for warm starts along the curve
+
+    def input_at(b, near):
+        y, info, _, _ = fsolve(lambda y: closures(np.insert(y, 1, b)), near, full_output=True, xtol=1e-14)
+        assert np.abs(info["fvec"]).max() < 1e-12          # (xtol 1e-14 may report "no further progress")
+        solved[b] = y
+        return y[0]
+
+    # walk the curve from the last row reached with B decreasing (the way A grows: the tangent), small steps
+    y, b = np.delete(x_last, 1), x_last[1]
+    walk = [(b, input_at(b, y))]
+    while walk[-1][1] >= walk[max(len(walk) - 2, 0)][1] and len(walk) < 400:
+        y = solved[b]
+        b -= 2e-3
+        walk.append((b, input_at(b, y)))
+    k = int(np.argmax([a_ for _, a_ in walk]))
+    assert 0 < k < len(walk) - 1                 # the input peaks inside the walk: the fold
+    lo, hi = walk[k + 1][0], walk[k - 1][0]
+    best = minimize_scalar(lambda b_: -input_at(b_, solved[walk[k][0]]), bounds=(lo, hi), method="bounded",
+                           options={"xatol": 1e-10})
+    fold = -best.fun
+    assert abs(fold - stop.singular_inputs["A"]) < 1e-8
+    assert last.inputs["A"] <= stop.last_proven_inputs["A"] <= stop.singular_inputs["A"]
