@@ -317,3 +317,62 @@ def test_on_a_3rrr_the_loop_tracker_gives_the_platform_trackers_poses():
         for a, b in zip(platform.poses, loops.poses):
             assert np.abs(a.platform_rotation - b.platform_rotation).max() < 1e-12
             assert max(angle_gap(a.passive_angles[n], b.passive_angles[n]) for n in mech.loop_unknowns) < 1e-12
+
+
+def closed_form_readings(theta, sign) -> np.ndarray:
+    """The passive readings (B, D, C: four_bar()'s loop_unknowns order) of the assembly ``sign`` at crank
+    reading theta, from the closed form: the coupler turns C onto its place c, B stays at Rot(A, theta) B."""
+    t_d = rocker_of_crank(theta, sign)
+    c = rot(D, t_d) @ C
+    b = rot(A, theta) @ B
+    t_b = reading(B, C, rot(A, theta).T @ c)
+    t_c = reading(C, B, rot(D, t_d).T @ b)
+    return np.array([t_b, t_d, t_c])
+
+
+def test_a_step_box_that_holds_the_root_only_at_the_end_of_its_segment_is_not_proven():
+    """The parametric test proves a root in the box for EVERY input of the step: a box around the end
+    root only (the root at the start lies outside it) is refused over the segment, proven at its end."""
+    from spherekin.trust.loop_continuation import LoopEquations
+
+    mech = four_bar()
+    assert mech.loop_unknowns == ("B", "D", "C")
+    x0, x1 = 0.5, 0.51
+    th0, th1 = closed_form_readings(x0, 1), closed_form_readings(x1, 1)
+    eqs = LoopEquations(mech, (x0,))
+    move = np.abs(th1 - th0).max()
+    assert move > 2e-3
+    lo, hi = np.minimum(th0, th1) - 0.3 * move, np.maximum(th0, th1) + 0.3 * move
+    assert eqs.krawczyk(lo[None], hi[None], [[x0]], [[x1]]).all()              # the step box: proven
+    r = 0.25 * move                                                              # holds th1, not th0
+    assert np.abs(th0 - th1).max() > r
+    assert eqs.krawczyk((th1 - r)[None], (th1 + r)[None], [[x1]], [[x1]]).all()   # at x1 alone: proven
+    assert not eqs.krawczyk((th1 - r)[None], (th1 + r)[None], [[x0]], [[x1]]).any()
+
+
+def test_a_passive_joint_that_leaves_its_range_and_comes_back_between_two_rows_ends_the_track(tmp_path):
+    """The rocker D peaks between two rows; its range ends just below the peak, both rows are inside:
+    the track must end where D leaves the range (the closed form's crossing), not pass the peak."""
+    sign = 1
+    grid = np.linspace(-math.pi, math.pi, 2001)
+    values = np.array([rocker_of_crank(t, sign) for t in grid])
+    k = int(np.argmax(values))
+    peak_at = grid[k]
+    rows = np.array([[peak_at - 0.01], [peak_at + 0.01]])      # one step apart: proven in one step
+    ends = [rocker_of_crank(x, sign) for x in rows[:, 0]]
+    hi = values[k] - 0.2 * (values[k] - max(ends))
+    assert max(ends) < hi < values[k]
+    mech = load_mechanism(four_bar_file(tmp_path, "A", {"D": (float(values[k]) - 3.0, float(hi))}))
+    problem = compile_problem(mech)
+    start = next(s for s in problem.solve(rows[0]).solutions
+                 if angle_gap(s.passive_angles["D"], rocker_of_crank(rows[0, 0], sign)) < 1e-9)
+    tr = problem.track(rows, start=start)
+    assert isinstance(tr.stop, RangeStop) and tr.stop.joint == "D" and len(tr.poses) == 1
+    from spherekin.core.angles import RANGE_TOL
+
+    # the crossing, by bisection on the closed form: ranges are closed with a solve's tolerance RANGE_TOL
+    lo_t, hi_t = rows[0, 0], peak_at
+    while hi_t - lo_t > 1e-14:
+        mid = 0.5 * (lo_t + hi_t)
+        lo_t, hi_t = (mid, hi_t) if rocker_of_crank(mid, sign) <= hi + RANGE_TOL else (lo_t, mid)
+    assert abs(tr.stop.last_proven_inputs["A"] - lo_t) < 1e-9

@@ -193,14 +193,17 @@ class LoopEquations:
 
     # ---------------------------------------------------------------- proofs
 
-    def krawczyk(self, w_lo, w_hi, x0, x1) -> np.ndarray:
+    def krawczyk(self, w_lo, w_hi, x0, x1, image: bool = False):
         """Whether the parametric Krawczyk operator (module doc) maps each box [w_lo, w_hi] (N, M)
-        into its interior for every input of the segment x0 -> x1 (N, A each): a boolean per box."""
+        into its interior for every input of the segment x0 -> x1 (N, A each): a boolean per box; with
+        ``image``, also the operator's image K (lo, hi; (N, M) each), which holds every root in the
+        box of every input of the segment (the Krawczyk theorem), far tighter than the box."""
         w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
         x0, x1 = np.asarray(x0, dtype=float), np.asarray(x1, dtype=float)
         n = len(w_lo)
         if n == 0 or not iv.rounding_environment_ok():
-            return np.zeros(n, dtype=bool)          # a refusal, never a wrong verdict
+            refused = np.zeros(n, dtype=bool)       # a refusal, never a wrong verdict
+            return (refused, w_lo, w_hi) if image else refused
         mid = 0.5 * (w_lo + w_hi)
         delta = x1 - x0
         sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0])).reshape(2, 1, 1)
@@ -230,15 +233,19 @@ class LoopEquations:
         dev = iv.sub(iv.from_bounds(w_lo, w_hi), iv.point(mid))
         k = iv.add(center_k, iv.matmul(slope, dev[..., None])[..., 0])
         inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
-        return ok & inside
+        return (ok & inside, k[0], k[1]) if image else ok & inside
 
-    def certify_step(self, theta0, theta1, x0, x1) -> bool:
+    def certify_step(self, theta0, theta1, x0, x1) -> tuple[np.ndarray, np.ndarray] | None:
         """The step box (:func:`step_box`) over the segment x0 -> x1, and the point box of radius
-        POINT_RADIUS around theta1 at x1, both proven (module doc)."""
+        POINT_RADIUS around theta1 at x1, both proven (module doc): then the Krawczyk image of the step
+        box (lo, hi; (M,) each), which holds the root of every input of the step (what the joint ranges
+        are tested on: the box's margins would keep a joint from being proven inside its range closer
+        than them to its end); else None."""
         w_lo, w_hi = step_box(theta0, theta1)
         lo = np.stack((w_lo, theta1 - POINT_RADIUS))
         hi = np.stack((w_hi, theta1 + POINT_RADIUS))
-        return bool(self.krawczyk(lo, hi, np.stack((x0, x1)), np.stack((x1, x1))).all())
+        ok, k_lo, k_hi = self.krawczyk(lo, hi, np.stack((x0, x1)), np.stack((x1, x1)), image=True)
+        return (k_lo[0], k_hi[0]) if ok.all() else None
 
 
 def step_box(theta0, theta1) -> tuple[np.ndarray, np.ndarray]:
@@ -309,8 +316,9 @@ def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int, first
         t = min(1.0, s + h)
         b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
         theta1 = eqs.predict(theta, b0, b1)
-        if theta1 is not None and eqs.certify_step(theta, theta1, b0, b1):
-            w_lo, w_hi = step_box(theta, theta1)
+        proof = None if theta1 is None else eqs.certify_step(theta, theta1, b0, b1)
+        if proof is not None:
+            w_lo, w_hi = proof                    # every root of the step lies in this box
             if ranges.limited and ranges.outside(b1, theta1) is not None:
                 lo, hi, theta_in, joint = _locate_exit(eqs, ranges, theta, theta1, x0, direction, s, t, w_lo, w_hi)
                 return _Segment(None, steps, rejected, last, "range", lo, theta_in, lo, hi, joint)
