@@ -167,7 +167,7 @@ BAD_COMMAND_LINES = [
     (["solve", GOSSELIN, "--inputs", "0,0,0", "--pruner", "pp", "--lp-backend", "highspy"],
      "--lp-backend: the 'pp' pruner solves no LP; pass no --lp-backend or --pruner lp"),
     (["solve", GOSSELIN, "--inputs", "0,0,0", "--formulation", "platform", "--no-isolate"],
-     "--formulation 'platform': needs isolation (no --no-isolate)"),
+     "--formulation 'platform': --no-isolate asked for (the platform formulation proves its roots by the Krawczyk test)"),
     (["solve", GOSSELIN, "--inputs", "0,0,0", "--json", "out.txt"], "--json out.txt: expected a file name ending"),
     (["solve", GOSSELIN, "--inputs", "0,0,0", "--plot", "out.jpg"], "--plot: expected a file name ending"),
     (["solve", GOSSELIN, "--inputs", "0,0,0", "--quiet=1"], "--quiet: takes no value, got '1'"),
