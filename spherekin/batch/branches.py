@@ -39,7 +39,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..core.angles import TWO_PI, wrap
-from .inputs import GridAxis, parse_grid
+from .inputs import GridAxis, grid_inputs
 
 __all__ = ["BRANCHES_SCHEMA", "DEFAULT_SAMPLES", "Branch", "BranchPoint", "Circuit", "BranchMap", "Connector",
            "NearestConnector", "branch_map", "check_one_input", "locate_branch_point"]
@@ -219,13 +219,10 @@ def _grid_of(mechanism, name: str, grid, samples: int) -> tuple[np.ndarray, bool
         lo, hi = (-math.pi, math.pi) if rng is None else rng
         axis = GridAxis(name, np.linspace(lo, hi, int(samples)))
     else:
-        axis = grid if isinstance(grid, GridAxis) else parse_grid(grid)
-        if axis.name != name:
-            raise ValueError(f"--grid: {axis.name} is not the actuated joint; expected {name}")
+        axis = grid
+    axis = grid_inputs(mechanism, [axis]).axes[0]     # the joint's name and every value's range checked
     values = np.asarray(axis.values, dtype=float)
-    for v in (values[0], values[-1]):            # the ends in range: the whole grid is
-        mechanism.check_inputs([v])
-    full = mechanism.ranges[name] is None and abs(values[-1] - values[0] - TWO_PI) <= FULL_TURN_TOL
+    full = bool(mechanism.ranges[name] is None and abs(values[-1] - values[0] - TWO_PI) <= FULL_TURN_TOL)
     return values, full
 
 
@@ -515,7 +512,7 @@ def _circuits(branches, points, joins, full, ends) -> tuple[Circuit, ...]:
                 merged[-1][1] = max(merged[-1][1], hi)
             else:
                 merged.append([lo, hi])
-        crank = full and not bps and bool(merged) and merged[0][0] <= ends[0] and merged[-1][1] >= ends[-1] \
+        crank = bool(full) and not bps and bool(merged) and merged[0][0] <= ends[0] and merged[-1][1] >= ends[-1] \
             and len(merged) == 1
         out.append(Circuit(tuple(members), bps, tuple((lo, hi) for lo, hi in merged), crank))
     return tuple(out)
