@@ -372,6 +372,9 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     ``samples`` points; a grid spanning 2 pi of an unlimited joint wraps); ``joint``: the passive
     joint reported and drawn (default: the first passive joint); ``connect``: the connect step
     (default :class:`NearestConnector`); ``strategy``: the keywords of :func:`spherekin.compile`.
+    The passive joints' ranges are lifted: a circuit is a property of the linkage, which a range
+    cuts short but never joins to another (an assembly leaving a range meets no other there).
+    Islands of assemblies narrower than a grid step between two inputs of the same count are not seen.
     """
     from ..problem import as_mechanism, compile as compile_problem
 
@@ -384,6 +387,7 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
         raise ValueError(f"joint: {joint!r} is not a passive joint of this mechanism; expected one of "
                          f"{', '.join(joints)}")
     values, full = _grid_of(mech, name, grid, samples)
+    mech = mech.without_ranges(mech.passive)        # circuits are the linkage's: a passive range cuts them, joins none
     problem = compile_problem(mech, **strategy)
     connect = connect or NearestConnector(mech, name, joints)
     base = list(values[:-1]) if full else list(values)
