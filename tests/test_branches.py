@@ -211,3 +211,22 @@ def test_cli_branches_need_one_actuated_joint(capsys):
     assert main(["map", str(ROOT / "examples" / "five_bar.toml"), "--grid", "A=0:1:2", "--grid", "E=0:1:2",
                  "--json", "m.json"]) == 2
     assert "--json: only for the branches of a mechanism with one actuated joint" in capsys.readouterr().err
+
+
+def test_a_grid_short_of_a_turn_gives_open_circuits_over_it_and_the_connect_step_is_pluggable():
+    from spherekin.batch.branches import NearestConnector
+    from spherekin.mechanism import four_bar
+
+    mech, calls = four_bar(), []
+    nearest = NearestConnector(mech, "A", mech.loop_unknowns)
+
+    def connect(u0, q0, u1, q1):                    # a stand-in for another connect step (tracking)
+        calls.append((u0, u1))
+        return nearest(u0, q0, u1, q1)
+
+    bmap = branch_map(mech, "A=-1:1:11", joint="D", connect=connect)
+    assert not bmap.full_turn and len(bmap.circuits) == 2 and not bmap.branch_points
+    assert all(not c.crank and c.intervals == ((-1.0, 1.0),) for c in bmap.circuits)
+    assert len(calls) >= 10 and min(u for u, _ in calls) == -1.0 and max(u for _, u in calls) == 1.0
+    geo = read_axes(FOUR_BAR)
+    check_samples_on_closed_form(bmap, geo, [])
