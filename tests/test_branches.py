@@ -100,9 +100,10 @@ def wrapped(x):
     return (x + math.pi) % (2 * math.pi) - math.pi
 
 
-def write_four_bar(path, dims, theta0):
+def write_four_bar(path, dims, theta0, triad=None):
     """A general-kind file of the four-bar with link angles ``dims`` (degrees), the crank at theta0
-    from the ground plane in the reference assembly; returns its axes (a, b0, c0, d)."""
+    from the ground plane in the reference assembly; returns its axes (a, b0, c0, d). ``triad``: the
+    axes of joints E, G, H of a third leg from the ground to the coupler (a Stephenson six-bar)."""
     g, cr, co, ro = map(math.radians, dims)
     a, d = np.array([0.0, 0.0, 1.0]), np.array([math.sin(g), 0.0, math.cos(g)])
     b = rot(a, theta0) @ np.array([math.sin(cr), 0.0, math.cos(cr)])
@@ -114,7 +115,9 @@ def write_four_bar(path, dims, theta0):
                     f'[[legs]]\nname = "crank"\n[[legs.joints]]\nname = "A"\naxis = {vec(a)}\nactuated = true\n'
                     f'[[legs.joints]]\nname = "B"\naxis = {vec(b)}\n'
                     f'[[legs]]\nname = "rocker"\n[[legs.joints]]\nname = "D"\naxis = {vec(d)}\n'
-                    f'[[legs.joints]]\nname = "C"\naxis = {vec(c)}\n')
+                    f'[[legs.joints]]\nname = "C"\naxis = {vec(c)}\n'
+                    + ("" if triad is None else '[[legs]]\nname = "triad"\n' + "".join(
+                        f'[[legs.joints]]\nname = "{n}"\naxis = {vec(v)}\n' for n, v in zip("EGH", triad))))
     return a, b, c, d
 
 
@@ -230,3 +233,36 @@ def test_a_grid_short_of_a_turn_gives_open_circuits_over_it_and_the_connect_step
     assert len(calls) >= 10 and min(u for u, _ in calls) == -1.0 and max(u for _, u in calls) == 1.0
     geo = read_axes(FOUR_BAR)
     check_samples_on_closed_form(bmap, geo, [])
+
+
+#: A third leg E-G-H from the ground to the coupler of the non-Grashof four-bar (axes in the
+#: reference assembly): a Stephenson six-bar whose triad assembles twice over the whole input range
+#: of its four-bar loop (4 assemblies there, none outside).
+TRIAD = ([-0.3630410335686741, -0.09731575234507522, 0.9266773183211623],
+         [0.3726504516670979, -0.9279671262592992, -0.0029416754351465676],
+         [-0.3601330879178536, 0.08585443853692043, -0.9289419650173318])
+
+
+def test_stephenson_six_bar_has_two_branch_points_at_each_end_of_its_four_bar_loop(tmp_path):
+    """Where the four-bar loop turns back, both triad assemblies ride along: two pairs of assemblies
+    meet at one input (the count changes by 4), each pair at its own branch point."""
+    path = tmp_path / "stephenson.toml"
+    geo = write_four_bar(path, NON_GRASHOF, NON_GRASHOF_THETA0, TRIAD)
+    expected = branch_inputs(geo)                   # the four-bar loop's limits: the six-bar's too
+    bmap = branch_map(path, "A=-pi:pi:13", joint="D")
+    assert set(bmap.counts) == {0, 4}
+    inputs = sorted(p.input for p in bmap.branch_points)
+    assert inputs == pytest.approx([expected[0]] * 2 + [expected[1]] * 2, abs=CLOSED_FORM_TOL)
+    col, triad = bmap.joints.index("D"), [bmap.joints.index(n) for n in "EGH"]
+    for u_star in expected:
+        here = [p for p in bmap.branch_points if abs(p.input - u_star) < CLOSED_FORM_TOL]
+        A, B, C = coefficients(geo, u_star)
+        for p in here:                              # the four-bar's double root, each
+            assert p.polished and abs(wrapped(p.angles[col] - math.atan2(B, A) - (math.pi if C > 0 else 0.0))) \
+                < CLOSED_FORM_TOL
+        assert max(abs(wrapped(here[0].angles[k] - here[1].angles[k])) for k in triad) > 0.1   # two triad assemblies
+    assert len(bmap.branches) == 4 and all(b.start is not None and b.end is not None for b in bmap.branches)
+    assert sorted(k for c in bmap.circuits for k in c.branches) == [0, 1, 2, 3]
+    assert not any(c.crank for c in bmap.circuits) and not bmap.unresolved
+    signs = check_samples_on_closed_form(bmap, geo, expected)     # D: the four-bar's input-output equation
+    assert sorted(signs) == [0, 0, 1, 1]

@@ -18,7 +18,8 @@ Method (:func:`branch_map`):
    :class:`NearestConnector`, continues each solution to the nearest one of the next input after a
    first-order prediction along the curve, when that is unambiguous); an interval where the match is
    ambiguous, or where the count changes, is halved (one solve at its midpoint) until it is not,
-   or, for a count change by two, until it is :data:`BISECT_TOL` wide (bisection on the input);
+   or, for a count change (by 2 k: k pairs of assemblies meet), until it is :data:`BISECT_TOL` wide
+   (bisection on the input); an ambiguous interval that narrow is reported unresolved;
 3. locate each branch point: from the bisected bracket, Newton (Gauss-Newton, least squares) on the
    augmented system (the loop equations, F_n - I = 0 of every loop, and det K_p = 0) in the passive
    readings and the input, to :data:`NEWTON_STEP_TOL`;
@@ -64,11 +65,11 @@ MAX_JUMP = 0.5
 #: Bisection on the input around a count change stops at a bracket this wide (radians); Newton
 #: polishes from there. Reason: next to a branch point the two merging assemblies are
 #: ~sqrt(distance) apart, so 1e-6 leaves them ~1e-3 apart: well inside Newton's basin, and still
-#: two roots the solver (tolerance 1e-6) separates.
+#: two roots the solver (tolerance 1e-6) separates (closer, its solves slow down and its counts
+#: become unreliable: measured on a Stephenson six-bar, seconds per solve below 1e-8). It also
+#: bounds the halving of an ambiguous interval: one still ambiguous this narrow is reported
+#: unresolved (a crossing of two branches, or two branch points closer than this).
 BISECT_TOL = 1e-6
-#: Halvings of one grid interval at most. Reason: 2 pi / 2^40 ~ 6e-12 is below any useful bracket:
-#: an interval still unresolved then is a degenerate case (a continuum, a double branch point).
-MAX_HALVINGS = 40
 #: Newton on the augmented system stops when its step (radians, every coordinate) is below this.
 #: Reason: at a regular root of the augmented system (a simple branch point) the step is the error
 #: before it, squared after it: 1e-12 means the point is known to ~1e-15 or better.
@@ -112,7 +113,9 @@ class BranchPoint:
     """Where two assemblies meet (det K_p = 0): ``input`` (radians), ``angles`` (P,) passive
     readings (radians, columns :attr:`BranchMap.joints`), ``tolerance``: how well the input is
     known (radians: Newton's last step when ``polished``, else the bisected bracket's width);
-    ``residual``: the largest |F_n - I| entry there; ``branches``: the two branches it joins."""
+    ``residual``: the largest |F_n - I| entry there; ``branches``: the two branches it joins. At an
+    input where several pairs of assemblies meet at once (a Stephenson six-bar whose four-bar loop
+    turns back), each pair has its own point."""
 
     input: float
     angles: tuple[float, ...]
@@ -139,7 +142,9 @@ class BranchMap:
     """The branches and circuits of a one-input mechanism (module doc). ``input``: the actuated
     joint; ``joints``: the passive joints (columns of every angle array); ``output``: the joint
     drawn and reported; ``grid``: the inputs first solved (radians); ``full_turn``: whether the grid
-    wraps; ``counts``: solutions at each grid input; ``samples``: inputs solved in all."""
+    wraps; ``counts``: solutions at each grid input; ``samples``: inputs solved in all;
+    ``unresolved``: input intervals (lo, hi), :data:`BISECT_TOL` wide, whose solutions could not be
+    connected (the branches end there and the circuits are not joined across them)."""
 
     mechanism: str
     input: str
@@ -152,6 +157,7 @@ class BranchMap:
     branches: tuple[Branch, ...]
     branch_points: tuple[BranchPoint, ...]
     circuits: tuple[Circuit, ...]
+    unresolved: tuple[tuple[float, float], ...] = ()
 
     @property
     def output_column(self) -> int:
@@ -174,6 +180,9 @@ class BranchMap:
                 for b in circ.branch_points) or "none"
             kind = "crank: covers the full input turn" if circ.crank else "not a full turn"
             rows.append(f"  circuit {c}: {self.input} in {spans}{unit}; branch points: {points}; {kind}")
+        for lo, hi in self.unresolved:
+            rows.append(f"  unresolved: the solutions at {self.input} = {lo * scale:.10g} and {hi * scale:.10g}{unit} "
+                        "could not be connected (branches crossing, or branch points closer than that)")
         return "\n".join(rows)
 
     def as_dict(self) -> dict:
@@ -189,6 +198,7 @@ class BranchMap:
                               for p in self.branch_points],
             "circuits": [{"branches": list(c.branches), "branch_points": list(c.branch_points),
                           "intervals": [list(i) for i in c.intervals], "crank": c.crank} for c in self.circuits],
+            "unresolved": [list(i) for i in self.unresolved],
         }
 
 
@@ -356,12 +366,6 @@ class _Samples:
             self.at[u] = q
 
 
-@dataclass
-class _Interval:
-    a: float
-    b: float
-    halvings: int = 0
-
 
 def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | None = None,
                samples: int = DEFAULT_SAMPLES, connect: Connector | None = None, **strategy) -> BranchMap:
@@ -397,33 +401,43 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     if full:
         store.at[ends[-1]] = store.at[base[0]]
     # ----- resolve every interval: a matching, or a bisected count change
-    pending = [_Interval(a, b) for a, b in zip(ends, ends[1:])]
-    done: dict[float, tuple[float, np.ndarray, bool]] = {}      # a -> (b, match, transition)
+    pending = list(zip(ends, ends[1:]))
+    done: dict[float, tuple[float, np.ndarray, bool]] = {}      # a -> (b, match, count change)
+    unresolved = []
     while pending:
         halve = []
-        for iv in pending:
-            qa, qb = store.at[iv.a], store.at[iv.b]
-            match = connect(iv.a, qa, iv.b, qb)
-            change = len(qa) != len(qb)
-            if match is not None and not change:
-                done[iv.a] = (iv.b, match, False)
-            elif match is not None and abs(len(qa) - len(qb)) == 2 and (iv.b - iv.a <= BISECT_TOL
-                                                                      or iv.halvings >= MAX_HALVINGS):
-                done[iv.a] = (iv.b, match, True)
-            elif iv.halvings >= MAX_HALVINGS:
-                raise RuntimeError(f"branches: the solutions between {name} = {iv.a:.12g} and {iv.b:.12g} could not "
-                                   f"be connected ({len(qa)} and {len(qb)} solutions; a continuum or a double branch "
-                                   "point?)")
+        for a, b in pending:
+            qa, qb = store.at[a], store.at[b]
+            match = connect(a, qa, b, qb)
+            change = len(qa) - len(qb)
+            narrow = b - a <= BISECT_TOL
+            if match is not None and (change == 0 or (narrow and change % 2 == 0)):
+                done[a] = (b, match, change != 0)
+            elif narrow:                                   # nothing continues across it
+                done[a] = (b, np.full(len(qa), -1, dtype=int), False)
+                unresolved.append((a, b))
             else:
-                halve.append(iv)
-        mids = [0.5 * (iv.a + iv.b) for iv in halve]
+                halve.append((a, b))
+        mids = [0.5 * (a + b) for a, b in halve]
         store.solve(mids)
-        pending = [part for iv, m in zip(halve, mids)
-                   for part in (_Interval(iv.a, m, iv.halvings + 1), _Interval(m, iv.b, iv.halvings + 1))]
-    return _assemble(mech, name, joints, joint, values, full, store, ends, done)
+        pending = [part for (a, b), m in zip(halve, mids) for part in ((a, m), (m, b))]
+    return _assemble(mech, name, joints, joint, values, full, store, ends, done, tuple(unresolved))
 
 
-def _assemble(mech, name, joints, joint, values, full, store, ends, done) -> BranchMap:
+def _pairs(q: np.ndarray) -> list[tuple[int, int]]:
+    """The rows of q (2 k, P) in pairs, nearest first: the pairs of assemblies that meet at one input."""
+    gap = _gaps(q, q)
+    np.fill_diagonal(gap, np.inf)
+    left, pairs = set(range(len(q))), []
+    for flat in np.argsort(gap, axis=None):
+        i, j = divmod(int(flat), len(q))
+        if i in left and j in left:
+            pairs.append((i, j))
+            left -= {i, j}
+    return pairs
+
+
+def _assemble(mech, name, joints, joint, values, full, store, ends, done, unresolved) -> BranchMap:
     """Chains of matched samples -> branches; count changes -> located branch points; circuits."""
     us = sorted(done) + [ends[-1]]
     # chains: (sample input, row) sequences; a row at u continues to match[row] at the next input
@@ -444,7 +458,7 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done) -> Bra
                 head[(b, int(nxt))] = c
     first = {(c[0]): k for k, c in enumerate(chains)}
     last = {(c[-1]): k for k, c in enumerate(chains)}
-    # branch points: the two unmatched rows of each count change's larger side
+    # branch points: the unmatched rows of each count change's larger side, in pairs
     points, joins = [], []
     starts: dict[int, int] = {}
     stops: dict[int, int] = {}
@@ -454,21 +468,21 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done) -> Bra
             continue
         na, nb = len(store.at[a]), len(store.at[b])
         if na > nb:
-            rows = [r for r in range(na) if match[r] < 0]
-            pair = [last[(a, r)] for r in rows]
-            at, q = a, store.at[a][rows]
+            at, rows = a, [r for r in range(na) if match[r] < 0]
+            chain_of = [last[(a, r)] for r in rows]
         else:
-            rows = sorted(set(range(nb)) - set(int(m) for m in match if m >= 0))
-            pair = [first[(b, r)] for r in rows]
-            at, q = b, store.at[b][rows]
-        centre = q[0] + 0.5 * wrap(q[1] - q[0])
-        u_bp, q_bp, tol, residual, polished = locate_branch_point(mech, name, joints, at, centre, (a, b))
-        k = len(points)
-        points.append(BranchPoint(float(u_bp), tuple(float(x) for x in q_bp), tol, residual, polished,
-                                  (pair[0], pair[1])))
-        for c in pair:
-            (stops if na > nb else starts)[c] = k
-        joins.append(tuple(pair))
+            at, rows = b, sorted(set(range(nb)) - set(int(m) for m in match if m >= 0))
+            chain_of = [first[(b, r)] for r in rows]
+        q = store.at[at][rows]
+        for i, j in _pairs(q):
+            centre = q[i] + 0.5 * wrap(q[j] - q[i])
+            u_bp, q_bp, tol, residual, polished = locate_branch_point(mech, name, joints, at, centre, (a, b))
+            k = len(points)
+            pair = (chain_of[i], chain_of[j])
+            points.append(BranchPoint(float(u_bp), tuple(float(x) for x in q_bp), tol, residual, polished, pair))
+            for c in pair:
+                (stops if na > nb else starts)[c] = k
+            joins.append(pair)
     # the wrap of a full turn: a chain ending at the last input continues as the one at the first
     if full:
         for row in range(len(store.at[ends[-1]])):
@@ -488,7 +502,7 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done) -> Bra
                                starts.get(k), stops.get(k)))
     circuits = _circuits(branches, points, joins, full, ends)
     return BranchMap(mech.name, name, joints, joint, values, full, tuple(len(store.at[u]) for u in values),
-                     len(store.at) - (1 if full else 0), tuple(branches), tuple(points), circuits)
+                     len(store.at) - (1 if full else 0), tuple(branches), tuple(points), circuits, unresolved)
 
 
 def _circuits(branches, points, joins, full, ends) -> tuple[Circuit, ...]:
