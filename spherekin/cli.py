@@ -402,8 +402,8 @@ def _branches(mech, args) -> int:
 
         check_plot_path(args.plot, "--plot")
     _check_strategy(mech, args)
+    bmap = branch_map(mech, grid, joint=args.joint, **_strategy(args))   # checks the grid and --joint first
     print(f"{mech.name or args.file}: branches and circuits over {name}")
-    bmap = branch_map(mech, grid, joint=args.joint, **_strategy(args))
     print(bmap.report(degrees=args.degrees))
     if args.json:
         Path(args.json).write_text(json.dumps(bmap.as_dict(), indent=2))

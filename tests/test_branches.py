@@ -199,11 +199,14 @@ def test_cli_map_of_a_one_input_file_writes_branches_json_and_plot(tmp_path, cap
     (["--joint", "X"], "--joint: 'X' is not a passive joint of this mechanism; expected one of B, D, C"),
     (["--table", "t.csv"], "--table: only for a map of two inputs"),
     (["--grid", "B=0:1:3"], "--grid/--fix: B is not an actuated joint"),
+    (["--grid", "A=-180:180:5"], "--grid point 0 (A = -180): A: -180 is more than a full turn in radians"),
+    (["--grid", "A=0:1:3", "--grid", "A=1:2:3"], "--grid: the branches of a one-input mechanism take one grid axis"),
 ])
 def test_cli_one_input_map_refuses_bad_options(args, message, capsys):
     assert main(["map", str(FOUR_BAR), *args]) == 2
-    err = capsys.readouterr().err
+    out, err = capsys.readouterr()
     assert err.startswith("spherekin: error: ") and message in err and len(err.strip().splitlines()) == 1
+    assert out == ""                                # refused before any work: nothing else printed
 
 
 def test_cli_branches_need_one_actuated_joint(capsys):
