@@ -74,6 +74,10 @@ BISECT_TOL = 1e-6
 #: Reason: at a regular root of the augmented system (a simple branch point) the step is the error
 #: before it, squared after it: 1e-12 means the point is known to ~1e-15 or better.
 NEWTON_STEP_TOL = 1e-12
+#: The smallest tolerance a polished branch point's input is given (radians). Reason: Newton's last
+#: step can be far below what float64 resolves there: det K_p and the residuals are evaluated to
+#: ~1e-16, and the branch points of the tests agree with the closed form to ~1e-15.
+LOCATE_FLOOR = 1e-14
 #: Newton steps at most (quadratic convergence needs ~5 from a bisected bracket).
 NEWTON_MAX_ITER = 30
 #: Central finite-difference step (radians) of the derivatives Newton takes numerically (the loop
@@ -112,7 +116,8 @@ class Branch:
 class BranchPoint:
     """Where two assemblies meet (det K_p = 0): ``input`` (radians), ``angles`` (P,) passive
     readings (radians, columns :attr:`BranchMap.joints`), ``tolerance``: how well the input is
-    known (radians: Newton's last step when ``polished``, else the bisected bracket's width);
+    known (radians: Newton's last step, at least :data:`LOCATE_FLOOR`, when ``polished``, else the
+    bisected bracket's width);
     ``residual``: the largest |F_n - I| entry there; ``branches``: the two branches it joins. At an
     input where several pairs of assemblies meet at once (a Stephenson six-bar whose four-bar loop
     turns back), each pair has its own point."""
@@ -267,13 +272,20 @@ class NearestConnector:
             return np.zeros(len(self.joints))
         return dq if np.all(np.isfinite(dq)) else np.zeros(len(self.joints))
 
+    @staticmethod
+    def _move(du: float, dq: np.ndarray) -> np.ndarray:
+        """The predicted move du * dq, or none where it exceeds :data:`MAX_JUMP` (next to a branch
+        point the tangent grows without bound and the first-order prediction means nothing)."""
+        move = du * dq
+        return move if np.max(np.abs(move)) <= MAX_JUMP else np.zeros_like(move)
+
     def __call__(self, u0, q0, u1, q1):
         n0, n1 = len(q0), len(q1)
         if n0 == 0 or n1 == 0:
             return np.full(n0, -1, dtype=int)
         du = u1 - u0
-        ahead = np.array([q + du * self.tangent(u0, q) for q in q0])
-        behind = np.array([q - du * self.tangent(u1, q) for q in q1])
+        ahead = np.array([q + self._move(du, self.tangent(u0, q)) for q in q0])
+        behind = np.array([q - self._move(du, self.tangent(u1, q)) for q in q1])
         gap = np.minimum(_gaps(ahead, q1), _gaps(q0, behind))      # each pair judged by its better prediction
         small, large = (gap, 0) if n0 <= n1 else (gap.T, 1)       # match the rows of the smaller side
         pick = np.argmin(small, axis=1)
@@ -337,7 +349,7 @@ def locate_branch_point(mechanism, input_name: str, joints: Sequence[str], u0: f
         residual = float(np.max(np.abs(res)))
         inside = lo - (hi - lo) <= z[-1] <= hi + (hi - lo)
         if np.max(np.abs(step)) < NEWTON_STEP_TOL and residual < BRANCH_RESIDUAL_TOL and inside:
-            return float(z[-1]), wrap(z[:-1]), float(abs(step[-1])), residual, True
+            return float(z[-1]), wrap(z[:-1]), max(float(abs(step[-1])), LOCATE_FLOOR), residual, True
     except (ValueError, np.linalg.LinAlgError):       # an input Newton took out of the joint's range
         pass
     res, _ = _augmented(mechanism, input_name, joints, np.append(np.asarray(q0, dtype=float), float(u0)))
