@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -173,7 +173,7 @@ class BranchMap:
         """One line per circuit: the input interval(s) it spans, its branch points, whether it is a crank."""
         scale, unit = (180.0 / math.pi, " deg") if degrees else (1.0, " rad")
         k = self.output_column
-        span = f"full turn" if self.full_turn else f"[{self.grid[0] * scale:.6g}, {self.grid[-1] * scale:.6g}]{unit}"
+        span = "full turn" if self.full_turn else f"[{self.grid[0] * scale:.6g}, {self.grid[-1] * scale:.6g}]{unit}"
         rows = [f"{len(self.circuits)} circuit(s), {len(self.branches)} branch(es), {len(self.branch_points)} branch "
                 f"point(s) of {self.input} over {span} ({len(self.grid)} grid inputs, {self.samples} solved); "
                 f"output: {self.output}"]
@@ -360,23 +360,23 @@ def locate_branch_point(mechanism, input_name: str, joints: Sequence[str], u0: f
 
 
 class _Samples:
-    """Solved inputs: u -> passive readings (n, P) (columns ``joints``), solved in batches."""
+    """Solved inputs: u -> passive readings (n, P) (columns ``joints``, radians in [-pi, pi)),
+    solved in batches (``Problem.solve_many``); with ``wraps`` (a full turn) an input is solved as
+    its value in [-pi, pi) (the grid runs up to its first input + 2 pi)."""
 
-    def __init__(self, problem, joints, period: float | None):
-        self.problem, self.joints, self.period = problem, tuple(joints), period
+    def __init__(self, problem, joints, wraps: bool):
+        self.problem, self.joints, self.wraps = problem, tuple(joints), wraps
         self.at: dict[float, np.ndarray] = {}
 
     def solve(self, us: Sequence[float]) -> None:
         todo = [u for u in us if u not in self.at]
         if not todo:
             return
-        # beyond the first input + 2 pi - ... : the same inputs a turn back (a full turn's wrap)
-        rows = np.array([[wrap(u) if self.period else u] for u in todo])
+        rows = np.array([[wrap(u) if self.wraps else u] for u in todo])
         for u, rep in zip(todo, self.problem.solve_many(rows)):
             cols = [rep.unknowns.index(n) for n in self.joints]
             q = np.array([wrap(np.asarray(s.angles, dtype=float)[cols]) for s in rep.solutions]).reshape(-1, len(cols))
             self.at[u] = q
-
 
 
 def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | None = None,
@@ -408,7 +408,7 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     connect = connect or NearestConnector(mech, name, joints)
     base = list(values[:-1]) if full else list(values)
     ends = base + ([base[0] + TWO_PI] if full else [])
-    store = _Samples(problem, joints, TWO_PI if full else None)
+    store = _Samples(problem, joints, full)
     store.solve(base)
     if full:
         store.at[ends[-1]] = store.at[base[0]]
