@@ -4,7 +4,8 @@ Commands:
     solve      direct kinematics of a mechanism file: every solution inside the joint ranges
     ik         inverse kinematics: every actuator solution (working mode) of a platform pose
     batch      direct kinematics of many inputs (a CSV or a grid) on Dask, written as they finish
-    map        the number of assembly modes over a 2-D grid of inputs, drawn as a map
+    map        the number of assembly modes over a 2-D grid of inputs, drawn as a map; for one
+               actuated joint, the branches and circuits over its input
     track      follow one assembly mode along a path of inputs, every step proven
     gosselin   summary of the paper's two Gosselin closure loops in Bernstein form (Section 2.1, Eq. 10)
     verify     symbolic verification of every claim of the paper; writes verification/REPORT.md
@@ -333,6 +334,11 @@ def _map(args) -> int:
     from .mechanism import load_mechanism
 
     mech = load_mechanism(args.file)
+    if len(mech.actuated) == 1 or args.joint:   # one input: its branches and circuits
+        return _branches(mech, args)
+    if args.json:
+        raise ValueError(f"--json: only for the branches of a mechanism with one actuated joint, got "
+                         f"{len(mech.actuated)} ({', '.join(mech.actuated)}); --table writes a map of two inputs")
     if len(args.grid or ()) != 2:
         raise ValueError(f"--grid: a map needs exactly two grid axes (x, then y), got {len(args.grid or ())}")
     inputs = _family_inputs(mech, args)                     # every spec and range checked here
@@ -365,6 +371,53 @@ def _map(args) -> int:
         from .plot import plot_assembly_map
 
         plot_assembly_map(amap, args.plot, degrees=args.degrees, measure=args.singularity)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+#: map's options that draw a map of two inputs, not the branches of one (refused there by name).
+_TWO_INPUT_MAP_OPTIONS = (("fix", "--fix"), ("table", "--table"), ("out", "--out"), ("singularity", "--singularity"),
+                          ("resume", "--resume"), ("overwrite", "--overwrite"), ("scheduler", "--scheduler"),
+                          ("workers", "--workers"), ("chunk_size", "--chunk-size"))
+
+
+def _branches(mech, args) -> int:
+    """``spherekin map`` of a mechanism with one actuated joint: its branches and circuits over that
+    input (:mod:`spherekin.batch.branches`)."""
+    import json
+
+    from .batch.branches import branch_map, check_one_input
+
+    name = check_one_input(mech, "--joint" if args.joint else args.file)
+    for attr, option in _TWO_INPUT_MAP_OPTIONS:
+        if getattr(args, attr):
+            raise ValueError(f"{option}: only for a map of two inputs; this mechanism has one actuated joint "
+                             f"({name}): map draws its branches (--grid, --joint, --json, --plot)")
+    if len(args.grid or ()) > 1:
+        raise ValueError(f"--grid: the branches of a one-input mechanism take one grid axis ({name}=lo:hi:n), "
+                         f"got {len(args.grid)}")
+    grid = None
+    if args.grid:
+        from .batch.inputs import parse_grid
+
+        grid = parse_grid(args.grid[0], degrees=args.degrees)
+    if args.json:
+        _check_output_file("--json", args.json, (".json",))
+    if args.plot:
+        from .plot import check_plot_path
+
+        check_plot_path(args.plot, "--plot")
+    _check_strategy(mech, args)
+    bmap = branch_map(mech, grid, joint=args.joint, **_strategy(args))   # checks the grid and --joint first
+    print(f"{mech.name or args.file}: branches and circuits over {name}")
+    print(bmap.report(degrees=args.degrees))
+    if args.json:
+        Path(args.json).write_text(json.dumps(bmap.as_dict(), indent=2))
+        print(f"wrote {args.json}")
+    if args.plot:
+        from .plot import plot_branches
+
+        plot_branches(bmap, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return 0
 
@@ -807,7 +860,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(b)
     _add_strategy_options(b)
     b.set_defaults(func=_batch)
-    mp = sub_add_parser("map", help="number of assembly modes over a 2-D grid of inputs, drawn as a map")
+    mp = sub_add_parser("map", help="number of assembly modes over a 2-D grid of inputs, drawn as a map; "
+                                    "one actuated joint: branches and circuits over its input")
     mp.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     _add_grid_options(mp)
     mp.add_argument("--plot", help="draw the map (.png, .pdf or .svg)")
@@ -815,6 +869,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="second panel: the smallest normalized parallel-singularity measure over the solutions")
     mp.add_argument("--table", help="write the map, one row per grid point, as CSV")
     mp.add_argument("--out", help="also write the results table (one row per solution; .parquet or .csv)")
+    mp.add_argument("--joint", help="one actuated joint: the passive joint whose angle the branches report and draw "
+                                     "(default: the first passive joint)")
+    mp.add_argument("--json", help="one actuated joint: write the branches, branch points and circuits as JSON")
     _add_engine_options(mp)
     _add_strategy_options(mp)
     mp.set_defaults(func=_map)

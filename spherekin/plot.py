@@ -49,6 +49,7 @@ __all__ = [
     "check_plot_path",
     "plot_assembly_map",
     "plot_track",
+    "plot_branches",
     "residual_text",
     "RESIDUAL_NOISE",
     "NO_ASSEMBLY_LABEL",
@@ -722,6 +723,54 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
                   + ("a parallel singularity" if st.kind == "singular" else f"{st.joint} leaves its range"))
     fig.suptitle(title, fontsize=11)
     fig.align_ylabels((ax, ax2))
+    if out is not None:
+        fig.savefig(out, format=fmt, dpi=DPI)
+    return fig
+
+
+#: Size (inches) of :func:`plot_branches`' figure.
+BRANCHES_INCHES = (8.0, 5.0)
+#: Colours of the circuits in :func:`plot_branches` (cycled beyond ten circuits).
+CIRCUIT_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink",
+                   "tab:olive", "tab:cyan", "tab:gray")
+
+
+def plot_branches(bmap, path=None, *, degrees: bool = False):
+    """Draw the branches of a one-input mechanism (:class:`spherekin.batch.branches.BranchMap`): the
+    output joint's angle against the input, one colour per circuit (dashed: not a crank circuit),
+    the branch points marked with black diamonds. Angles in radians (``degrees``: in degrees); a
+    branch is broken where its output angle wraps from pi to -pi. Returns the matplotlib Figure;
+    with ``path`` (.png, .pdf or .svg) it is also written there."""
+    from matplotlib.figure import Figure
+
+    out = fmt = None
+    if path is not None:
+        out, fmt = check_plot_path(path)
+    scale, unit = (180.0 / math.pi, "deg") if degrees else (1.0, "rad")
+    col = bmap.output_column
+    fig = Figure(figsize=BRANCHES_INCHES, dpi=DPI, layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    for c, circuit in enumerate(bmap.circuits):
+        colour = CIRCUIT_COLOURS[c % len(CIRCUIT_COLOURS)]
+        style = "-" if circuit.crank else "--"
+        label = f"circuit {c + 1}" + (" (crank)" if circuit.crank else "")
+        for k in circuit.branches:
+            branch = bmap.branches[k]
+            x, y = branch.inputs * scale, branch.angles[:, col] * scale
+            cut = np.nonzero(np.abs(np.diff(branch.angles[:, col])) > math.pi)[0] + 1   # a wrap: no line across
+            for xs, ys in zip(np.split(x, cut), np.split(y, cut)):
+                ax.plot(xs, ys, style, color=colour, lw=1.6, label=label)
+                label = None
+    if bmap.branch_points:
+        ax.plot([p.input * scale for p in bmap.branch_points], [p.angles[col] * scale for p in bmap.branch_points],
+                "D", color="black", markersize=6, linestyle="none", label="branch point (det K_p = 0)")
+    ax.set_xlabel(f"{bmap.input} ({unit})")
+    ax.set_ylabel(f"{bmap.output} ({unit})")
+    ax.grid(alpha=0.3)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"{bmap.mechanism}: {len(bmap.circuits)} circuit(s), {len(bmap.branch_points)} branch point(s)",
+                 fontsize=11)
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig

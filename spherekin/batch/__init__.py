@@ -3,7 +3,9 @@
 ``solve_many(mechanism, inputs)`` returns the results table (pandas, one row per solution, see
 :mod:`spherekin.batch.rows`) of every input; ``solve_to_file(mechanism, inputs, out)`` writes it to
 a Parquet dataset or CSV file as it is computed (``resume=True`` completes a partial one);
-``assembly_map(mechanism, x, y, fixed)`` counts the solutions over a 2-D grid (:class:`AssemblyMap`).
+``assembly_map(mechanism, x, y, fixed)`` counts the solutions over a 2-D grid (:class:`AssemblyMap`);
+``branch_map(mechanism, grid, joint=...)``: the branches and circuits of a one-input mechanism
+(:class:`BranchMap`, :mod:`spherekin.batch.branches`).
 ``mechanism``: a SphericalMechanism or the path of a mechanism file (as for :func:`spherekin.solve`).
 Inputs: an array (K, A) in radians, a DataFrame with a column per actuated joint, or an
 :class:`InputSet` (:func:`grid_inputs`, :func:`read_inputs_csv`). Where it runs: ``client`` (a
@@ -17,10 +19,11 @@ from __future__ import annotations
 from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
+from .branches import BranchMap, branch_map
 from .maps import MAP_COLUMNS, AssemblyMap, aggregate
 from .sinks import Sink, check_fingerprints, check_output_path, open_sink, read_results
 
-__all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "GridAxis", "InputSet", "grid_inputs",
+__all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "branch_map", "BranchMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]
 
 
