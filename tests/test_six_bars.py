@@ -99,3 +99,42 @@ def test_a_stephenson_six_bar_tracked_into_a_fold_stops_at_the_singular_input():
     fold = -best.fun
     assert abs(fold - stop.singular_inputs["A"]) < 1e-8
     assert last.inputs["A"] <= stop.last_proven_inputs["A"] <= stop.singular_inputs["A"]
+
+
+def test_the_watt_six_bars_circuits_and_branch_points_against_two_four_bars_in_series():
+    """Branch points: where the closed form's count changes (the dyad E-F-G's two assemblies meet),
+    located here by bisection on that count; each circuit joins the branches that meet there."""
+    from spherekin.batch import branch_map
+
+    mech = load_mechanism(EXAMPLES / "watt_six_bar.toml")
+    bmap = branch_map(mech, "A=-pi:pi:36", joint="E")
+    grid = np.linspace(-math.pi, math.pi, 4001)
+    counts = np.array([len(watt_reference(mech, float(u))) for u in grid])
+    want = []
+    for k in np.flatnonzero(np.diff(counts)):
+        lo, hi = grid[k], grid[k + 1]
+        while hi - lo > 1e-13:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if len(watt_reference(mech, mid)) == counts[k] else (lo, mid)
+        want.append(0.5 * (lo + hi))
+    assert len(want) == 4 and len(bmap.branch_points) == 4
+    for u in want:
+        assert min(abs(p.input - u) for p in bmap.branch_points) < 1e-9
+    # between the branch points the count is the closed form's, grid input by grid input
+    for u, n in zip(bmap.grid, bmap.counts):
+        assert n == len(watt_reference(mech, float(u)))
+    # each branch point joins two branches of one circuit; every branch belongs to one circuit
+    members = [set(c.branches) for c in bmap.circuits]
+    assert sorted(b for m in members for b in m) == list(range(len(bmap.branches)))
+    for p in bmap.branch_points:
+        assert sum(set(p.branches) <= m for m in members) == 1
+    # every sampled E against the closed form's assemblies at that input (away from the branch points,
+    # where the closed form's acos has only ~sqrt(eps) of its digits)
+    col = bmap.joints.index("E")
+    checked = 0
+    for br in bmap.branches:
+        for u, row in zip(br.inputs, br.angles):
+            if min(abs(u - w) for w in want) > 1e-4:
+                assert min(close(row[col], r["E"]) for r in watt_reference(mech, float(u))) < 1e-9
+                checked += 1
+    assert checked > 50

@@ -491,7 +491,8 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done, unreso
             u_bp, q_bp, tol, residual, polished = locate_branch_point(mech, name, joints, at, centre, (a, b))
             k = len(points)
             pair = (chain_of[i], chain_of[j])
-            points.append(BranchPoint(float(u_bp), tuple(float(x) for x in q_bp), tol, residual, polished, pair))
+            points.append(BranchPoint(float(u_bp), tuple(float(x) for x in q_bp), float(tol), float(residual), bool(polished),
+                                      pair))
             for c in pair:
                 (stops if na > nb else starts)[c] = k
             joins.append(pair)
