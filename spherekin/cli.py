@@ -408,7 +408,11 @@ def _branches(mech, args) -> int:
 
         check_plot_path(args.plot, "--plot")
     _check_strategy(mech, args)
-    bmap = branch_map(mech, grid, joint=args.joint, **_strategy(args))   # checks the grid and --joint first
+    progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
+    try:
+        bmap = branch_map(mech, grid, joint=args.joint, progress=progress, **_strategy(args))   # checks first
+    finally:
+        progress.close()
     print(f"{mech.name or args.file}: branches and circuits over {name}")
     print(bmap.report(degrees=args.degrees))
     if args.json:

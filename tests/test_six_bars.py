@@ -6,6 +6,7 @@ scipy on rotation products written in this file."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -118,6 +119,8 @@ def test_the_watt_six_bars_circuits_and_branch_points_against_two_four_bars_in_s
             lo, hi = (mid, hi) if len(watt_reference(mech, mid)) == counts[k] else (lo, mid)
         want.append(0.5 * (lo + hi))
     assert len(want) == 4 and len(bmap.branch_points) == 4
+    data = json.loads(json.dumps(bmap.as_dict()))          # plain JSON types throughout
+    assert [p["input"] for p in data["branch_points"]] == [p.input for p in bmap.branch_points]
     for u in want:
         assert min(abs(p.input - u) for p in bmap.branch_points) < 1e-9
     # between the branch points the count is the closed form's, grid input by grid input
@@ -138,3 +141,23 @@ def test_the_watt_six_bars_circuits_and_branch_points_against_two_four_bars_in_s
                 assert min(close(row[col], r["E"]) for r in watt_reference(mech, float(u))) < 1e-9
                 checked += 1
     assert checked > 50
+
+
+def test_the_stephenson_six_bars_map_joins_its_two_assemblies_at_the_fold_it_tracks_into():
+    """Around the fold of the track test: two assemblies below it, none above; the map must join them
+    into one circuit at one branch point (not leave the two, 1e-3 apart next to it, unconnected), at
+    the input the track locates and the rotation products confirm (the track test's reference)."""
+    from spherekin.batch import branch_map
+
+    mech = load_mechanism(EXAMPLES / "stephenson_six_bar.toml")
+    bmap = branch_map(mech, "A=1.2:1.5:7")
+    assert bmap.counts[0] == 2 and bmap.counts[-1] == 0
+    assert bmap.unresolved == () and len(bmap.branch_points) == 1 and len(bmap.circuits) == 1
+    (point,) = bmap.branch_points
+    assert set(point.branches) == set(bmap.circuits[0].branches) and len(bmap.branches) == 2
+    track = sk.compile(mech).track(np.linspace(1.2, 1.5, 7)[:, None], start=0)
+    assert track.stop is not None and track.stop.kind == "singular"
+    assert abs(point.input - track.stop.singular_inputs["A"]) < 1e-9
+    closures = stephenson_closures(mech)
+    x = np.array([point.input, *(point.angles[bmap.joints.index(n)] for n in "BCDEFG")])
+    assert np.abs(closures(x)).max() < 1e-9

@@ -19,14 +19,18 @@ Method (:func:`branch_map`):
    first-order prediction along the curve, when that is unambiguous); an interval where the match is
    ambiguous, or where the count changes, is halved (one solve at its midpoint) until it is not,
    or, for a count change (by 2 k: k pairs of assemblies meet), until it is :data:`BISECT_TOL` wide
-   (bisection on the input); an ambiguous interval that narrow is reported unresolved;
+   (bisection on the input); an ambiguous interval that narrow is matched to the nearest when it lies
+   next to a count change (the two assemblies meeting at that branch point are too close there for a
+   clear match, and end in one circuit either way), else reported unresolved (branches crossing);
 3. locate each branch point: from the bisected bracket, Newton (Gauss-Newton, least squares) on the
    augmented system (the loop equations, F_n - I = 0 of every loop, and det K_p = 0) in the passive
    readings and the input, to :data:`NEWTON_STEP_TOL`;
 4. join branches into circuits (union-find over branch points and the wrap).
 
 The connect step is a function of two consecutive samples only (:data:`Connector`), so a certified
-continuation on the loop equations can take the place of the nearest-neighbour rule.
+continuation on the loop equations (:mod:`spherekin.trust.loop_continuation`) can take the place of
+the nearest-neighbour rule: measured on examples/stephenson_six_bar.toml it gave the same circuits
+at twice the time (its steps next to a fold are short), so it is not the default.
 
 JSON: :meth:`BranchMap.as_dict` (schema :data:`BRANCHES_SCHEMA`, docs/results-format.md).
 """
@@ -44,6 +48,10 @@ from .inputs import GridAxis, grid_inputs
 
 __all__ = ["BRANCHES_SCHEMA", "DEFAULT_SAMPLES", "Branch", "BranchPoint", "Circuit", "BranchMap", "Connector",
            "NearestConnector", "branch_map", "check_one_input", "locate_branch_point"]
+
+#: Inputs solved between two calls of a branch map's progress callback. Reason: one solve of a
+#: six-bar takes ~0.1 s, so a line every ~1 s; fewer inputs per call would cost solve_many's batching.
+PROGRESS_CHUNK = 8
 
 #: The JSON schema name of :meth:`BranchMap.as_dict`.
 BRANCHES_SCHEMA = "spherekin.branches/1"
@@ -194,17 +202,25 @@ class BranchMap:
         """The JSON (schema :data:`BRANCHES_SCHEMA`, docs/results-format.md); angles in radians."""
         return {
             "schema": BRANCHES_SCHEMA, "mechanism": self.mechanism, "input": self.input, "joints": list(self.joints),
-            "output": self.output, "full_turn": self.full_turn,
-            "inputs": [float(u) for u in self.grid], "counts": list(self.counts), "samples": self.samples,
-            "branches": [{"inputs": b.inputs.tolist(), "angles": b.angles.tolist(), "start": b.start, "end": b.end}
-                         for b in self.branches],
-            "branch_points": [{"input": p.input, "angles": dict(zip(self.joints, p.angles)), "tolerance": p.tolerance,
-                               "residual": p.residual, "polished": p.polished, "branches": list(p.branches)}
+            "output": self.output, "full_turn": bool(self.full_turn),
+            "inputs": [float(u) for u in self.grid], "counts": [int(n) for n in self.counts],
+            "samples": int(self.samples),
+            "branches": [{"inputs": b.inputs.tolist(), "angles": b.angles.tolist(), "start": _int(b.start),
+                          "end": _int(b.end)} for b in self.branches],
+            "branch_points": [{"input": float(p.input), "angles": {n: float(a) for n, a in zip(self.joints, p.angles)},
+                               "tolerance": float(p.tolerance), "residual": float(p.residual),
+                               "polished": bool(p.polished), "branches": [int(b) for b in p.branches]}
                               for p in self.branch_points],
-            "circuits": [{"branches": list(c.branches), "branch_points": list(c.branch_points),
-                          "intervals": [list(i) for i in c.intervals], "crank": c.crank} for c in self.circuits],
-            "unresolved": [list(i) for i in self.unresolved],
+            "circuits": [{"branches": [int(b) for b in c.branches], "branch_points": [int(b) for b in c.branch_points],
+                          "intervals": [[float(lo), float(hi)] for lo, hi in c.intervals], "crank": bool(c.crank)}
+                         for c in self.circuits],
+            "unresolved": [[float(lo), float(hi)] for lo, hi in self.unresolved],
         }
+
+
+def _int(value):
+    """An index for the JSON: int, or None (a branch that starts or ends at no branch point)."""
+    return None if value is None else int(value)
 
 
 # ---------------------------------------------------------------------------------------------- checks
@@ -364,30 +380,36 @@ class _Samples:
     solved in batches (``Problem.solve_many``); with ``wraps`` (a full turn) an input is solved as
     its value in [-pi, pi) (the grid runs up to its first input + 2 pi)."""
 
-    def __init__(self, problem, joints, wraps: bool):
+    def __init__(self, problem, joints, wraps: bool, progress=None, planned: int = 0):
         self.problem, self.joints, self.wraps = problem, tuple(joints), wraps
         self.at: dict[float, np.ndarray] = {}
+        self.progress, self.planned = progress, planned
 
     def solve(self, us: Sequence[float]) -> None:
         todo = [u for u in us if u not in self.at]
-        if not todo:
-            return
-        rows = np.array([[wrap(u) if self.wraps else u] for u in todo])
-        for u, rep in zip(todo, self.problem.solve_many(rows)):
-            cols = [rep.unknowns.index(n) for n in self.joints]
-            q = np.array([wrap(np.asarray(s.angles, dtype=float)[cols]) for s in rep.solutions]).reshape(-1, len(cols))
-            self.at[u] = q
+        self.planned = max(self.planned, len(self.at) + len(todo))
+        for start in range(0, len(todo), PROGRESS_CHUNK):
+            part = todo[start:start + PROGRESS_CHUNK]
+            rows = np.array([[wrap(u) if self.wraps else u] for u in part])
+            for u, rep in zip(part, self.problem.solve_many(rows)):
+                cols = [rep.unknowns.index(n) for n in self.joints]
+                q = np.array([wrap(np.asarray(s.angles, dtype=float)[cols]) for s in rep.solutions]).reshape(-1, len(cols))
+                self.at[u] = q
+            if self.progress is not None:     # refinements add inputs: the total grows with them
+                self.progress(len(self.at), self.planned)
 
 
 def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | None = None,
-               samples: int = DEFAULT_SAMPLES, connect: Connector | None = None, **strategy) -> BranchMap:
+               samples: int = DEFAULT_SAMPLES, connect: Connector | None = None,
+               progress: Callable[[int, int], None] | None = None, **strategy) -> BranchMap:
     """The branches, branch points and circuits of a one-input mechanism (module doc).
 
     ``mechanism``: a SphericalMechanism or a mechanism file's path, one actuated joint; ``grid``:
     that joint's inputs ("name=lo:hi:n" or a GridAxis; default: its range, or a full turn, of
     ``samples`` points; a grid spanning 2 pi of an unlimited joint wraps); ``joint``: the passive
     joint reported and drawn (default: the first passive joint); ``connect``: the connect step
-    (default :class:`NearestConnector`); ``strategy``: the keywords of :func:`spherekin.compile`.
+    (default :class:`NearestConnector`); ``progress``: called with (inputs solved, inputs planned so
+    far) as solving goes (refinements add inputs); ``strategy``: the keywords of :func:`spherekin.compile`.
     The passive joints' ranges are lifted: a circuit is a property of the linkage, which a range
     cuts short but never joins to another (an assembly leaving a range meets no other there).
     Islands of assemblies narrower than a grid step between two inputs of the same count are not seen.
@@ -408,7 +430,7 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     connect = connect or NearestConnector(mech, name, joints)
     base = list(values[:-1]) if full else list(values)
     ends = base + ([base[0] + TWO_PI] if full else [])
-    store = _Samples(problem, joints, full)
+    store = _Samples(problem, joints, full, progress, len(base))
     store.solve(base)
     if full:
         store.at[ends[-1]] = store.at[base[0]]
@@ -423,6 +445,8 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
             match = connect(a, qa, b, qb)
             change = len(qa) - len(qb)
             narrow = b - a <= BISECT_TOL
+            if match is None and narrow and change == 0 and _next_to_a_count_change(store, a, b):
+                match = _nearest(qa, qb)                   # next to a fold: the pair that meets is one circuit
             if match is not None and (change == 0 or (narrow and change % 2 == 0)):
                 done[a] = (b, match, change != 0)
             elif narrow:                                   # nothing continues across it
@@ -434,6 +458,23 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
         store.solve(mids)
         pending = [part for (a, b), m in zip(halve, mids) for part in ((a, m), (m, b))]
     return _assemble(mech, name, joints, joint, values, full, store, ends, done, tuple(unresolved))
+
+
+def _next_to_a_count_change(store, a: float, b: float) -> bool:
+    """Whether the solved input next to the narrow interval [a, b] on either side (within its width)
+    has another count: the interval lies at a branch point, whose two meeting assemblies are too
+    close there for a clear match (and end in one circuit whichever way they are matched)."""
+    n, width = len(store.at[a]), b - a
+    near = [u for u in store.at if u != a and u != b and (a - width <= u < a or b < u <= b + width)]
+    return any(len(store.at[u]) != n for u in near)
+
+
+def _nearest(qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
+    """Each row of qa to its nearest row of qb (equal counts), when no two pick the same; else None."""
+    if len(qa) != len(qb) or not len(qa):
+        return None
+    pick = np.argmin(_gaps(qa, qb), axis=1)
+    return pick.astype(int) if len(set(pick.tolist())) == len(pick) else None
 
 
 def _pairs(q: np.ndarray) -> list[tuple[int, int]]:
