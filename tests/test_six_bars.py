@@ -150,7 +150,10 @@ def test_the_stephenson_six_bars_map_joins_its_two_assemblies_at_the_fold_it_tra
     from spherekin.batch import branch_map
 
     mech = load_mechanism(EXAMPLES / "stephenson_six_bar.toml")
-    bmap = branch_map(mech, "A=1.2:1.5:7")
+    # the two inputs of the default full-turn grid (90 points) that hold the fold between them
+    grid = np.linspace(-math.pi, math.pi, 90)
+    k = int(np.searchsorted(grid, 1.38378))
+    bmap = branch_map(mech, f"A={float(grid[k - 1])!r}:{float(grid[k])!r}:2")
     assert bmap.counts[0] == 2 and bmap.counts[-1] == 0
     assert bmap.unresolved == () and len(bmap.branch_points) == 1 and len(bmap.circuits) == 1
     (point,) = bmap.branch_points
