@@ -2,8 +2,8 @@
 
 Mechanisms: a spherical four-bar and five-bar (:func:`spherekin.mechanism.four_bar`, ``five_bar``),
 the elbow-actuated 3-RRR (general_3rrr with each leg's elbow joint actuated instead of its base
-joint), general_3rrr, and the Watt six-bar of examples/watt_six_bar.toml (skipped, with a note,
-where that file is missing or this checkout cannot read it). For each mechanism and each system of
+joint), general_3rrr, and the Watt and Stephenson six-bars of examples/ (graph files; the Watt one
+skipped, with a note, where that file is missing or this checkout cannot read it). For each mechanism and each system of
 :data:`spherekin.systems.SYSTEMS` that accepts it, the problem is compiled once and solved
 ``--repeats`` times at one input; the table gives the median per-solve wall time, the solutions
 found and proven, and which system "auto" chooses (with the reasons of the faster ones that
@@ -31,6 +31,7 @@ from spherekin.systems import SYSTEMS
 
 ROOT = Path(__file__).resolve().parent.parent
 WATT = ROOT / "examples" / "watt_six_bar.toml"
+STEPHENSON = ROOT / "examples" / "stephenson_six_bar.toml"
 #: Inputs of general_3rrr (radians): 8 real assemblies' worth of a regular input.
 INPUTS_3RRR = (0.3, -0.2, 0.5)
 #: The Watt six-bar's input offset from its reference assembly (where every joint reads 0, so the
@@ -71,6 +72,8 @@ def cases(quick: bool = False):
                 out.append(("Watt six-bar", None, f"{WATT.relative_to(ROOT)} cannot be read here ({exc})"))
             else:
                 out.append(("Watt six-bar", watt, tuple(GRAPH_OFFSET for _ in watt.actuated)))
+        stephenson = load_mechanism(STEPHENSON)
+        out.append(("Stephenson six-bar", stephenson, tuple(GRAPH_OFFSET for _ in stephenson.actuated)))
     return out
 
 

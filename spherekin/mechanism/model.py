@@ -381,6 +381,12 @@ class SphericalMechanism:
     graph: MechanismGraph | None = None
     link_graph: MechanismGraph | None = field(init=False, repr=False, compare=False, default=None)
     loop_geometry: tuple = field(init=False, repr=False, compare=False, default=())
+    #: Derived once for the Jacobians and poses (hot in the trust layer): joint name -> Joint; link ->
+    #: its tree path as Steps; per loop, (column, sign, joint, first link) of each term of its velocity
+    #: constraint (:meth:`_constraints`).
+    joint_map: Mapping = field(init=False, repr=False, compare=False, default=None)
+    link_paths: Mapping = field(init=False, repr=False, compare=False, default=None)
+    constraint_terms: tuple = field(init=False, repr=False, compare=False, default=())
 
     # ---------------------------------------------------------------- construction
 
@@ -418,6 +424,14 @@ class SphericalMechanism:
         joints = {j.name: j for j in graph.joints}
         loops = tuple(self._polygon(self._loop_labels(lp), lp.up, lp.down, joints) for lp in graph.loops)
         object.__setattr__(self, "loop_geometry", loops)
+        object.__setattr__(self, "joint_map", MappingProxyType(joints))
+        object.__setattr__(self, "link_paths", MappingProxyType({link: graph.path(link) for link in graph.link_names}))
+        first_link = {j.name: pair[0] for j, pair in zip(graph.joints, graph.links)}
+        column = {j.name: k for k, j in enumerate(graph.joints)}
+        object.__setattr__(self, "constraint_terms", tuple(
+            tuple((column[st.joint], sgn * st.sign, st.joint, first_link[st.joint])
+                  for steps, sgn in ((g.up, 1.0), (g.down, -1.0)) for st in steps)
+            for g in loops))
 
     def _from_legs(self) -> None:
         if isinstance(self.legs, (str, bytes)) or not isinstance(self.legs, (Sequence, tuple)):
@@ -572,10 +586,10 @@ class SphericalMechanism:
         return np.array(self.platform_reference)
 
     def joint(self, name: str) -> Joint:
-        for j in self.joints:
-            if j.name == name:
-                return j
-        raise ValueError(f"name: expected one of {self.joint_names}, got {name!r}")
+        try:
+            return self.joint_map[name]
+        except (KeyError, TypeError):
+            raise ValueError(f"name: expected one of {self.joint_names}, got {name!r}") from None
 
     def leg(self, name: str) -> Leg:
         for leg in self.legs:
@@ -735,7 +749,7 @@ class SphericalMechanism:
         n = len(next(iter(readings.values()))) if readings else 1
         out = np.broadcast_to(np.eye(3), (n, 3, 3))
         for st in steps:
-            j = self.joint(st.joint)
+            j = self.joint_map[st.joint]
             out = out @ axis_rotations(j.axis, st.sign * (np.asarray(readings[st.joint], dtype=float) - j.reference_angle))
         return out
 
@@ -745,11 +759,11 @@ class SphericalMechanism:
         R_a Rot(axis, reading - reference) for a joint [a, b]); the ground's is I."""
         readings = {n: np.array([float(v)]) for n, v in joint_angles.items()}
         graph = self.link_graph
-        need = {st.joint for link in graph.link_names for st in graph.path(link)}
+        need = {st.joint for path in self.link_paths.values() for st in path}
         missing = [n for n in self.joint_names if n in need and n not in readings]
         if missing:
             raise ValueError(f"joint_angles: missing angle(s) for {missing}")
-        return {link: self._steps_rotation(graph.path(link), readings)[0] for link in graph.link_names}
+        return {link: self._steps_rotation(self.link_paths[link], readings)[0] for link in graph.link_names}
 
     def pose_from_passive(self, inputs, passive_angles: Mapping[str, float]) -> np.ndarray | None:
         """The output link's pose R (3x3) from actuator inputs and solved passive readings (radians),
@@ -763,7 +777,7 @@ class SphericalMechanism:
         values = dict(zip(self.actuated, self.check_inputs(inputs)))
         if self.output is None:
             return None
-        path = self.link_graph.path(self.output)
+        path = self.link_paths[self.output]
         need = [st.joint for st in path if st.joint not in values]
         angles = self._check_angles("passive_angles", passive_angles, need)
         bad = [n for n in angles if n in values]
@@ -786,7 +800,7 @@ class SphericalMechanism:
         )
         pose = None
         if self.output is not None:
-            pose = self._steps_rotation(self.link_graph.path(self.output), arrays)[0] @ ref
+            pose = self._steps_rotation(self.link_paths[self.output], arrays)[0] @ ref
         return ForwardResult(
             pose=pose,
             leg_poses=leg_poses,
@@ -879,22 +893,14 @@ class SphericalMechanism:
             axes = np.array([j.axis for j in leg.joints])
             disp = np.stack([np.asarray(readings[j.name], dtype=float) - j.reference_angle for j in leg.joints], axis=-1)
             leg_j[leg.name] = current_axes(axes, disp)
-        graph = self.link_graph
-        first_link = {j.name: pair[0] for j, pair in zip(graph.joints, graph.links)}
         rotations: dict[str, np.ndarray] = {}
-
-        def current(joint: str) -> np.ndarray:
-            link = first_link[joint]
-            if link not in rotations:
-                rotations[link] = self._steps_rotation(graph.path(link), readings)
-            return rotations[link] @ np.asarray(self.joint(joint).axis)
-
         rows = []
-        for g in self.loop_geometry:
+        for terms in self.constraint_terms:
             block = np.zeros((n, 3, len(names)))
-            for steps, sgn in ((g.up, 1.0), (g.down, -1.0)):
-                for st in steps:
-                    block[:, :, names.index(st.joint)] += sgn * st.sign * current(st.joint)
+            for col, sign, joint, link in terms:
+                if link not in rotations:
+                    rotations[link] = self._steps_rotation(self.link_paths[link], readings)
+                block[:, :, col] += sign * (rotations[link] @ np.asarray(self.joint_map[joint].axis))
             rows.append(block)
         return leg_j, np.concatenate(rows, axis=1)
 
