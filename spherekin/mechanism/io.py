@@ -239,13 +239,7 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
             lines.append(f"output = {_str(g.output)}")
         for j, (a, b) in zip(g.joints, g.links):
             lines += ["", "[[joints]]", f"name = {_str(j.name)}", f"links = [{_str(a)}, {_str(b)}]",
-                      f"axis = {_vec(j.axis)}"]
-            if j.actuated:
-                lines.append("actuated = true")
-            if j.range is not None:
-                lines.append(f"range = {_vec(j.range)}")
-            if j.reference_angle != 0.0 or math.copysign(1.0, j.reference_angle) < 0:
-                lines.append(f"reference_angle = {_num(j.reference_angle)}")
+                      *_joint_lines(j)]
         return "\n".join(lines) + "\n"
     lines += ['kind = "general"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
     if not np.array_equal(mech.platform_reference_matrix, np.eye(3)):
@@ -253,11 +247,17 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
     for leg in mech.legs:
         lines += ["", "[[legs]]", f"name = {_str(leg.name)}"]
         for j in leg.joints:
-            lines += ["", "[[legs.joints]]", f"name = {_str(j.name)}", f"axis = {_vec(j.axis)}"]
-            if j.actuated:
-                lines.append("actuated = true")
-            if j.range is not None:
-                lines.append(f"range = {_vec(j.range)}")
-            if j.reference_angle != 0.0 or math.copysign(1.0, j.reference_angle) < 0:
-                lines.append(f"reference_angle = {_num(j.reference_angle)}")
+            lines += ["", "[[legs.joints]]", f"name = {_str(j.name)}", *_joint_lines(j)]
     return "\n".join(lines) + "\n"
+
+
+def _joint_lines(j) -> list[str]:
+    """A joint's axis and, when not the defaults, actuated, range and reference_angle (both kinds)."""
+    lines = [f"axis = {_vec(j.axis)}"]
+    if j.actuated:
+        lines.append("actuated = true")
+    if j.range is not None:
+        lines.append(f"range = {_vec(j.range)}")
+    if j.reference_angle != 0.0 or math.copysign(1.0, j.reference_angle) < 0:
+        lines.append(f"reference_angle = {_num(j.reference_angle)}")
+    return lines
