@@ -299,3 +299,14 @@ def test_the_sphere_figure_draws_every_link_of_a_graph():
     coupler = r["pose"]
     assert np.abs(axes[mech.joint_names.index("C")] - coupler @ np.array(mech.joint("C").axis)).max() < 1e-9
     assert np.abs(axes[mech.joint_names.index("D")] - np.array(mech.joint("D").axis)).max() < 1e-12
+
+
+def test_a_graph_mechanism_travels_to_a_worker_by_pickle():
+    import pickle
+
+    mech = load_mechanism(EXAMPLES / "watt_six_bar.toml")
+    again = pickle.loads(pickle.dumps(mech))
+    assert again == mech and again.link_graph.loops == mech.link_graph.loops
+    want = watt_reference(mech, 0.7)
+    report = sk.solve(again, (0.7,))
+    assert report.proven_count == len(want) == 4

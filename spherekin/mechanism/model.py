@@ -424,8 +424,9 @@ class SphericalMechanism:
         joints = {j.name: j for j in graph.joints}
         loops = tuple(self._polygon(self._loop_labels(lp), lp.up, lp.down, joints) for lp in graph.loops)
         object.__setattr__(self, "loop_geometry", loops)
-        object.__setattr__(self, "joint_map", MappingProxyType(joints))
-        object.__setattr__(self, "link_paths", MappingProxyType({link: graph.path(link) for link in graph.link_names}))
+        # plain dicts (a mappingproxy cannot be pickled, and mechanisms travel to Dask workers)
+        object.__setattr__(self, "joint_map", dict(joints))
+        object.__setattr__(self, "link_paths", {link: graph.path(link) for link in graph.link_names})
         first_link = {j.name: pair[0] for j, pair in zip(graph.joints, graph.links)}
         column = {j.name: k for k, j in enumerate(graph.joints)}
         object.__setattr__(self, "constraint_terms", tuple(
