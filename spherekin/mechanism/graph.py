@@ -191,11 +191,9 @@ class MechanismGraph:
                 parent[there] = (k, sign, here)
                 queue.append(there)
         missing = [n for n in self.link_names if n not in reached]
-        if missing and allowed is not None and len(missing) < len(self.link_names):
-            unreachable = self._unreachable()
-            if not unreachable:
-                raise ValueError(f"tree: the joints {list(self.tree)} do not connect every link to the ground "
-                                 f"(not reached: {missing})")
+        if missing and allowed is not None and not self._unreachable():
+            raise ValueError(f"tree: the joints {list(self.tree)} do not connect every link to the ground "
+                             f"(not reached: {missing})")
         if missing:
             raise ValueError(
                 f"links: {missing} are not connected to the ground {self.ground!r} by any chain of joints "

@@ -1,7 +1,11 @@
-"""General model of a spherical parallel mechanism: joint axes -> loop equations (Eq. 1/2), IK, singularities.
+"""General model of a spherical mechanism: joint axes -> loop equations (Eq. 1/2), IK, singularities.
 
-A mechanism is a fixed base, a moving platform and l >= 2 legs. Each leg is a serial chain of
-revolute joints, listed from the base to the platform, whose axes pass through the common centre O.
+A mechanism is a graph of links and revolute joints (:mod:`.graph`), written as such (the "graph"
+file kind) or as a fixed base, a moving platform and l >= 2 legs, each a serial chain of revolute
+joints listed from the base to the platform (the "general" and "3-RRR" kinds, front ends that build
+the graph); every axis passes through the common centre O. What follows says "leg j" and "the
+reference leg" for a loop's two chains: for a graph, read the loop's ``up`` and ``down`` chains from
+its root link (:class:`~.graph.GraphLoop`).
 The mechanism is described by every joint axis as a unit vector (base frame) in ONE assembled
 reference configuration, which joints are actuated, each joint's range and its *reading* at the
 reference configuration (``reference_angle``, default 0). A joint's reading (radians) is
