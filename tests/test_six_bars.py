@@ -164,3 +164,22 @@ def test_the_stephenson_six_bars_map_joins_its_two_assemblies_at_the_fold_it_tra
     closures = stephenson_closures(mech)
     x = np.array([point.input, *(point.angles[bmap.joints.index(n)] for n in "BCDEFG")])
     assert np.abs(closures(x)).max() < 1e-9
+
+
+def test_the_parallel_measure_of_a_graph_vanishes_where_the_closed_forms_assemblies_meet():
+    """The map's singularity measure (sigma_min / sigma_max of the loop equations' passive Jacobian, any
+    graph): ~0 at the Watt six-bar's branch point (where the closed form's dyad has a double root),
+    O(1) away from it, at readings from the closed form."""
+    mech = load_mechanism(EXAMPLES / "watt_six_bar.toml")
+    lo, hi = -1.6, -1.5                                    # one of its branch points lies in between
+    n_lo = len(watt_reference(mech, lo))
+    assert n_lo != len(watt_reference(mech, hi))
+    while hi - lo > 1e-14:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if len(watt_reference(mech, mid)) == n_lo else (lo, mid)
+    inside = lo if n_lo > len(watt_reference(mech, hi)) else hi       # the side with the meeting pair
+    refs = watt_reference(mech, inside)
+    measures = [mech.parallel_measure({n: r[n] for n in "ABCDEFG"}) for r in refs]
+    assert min(measures) < 1e-5                               # the two that meet: ~sqrt of the distance
+    assert max(mech.parallel_measure({n: r[n] for n in "ABCDEFG"}) for r in watt_reference(mech, 0.7)) > 1e-2
+    assert min(mech.parallel_measure({n: r[n] for n in "ABCDEFG"}) for r in watt_reference(mech, 0.7)) > 1e-3
