@@ -310,3 +310,14 @@ def test_a_graph_mechanism_travels_to_a_worker_by_pickle():
     want = watt_reference(mech, 0.7)
     report = sk.solve(again, (0.7,))
     assert report.proven_count == len(want) == 4
+
+
+def test_ik_of_a_graph_without_an_output_link_is_one_clear_error(tmp_path, capsys):
+    from spherekin.cli import main
+
+    text = (EXAMPLES / "watt_six_bar.toml").read_text().replace('output = "coupler"\n', "")
+    path = tmp_path / "no_output.toml"
+    path.write_text(text)
+    assert main(["ik", str(path), "--euler", "0,0,0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "output: this mechanism names no output link" in err

@@ -617,8 +617,8 @@ class SphericalMechanism:
         then exists only where the output can reach it: redundant actuation)."""
         rot = check_rotation("R", R)
         if self.output is None:
-            raise ValueError("R: this mechanism names no output link, so a pose fixes nothing; name one (output = "
-                             "\"link\" in the file)")
+            raise ValueError("output: this mechanism names no output link, so a pose fixes nothing; name one "
+                             "(output = \"link\" in the file)")
         graph = self.link_graph
         taken = set(self.joint_names) | set(graph.link_names)
         clash = [n for n in (*HELD_JOINTS, *HELD_LINKS) if n in taken]
