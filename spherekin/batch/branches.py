@@ -43,6 +43,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..core.groups import connected_groups
+
 from ..core.angles import TWO_PI, wrap
 from .inputs import GridAxis, grid_inputs
 
@@ -560,22 +562,9 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done, unreso
 
 
 def _circuits(branches, points, joins, full, ends) -> tuple[Circuit, ...]:
-    """Union-find of the branches over ``joins`` (pairs of branch indices)."""
-    parent = list(range(len(branches)))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i, j in joins:
-        parent[find(i)] = find(j)
-    groups: dict[int, list[int]] = {}
-    for k in range(len(branches)):
-        groups.setdefault(find(k), []).append(k)
+    """The branches joined over ``joins`` (pairs of branch indices): the circuits."""
     out = []
-    for members in sorted(groups.values()):
+    for members in sorted(connected_groups(len(branches), joins)):
         bps = tuple(sorted({k for k, p in enumerate(points) if p.branches[0] in members}))
         spans = sorted((float(branches[k].inputs[0]), float(branches[k].inputs[-1])) for k in members)
         merged: list[list[float]] = []

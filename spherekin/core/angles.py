@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from .groups import connected_groups
+
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
            "into_range", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE", "check_geometry_angle",
            "near_groups"]
@@ -126,19 +128,8 @@ def near_groups(lo, hi, gap: float) -> list[list[int]]:
     """
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    parent = list(range(len(lo)))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
+    edges = []
     for i in range(len(lo)):
         close = np.all(np.abs(wrap(mid[i + 1:] - mid[i])) <= half[i + 1:] + half[i] + gap, axis=1)
-        for j in np.flatnonzero(close) + i + 1:
-            parent[find(j)] = find(i)
-    groups: dict[int, list[int]] = {}
-    for i in range(len(lo)):
-        groups.setdefault(find(i), []).append(i)
-    return list(groups.values())
+        edges += [(i, int(j)) for j in np.flatnonzero(close) + i + 1]
+    return connected_groups(len(lo), edges)
