@@ -988,6 +988,11 @@ def main(argv=None, parser: argparse.ArgumentParser | None = None) -> int:
 INTERRUPT_STATUS, SIGTERM_STATUS = 130, 143
 
 
+#: Seconds before an interrupt dropped inside a finalizer is sent again: long enough for the hook that
+#: saw it to return (its handler must not run inside the hook), short beside any command's run.
+RESEND_DELAY = 0.01
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread by :func:`main`'s handler. A KeyboardInterrupt, so that it
     stops a command as Ctrl-C does (a search hands over what it found, a batch keeps its finished
@@ -1011,10 +1016,30 @@ def _sigterm_as_interrupt():
             got.append(signum)
             raise Terminated("SIGTERM")
 
+    previous_hook = sys.unraisablehook
+
+    def unraisable(report):
+        # Python runs a signal handler at the next bytecode of the main thread, and that can be
+        # inside a finalizer (a dask Future's __del__ did it on CI): an exception raised there is
+        # printed and dropped, and the command would run to its end and exit 0. So a dropped
+        # interrupt is sent again, from another thread a moment later (sent from here, its handler
+        # would run inside this hook, where a raise is dropped too), to be raised where the command
+        # can see it.
+        if isinstance(report.exc_value, KeyboardInterrupt):
+            terminated = isinstance(report.exc_value, Terminated)
+            if terminated:
+                got.clear()
+            threading.Timer(RESEND_DELAY, os.kill,
+                            (os.getpid(), signal.SIGTERM if terminated else signal.SIGINT)).start()
+            return
+        previous_hook(report)
+
     previous = signal.signal(signal.SIGTERM, handler)
+    sys.unraisablehook = unraisable
     try:
         yield got
     finally:
+        sys.unraisablehook = previous_hook
         signal.signal(signal.SIGTERM, previous)
 
 

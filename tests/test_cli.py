@@ -260,3 +260,33 @@ def test_a_notes_python_keywords_are_given_as_options(monkeypatch, capsys):
     notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
     assert notes and any("max_boxes=100" in n for n in notes)
     assert all("formulation='" not in n for n in notes) and any("try --formulation transversal" in n for n in notes)
+
+
+@pytest.mark.parametrize("signum, expected", [("SIGTERM", "Terminated"), ("SIGINT", "KeyboardInterrupt")])
+def test_an_interrupt_raised_inside_a_finalizer_is_not_lost(signum, expected):
+    """Python runs a signal handler at the main thread's next bytecode, which can be a finalizer's
+    (a dask Future's __del__ on CI): the exception is dropped there. The command must still stop."""
+    import gc
+    import os
+    import signal
+    import time
+
+    from spherekin.cli import Terminated, _sigterm_as_interrupt
+
+    class SignalsWhileFinalized:
+        def __del__(self):
+            os.kill(os.getpid(), getattr(signal, signum))
+            for _ in range(100):       # the handler runs here, inside __del__, and its raise is dropped
+                time.sleep(0)
+
+    caught = None
+    with _sigterm_as_interrupt():
+        try:
+            SignalsWhileFinalized()
+            gc.collect()
+            for _ in range(2000):      # the command goes on: the interrupt must reach it here
+                time.sleep(0.0005)
+        except KeyboardInterrupt as exc:
+            caught = exc
+    assert type(caught).__name__ == expected
+    assert isinstance(caught, KeyboardInterrupt) and (signum != "SIGTERM" or isinstance(caught, Terminated))
