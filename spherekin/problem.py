@@ -48,13 +48,14 @@ from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Setti
                       EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
-                     check_strategy, clusters_in_range, partial_report, search_platform,
+                     check_strategy, clusters_in_range, partial_report, search_platform, search_platform_many,
                      SearchInterrupted)
+from .search.parameterizations import stack_chart_sets
 
 __all__ = ["DEFAULT_FORMULATION", "DEFAULT_SYSTEM", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices",
            "system_choices", "resolve_system", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
-           "solve", "disagreement", "as_mechanism", "inverse_kinematics"]
+           "solve", "disagreement", "as_mechanism", "inverse_kinematics", "DEFAULT_CHUNK"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
@@ -86,6 +87,11 @@ def as_mechanism(mechanism) -> SphericalMechanism:
                      f"got {type(mechanism).__name__}")
 
 
+#: Inputs :meth:`Problem.solve_many` solves as one array program. Reason: measured
+#: (benchmarks/bench_engine.py) the throughput per input levels off past ~100 inputs a chunk (the
+#: fixed cost of each box-loop iteration is then spread thin), and a chunk of 256 holds at most a
+#: few MB of boxes.
+DEFAULT_CHUNK = 256
 #: Tolerance (radians) of the covering run when a solve hits a cap (a continuum of solutions): a
 #: curve of length ~2 pi is covered by ~1e3 boxes of this size, well within the default cap, and
 #: the boxes are fine enough to show its shape and estimate its dimension.
@@ -170,7 +176,10 @@ class Problem:
         formulations only, ``jobs=1``) records every batch of boxes for experiments. A report
         without solutions (and no cap or Ctrl-C) says why in ``empty_reason`` (:meth:`explain_empty`)."""
         values = self.mechanism.check_inputs(inputs)
-        report = self._solve(values, progress, trace)
+        if trace is None and self.strategy.jobs == 1:
+            report = self._solve_chunk([values], progress)[0]     # the engine, on a chunk of one
+        else:
+            report = self._solve(values, progress, trace)
         if not report.solutions and report.settings.limit is None:
             report = dataclasses.replace(report, empty_reason=self.explain_empty(values))
         return report
@@ -193,7 +202,9 @@ class Problem:
         return EmptyReason(kind, limited, 0)
 
     def _solve(self, values, progress, trace) -> SolveReport:
-        """The report of checked ``values`` (without :meth:`explain_empty`)."""
+        """The report of checked ``values`` (without :meth:`explain_empty`), one input on its own: with
+        a ``trace``, with ``jobs`` > 1 (the charts of one input on Dask workers), and for an input
+        that reached a cap in a chunk (:meth:`_solve_chunk`), where the cap is then reported."""
         if trace is not None and self.platform is not None:
             raise ValueError("trace: only available with a loop formulation (paper, transversal, halves), "
                              "got the platform formulation")
@@ -260,20 +271,107 @@ class Problem:
 
     # ------------------------------------------------------------------ many inputs
 
-    def solve_many(self, inputs, *, progress: Callable[[int, int], None] | None = None) -> tuple[SolveReport, ...]:
-        """One report per row of ``inputs`` (shape (K, number of actuated joints), radians), in order.
+    def solve_many(self, inputs, *, progress: Callable[[int, int], None] | None = None,
+                   chunk: int = DEFAULT_CHUNK) -> tuple[SolveReport, ...]:
+        """One report per row of ``inputs`` (shape (K, number of actuated joints), radians), in order:
+        for each row the report :meth:`solve` gives for it (``solve(x)`` is this on a chunk of one).
 
-        Every row is checked before the first solve (one error naming the row); ``progress(done,
-        total)`` is called after each row. An empty report's ``empty_reason`` is None here (it costs
-        another solve: call :meth:`explain_empty` for the rows that need it).
+        The rows are solved ``chunk`` at a time, each chunk as one array program
+        (:meth:`_solve_chunk`): the boxes of all its inputs in one box loop, with the input as a
+        column, then the trust layer over all their points. Every row is checked before the first
+        solve (one error naming the row); ``progress(done, total)`` is called after each chunk. An
+        empty report's ``empty_reason`` is None here (it costs another solve: call
+        :meth:`explain_empty` for the rows that need it).
         """
         rows = self._checked_rows("inputs", inputs)
-        out = []
-        for k, row in enumerate(rows):
-            out.append(self._solve(self.mechanism.check_inputs(row), None, None))
+        if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+            raise ValueError(f"chunk: expected a positive number of inputs, got {chunk!r}")
+        out: list[SolveReport] = []
+        for first in range(0, len(rows), int(chunk)):
+            part = rows[first:first + int(chunk)]
+            if self.strategy.jobs == 1:
+                out += self._solve_chunk([self.mechanism.check_inputs(row) for row in part], None)
+            else:                               # jobs > 1: each input's charts on Dask workers
+                out += [self._solve(self.mechanism.check_inputs(row), None, None) for row in part]
             if progress is not None:
-                progress(k + 1, len(rows))
+                progress(len(out), len(rows))
         return tuple(out)
+
+    def _solve_chunk(self, values: list, progress) -> list[SolveReport]:
+        """The reports of checked input rows ``values`` (K of them), as one array program per stage.
+
+        1. platform system: the chart sets of every input stacked, one box loop over all their
+           boxes (:func:`spherekin.search.boxloop.search_platform_many`), then the trust layer over
+           all the points (:meth:`_trust_many`), each input's answer checked against its roots
+           (:func:`disagreement`);
+        2. the inputs the platform search does not answer (or every input, for the loop system):
+           the loop equations of all of them in one box loop
+           (:meth:`spherekin.systems.loops.CompiledLoops.search_many`), then the trust layer.
+
+        An input that reaches a cap in a chunk is solved on its own (:meth:`_solve`), where the cap
+        is handled and reported as for a single solve; so is every input after Ctrl-C in a chunk of
+        one (its partial result is reported). ``progress(counts)``: the box loops' counters.
+        """
+        s = self.strategy
+        out: list[SolveReport | None] = [None] * len(values)
+        fallback: list[str | None] = [None] * len(values)
+        todo = list(range(len(values))) if self.platform is None else []
+        if self.platform is not None:
+            t0 = time.perf_counter()
+            charts = [self.platform.charts(v) for v in values]
+            t_setup = (time.perf_counter() - t0) / len(values)
+            try:
+                found = search_platform_many(stack_chart_sets(charts), len(values), self.platform.pruner, s.tol,
+                                             s.max_boxes, s.max_depth, progress)
+            except SearchInterrupted:
+                raise KeyboardInterrupt from None        # searches of milliseconds: nothing worth keeping
+            pending = []
+            for k, f in enumerate(found):
+                got = None if f is None else self._platform_found(f, values[k], t_setup, charts[k].n_charts)
+                if got is None:
+                    out[k] = self._solve(values[k], None, None)      # a cap: on its own, where it is reported
+                elif isinstance(got, str):
+                    fallback[k] = got
+                    todo.append(k)
+                else:
+                    pending.append((k, got))
+            trusted = self._trust_many([values[k] for k, _ in pending], [got[0] for _, got in pending],
+                                       s.tol, refine=False)
+            for (k, (report, poses)), (solutions, refined, t_final) in zip(pending, trusted):
+                fallback[k] = disagreement(solutions, poses)
+                if fallback[k] is None:
+                    out[k] = self._report(values[k], report, solutions, refined, t_final, None, None)
+                else:
+                    todo.append(k)
+        if todo:
+            todo.sort()
+            searched = self._search_loops_many([values[k] for k in todo], progress)
+            runs = [self._search_loops(values[k], s.tol, progress, None) if found is None else (found, None, s.tol)
+                    for k, found in zip(todo, searched)]          # None: a cap, handled as for one input
+            trusted = self._trust_many([values[k] for k in todo], [r for r, _, _ in runs], [t for _, _, t in runs],
+                                       refine=[limit is None or not limit.interrupted for _, limit, _ in runs])
+            for k, (report, limit, _), (solutions, refined, t_final) in zip(todo, runs, trusted):
+                out[k] = self._report(values[k], report, solutions, refined, t_final, fallback[k], limit)
+        return out
+
+    def _search_loops_many(self, values: list, progress) -> list:
+        """The loop equations' search reports of ``values`` in one box loop (None: the input reached
+        a cap); Ctrl-C in a chunk of one hands over what was found (as :meth:`_search_loops`)."""
+        s = self.strategy
+        try:
+            return list(self.loops.search_many(np.array(values), self.ranges, tol=s.tol, max_boxes=s.max_boxes,
+                                               progress=progress))
+        except SearchInterrupted:
+            if len(values) > 1:
+                raise KeyboardInterrupt from None
+            return [None]                 # on its own: _search_loops reports what was found so far
+
+    def _trust_many(self, values: list, reports: list, tols, refine) -> list:
+        """(solutions, stats of refined searches, seconds) of every input: :meth:`_trust` on each.
+        ``tols``: one tol for all or one per input; ``refine``: one flag for all or one per input."""
+        tols = tols if isinstance(tols, list) else [tols] * len(values)
+        refine = refine if isinstance(refine, list) else [refine] * len(values)
+        return [self._trust(v, r, t, refine=f) for v, r, t, f in zip(values, reports, tols, refine)]
 
     def _checked_rows(self, key: str, inputs) -> np.ndarray:
         """``inputs`` as an array (K, actuated joints), every row checked (one error naming the row)."""
@@ -361,6 +459,12 @@ class Problem:
             raise KeyboardInterrupt from None            # a search of milliseconds: nothing worth keeping
         except SolverLimitError as exc:
             return f"the platform search reached a cap ({exc})"
+        return self._platform_found(found, values, t_setup, charts.n_charts)
+
+    def _platform_found(self, found, values, t_setup: float, n_charts: int):
+        """(report, poses of the roots in range) from what the platform search ``found`` at ``values``,
+        or why the loop equations must answer instead (a string)."""
+        s = self.strategy
         if found.unresolved:
             return (f"the platform search left {found.unresolved} box(es) it could not isolate (a parallel "
                           "singularity or a double root nearby): solved with the loop equations")
@@ -380,11 +484,9 @@ class Problem:
                     boxes.append(box)
                     poses.append(pose)
         clusters = clusters_in_range(boxes, self.ranges, s.tol)
-        stats = dataclasses.replace(found.stats, time_setup=t_setup,
-                                    time_total=found.stats.time_total + time.perf_counter() - t0
-                                    - found.stats.time_total)
+        stats = dataclasses.replace(found.stats, time_setup=t_setup, time_total=found.stats.time_total + t_setup)
         settings = Settings(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
-                            parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=charts.n_charts)
+                            parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=n_charts)
         return SearchReport(self.names, tuple(clusters), (), stats, settings), poses
 
     def _search_loops(self, values, tol, progress, trace):

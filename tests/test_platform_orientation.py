@@ -270,8 +270,8 @@ def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
     rows = rng.uniform(-math.pi, math.pi, (4, 3))
     problem = compile(mech)
     seen = []
-    many = problem.solve_many(rows, progress=lambda done, total: seen.append((done, total)))
-    assert seen == [(1, 4), (2, 4), (3, 4), (4, 4)]
+    many = problem.solve_many(rows, progress=lambda done, total: seen.append((done, total)), chunk=3)
+    assert seen == [(3, 4), (4, 4)]                   # after each chunk
     for row, rep in zip(rows, many):
         one = solve(mech, tuple(row))
         assert list(rep.settings.inputs) == list(row)
@@ -282,6 +282,8 @@ def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
     bad[2, 1] = np.nan
     with pytest.raises(ValueError, match="inputs row 2"):
         problem.solve_many(bad)
+    with pytest.raises(ValueError, match="chunk: expected a positive number of inputs, got 0"):
+        problem.solve_many(rows, chunk=0)
 
 
 def test_disagreement_between_platform_roots_and_finalized_solutions():

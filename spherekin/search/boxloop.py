@@ -50,7 +50,7 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
 from .pruners import check_pruner, excludes_zero, make_pruner
 from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
-__all__ = ["solve_system", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
+__all__ = ["solve_system", "solve_system_many", "search_platform_many", "CHUNK_BATCH", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
            "partial_report", "charts_for_range", "SolverLimitError", "SearchInterrupted", "DepthLimitError", "BoxLimitError",
            "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
@@ -169,9 +169,44 @@ TRACE_OUTCOMES = ("discarded", "accepted", "isolated", "reduced_again", "split")
 
 def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None,
               trace=None):
-    """Section 4 steps 2-3. ``start`` = (chart, lo, hi) initial boxes (default: every chart's unit box).
+    """Section 4 steps 2-3 for one input. ``start`` = (chart, lo, hi) initial boxes (default:
+    every chart's unit box). Reaching a cap raises (:class:`BoxLimitError`, :class:`DepthLimitError`).
 
     Returns (accepted [(chart, angle lo, angle hi)], isolated [(chart, x lo, x hi)], counts, timings).
+    """
+    loop = _loop(charts, pruner, tol, max_boxes, max_depth, start, isolate, progress, trace)
+    return loop.accepted, loop.isolated, {k: int(v[0]) for k, v in loop.counts.items()}, loop.times
+
+
+class _LoopResult:
+    """What :func:`_loop` hands over: ``accepted`` [(chart, angle lo, angle hi)], ``isolated``
+    [(chart, x lo, x hi)] (charts: indices into the chart set), ``counts`` (counter -> (K,) per
+    input), ``times`` (restrict, prune, isolate seconds), ``capped`` (K,): inputs that reached a cap
+    (their boxes are left out of the lists)."""
+
+    __slots__ = ("accepted", "isolated", "counts", "times", "capped")
+
+    def __init__(self, accepted, isolated, counts, times, capped):
+        self.accepted = accepted
+        self.isolated = isolated
+        self.counts = counts
+        self.times = times
+        self.capped = capped
+
+
+def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None,
+          trace=None, owner=None, n_inputs=1, batch=BATCH) -> _LoopResult:
+    """The box loop over the charts of one input (``owner`` None), or of a chunk of inputs.
+
+    ``owner`` (C,) int: the input (0..n_inputs-1) each chart of ``charts`` belongs to (the chart sets
+    of a chunk stacked along the chart axis: :func:`spherekin.search.parameterizations.stack_chart_sets`).
+    The input of a box is then a column of the loop's arrays (``owner[chart]``): the counters are
+    kept per input and the caps apply per input. Every box is processed the same way whatever the
+    batch it lands in (restriction, pruning, the Krawczyk test and the split are functions of the
+    box and its chart alone), so an input's boxes, and hence its roots, do not depend on the other
+    inputs of the chunk nor on ``batch``. With one input a cap raises, with the boxes accepted so
+    far; with an owner the input that reaches it is dropped from the loop (``capped``; its boxes
+    are no longer processed) and the caller solves it again on its own, where the cap raises.
     """
     n = len(charts.variables)
     layout = _Layout(charts)
@@ -179,11 +214,17 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
     isolate = isolate and len(square.rows) == n
     pruned = [b for b, p in enumerate(charts.prune) if p]
     square_only = [b for b, rows in enumerate(charts.square) if rows and not charts.prune[b]]
-    counts = dict.fromkeys(_COUNTERS, 0)
+    single = owner is None
+    owner = np.zeros(charts.n_charts, dtype=int) if single else np.asarray(owner, dtype=int)
+    counts = {k: np.zeros(n_inputs, dtype=int) for k in _COUNTERS}
+    capped = np.zeros(n_inputs, dtype=bool)
     t_restrict = t_prune = t_isolate = 0.0
     accepted: list[tuple[int, np.ndarray, np.ndarray]] = []
     isolated: list[tuple[int, np.ndarray, np.ndarray]] = []
     limit = tol * charts.accept_width
+
+    def add(name, own, mask=None):
+        counts[name] += np.bincount(own if mask is None else own[mask], minlength=n_inputs)
 
     def stopped():
         # what a stopped loop hands over: the accepted boxes and the roots of the boxes isolated so far
@@ -191,38 +232,52 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         points = _solve_isolated(charts, isolated)[0] if isolated else []
         return ([AcceptedBox(a, b, int(c)) for c, a, b in accepted]
                 + [AcceptedBox(a, np.array(a, copy=True), int(c)) for c, a in points],
-                dict(counts), (t_restrict, t_prune, t_isolate))
+                {k: int(v[0]) for k, v in counts.items()}, (t_restrict, t_prune, t_isolate))
 
     if start is None:
         nc = charts.n_charts
         start = (np.arange(nc), np.zeros((nc, n)), np.ones((nc, n)))
     chart0, lo0, hi0 = start
-    stack = [(lo0, hi0, np.zeros(len(lo0), dtype=int), chart0)]
+    stack = [(lo0, hi0, np.zeros(len(lo0), dtype=int), np.asarray(chart0, dtype=int))]
     try:
         while stack:
             take, size = [], 0
-            while stack and size < BATCH:            # fill one batch from the top of the stack
+            while stack and size < batch:            # fill one batch from the top of the stack
                 take.append(stack.pop())
                 size += len(take[-1][0])
             lo, hi, depth, chart = (np.concatenate(parts) for parts in zip(*take))
-            if len(lo) > BATCH:
-                stack.append((lo[BATCH:], hi[BATCH:], depth[BATCH:], chart[BATCH:]))
-                lo, hi, depth, chart = lo[:BATCH], hi[:BATCH], depth[:BATCH], chart[:BATCH]
+            if len(lo) > batch:
+                stack.append((lo[batch:], hi[batch:], depth[batch:], chart[batch:]))
+                lo, hi, depth, chart = lo[:batch], hi[:batch], depth[:batch], chart[:batch]
+            own = owner[chart]
+            if capped.any():                         # boxes of inputs dropped at a cap: not processed
+                live = ~capped[own]
+                lo, hi, depth, chart, own = lo[live], hi[live], depth[live], chart[live], own[live]
             if len(lo) == 0:
                 continue
-            counts["boxes_processed"] += len(lo)
-            if counts["boxes_processed"] > max_boxes:
+            add("boxes_processed", own)
+            over = counts["boxes_processed"] > max_boxes
+            deep = np.zeros(n_inputs, dtype=bool)
+            deep[own[depth > max_depth]] = True
+            if single and over[0]:
                 raise BoxLimitError(
                     f"more than max_boxes={max_boxes} boxes processed; the solution set may be a continuum, "
                     "or the tolerance too small for this formulation (the paper's scalar equation has double "
                     "roots: try formulation='transversal' or a larger tol)", *stopped())
-            if depth.max() > max_depth:
+            if single and deep[0]:
                 raise DepthLimitError(
                     f"a box was subdivided more than max_depth={max_depth} times; the solution set may be a "
                     f"continuum, or the tolerance {tol} too small for this formulation", *stopped())
-            counts["max_depth"] = max(counts["max_depth"], int(depth.max()))
+            if (over | deep).any():
+                capped |= over | deep
+                live = ~capped[own]
+                lo, hi, depth, chart, own = lo[live], hi[live], depth[live], chart[live], own[live]
+                if len(lo) == 0:
+                    continue
+            np.maximum.at(counts["max_depth"], own, depth)
             if progress is not None:
-                progress({**counts, "pending": sum(len(e[0]) for e in stack)})
+                progress({**{k: int(v.sum()) for k, v in counts.items()}, "max_depth": int(counts["max_depth"].max()),
+                          "pending": sum(len(e[0]) for e in stack)})
             t1 = time.perf_counter()
             cache: dict = {}
             cps, tols = _restrict(charts, layout, chart, lo, hi, pruned, cache)
@@ -248,16 +303,16 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
             t_restrict += t2 - t1
             if iso.any():
                 isolated += list(zip(chart[iso], lo[iso], hi[iso]))
-                counts["isolated"] += int(iso.sum())
+                add("isolated", own, iso)
             keep = ~np.any(rlo > rhi, axis=1) & ~iso
-            counts["discarded"] += int(np.sum(~keep & ~iso))
+            add("discarded", own, ~keep & ~iso)
             width = hi - lo
             if trace is not None:
                 outcome = np.where(iso, 2, np.where(keep, 3, 0))   # refined below for kept boxes
                 record = dict(chart=chart.copy(), depth=depth.copy(), lo=lo.copy(), hi=hi.copy(),
                               metric_width=mwidth.copy(), reduced_lo=lo + rlo * width, reduced_hi=lo + rhi * width)
             nlo, nhi = (lo + rlo * width)[keep], (lo + rhi * width)[keep]
-            ratio, depth, chart = (rhi - rlo)[keep], depth[keep] + 1, chart[keep]
+            ratio, depth, chart, own = (rhi - rlo)[keep], depth[keep] + 1, chart[keep], own[keep]
             mw = charts.metric(chart, nhi) - charts.metric(chart, nlo)
             done = np.all(mw <= limit, axis=1)
             alive = np.ones(len(nlo), dtype=bool)
@@ -274,7 +329,7 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
                 t_restrict += time.perf_counter() - t4
                 alive[idx[empty]] = False
                 done &= alive
-                counts["discarded"] += int(empty.sum())
+                add("discarded", own[idx], empty)
             if trace is not None:
                 kept = np.flatnonzero(keep)
                 outcome[kept[done]] = 1
@@ -285,13 +340,13 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
             if done.any():
                 alo, ahi = charts.angle_box(chart[done], nlo[done], nhi[done])
                 accepted += list(zip(chart[done], alo, ahi))
-            counts["accepted"] += int(done.sum())
+            add("accepted", own, done)
             again = ~done & alive & np.all(ratio <= SPLIT_RATIO, axis=1)
-            counts["reduced_again"] += int(again.sum())
+            add("reduced_again", own, again)
             if again.any():
                 stack.append((nlo[again], nhi[again], depth[again], chart[again]))
             split = ~done & ~again & alive
-            counts["split"] += int(split.sum())
+            add("split", own, split)
             if split.any():
                 slo, shi, sd, sc = nlo[split], nhi[split], depth[split], chart[split]
                 axis = np.argmax(mw[split], axis=1)                     # widest side in metric units
@@ -306,15 +361,18 @@ def _box_loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, i
         # Ctrl-C (or the command line's SIGTERM, whose text names it): stop now, hand over what was
         # accepted so far (the pipeline reports it, not exact)
         raise SearchInterrupted(f"interrupted ({exc or 'Ctrl-C'}) after "
-                                f"{counts['boxes_processed']} boxes", *stopped()) from None
-    return accepted, isolated, counts, (t_restrict, t_prune, t_isolate)
+                                f"{int(counts['boxes_processed'].sum())} boxes", *stopped()) from None
+    if capped.any():
+        accepted = [a for a in accepted if not capped[owner[a[0]]]]
+        isolated = [a for a in isolated if not capped[owner[a[0]]]]
+    return _LoopResult(accepted, isolated, counts, (t_restrict, t_prune, t_isolate), capped)
 
 
 def _solve_isolated(charts: ChartSet, isolated):
-    """Newton from every isolated box: (points [(chart, angles)], count of roots proven spurious,
-    failed boxes)."""
+    """Newton from every isolated box: (points [(chart, angles)], the charts (array) of the roots
+    proven spurious, failed boxes)."""
     if not isolated:
-        return [], 0, []
+        return [], np.zeros(0, dtype=int), []
     chart = np.array([c for c, _, _ in isolated])
     lo = np.array([a for _, a, _ in isolated])
     hi = np.array([b for _, _, b in isolated])
@@ -329,9 +387,8 @@ def _solve_isolated(charts: ChartSet, isolated):
     x = lo + u * (hi - lo)
     angles = charts.angles(chart, x)
     points = [(int(c), a) for c, a, ok, sp in zip(chart, angles, converged, spurious) if ok and not sp]
-    spurious = int(spurious.sum())
     failed = [(c, a, b) for c, a, b, ok in zip(chart, lo, hi, converged) if not ok]
-    return points, spurious, failed
+    return points, chart[spurious], failed
 
 
 def pruner_for(charts: ChartSet, pruner: str, lp_backend: str | None, built: dict | None = None):
@@ -371,7 +428,7 @@ def _run_group(charts, pruner, tol, max_boxes, max_depth, isolate, group, progre
         accepted += more
         counts = {k: (max(counts[k], counts2[k]) if k == "max_depth" else counts[k] + counts2[k]) for k in counts}
         times = tuple(x + y for x, y in zip(times, times2))
-    counts.update(spurious=spurious, newton_failures=len(failed),
+    counts.update(spurious=len(spurious), newton_failures=len(failed),
                   lps_solved=getattr(pruner, "lp_count", 0) - lp0, lp_doubts=getattr(pruner, "doubts", 0) - doubts0)
     return accepted, points, counts, times
 
@@ -410,11 +467,158 @@ def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOX
     accepted, isolated, counts, (t_r, t_p, t_i) = _box_loop(charts, pruner, tol, max_boxes, max_depth,
                                                             None, True, progress)
     points, spurious, failed = _solve_isolated(charts, isolated)
-    counts.update(spurious=spurious, newton_failures=len(failed),
+    counts.update(spurious=len(spurious), newton_failures=len(failed),
                   lps_solved=getattr(pruner, "lp_count", 0) - lp0, lp_doubts=getattr(pruner, "doubts", 0) - doubts0)
     stats = SolverStats(charts=charts.n_charts, **counts, time_restrict=t_r, time_prune=t_p, time_isolate=t_i,
                         time_total=time.perf_counter() - t0)
-    return PlatformSearch(tuple(points), len(accepted) + len(failed) + spurious, stats)
+    return PlatformSearch(tuple(sorted(points, key=_chart_order)), len(accepted) + len(failed) + len(spurious), stats)
+
+
+#: Boxes per numpy call in the box loop of a chunk of inputs (:func:`search_platform_many`,
+#: :func:`solve_system_many`). Reason: each batch costs a fixed ~two dozen numpy calls whatever
+#: its size, so a chunk's boxes are taken many at a time (one input's search rarely has more than
+#: a few hundred alive at once, so BATCH fits it); at this size the largest array of a batch (a
+#: block's control points, ~100 floats a box) stays within a few MB.
+CHUNK_BATCH = 4096
+
+
+def _chart_order(item) -> tuple:
+    """The order of found boxes and roots (chart, lo or point, ...) handed over: by chart, then
+    coordinates, so that it does not depend on the order the box loop met them in."""
+    return (int(item[0]), tuple(item[1]))
+
+
+def _owner(charts: ChartSet, n_inputs: int) -> np.ndarray:
+    """(C,) the input of each chart of a chunk's stacked chart sets (input-major, equal blocks)."""
+    if isinstance(n_inputs, bool) or not isinstance(n_inputs, (int, np.integer)) or n_inputs < 1 \
+            or charts.n_charts % n_inputs:
+        raise ValueError(f"n_inputs: expected a positive divisor of the {charts.n_charts} stacked charts, "
+                         f"got {n_inputs!r}")
+    return np.repeat(np.arange(n_inputs), charts.n_charts // n_inputs)
+
+
+def _by_input(items, owner, n_inputs, key=lambda item: item[0]) -> list[list]:
+    """``items`` (each with a chart index at ``key``) split by the input of that chart, in order."""
+    out: list[list] = [[] for _ in range(n_inputs)]
+    for item in items:
+        out[owner[key(item)]].append(item)
+    return out
+
+
+def _shares(loop: _LoopResult, n_inputs, pruner, lp0, doubts0, seconds) -> dict:
+    """The chunk's LP counters and seconds, each input's share (in proportion to the boxes it
+    processed): a chunk measures them once for all its inputs."""
+    boxes = loop.counts["boxes_processed"].astype(float)
+    weight = boxes / boxes.sum() if boxes.sum() else np.full(n_inputs, 1.0 / n_inputs)
+    lps = getattr(pruner, "lp_count", 0) - lp0
+    doubts = getattr(pruner, "doubts", 0) - doubts0
+    return dict(lps=np.round(weight * lps).astype(int), doubts=np.round(weight * doubts).astype(int),
+                times=[tuple(float(w * t) for t in loop.times) for w in weight], total=weight * seconds)
+
+
+def search_platform_many(charts: ChartSet, n_inputs: int, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES,
+                         max_depth: int | None = None, progress: Callable[[dict], None] | None = None,
+                         batch: int = CHUNK_BATCH) -> tuple:
+    """:func:`search_platform` for each input of a chunk, as one box loop over all their boxes.
+
+    ``charts``: the platform chart sets of the ``n_inputs`` inputs stacked input-major
+    (:func:`spherekin.search.parameterizations.stack_chart_sets`); the points of each input's
+    :class:`PlatformSearch` carry its own chart numbers (0..C-1). Each input's boxes and roots are
+    those :func:`search_platform` finds for it alone (see :func:`_loop`); an input that reaches a
+    cap gets None (:func:`search_platform` on its own raises the cap's error). The counters are
+    each input's; LP counters and seconds are its share of the chunk's. ``progress(counts)``: as in
+    :func:`solve_system`, with the chunk's counters summed.
+    """
+    t0 = time.perf_counter()
+    owner = _owner(charts, n_inputs)
+    per = charts.n_charts // n_inputs
+    lp0, doubts0 = getattr(pruner, "lp_count", 0), getattr(pruner, "doubts", 0)
+    if max_depth is None:
+        max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
+    loop = _loop(charts, pruner, tol, max_boxes, max_depth, None, True, progress, None, owner, n_inputs, batch)
+    points, spurious, failed = _solve_isolated(charts, loop.isolated)
+    points_of = _by_input(points, owner, n_inputs)
+    accepted_n = np.bincount(owner[[a[0] for a in loop.accepted]].astype(int), minlength=n_inputs) \
+        if loop.accepted else np.zeros(n_inputs, dtype=int)
+    failed_n = np.bincount(owner[[f[0] for f in failed]].astype(int), minlength=n_inputs) \
+        if failed else np.zeros(n_inputs, dtype=int)
+    spurious_n = np.bincount(owner[spurious], minlength=n_inputs)
+    share = _shares(loop, n_inputs, pruner, lp0, doubts0, time.perf_counter() - t0)
+    out = []
+    for k in range(n_inputs):
+        if loop.capped[k]:
+            out.append(None)
+            continue
+        t_r, t_p, t_i = share["times"][k]
+        stats = SolverStats(charts=per, **{name: int(v[k]) for name, v in loop.counts.items()},
+                            spurious=int(spurious_n[k]), newton_failures=int(failed_n[k]),
+                            lps_solved=int(share["lps"][k]), lp_doubts=int(share["doubts"][k]),
+                            time_restrict=t_r, time_prune=t_p, time_isolate=t_i, time_total=float(share["total"][k]))
+        mine = tuple(sorted(((c - k * per, x) for c, x in points_of[k]), key=_chart_order))
+        out.append(PlatformSearch(mine, int(accepted_n[k] + failed_n[k] + spurious_n[k]), stats))
+    return tuple(out)
+
+
+def solve_system_many(charts: ChartSet, n_inputs: int, ranges: Mapping[str, tuple[float, float] | None], *,
+                      formulation: str, pruner: str, lp_backend: str | None, parameterization: str, tol: float,
+                      isolate: bool = True, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
+                      pruners: dict | None = None, t_setup: float = 0.0,
+                      progress: Callable[[dict], None] | None = None, batch: int = CHUNK_BATCH) -> tuple:
+    """:func:`solve_system` (``jobs=1``) for each input of a chunk, as one box loop over all their boxes.
+
+    ``charts``: the loop equations' chart sets of the ``n_inputs`` inputs stacked input-major
+    (:func:`spherekin.search.parameterizations.stack_chart_sets`), over the joint ``ranges`` shared
+    by every input; ``t_setup``: the seconds it took to build them (each input gets its share).
+    Returns one :class:`SearchReport` per input, the one :func:`solve_system` gives for it alone
+    (see :func:`_loop`), or None where the input reached a cap (:func:`solve_system` on its own
+    raises the cap's error, with what it found). Counters as in :func:`search_platform_many`.
+    """
+    check_strategy(formulation, pruner, lp_backend, parameterization, tol, 1)
+    t0 = time.perf_counter()
+    owner = _owner(charts, n_inputs)
+    per = charts.n_charts // n_inputs
+    if max_depth is None:
+        max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
+    built = pruner_for(charts, pruner, lp_backend, pruners)
+    lp0, doubts0 = getattr(built, "lp_count", 0), getattr(built, "doubts", 0)
+    loop = _loop(charts, built, tol, max_boxes, max_depth, None, isolate, progress, None, owner, n_inputs, batch)
+    points, spurious, failed = _solve_isolated(charts, loop.isolated)
+    accepted = loop.accepted
+    counts = {name: v.copy() for name, v in loop.counts.items()}
+    capped = loop.capped.copy()
+    if failed:  # Newton left an isolating box (not seen in practice): subdivide it the ordinary way
+        c, a, b = (np.array(v) for v in zip(*failed))
+        more = _loop(charts, built, tol, max_boxes, max_depth, (c, a, b), False, None, None, owner, n_inputs, batch)
+        accepted = accepted + more.accepted
+        counts = {name: (np.maximum(v, more.counts[name]) if name == "max_depth" else v + more.counts[name])
+                  for name, v in counts.items()}
+        capped |= more.capped
+    share = _shares(loop, n_inputs, built, lp0, doubts0, time.perf_counter() - t0)
+    spurious_n = np.bincount(owner[spurious], minlength=n_inputs)
+    failed_n = np.bincount(owner[[f[0] for f in failed]].astype(int), minlength=n_inputs) \
+        if failed else np.zeros(n_inputs, dtype=int)
+    accepted_of = _by_input(accepted, owner, n_inputs)
+    points_of = _by_input(points, owner, n_inputs)
+    settings = Settings(formulation=formulation, pruner=pruner, lp_backend=lp_backend,
+                        parameterization=parameterization, tol=tol, isolate=isolate, jobs=1, charts=per)
+    out = []
+    for k in range(n_inputs):
+        if capped[k]:
+            out.append(None)
+            continue
+        mine = sorted(((c - k * per, lo, hi) for c, lo, hi in accepted_of[k]), key=_chart_order)
+        roots = sorted(((c - k * per, x) for c, x in points_of[k]), key=_chart_order)
+        boxes = [AcceptedBox(lo, hi, int(c)) for c, lo, hi in mine]
+        found = boxes + [AcceptedBox(x, x.copy(), int(c)) for c, x in roots]
+        t_r, t_p, t_i = share["times"][k]
+        stats = SolverStats(charts=per, **{name: int(v[k]) for name, v in counts.items()},
+                            spurious=int(spurious_n[k]), newton_failures=int(failed_n[k]),
+                            lps_solved=int(share["lps"][k]), lp_doubts=int(share["doubts"][k]),
+                            time_setup=t_setup / n_inputs, time_restrict=t_r, time_prune=t_p, time_isolate=t_i,
+                            time_total=float(share["total"][k]) + t_setup / n_inputs)
+        out.append(SearchReport(charts.unknowns, tuple(clusters_in_range(found, ranges, tol)), tuple(boxes),
+                                stats, settings))
+    return tuple(out)
 
 
 def _worker(args):
@@ -510,8 +714,8 @@ def solve_system(
                 results.append(res)
                 if progress is not None:
                     progress({**res[2], "pending": 0})
-    accepted = sorted((a for r in results for a in r[0]), key=lambda t: (t[0], tuple(t[1])))
-    points = sorted((p for r in results for p in r[1]), key=lambda t: (t[0], tuple(t[1])))
+    accepted = sorted((a for r in results for a in r[0]), key=_chart_order)
+    points = sorted((p for r in results for p in r[1]), key=_chart_order)
     counts = {k: sum(r[2][k] for r in results) for k in results[0][2]}
     counts["max_depth"] = max(r[2]["max_depth"] for r in results)
     t_restrict, t_prune, t_isolate = (sum(r[3][i] for r in results) for i in range(3))

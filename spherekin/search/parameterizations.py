@@ -36,6 +36,7 @@ from .formulations import FORMULATIONS, ChartBilinear, EquationBlock, LoopPolyno
 from .registry import Registry
 
 __all__ = [
+    "stack_chart_sets",
     "Parameterization",
     "LoopParameterization",
     "PARAMETERIZATIONS",
@@ -355,6 +356,45 @@ class ChartSet:
     def angle_box(self, chart: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Angle bounds (B, n) of the boxes [lo, hi] (unit coordinates, B x N), radians."""
         return self.parameterization.angle_box(self, chart, lo, hi)
+
+
+def stack_chart_sets(sets: Sequence[ChartSet]) -> ChartSet:
+    """One chart set holding the charts of ``sets`` (one layout: the chart sets of a chunk of
+    inputs), in order: chart c of ``sets[k]`` is chart k * C + c (C charts each). Every per-chart
+    array is concatenated along its chart axis (first, last for the bilinear halves); what the
+    layout shares (parameterization, names, labels, square and pruned blocks, bilinear terms) must
+    agree, else a ValueError names what differs."""
+    if not sets:
+        raise ValueError("sets: expected at least one chart set, got none")
+    first = sets[0]
+    if len(sets) == 1:
+        return first
+    for k, other in enumerate(sets[1:], start=1):
+        for what in ("unknowns", "variables", "labels", "square", "prune", "accept_width"):
+            if getattr(other, what) != getattr(first, what):
+                raise ValueError(f"sets[{k}]: expected the layout of sets[0], got other {what}")
+        if type(other.parameterization) is not type(first.parameterization):
+            raise ValueError(f"sets[{k}]: expected parameterization {first.parameterization.name}, "
+                             f"got {other.parameterization.name}")
+        if [c.shape[1:] for c in other.coeffs] != [c.shape[1:] for c in first.coeffs]:
+            raise ValueError(f"sets[{k}]: expected the block shapes of sets[0], got other shapes")
+        fb, ob = first.bilinear or [None] * len(first.coeffs), other.bilinear or [None] * len(other.coeffs)
+        for f, o in zip(fb, ob):
+            if (f is None) != (o is None) or (f is not None and (f.sums, f.a_vars, f.b_vars, f.shape)
+                                              != (o.sums, o.a_vars, o.b_vars, o.shape)):
+                raise ValueError(f"sets[{k}]: expected the bilinear terms of sets[0], got other terms")
+    bilinear = None
+    if first.bilinear is not None:
+        bilinear = [None if f is None else ChartBilinear(
+            f.a_vars, f.b_vars, np.concatenate([cs.bilinear[b].a for cs in sets], axis=-1),
+            np.concatenate([cs.bilinear[b].b for cs in sets], axis=-1), f.sums, f.shape)
+            for b, f in enumerate(first.bilinear)]
+    return ChartSet(first.parameterization, first.unknowns, first.variables,
+                    [np.concatenate([cs.coeffs[b] for cs in sets]) for b in range(len(first.coeffs))],
+                    [np.concatenate([cs.tols[b] for cs in sets]) for b in range(len(first.tols))],
+                    first.labels, first.square,
+                    np.concatenate([cs.map_lo for cs in sets]), np.concatenate([cs.map_hi for cs in sets]),
+                    np.concatenate([cs.shift for cs in sets]), first.accept_width, bilinear, first.prune)
 
 
 #: Slack (c, s units) of the circle bounds: a candidate point counts as inside a rectangle within

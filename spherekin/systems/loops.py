@@ -9,11 +9,13 @@ the mechanism's loop builder and a cache of pruners, one per chart layout, built
 
 from __future__ import annotations
 
+import time
 from typing import Callable
 
 import numpy as np
 
-from ..search.boxloop import solve_system
+from ..search.boxloop import solve_system, solve_system_many
+from ..search.parameterizations import make_charts, stack_chart_sets
 from ..search.formulations import FORMULATIONS
 from .base import SYSTEMS, Compiled, Strategy, System
 
@@ -50,6 +52,18 @@ class CompiledLoops(Compiled):
                             lp_backend=s.lp_backend, parameterization=s.parameterization, tol=tol, isolate=s.isolate,
                             jobs=jobs, max_boxes=max_boxes, max_depth=s.max_depth, progress=progress, trace=trace,
                             pruners=self.pruners)
+
+    def search_many(self, rows, ranges, *, tol: float, max_boxes: int, progress=None) -> tuple:
+        """:func:`spherekin.search.boxloop.solve_system_many` at every row of ``rows`` (K, actuated;
+        radians) over ``ranges``: one report per row, None where the row reached a cap."""
+        s = self.strategy
+        t0 = time.perf_counter()
+        charts = stack_chart_sets([make_charts(s.parameterization, self.builder(row), ranges, self.formulation)
+                                   for row in rows])
+        return solve_system_many(charts, len(rows), ranges, formulation=self.formulation, pruner=s.pruner,
+                                 lp_backend=s.lp_backend, parameterization=s.parameterization, tol=tol,
+                                 isolate=s.isolate, max_boxes=max_boxes, max_depth=s.max_depth, pruners=self.pruners,
+                                 t_setup=time.perf_counter() - t0, progress=progress)
 
     def readings(self, inputs, points) -> np.ndarray:
         """The points themselves: the unknowns are the passive joints' readings."""
