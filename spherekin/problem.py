@@ -180,9 +180,20 @@ class Problem:
             report = self._solve_chunk([values], progress)[0]     # the engine, on a chunk of one
         else:
             report = self._solve(values, progress, trace)
+        return self._explained(report, values)
+
+    def _explained(self, report: SolveReport, values) -> SolveReport:
+        """``report`` with ``empty_reason`` set where it has no solution (and no cap or Ctrl-C)."""
         if not report.solutions and report.settings.limit is None:
             report = dataclasses.replace(report, empty_reason=self.explain_empty(values))
         return report
+
+    def solve_alone(self, inputs) -> SolveReport:
+        """The engine's reference: the report of ``inputs`` (radians, one per actuated joint) from a box
+        loop of its own, one input at a time (the pipeline :meth:`solve_many` batches; slower). The
+        same answer as :meth:`solve`: counts, statuses, evidence, fallbacks, angles to rounding."""
+        values = self.mechanism.check_inputs(inputs)
+        return self._explained(self._solve(values, None, None), values)
 
     def explain_empty(self, inputs) -> EmptyReason:
         """Why the solve at ``inputs`` (radians, one per actuated joint) finds no assembly in the
