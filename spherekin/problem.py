@@ -37,7 +37,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .core.angles import RANGE_TOL
+from .core.angles import RANGE_TOL, in_range_many
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
@@ -337,8 +337,7 @@ class Problem:
             except SearchInterrupted:
                 raise KeyboardInterrupt from None        # searches of milliseconds: nothing worth keeping
             pending = []
-            for k, f in enumerate(found):
-                got = None if f is None else self._platform_found(f, values[k], t_setup, charts[k].n_charts)
+            for k, got in enumerate(self._platform_found_many(list(found), values, t_setup, charts[0].n_charts)):
                 if got is None:
                     out[k] = self._solve(values[k], None, None)      # a cap: on its own, where it is reported
                 elif isinstance(got, str):
@@ -475,30 +474,45 @@ class Problem:
     def _platform_found(self, found, values, t_setup: float, n_charts: int):
         """(report, poses of the roots in range) from what the platform search ``found`` at ``values``,
         or why the loop equations must answer instead (a string)."""
+        return self._platform_found_many([found], [values], t_setup, n_charts)[0]
+
+    def _platform_found_many(self, found: list, values: list, t_setup: float, n_charts: int) -> list:
+        """:meth:`_platform_found` of every input of a chunk: the poses, joint readings and range tests
+        of all their roots as array operations, then each input's report (None where ``found`` is)."""
         s = self.strategy
-        if found.unresolved:
-            return (f"the platform search left {found.unresolved} box(es) it could not isolate (a parallel "
-                          "singularity or a double root nearby): solved with the loop equations")
-        distinct, charts_of = [], []
-        for chart, x in found.points:
-            pose = self.platform.pose(chart, x)
-            if any(np.abs(pose - p).max() <= DUPLICATE_POSE for p in distinct):
-                continue                                  # the same root from an overlapping chart
-            distinct.append(pose)
-            charts_of.append(int(chart))
-        boxes, poses = [], []
-        if distinct:
-            readings = self.platform.readings(values, np.array(distinct))
-            for pose, chart, angles in zip(distinct, charts_of, readings):
-                box = AcceptedBox(angles, angles.copy(), chart)
-                if clusters_in_range([box], self.ranges, s.tol):
-                    boxes.append(box)
-                    poses.append(pose)
-        clusters = clusters_in_range(boxes, self.ranges, s.tol)
-        stats = dataclasses.replace(found.stats, time_setup=t_setup, time_total=found.stats.time_total + t_setup)
+        owner = np.array([k for k, f in enumerate(found) if f is not None for _ in f.points], dtype=int)
+        points = [p for f in found if f is not None for p in f.points]
+        if points:
+            poses = self.platform.poses(np.array([c for c, _ in points]), np.array([x for _, x in points]))
+            readings = self.platform.readings(np.array(values, dtype=float)[owner], poses)
+            inside = np.ones(len(points), dtype=bool)
+            for j, rng in enumerate(self.ranges.values()):
+                inside &= in_range_many(readings[:, j], rng, s.tol + RANGE_TOL)
         settings = Settings(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
                             parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=n_charts)
-        return SearchReport(self.names, tuple(clusters), (), stats, settings), poses
+        out: list = []
+        first = 0
+        for k, f in enumerate(found):
+            if f is None:
+                out.append(None)
+                continue
+            mine = range(first, first + len(f.points))
+            first += len(f.points)
+            if f.unresolved:
+                out.append(f"the platform search left {f.unresolved} box(es) it could not isolate (a parallel "
+                           "singularity or a double root nearby): solved with the loop equations")
+                continue
+            kept: list[int] = []
+            for i in mine:
+                if any(np.abs(poses[i] - poses[j]).max() <= DUPLICATE_POSE for j in kept):
+                    continue                              # the same root from an overlapping chart
+                kept.append(i)
+            kept = [i for i in kept if inside[i]]
+            boxes = [AcceptedBox(readings[i], readings[i].copy(), int(points[i][0])) for i in kept]
+            clusters = clusters_in_range(boxes, self.ranges, s.tol)
+            stats = dataclasses.replace(f.stats, time_setup=t_setup, time_total=f.stats.time_total + t_setup)
+            out.append((SearchReport(self.names, tuple(clusters), (), stats, settings), [poses[i] for i in kept]))
+        return out
 
     def _search_loops(self, values, tol, progress, trace):
         """(report, limit, tol): the loop equations' search; a capped one is re-run as a covering."""

@@ -17,7 +17,7 @@ import numpy as np
 
 from .angles import check_turn
 
-__all__ = ["quaternion_matrix", "rotation_from_quaternion", "quaternions_from_rotations", "rotation_from_euler",
+__all__ = ["quaternion_matrix", "quaternion_matrices", "rotation_from_quaternion", "quaternions_from_rotations", "rotation_from_euler",
            "EULER_AXES", "check_euler_convention", "QUATERNION_COLUMNS", "ROTATION_COLUMNS"]
 
 #: Column names of a platform rotation in a table (batch's results, a track's frame): the unit
@@ -37,12 +37,17 @@ def quaternion_matrix(q) -> np.ndarray:
 
     S(q) / |q|^2 is the right-handed rotation by 2 acos(w / |q|) about (x, y, z).
     """
-    w, x, y, z = (float(v) for v in q)
-    return np.array([
-        [w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-        [2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)],
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z],
-    ])
+    return quaternion_matrices(np.asarray(q, dtype=float)[None])[0]
+
+
+def quaternion_matrices(q) -> np.ndarray:
+    """S(q) (B, 3, 3) of quaternions q (B, 4), each as :func:`quaternion_matrix`."""
+    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    return np.stack([
+        np.stack([w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)], axis=-1),
+        np.stack([2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)], axis=-1),
+        np.stack([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z], axis=-1),
+    ], axis=-2)
 
 
 def rotation_from_quaternion(q, key: str = "quaternion") -> np.ndarray:

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.angles import wrap
-from ..core.orientation import quaternion_matrix
+from ..core.orientation import quaternion_matrices, quaternion_matrix
 from ..core.rotations import cross
 from ..mechanism.chains import angle_about, axis_rotation, axis_rotations, perpendicular
 from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
@@ -58,7 +58,7 @@ from .base import SYSTEMS, Compiled, System
 
 __all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem",
-           "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points",
+           "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
            "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform"]
 
@@ -136,20 +136,29 @@ def chart_control_points(m) -> np.ndarray:
 
 
 def chart_quaternion(chart, x) -> np.ndarray:
-    """Quaternions (B, 4) (not normalized) of unit-box points x (B, 3) of charts ``chart`` (B,)."""
+    """Quaternions (B, 4) (not normalized) of unit-box points x (B, 3) of charts ``chart`` (B,):
+    component ``chart`` is 1, the others CHART_EXTENT (2x - 1)."""
     x = np.atleast_2d(np.asarray(x, dtype=float))
     chart = np.broadcast_to(np.asarray(chart, dtype=int), (len(x),))
+    u = CHART_EXTENT * (2.0 * x - 1.0)
     q = np.empty((len(x), 4))
-    for b, (k, xb) in enumerate(zip(chart, x)):
-        q[b] = np.insert(CHART_EXTENT * (2.0 * xb - 1.0), k, 1.0)
+    for k in range(CHARTS):                    # the four charts, each as one array operation
+        rows = chart == k
+        if rows.any():
+            q[rows] = np.insert(u[rows], k, 1.0, axis=1)
     return q
+
+
+def chart_rotations(chart, x) -> np.ndarray:
+    """The rotations (B, 3, 3) at unit-box points x (B, 3) of charts ``chart`` (B,)."""
+    q = chart_quaternion(chart, x)
+    return quaternion_matrices(q) / (q * q).sum(axis=1)[:, None, None]
 
 
 def chart_rotation(chart: int, x) -> np.ndarray:
     """The rotation (3, 3) at the unit-box point x (3,) of chart ``chart`` (for a mechanism: the
     platform displacement D, see :meth:`PlatformSystem.pose`)."""
-    q = chart_quaternion(chart, x)[0]
-    return quaternion_matrix(q) / float(q @ q)
+    return chart_rotations([chart], np.asarray(x, dtype=float)[None])[0]
 
 
 class PlatformLeg:
@@ -430,7 +439,11 @@ class PlatformSystem:
     def pose(self, chart: int, x) -> np.ndarray:
         """The platform pose R = D R_ref (3, 3) at the unit-box point x (3,) of chart ``chart``
         (the charts parameterize the displacement D)."""
-        return chart_rotation(chart, x) @ self.platform_reference
+        return self.poses([chart], np.asarray(x, dtype=float)[None])[0]
+
+    def poses(self, chart, x) -> np.ndarray:
+        """The platform poses (B, 3, 3) at unit-box points x (B, 3) of charts ``chart`` (B,)."""
+        return chart_rotations(chart, x) @ self.platform_reference
 
     def residuals(self, inputs, rotation) -> np.ndarray:
         """Eq. (1) at a pose R (3, 3): e(d) . (D b(d)) - c(d) per leg (legs,; independent of the charts)."""
@@ -490,11 +503,16 @@ class CompiledPlatform(Compiled):
         """The platform pose R (3, 3) at the unit-box point x (3,) of chart ``chart``."""
         return self.equations.pose(chart, x)
 
+    def poses(self, chart, x) -> np.ndarray:
+        """The platform poses (B, 3, 3) at unit-box points x (B, 3) of charts ``chart`` (B,)."""
+        return self.equations.poses(chart, x)
+
     def residuals(self, inputs, rotation) -> np.ndarray:
         return self.equations.residuals(inputs, rotation)
 
     def readings(self, inputs, poses) -> np.ndarray:
-        """The passive joints' readings (K, len(names); radians, wrapped) at platform poses R (K, 3, 3)."""
+        """The passive joints' readings (K, len(names); radians, wrapped) at platform poses R (K, 3, 3);
+        ``inputs``: the actuator readings of every pose, or one row per pose (K, legs)."""
         return passive_readings_many(self.legs, inputs, np.asarray(poses, dtype=float),
                                      self.platform_reference)[:, self.order]
 
