@@ -323,18 +323,18 @@ class EmptyReason:
                 "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
 
 
-def solution_table(actuated, unknowns, items, measure=None):
+def solution_table(actuated, unknowns, items, measures=None):
     """The results table (a pandas DataFrame; docs/results-format.md) of ``items``: (input index, its
     inputs (radians, one per name of ``actuated``), the names of its solutions' angles, its
     solutions) each; one row per solution, passive angles in the order of ``unknowns``; an input
-    without solutions gets one row with empty solution columns. ``measure(joint_angles)``: the
-    ``parallel_measure`` of a solution (name -> radians; NaN without it or where it raises
-    ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
+    without solutions gets one row with empty solution columns. ``measures(joint_angles)``: the
+    ``parallel_measure`` of every solution at once (name -> array of radians; returns an array; NaN
+    without it or where it raises ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
     (:mod:`spherekin.batch.rows`), so the columns cannot drift apart."""
     import pandas as pd
 
     names, actuated = list(unknowns), list(actuated)
-    idx, sol, status, sing, resid, meas, angles, rots, inp = [], [], [], [], [], [], [], [], []
+    idx, sol, status, sing, resid, solved, angles, rots, inp = [], [], [], [], [], [], [], [], []
     nan_rot = np.full((3, 3), np.nan)
     for index, row, their_names, solutions in items:
         row = np.asarray(row, dtype=float)
@@ -347,7 +347,7 @@ def solution_table(actuated, unknowns, items, measure=None):
                 status.append(None)
                 sing.append(None)
                 resid.append(np.nan)
-                meas.append(np.nan)
+                solved.append(False)
                 angles.append(np.full(len(names), np.nan))
                 rots.append(nan_rot)
                 continue
@@ -359,22 +359,26 @@ def solution_table(actuated, unknowns, items, measure=None):
             resid.append(np.nan if s.residual is None else float(s.residual))
             angles.append(a)
             rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
-            joints = {**dict(zip(actuated, (float(v) for v in row))), **dict(zip(names, (float(v) for v in a)))}
-            try:
-                meas.append(np.nan if measure is None else measure(joints))
-            except ValueError:             # a joint the loop equations do not carry: no Jacobian
-                meas.append(np.nan)
+            solved.append(True)
     rots = np.array(rots).reshape(-1, 3, 3)
+    inp = np.array(inp, dtype=float).reshape(-1, len(actuated))
+    angles = np.array(angles, dtype=float).reshape(-1, len(names))
+    has = np.array(solved, dtype=bool)
+    meas = np.full(len(has), np.nan)
+    if measures is not None and has.any():
+        joints = {**{n: inp[has, j] for j, n in enumerate(actuated)}, **{n: angles[has, j] for j, n in enumerate(names)}}
+        try:
+            meas[has] = measures(joints)
+        except ValueError:                 # a joint the loop equations do not carry: no Jacobian
+            pass
     quats = np.full((len(rots), 4), np.nan)
     known = np.isfinite(rots).all(axis=(1, 2))
     if known.any():
         quats[known] = quaternions_from_rotations(rots[known])
     data = {"input": np.array(idx, dtype=np.int64)}
-    inp = np.array(inp, dtype=float).reshape(-1, len(actuated))
     data.update({n: inp[:, j] for j, n in enumerate(actuated)})
     data["solution"] = pd.array(sol, dtype="Int64")
     data["status"] = pd.array(status, dtype="string")
-    angles = np.array(angles, dtype=float).reshape(-1, len(names))
     data.update({n: angles[:, j] for j, n in enumerate(names)})
     data.update({c: quats[:, j] for j, c in enumerate(QUATERNION_COLUMNS)})
     flat = rots.reshape(-1, 9)
@@ -419,9 +423,9 @@ class SolveReport:
         row with empty solution columns, as a batch does."""
         mech = self.mechanism
         names = self.unknowns if mech is None else mech.loop_unknowns
-        measure = None if mech is None else mech.parallel_measure
+        measures = None if mech is None else mech.parallel_measures
         return solution_table(self.settings.actuated, names,
-                              [(0, self.settings.inputs, self.unknowns, self.solutions)], measure)
+                              [(0, self.settings.inputs, self.unknowns, self.solutions)], measures)
 
     def __repr__(self) -> str:
         return (f"SolveReport({self.count_text()}; {len(self.solutions)} entries over {', '.join(self.unknowns)}; "

@@ -52,7 +52,7 @@ def solution_rows(mechanism, items):
     """The results table of ``items``: (input index, its inputs (radians), the unknowns' names, its
     solutions) each; an input without solutions gets one row with empty solution columns. Built by
     :func:`spherekin.results.solution_table`, as ``SolveReport.frame()`` is."""
-    return solution_table(mechanism.actuated, mechanism.loop_unknowns, items, mechanism.parallel_measure)
+    return solution_table(mechanism.actuated, mechanism.loop_unknowns, items, mechanism.parallel_measures)
 
 
 def empty_frame(mechanism):
