@@ -48,6 +48,7 @@ __all__ = [
     "charts_for_range",
     "arc_box",
     "make_charts",
+    "stack_chart_sets",
     "tan_half_loop",
     "sin_cos_loop",
 ]
@@ -557,3 +558,61 @@ def make_charts(name: str, build, ranges: Mapping[str, tuple[float, float] | Non
     if not ranges:
         raise ValueError("ranges: expected at least one unknown, got none")
     return parameterization.charts(build, dict(ranges), formulation)
+
+
+def stack_chart_sets(sets: Sequence[ChartSet]) -> ChartSet:
+    """One :class:`ChartSet` holding the charts of ``sets`` in order (chart c of ``sets[k]`` at index
+    k C_0 + ... + c: input-major when each set is one input's).
+
+    Every per-chart array is concatenated along its chart axis: ``coeffs[b]``, ``tols[b]``,
+    ``map_lo``, ``map_hi``, ``shift`` (axis 0) and each bilinear block's ``a``, ``b`` (last axis).
+    The sets must share one layout: the same parameterization, unknowns, variables, accept width,
+    block labels, square systems, prune flags, coefficient shapes, and bilinear forms (variables,
+    sums, shapes); else a ValueError naming what differs.
+    """
+    sets = list(sets)
+    if not sets:
+        raise ValueError("sets: expected at least one chart set, got none")
+    first = sets[0]
+    nb = len(first.coeffs)
+
+    def same(k: int, what: str, a, b) -> None:
+        if a != b:
+            raise ValueError(f"sets[{k}]: expected the layout of sets[0], but its {what} differs ({b!r} vs {a!r})")
+
+    def bil_key(f):
+        return None if f is None else (f.a_vars, f.b_vars, f.sums, f.shape, f.a.shape[:-1], f.b.shape[:-1])
+
+    def layout(s: ChartSet):
+        return {
+            "parameterization": type(s.parameterization).__name__,
+            "unknowns": s.unknowns,
+            "variables": s.variables,
+            "accept_width": s.accept_width,
+            "number of blocks": len(s.coeffs),
+            "labels": [tuple(x) for x in s.labels],
+            "square": [tuple(x) for x in s.square],
+            "prune": list(s.prune) if s.prune is not None else None,
+            "coefficient shapes": [c.shape[1:] for c in s.coeffs],
+            "tolerance shapes": [t.shape[1:] for t in s.tols],
+            "map shapes": (s.map_lo.shape[1:], s.map_hi.shape[1:], s.shift.shape[1:]),
+            "bilinear forms": None if s.bilinear is None else [bil_key(f) for f in s.bilinear],
+        }
+
+    ref = layout(first)
+    for k, s in enumerate(sets[1:], 1):
+        for what, value in layout(s).items():
+            same(k, what, ref[what], value)
+    if len(sets) == 1:
+        return first
+    coeffs = [np.concatenate([s.coeffs[b] for s in sets]) for b in range(nb)]
+    tols = [np.concatenate([s.tols[b] for s in sets]) for b in range(nb)]
+    bilinear = first.bilinear
+    if bilinear is not None:
+        bilinear = [None if f is None else ChartBilinear(
+            f.a_vars, f.b_vars, np.concatenate([s.bilinear[b].a for s in sets], axis=-1),
+            np.concatenate([s.bilinear[b].b for s in sets], axis=-1), f.sums, f.shape)
+            for b, f in enumerate(bilinear)]
+    return ChartSet(first.parameterization, first.unknowns, first.variables, coeffs, tols, first.labels,
+                    first.square, np.concatenate([s.map_lo for s in sets]), np.concatenate([s.map_hi for s in sets]),
+                    np.concatenate([s.shift for s in sets]), first.accept_width, bilinear, first.prune)

@@ -15,7 +15,9 @@ import numpy as np
 
 from ..search.boxloop import solve_system
 from ..search.formulations import FORMULATIONS
+from ..search.parameterizations import ChartSet
 from .base import SYSTEMS, Compiled, Strategy, System
+from .loop_charts import LoopCharts
 
 __all__ = ["LOOP_FORMULATION", "Loops", "CompiledLoops"]
 
@@ -34,6 +36,8 @@ class CompiledLoops(Compiled):
         self.names = tuple(mechanism.loop_unknowns)
         #: chart layout -> pruner (:func:`spherekin.search.boxloop.pruner_for`), filled at first use
         self.pruners: dict = {}
+        #: ranges -> :class:`spherekin.systems.loop_charts.LoopCharts`, compiled at the first charts_many over them
+        self.loop_charts: dict = {}
 
     def builder(self, inputs) -> Callable:
         """chart -> (loops, unknowns) of the loop equations at actuator ``inputs`` (radians)."""
@@ -41,6 +45,37 @@ class CompiledLoops(Compiled):
             system = self.mechanism.loop_system(inputs, chart)
             return system.loops, system.unknowns
         return build
+
+    def compiled_charts(self, ranges) -> LoopCharts:
+        """The :class:`~spherekin.systems.loop_charts.LoopCharts` of these equations over ``ranges``
+        (name -> (lo, hi) radians, or None), compiled at its first use and kept."""
+        key = tuple((n, None if r is None else (float(r[0]), float(r[1]))) for n, r in dict(ranges).items())
+        if key not in self.loop_charts:
+            m = self.mechanism
+            self.loop_charts[key] = LoopCharts(self.builder, [m.joint(n).range for n in m.actuated], dict(ranges),
+                                               self.strategy.parameterization, self.formulation)
+        return self.loop_charts[key]
+
+    def charts_many(self, rows, ranges) -> ChartSet:
+        """The chart sets (:func:`spherekin.search.parameterizations.make_charts`) of the K input rows
+        ``rows`` (K, actuated; radians) over ``ranges`` (name -> (lo, hi) radians, or None), stacked
+        along the chart axis input-major: chart c of row k at index k C + c of every per-chart array
+        (C charts per input; the bilinear halves' chart axis is their last). One array program
+        compiled once per ranges (:mod:`spherekin.system.loop_charts`: the arrays are multilinear in
+        the actuated joints' (1, cos, sin), tolerances included), or the direct build per input where
+        a parameterization or formulation is not (``compiled_charts(ranges).fallback`` says why).
+        Each row is checked as :meth:`spherekin.mechanism.SphericalMechanism.check_inputs` does."""
+        m = self.mechanism
+        arr = np.asarray(rows, dtype=float) if not isinstance(rows, (str, bytes)) else None
+        if arr is None or arr.ndim != 2 or arr.shape[1] != len(m.actuated) or arr.shape[0] == 0:
+            raise ValueError(f"rows: expected a (K, {len(m.actuated)}) array of actuator angles in radians "
+                             f"{m.actuated}, got {np.shape(rows) if arr is not None else rows!r}")
+        for k, row in enumerate(arr):
+            try:
+                m.check_inputs(row)
+            except ValueError as exc:
+                raise ValueError(f"rows[{k}]: {exc}") from None
+        return self.compiled_charts(ranges).charts(arr)
 
     def search(self, inputs, ranges, *, tol: float, jobs: int, max_boxes: int, progress=None, trace=None):
         """:func:`spherekin.search.boxloop.solve_system` on these equations at ``inputs`` over ``ranges``
