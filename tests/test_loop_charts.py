@@ -255,3 +255,5 @@ def test_charts_many_refuses_rows_of_the_wrong_shape_or_outside_a_turn():
         p.loops.charts_many(np.zeros(2), p.ranges)
     with pytest.raises(ValueError, match=r"rows\[1\]: inputs"):
         p.loops.charts_many(np.array([[0.1, 0.2], [17.0, 0.0]]), p.ranges)
+    with pytest.raises(ValueError, match=r"rows\[0\]: inputs"):
+        p.loops.charts_many(np.array([[np.nan, 0.2]]), p.ranges)

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.angles import MAX_INPUT_ANGLE, in_range_many
 from ..search.boxloop import solve_system
 from ..search.formulations import FORMULATIONS
 from ..search.parameterizations import ChartSet
@@ -70,11 +71,17 @@ class CompiledLoops(Compiled):
         if arr is None or arr.ndim != 2 or arr.shape[1] != len(m.actuated) or arr.shape[0] == 0:
             raise ValueError(f"rows: expected a (K, {len(m.actuated)}) array of actuator angles in radians "
                              f"{m.actuated}, got {np.shape(rows) if arr is not None else rows!r}")
-        for k, row in enumerate(arr):
+        # the rules of check_inputs on the whole array; the first row refused gets its message
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(arr) & (np.abs(arr) <= MAX_INPUT_ANGLE)
+            ok &= np.stack([in_range_many(arr[:, a], m.joint(n).range) for a, n in enumerate(m.actuated)], axis=1)
+        for k in np.flatnonzero(~ok.all(axis=1))[:1]:
             try:
-                m.check_inputs(row)
+                m.check_inputs(arr[k])
             except ValueError as exc:
                 raise ValueError(f"rows[{k}]: {exc}") from None
+            raise ValueError(f"rows[{k}]: expected finite angles (radians) within a turn of 0 and inside the "
+                             f"joint ranges, got {tuple(arr[k])}")
         return self.compiled_charts(ranges).charts(arr)
 
     def search(self, inputs, ranges, *, tol: float, jobs: int, max_boxes: int, progress=None, trace=None):
