@@ -257,3 +257,15 @@ def test_charts_many_refuses_rows_of_the_wrong_shape_or_outside_a_turn():
         p.loops.charts_many(np.array([[0.1, 0.2], [17.0, 0.0]]), p.ranges)
     with pytest.raises(ValueError, match=r"rows\[0\]: inputs"):
         p.loops.charts_many(np.array([[np.nan, 0.2]]), p.ranges)
+
+
+def test_a_narrow_actuated_range_falls_back_instead_of_interpolating_ill_conditioned():
+    p = problem("four_bar")
+    lc = LoopCharts(p.loops.builder, [(0.2, 0.25)], p.ranges, p.strategy.parameterization, p.loops.formulation)
+    assert lc.fallback is not None and "too narrow" in lc.fallback
+    got = lc.charts(np.array([[0.22]]))
+    want = direct(p, (0.22,))
+    np.testing.assert_array_equal(got.coeffs[0], want.coeffs[0])
+    # a full-circle joint interpolates, with the Lebesgue constant 5/3 of nodes 2 pi / 3 apart
+    full = LoopCharts(p.loops.builder, [None], p.ranges, p.strategy.parameterization, p.loops.formulation)
+    assert full.fallback is None

@@ -53,7 +53,7 @@ So each block's tolerance at input k is alpha + lambda(w~_k) beta, with
 
     alpha = (ROUNDING_SAFETY + 2 (J + |D|)) eps A + |D| TRIG_ERROR X,    beta = t + R + |D| TRIG_ERROR X,
 
-every computed bound inflated by INFLATION. Measured: 1.7-3.2x the direct build's tolerances
+every computed bound inflated by INFLATION. Measured: 1.7-3.7x the direct build's tolerances
 (tests/test_loop_charts.py), never below what the reconstruction's rounding can do. A block that
 depends on no actuated joint is the node build itself (its arrays and tolerances copied exactly).
 """
@@ -93,9 +93,10 @@ ASSEMBLY_ROUNDING = 4.0
 #: choice: node matrix inverse of infinity norm 4/3, Lebesgue constant 5/3). A limited range gets
 #: its midpoint and the midpoint +- NODE_SPREAD of its half-width (capped at 2 pi / 3), inside the range.
 NODE_SPREAD = 0.9
-#: Nodes whose Lebesgue function at the ends of the joint range exceeds this are refused (the
-#: chart set falls back to the direct build): a narrow actuated range makes the extraction
-#: ill-conditioned and the tolerances wide (a range of 0.1 rad already gives ~1e3).
+#: Nodes whose Lebesgue function at the ends of the joint range, or whose inverse node matrix's 1- or
+#: infinity norm, exceeds this are refused (the chart set falls back to the direct build): a narrow
+#: actuated range makes the extraction ill-conditioned and the tolerances wide (a range of 0.1 rad
+#: already gives ~1e3); INFLATION relies on the cap.
 MAX_NODE_LEBESGUE = 1e3
 _EPS = float(np.finfo(float).eps)
 _V_NORM = 1.0 + math.sqrt(2.0)   # >= ||(1, cos, sin)||_1: the infinity norm of a node matrix
@@ -226,6 +227,7 @@ class LoopCharts:
             if rng is not None:
                 ends = np.array([[float(rng[0]), float(rng[1])]]).T
                 lam = np.abs(_triples(ends)[:, 0, :] @ self._p[a]).sum(axis=1).max()
+                lam = max(lam, np.abs(self._p[a]).sum(axis=0).max(), np.abs(self._p[a]).sum(axis=1).max())
                 if lam > MAX_NODE_LEBESGUE:
                     self.fallback = (f"actuated joint {a}'s range is too narrow to interpolate in "
                                      f"(Lebesgue constant {lam:.3g} > {MAX_NODE_LEBESGUE:g})")
