@@ -14,7 +14,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from benchmarks.bench_systems import elbow_actuated_3rrr
+from benchmarks.bench_systems import INPUTS_3RRR, elbow_actuated_3rrr, elbow_inputs
 from spherekin.closure import (TRANSVERSAL_ENTRIES, known_factor, matrix_control_points, q_control_points,
                                variable_factor)
 from spherekin.problem import compile
@@ -178,11 +178,16 @@ def test_reconstructed_tolerances_bound_the_error_against_a_40_digit_build(name)
 
 # --------------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", ["four_bar", "five_bar"])
+@pytest.mark.parametrize("name", ["four_bar", "five_bar", "general_3rrr_loops", "elbow_3rrr_loops"])
 def test_the_search_finds_the_same_solutions_with_the_compiled_charts(name, monkeypatch):
     p = problem(name)
-    near = {"four_bar": [(0.3,), (-1.2,)], "five_bar": [(0.2, -0.1), (0.35, 0.05)]}[name]   # they assemble
-    rows = np.vstack([np.array(near), seeded_rows(p, 2, seed=11)])
+    near = {"four_bar": [(0.3,), (-1.2,)], "five_bar": [(0.2, -0.1), (0.35, 0.05)],   # they assemble
+            "general_3rrr_loops": [INPUTS_3RRR, tuple(np.add(INPUTS_3RRR, 0.05))]}
+    if name == "elbow_3rrr_loops":
+        near[name] = [elbow_inputs(p.mechanism)] * 2
+    rows = np.array(near[name], dtype=float)
+    if name in ("four_bar", "five_bar"):      # and inputs where they may not
+        rows = np.vstack([rows, seeded_rows(p, 2, seed=11)])
     many = p.loops.charts_many(rows, p.ranges)
     c = many.n_charts // len(rows)
     s = p.strategy
