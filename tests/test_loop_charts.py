@@ -173,7 +173,7 @@ def test_reconstructed_tolerances_bound_the_error_against_a_40_digit_build(name)
                 assert np.all(err_rec <= got.tols[b][g]), (k, c, b, err_rec, got.tols[b][g])
                 assert np.all(err_dir <= want.tols[b][c])        # the reference agrees with the direct build
                 worst = max(worst, float((err_rec / got.tols[b][g]).max()))
-    assert 0 < worst < 1
+    assert 0 < worst < 1e-2, worst    # measured ~5e-4: the bound is rigorous, not tight
 
 
 # --------------------------------------------------------------------------------------------------

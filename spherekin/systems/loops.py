@@ -62,7 +62,7 @@ class CompiledLoops(Compiled):
         ``rows`` (K, actuated; radians) over ``ranges`` (name -> (lo, hi) radians, or None), stacked
         along the chart axis input-major: chart c of row k at index k C + c of every per-chart array
         (C charts per input; the bilinear halves' chart axis is their last). One array program
-        compiled once per ranges (:mod:`spherekin.system.loop_charts`: the arrays are multilinear in
+        compiled once per ranges (:mod:`spherekin.systems.loop_charts`: the arrays are multilinear in
         the actuated joints' (1, cos, sin), tolerances included), or the direct build per input where
         a parameterization or formulation is not (``compiled_charts(ranges).fallback`` says why).
         Each row is checked as :meth:`spherekin.mechanism.SphericalMechanism.check_inputs` does."""
