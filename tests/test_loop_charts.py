@@ -274,3 +274,13 @@ def test_a_narrow_actuated_range_falls_back_instead_of_interpolating_ill_conditi
     # a full-circle joint interpolates, with the Lebesgue constant 5/3 of nodes 2 pi / 3 apart
     full = LoopCharts(p.loops.builder, [None], p.ranges, p.strategy.parameterization, p.loops.formulation)
     assert full.fallback is None
+
+
+def test_a_block_that_depends_on_joints_other_than_one_loops_falls_back():
+    p = problem("five_bar")        # one loop with both actuated joints; claim it holds only the first
+    lc = LoopCharts(p.loops.builder, [None, None], p.ranges, p.strategy.parameterization, p.loops.formulation,
+                    loop_joints=[{0}])
+    assert lc.fallback is not None and "not on those of one loop" in lc.fallback
+    ok = LoopCharts(p.loops.builder, [None, None], p.ranges, p.strategy.parameterization, p.loops.formulation,
+                    loop_joints=[{0, 1}])
+    assert ok.fallback is None and [blk.axes for blk in ok.blocks] == [(0, 1), (0, 1)]

@@ -14,7 +14,10 @@ Compiling (:class:`LoopCharts`, once per mechanism, strategy and ranges) builds 
 (:func:`spherekin.search.parameterizations.make_charts`) at the 3^A inputs of a tensor grid of nodes
 (3 readings per actuated joint, :func:`interpolation_nodes`), finds which joints each array depends
 on (its builds are bitwise equal along the axes of the others: each block is built from one loop
-alone), and extracts the tensors T_j by inverting the 3 x 3 node matrices V_a (rows (1, cos nu, sin
+alone, by the same float operations whatever the other loops' inputs; and an array of a loop does
+depend on each of its actuated joints, its corner control points being values of products of
+invertible matrices, so the check that every block depends on exactly the actuated joints of one
+loop, or none, is a guard against a build that breaks this), and extracts the tensors T_j by inverting the 3 x 3 node matrices V_a (rows (1, cos nu, sin
 nu)) along the dependent axes. For K input rows the arrays are then one matrix product per array with
 the (K, 3^|D|) weights, and the chart sets of the K inputs come out stacked input-major (chart c of
 input k at index k C + c). Compiling then checks the reconstruction on RECON_CHECK_INPUTS seeded inputs
@@ -187,8 +190,10 @@ class LoopCharts:
     """
 
     def __init__(self, build_at, actuated_ranges, ranges: Mapping, parameterization: str, formulation: str,
-                 seed: int = 0):
+                 seed: int = 0, loop_joints=None):
         self.build_at = build_at
+        #: per loop, the indices of the actuated joints in it (or None: not checked)
+        self.loop_joints = None if loop_joints is None else {tuple(sorted(j)) for j in loop_joints}
         self.parameterization = parameterization
         self.formulation = formulation
         self.ranges = dict(ranges)
@@ -259,6 +264,11 @@ class LoopCharts:
                     return
                 axes |= set(a.axes) | set(bb.axes)
             axes = tuple(sorted(axes))
+            if axes and self.loop_joints is not None and axes not in self.loop_joints:
+                # each block comes from one loop, and depends on every actuated joint of it
+                self.fallback = (f"block {b} depends on the actuated joints {axes}, not on those of one loop "
+                                 f"{sorted(self.loop_joints)}")
+                return
             tols = np.stack([s.tols[b] for s in sets])                      # (G, C, E)
             if not axes:   # the node build itself, tolerances included
                 self.blocks.append(_Block((), coeffs, a, bb, first.tols[b], np.zeros_like(first.tols[b])))

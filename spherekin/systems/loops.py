@@ -53,8 +53,10 @@ class CompiledLoops(Compiled):
         key = tuple((n, None if r is None else (float(r[0]), float(r[1]))) for n, r in dict(ranges).items())
         if key not in self.loop_charts:
             m = self.mechanism
+            loop_joints = [{m.actuated.index(v.joint) for v in g.vertices if v.actuated} for g in m.loop_geometry]
             self.loop_charts[key] = LoopCharts(self.builder, [m.joint(n).range for n in m.actuated], dict(ranges),
-                                               self.strategy.parameterization, self.formulation)
+                                               self.strategy.parameterization, self.formulation,
+                                               loop_joints=loop_joints)
         return self.loop_charts[key]
 
     def charts_many(self, rows, ranges) -> ChartSet:
