@@ -284,3 +284,17 @@ def test_a_block_that_depends_on_joints_other_than_one_loops_falls_back():
     ok = LoopCharts(p.loops.builder, [None, None], p.ranges, p.strategy.parameterization, p.loops.formulation,
                     loop_joints=[{0, 1}])
     assert ok.fallback is None and [blk.axes for blk in ok.blocks] == [(0, 1), (0, 1)]
+
+
+def test_without_dense_coefficients_the_halves_and_tolerances_are_the_same():
+    p = problem("general_3rrr_loops")
+    rows = seeded_rows(p, 2, seed=9)
+    full = p.loops.charts_many(rows, p.ranges)
+    lean = p.loops.charts_many(rows, p.ranges, dense=False)
+    for b, (f, g) in enumerate(zip(full.bilinear, lean.bilinear)):
+        assert g is not None and np.all(np.isnan(lean.coeffs[b])) and lean.coeffs[b].shape == full.coeffs[b].shape
+        np.testing.assert_array_equal(f.a, g.a)
+        np.testing.assert_array_equal(f.b, g.b)
+        np.testing.assert_array_equal(full.tols[b], lean.tols[b])
+    # the halves and transversal blocks of one loop share one reconstruction of its halves
+    assert lean.bilinear[0].a is lean.bilinear[1].a and lean.bilinear[2].b is lean.bilinear[3].b

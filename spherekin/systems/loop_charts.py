@@ -156,7 +156,14 @@ class _Array:
         self.axes, self.tensors, self.shape, self.chart_axis = axes, tensors, shape, chart_axis
 
     def at(self, weights: dict) -> np.ndarray:
-        """The array at K inputs, stacked input-major along its chart axis."""
+        """The array at K inputs, stacked input-major along its chart axis (computed once per call:
+        ``weights`` also holds the arrays already made, by id)."""
+        if id(self) in weights:
+            return weights[id(self)]
+        weights[id(self)] = out = self._at(weights)
+        return out
+
+    def _at(self, weights: dict) -> np.ndarray:
         w = weights[self.axes]
         k, c = w.shape[0], self.shape[self.chart_axis]
         # einsum, not a BLAS product: a (K, J) x (J, M) product with J <= 27 gains nothing from BLAS
@@ -295,10 +302,20 @@ class LoopCharts:
             # gets zero tensors there), so that one weight matrix serves the block
             coeffs = self._widen(coeffs, axes)
             if bil is not None:
-                a, bb = self._widen(a, axes), self._widen(bb, axes)
+                a, bb = self._shared(self._widen(a, axes)), self._shared(self._widen(bb, axes))
             self.blocks.append(_Block(axes, coeffs, a, bb, alpha, beta))
         assert all(blk.coeffs.shape[0] == C for blk in self.blocks)
         self._check(seed)
+
+    def _shared(self, arr: _Array) -> _Array:
+        """An earlier block's equal half (same joints, bitwise equal tensors) instead of ``arr``: the
+        blocks of one loop share its halves (halves and transversal blocks), reconstructed once a call."""
+        for blk in self.blocks:
+            for other in (blk.a, blk.b):
+                if (other is not None and other.axes == arr.axes and other.chart_axis == arr.chart_axis
+                        and other.tensors.shape == arr.tensors.shape and np.array_equal(other.tensors, arr.tensors)):
+                    return other
+        return arr
 
     def _grid(self, arrays) -> np.ndarray:
         return np.stack(arrays).reshape((3,) * self.n_inputs + arrays[0].shape)
@@ -371,7 +388,7 @@ class LoopCharts:
 
     # ------------------------------------------------------------------ many inputs
 
-    def _reconstruct(self, rows: np.ndarray) -> ChartSet:
+    def _reconstruct(self, rows: np.ndarray, dense: bool = True) -> ChartSet:
         t = self.template
         k = rows.shape[0]
         trip = _triples(rows)
@@ -383,7 +400,11 @@ class LoopCharts:
             if ax not in weights:
                 weights[ax] = _weights(trip, ax)
                 lams[ax] = np.prod(lam_a[:, list(ax)], axis=1) if ax else np.ones(k)
-            coeffs.append(blk.coeffs.at(weights))
+            if dense or blk.a is None:
+                coeffs.append(blk.coeffs.at(weights))
+            else:       # a NaN placeholder of the right shape, no memory (see charts)
+                shape = blk.coeffs.shape
+                coeffs.append(np.broadcast_to(np.nan, (k * shape[0],) + shape[1:]))
             tol = blk.alpha[None] + lams[ax][:, None, None] * blk.beta[None]
             tols.append(tol.reshape((-1,) + blk.alpha.shape[1:]))
         if t.bilinear is not None:
@@ -395,10 +416,15 @@ class LoopCharts:
                         np.tile(t.map_lo, tile), np.tile(t.map_hi, tile), np.tile(t.shift, tile), t.accept_width,
                         bilinear if t.bilinear is not None else None, t.prune)
 
-    def charts(self, rows) -> ChartSet:
+    def charts(self, rows, dense: bool = True) -> ChartSet:
         """The chart sets of the input rows (K, A; radians, checked by the caller) stacked input-major:
-        chart c of row k at index k C + c of every per-chart array (C = charts per input)."""
+        chart c of row k at index k C + c of every per-chart array (C = charts per input).
+
+        ``dense=False``: the dense ``coeffs`` of the blocks that have a bilinear form are read-only NaN
+        placeholders of their shape (no memory), for an engine that restricts the halves, as the box
+        loop does (on general_3rrr in the loop system they are ~90% of the 350 MB of K = 256 inputs);
+        the direct fallback always gives them."""
         rows = np.asarray(rows, dtype=float)
         if self.fallback is not None:
             return stack_chart_sets([self.direct(r) for r in rows])
-        return self._reconstruct(rows)
+        return self._reconstruct(rows, dense)

@@ -59,7 +59,7 @@ class CompiledLoops(Compiled):
                                                loop_joints=loop_joints)
         return self.loop_charts[key]
 
-    def charts_many(self, rows, ranges) -> ChartSet:
+    def charts_many(self, rows, ranges, dense: bool = True) -> ChartSet:
         """The chart sets (:func:`spherekin.search.parameterizations.make_charts`) of the K input rows
         ``rows`` (K, actuated; radians) over ``ranges`` (name -> (lo, hi) radians, or None), stacked
         along the chart axis input-major: chart c of row k at index k C + c of every per-chart array
@@ -67,7 +67,9 @@ class CompiledLoops(Compiled):
         compiled once per ranges (:mod:`spherekin.systems.loop_charts`: the arrays are multilinear in
         the actuated joints' (1, cos, sin), tolerances included), or the direct build per input where
         a parameterization or formulation is not (``compiled_charts(ranges).fallback`` says why).
-        Each row is checked as :meth:`spherekin.mechanism.SphericalMechanism.check_inputs` does."""
+        Each row is checked as :meth:`spherekin.mechanism.SphericalMechanism.check_inputs` does.
+        ``dense=False``: the dense coefficients of blocks with a bilinear form are NaN placeholders
+        (:meth:`~spherekin.systems.loop_charts.LoopCharts.charts`), for an engine that restricts the halves."""
         m = self.mechanism
         arr = np.asarray(rows, dtype=float) if not isinstance(rows, (str, bytes)) else None
         if arr is None or arr.ndim != 2 or arr.shape[1] != len(m.actuated) or arr.shape[0] == 0:
@@ -84,7 +86,7 @@ class CompiledLoops(Compiled):
                 raise ValueError(f"rows[{k}]: {exc}") from None
             raise ValueError(f"rows[{k}]: expected finite angles (radians) within a turn of 0 and inside the "
                              f"joint ranges, got {tuple(arr[k])}")
-        return self.compiled_charts(ranges).charts(arr)
+        return self.compiled_charts(ranges).charts(arr, dense)
 
     def search(self, inputs, ranges, *, tol: float, jobs: int, max_boxes: int, progress=None, trace=None):
         """:func:`spherekin.search.boxloop.solve_system` on these equations at ``inputs`` over ``ranges``
