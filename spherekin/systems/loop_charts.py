@@ -38,8 +38,9 @@ roundoff's double (float eps):
   sin nu) of the float nodes); A = sum_j max |T_j| (>= |F^(w)| for |w| <= 1).
 * F^ - F is multilinear, hence its own interpolant on the node grid:
   |F^(w) - F(w)| <= lambda(w) max_i |F^(nu~_i) - F(nu~_i)|, with the Lebesgue function
-  lambda(w) = prod_{a in D} ||w_a V_a^-1||_1 <= prod ||w_a P_a||_1 (1 + 8 eps) / (1 - rho_a) (rho_a:
-  the defect ||V_a P_a - I||, computed exactly in fractions); <= (5/3)^|D| for full-circle nodes.
+  lambda(w) = prod_{a in D} ||w_a V_a^-1||_1 <= prod (fl(||w_a P_a||_1) (1 + 8 eps) + 8 eps sum |P_a|)
+  / (1 - rho_a) (rho_a: the defect ||V_a P_a - I||, computed exactly in fractions; the eps terms: the
+  float evaluation); <= (5/3)^|D| for full-circle nodes.
 * At a node: |F^(nu~_i) - F(nu~_i)| <= t + R + |D| TRIG_ERROR X, where R = (rho + (1 + sqrt 2)^|D|
   (3 |D| + 1) eps prod ||P_a||_inf) Dmax bounds the extraction's residual (its rounding, carried back
   through V, whose infinity norm is <= 1 + sqrt 2) and X = prod ||P_a||_1 (Dmax + t) >= sum_j |T*_j|
@@ -56,7 +57,7 @@ So each block's tolerance at input k is alpha + lambda(w~_k) beta, with
 
     alpha = (ROUNDING_SAFETY + 2 (J + |D|)) eps A + |D| TRIG_ERROR X,    beta = t + R + |D| TRIG_ERROR X,
 
-every computed bound inflated by INFLATION. Measured: 1.7-3.7x the direct build's tolerances
+every computed bound (and the tolerance itself, for its own products and sum) inflated by INFLATION. Measured: 1.7-3.7x the direct build's tolerances
 (tests/test_loop_charts.py), never below what the reconstruction's rounding can do. A block that
 depends on no actuated joint is the node build itself (its arrays and tolerances copied exactly).
 """
@@ -222,7 +223,7 @@ class LoopCharts:
 
     def _prepare(self, actuated_ranges, seed: int) -> None:
         n = self.n_inputs
-        self._p, self._slack, self._rho = [], [], []
+        self._p, self._slack, self._rho, self._lam_abs = [], [], [], []
         for a, nodes in enumerate(self.nodes):
             v = _node_matrix(nodes)
             p = np.linalg.inv(v)
@@ -233,8 +234,10 @@ class LoopCharts:
             self._p.append(p)
             self._rho.append(rho)
             # lambda computed with P in float: ||w V^-1||_1 <= ||w P||_1 ||(V P)^-1||_1 <= ||w P||_1 / (1 - rho),
-            # and the float evaluation of ||w P||_1 (3 products and sums) errs by <= 8 eps relative
-            self._slack.append((1 + 8 * _EPS) / (1 - rho))
+            # and the float evaluation of ||w P||_1 (per entry 3 products and 2 sums, then |.| and a sum
+            # of 3) errs by <= gamma_5 sum_il |w_l P_li| + gamma_2 ||w P||_1 <= 8 eps (sum |P| + ||w P||_1)
+            self._slack.append(1 / (1 - rho))
+            self._lam_abs.append(8 * _EPS * float(np.abs(p).sum()))
         for a, rng in enumerate(actuated_ranges):
             if rng is not None:
                 ends = np.array([[float(rng[0]), float(rng[1])]]).T
@@ -393,7 +396,8 @@ class LoopCharts:
         k = rows.shape[0]
         trip = _triples(rows)
         weights, lams = {}, {}
-        lam_a = np.abs(np.einsum("kai,aij->kaj", trip, np.stack(self._p))).sum(axis=2) * np.array(self._slack)
+        lam_a = np.abs(np.einsum("kai,aij->kaj", trip, np.stack(self._p))).sum(axis=2)
+        lam_a = (lam_a * (1 + 8 * _EPS) + np.array(self._lam_abs)) * np.array(self._slack)
         coeffs, tols, bilinear = [], [], []
         for blk in self.blocks:
             ax = blk.axes
@@ -405,7 +409,7 @@ class LoopCharts:
             else:       # a NaN placeholder of the right shape, no memory (see charts)
                 shape = blk.coeffs.shape
                 coeffs.append(np.broadcast_to(np.nan, (k * shape[0],) + shape[1:]))
-            tol = blk.alpha[None] + lams[ax][:, None, None] * blk.beta[None]
+            tol = (blk.alpha[None] + lams[ax][:, None, None] * blk.beta[None]) * (1 + INFLATION if ax else 1.0)
             tols.append(tol.reshape((-1,) + blk.alpha.shape[1:]))
         if t.bilinear is not None:
             for blk, f in zip(self.blocks, t.bilinear):
