@@ -36,7 +36,6 @@ from .formulations import FORMULATIONS, ChartBilinear, EquationBlock, LoopPolyno
 from .registry import Registry
 
 __all__ = [
-    "stack_chart_sets",
     "Parameterization",
     "LoopParameterization",
     "PARAMETERIZATIONS",
@@ -49,6 +48,7 @@ __all__ = [
     "charts_for_range",
     "arc_box",
     "make_charts",
+    "stack_chart_sets",
     "tan_half_loop",
     "sin_cos_loop",
 ]
@@ -358,45 +358,6 @@ class ChartSet:
         return self.parameterization.angle_box(self, chart, lo, hi)
 
 
-def stack_chart_sets(sets: Sequence[ChartSet]) -> ChartSet:
-    """One chart set holding the charts of ``sets`` (one layout: the chart sets of a chunk of
-    inputs), in order: chart c of ``sets[k]`` is chart k * C + c (C charts each). Every per-chart
-    array is concatenated along its chart axis (first, last for the bilinear halves); what the
-    layout shares (parameterization, names, labels, square and pruned blocks, bilinear terms) must
-    agree, else a ValueError names what differs."""
-    if not sets:
-        raise ValueError("sets: expected at least one chart set, got none")
-    first = sets[0]
-    if len(sets) == 1:
-        return first
-    for k, other in enumerate(sets[1:], start=1):
-        for what in ("unknowns", "variables", "labels", "square", "prune", "accept_width"):
-            if getattr(other, what) != getattr(first, what):
-                raise ValueError(f"sets[{k}]: expected the layout of sets[0], got other {what}")
-        if type(other.parameterization) is not type(first.parameterization):
-            raise ValueError(f"sets[{k}]: expected parameterization {first.parameterization.name}, "
-                             f"got {other.parameterization.name}")
-        if [c.shape[1:] for c in other.coeffs] != [c.shape[1:] for c in first.coeffs]:
-            raise ValueError(f"sets[{k}]: expected the block shapes of sets[0], got other shapes")
-        fb, ob = first.bilinear or [None] * len(first.coeffs), other.bilinear or [None] * len(other.coeffs)
-        for f, o in zip(fb, ob):
-            if (f is None) != (o is None) or (f is not None and (f.sums, f.a_vars, f.b_vars, f.shape)
-                                              != (o.sums, o.a_vars, o.b_vars, o.shape)):
-                raise ValueError(f"sets[{k}]: expected the bilinear terms of sets[0], got other terms")
-    bilinear = None
-    if first.bilinear is not None:
-        bilinear = [None if f is None else ChartBilinear(
-            f.a_vars, f.b_vars, np.concatenate([cs.bilinear[b].a for cs in sets], axis=-1),
-            np.concatenate([cs.bilinear[b].b for cs in sets], axis=-1), f.sums, f.shape)
-            for b, f in enumerate(first.bilinear)]
-    return ChartSet(first.parameterization, first.unknowns, first.variables,
-                    [np.concatenate([cs.coeffs[b] for cs in sets]) for b in range(len(first.coeffs))],
-                    [np.concatenate([cs.tols[b] for cs in sets]) for b in range(len(first.tols))],
-                    first.labels, first.square,
-                    np.concatenate([cs.map_lo for cs in sets]), np.concatenate([cs.map_hi for cs in sets]),
-                    np.concatenate([cs.shift for cs in sets]), first.accept_width, bilinear, first.prune)
-
-
 #: Slack (c, s units) of the circle bounds: a candidate point counts as inside a rectangle within
 #: this distance of it, and the bounds are widened by it. The square roots and products behind a
 #: bound err by a few 1e-16; 1e-12 is far above that and far below any tolerance of the solver.
@@ -597,3 +558,61 @@ def make_charts(name: str, build, ranges: Mapping[str, tuple[float, float] | Non
     if not ranges:
         raise ValueError("ranges: expected at least one unknown, got none")
     return parameterization.charts(build, dict(ranges), formulation)
+
+
+def stack_chart_sets(sets: Sequence[ChartSet]) -> ChartSet:
+    """One :class:`ChartSet` holding the charts of ``sets`` in order (chart c of ``sets[k]`` at index
+    k C_0 + ... + c: input-major when each set is one input's).
+
+    Every per-chart array is concatenated along its chart axis: ``coeffs[b]``, ``tols[b]``,
+    ``map_lo``, ``map_hi``, ``shift`` (axis 0) and each bilinear block's ``a``, ``b`` (last axis).
+    The sets must share one layout: the same parameterization, unknowns, variables, accept width,
+    block labels, square systems, prune flags, coefficient shapes, and bilinear forms (variables,
+    sums, shapes); else a ValueError naming what differs.
+    """
+    sets = list(sets)
+    if not sets:
+        raise ValueError("sets: expected at least one chart set, got none")
+    first = sets[0]
+    nb = len(first.coeffs)
+
+    def same(k: int, what: str, a, b) -> None:
+        if a != b:
+            raise ValueError(f"sets[{k}]: expected the layout of sets[0], but its {what} differs ({b!r} vs {a!r})")
+
+    def bil_key(f):
+        return None if f is None else (f.a_vars, f.b_vars, f.sums, f.shape, f.a.shape[:-1], f.b.shape[:-1])
+
+    def layout(s: ChartSet):
+        return {
+            "parameterization": type(s.parameterization).__name__,
+            "unknowns": s.unknowns,
+            "variables": s.variables,
+            "accept_width": s.accept_width,
+            "number of blocks": len(s.coeffs),
+            "labels": [tuple(x) for x in s.labels],
+            "square": [tuple(x) for x in s.square],
+            "prune": list(s.prune) if s.prune is not None else None,
+            "coefficient shapes": [c.shape[1:] for c in s.coeffs],
+            "tolerance shapes": [t.shape[1:] for t in s.tols],
+            "map shapes": (s.map_lo.shape[1:], s.map_hi.shape[1:], s.shift.shape[1:]),
+            "bilinear forms": None if s.bilinear is None else [bil_key(f) for f in s.bilinear],
+        }
+
+    ref = layout(first)
+    for k, s in enumerate(sets[1:], 1):
+        for what, value in layout(s).items():
+            same(k, what, ref[what], value)
+    if len(sets) == 1:
+        return first
+    coeffs = [np.concatenate([s.coeffs[b] for s in sets]) for b in range(nb)]
+    tols = [np.concatenate([s.tols[b] for s in sets]) for b in range(nb)]
+    bilinear = first.bilinear
+    if bilinear is not None:
+        bilinear = [None if f is None else ChartBilinear(
+            f.a_vars, f.b_vars, np.concatenate([s.bilinear[b].a for s in sets], axis=-1),
+            np.concatenate([s.bilinear[b].b for s in sets], axis=-1), f.sums, f.shape)
+            for b, f in enumerate(bilinear)]
+    return ChartSet(first.parameterization, first.unknowns, first.variables, coeffs, tols, first.labels,
+                    first.square, np.concatenate([s.map_lo for s in sets]), np.concatenate([s.map_hi for s in sets]),
+                    np.concatenate([s.shift for s in sets]), first.accept_width, bilinear, first.prune)

@@ -14,16 +14,24 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.angles import MAX_INPUT_ANGLE, in_range_many
 from ..search.boxloop import solve_system, solve_system_many
 from ..search.parameterizations import make_charts, stack_chart_sets
 from ..search.formulations import FORMULATIONS
+from ..search.parameterizations import ChartSet
 from .base import SYSTEMS, Compiled, Strategy, System
+from .loop_charts import LoopCharts
 
 __all__ = ["LOOP_FORMULATION", "Loops", "CompiledLoops"]
 
 #: The loop formulation of "auto" and of the platform system's fallback (the fastest one that
 #: finds every solution, benchmarks/README.md).
 LOOP_FORMULATION = "halves"
+
+
+def _ranges_key(ranges) -> tuple:
+    """A hashable form of joint ``ranges`` (name -> (lo, hi) radians, or None)."""
+    return tuple((n, None if r is None else (float(r[0]), float(r[1]))) for n, r in dict(ranges).items())
 
 
 class CompiledLoops(Compiled):
@@ -36,6 +44,8 @@ class CompiledLoops(Compiled):
         self.names = tuple(mechanism.loop_unknowns)
         #: chart layout -> pruner (:func:`spherekin.search.boxloop.pruner_for`), filled at first use
         self.pruners: dict = {}
+        #: ranges -> :class:`spherekin.systems.loop_charts.LoopCharts`, compiled at the first charts_many over them
+        self.loop_charts: dict = {}
 
     def builder(self, inputs) -> Callable:
         """chart -> (loops, unknowns) of the loop equations at actuator ``inputs`` (radians)."""
@@ -43,6 +53,55 @@ class CompiledLoops(Compiled):
             system = self.mechanism.loop_system(inputs, chart)
             return system.loops, system.unknowns
         return build
+
+    def compiled_charts(self, ranges) -> LoopCharts:
+        """The :class:`~spherekin.systems.loop_charts.LoopCharts` of these equations over ``ranges``
+        (name -> (lo, hi) radians, or None), compiled at its first use and kept."""
+        key = _ranges_key(ranges)
+        if key not in self.loop_charts:
+            m = self.mechanism
+            loop_joints = [{m.actuated.index(v.joint) for v in g.vertices if v.actuated} for g in m.loop_geometry]
+            self.loop_charts[key] = LoopCharts(self.builder, [m.joint(n).range for n in m.actuated], dict(ranges),
+                                               self.strategy.parameterization, self.formulation,
+                                               loop_joints=loop_joints)
+        return self.loop_charts[key]
+
+    def worth_compiling(self, rows, ranges) -> bool:
+        """Whether :meth:`search_many` builds the charts of ``rows`` with :meth:`charts_many`: when they
+        are compiled over ``ranges`` already, or when the rows are at least as many as the direct
+        builds compiling takes (3 per actuated joint of a loop, multiplied: :mod:`.loop_charts`), so
+        that compiling never costs a solve more than it saves. Both builds are rigorous."""
+        key = _ranges_key(ranges)
+        return key in self.loop_charts or len(rows) >= 3 ** len(self.mechanism.actuated)
+
+    def charts_many(self, rows, ranges, dense: bool = True) -> ChartSet:
+        """The chart sets (:func:`spherekin.search.parameterizations.make_charts`) of the K input rows
+        ``rows`` (K, actuated; radians) over ``ranges`` (name -> (lo, hi) radians, or None), stacked
+        along the chart axis input-major: chart c of row k at index k C + c of every per-chart array
+        (C charts per input; the bilinear halves' chart axis is their last). One array program
+        compiled once per ranges (:mod:`spherekin.systems.loop_charts`: the arrays are multilinear in
+        the actuated joints' (1, cos, sin), tolerances included), or the direct build per input where
+        a parameterization or formulation is not (``compiled_charts(ranges).fallback`` says why).
+        Each row is checked as :meth:`spherekin.mechanism.SphericalMechanism.check_inputs` does.
+        ``dense=False``: the dense coefficients of blocks with a bilinear form are NaN placeholders
+        (:meth:`~spherekin.systems.loop_charts.LoopCharts.charts`), for an engine that restricts the halves."""
+        m = self.mechanism
+        arr = np.asarray(rows, dtype=float) if not isinstance(rows, (str, bytes)) else None
+        if arr is None or arr.ndim != 2 or arr.shape[1] != len(m.actuated) or arr.shape[0] == 0:
+            raise ValueError(f"rows: expected a (K, {len(m.actuated)}) array of actuator angles in radians "
+                             f"{m.actuated}, got {np.shape(rows) if arr is not None else rows!r}")
+        # the rules of check_inputs on the whole array; the first row refused gets its message
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(arr) & (np.abs(arr) <= MAX_INPUT_ANGLE)
+            ok &= np.stack([in_range_many(arr[:, a], m.joint(n).range) for a, n in enumerate(m.actuated)], axis=1)
+        for k in np.flatnonzero(~ok.all(axis=1))[:1]:
+            try:
+                m.check_inputs(arr[k])
+            except ValueError as exc:
+                raise ValueError(f"rows[{k}]: {exc}") from None
+            raise ValueError(f"rows[{k}]: expected finite angles (radians) within a turn of 0 and inside the "
+                             f"joint ranges, got {tuple(arr[k])}")
+        return self.compiled_charts(ranges).charts(arr, dense)
 
     def search(self, inputs, ranges, *, tol: float, jobs: int, max_boxes: int, progress=None, trace=None):
         """:func:`spherekin.search.boxloop.solve_system` on these equations at ``inputs`` over ``ranges``
@@ -58,8 +117,12 @@ class CompiledLoops(Compiled):
         radians) over ``ranges``: one report per row, None where the row reached a cap."""
         s = self.strategy
         t0 = time.perf_counter()
-        charts = stack_chart_sets([make_charts(s.parameterization, self.builder(row), ranges, self.formulation)
-                                   for row in rows])
+        rows = np.asarray(rows, dtype=float)
+        if self.worth_compiling(rows, ranges):
+            charts = self.charts_many(rows, ranges, dense=False)
+        else:
+            charts = stack_chart_sets([make_charts(s.parameterization, self.builder(row), ranges, self.formulation)
+                                       for row in rows])
         return solve_system_many(charts, len(rows), ranges, formulation=self.formulation, pruner=s.pruner,
                                  lp_backend=s.lp_backend, parameterization=s.parameterization, tol=tol,
                                  isolate=s.isolate, max_boxes=max_boxes, max_depth=s.max_depth, pruners=self.pruners,
