@@ -34,7 +34,7 @@ engine / baseline against its target, the ratio engine / floor, the mean number 
 input, and the inputs whose solution counts differ between engine and baseline (or floor and
 engine): a difference is a bug to report, never averaged away. JSON to benchmarks/results/engine.json.
 
-    python -m benchmarks.bench_engine [--inputs 64] [--repeats 3] [--chunk 64] [--baseline b4386ee]
+    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk 64] [--baseline b4386ee]
 """
 
 from __future__ import annotations
@@ -70,10 +70,14 @@ BASELINE = "b4386ee"
 TARGETS = {"platform": 10.0, "loops": 5.0}
 #: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2-4 min in all
 #: with today's per-input costs (5-30 ms a solve, ~180 ms the baseline's elbow-actuated 3-RRR).
-DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 64, 3, 64
+DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, 64
 SEED = 30
 #: Mismatching inputs listed per row in the JSON (all are counted).
 MISMATCHES_LISTED = 10
+
+
+#: The table's rows, in order (the labels ``--only`` takes).
+LABELS = ("general_3rrr", "gosselin", "elbow-actuated 3-RRR", "four-bar", "five-bar")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,9 +97,8 @@ def cases(tmp: Path) -> list[Case]:
     # would write the base-actuated geometry and lose the elbow actuation
     elbow.write_text(dumps_mechanism(dataclasses.replace(elbow_actuated_3rrr(), kind="general", geometry=None)))
     ex = ROOT / "examples"
-    return [Case("general_3rrr", ex / "general_3rrr.toml"), Case("gosselin", ex / "gosselin.toml"),
-            Case("elbow-actuated 3-RRR", elbow), Case("four-bar", ex / "four_bar.toml"),
-            Case("five-bar", ex / "five_bar.toml")]
+    files = (ex / "general_3rrr.toml", ex / "gosselin.toml", elbow, ex / "four_bar.toml", ex / "five_bar.toml")
+    return [Case(label, file) for label, file in zip(LABELS, files)]
 
 
 def uniform_inputs(mech, n: int, rng) -> np.ndarray:
@@ -330,6 +333,9 @@ def main(argv=None) -> int:
     for key in ("inputs", "repeats", "chunk"):
         if getattr(args, key) < 1:
             parser.error(f"--{key}: expected a whole number >= 1, got {getattr(args, key)}")
+    unknown = [label for label in args.only or () if label not in LABELS]
+    if unknown:
+        parser.error(f"--only: expected labels among {', '.join(LABELS)}, got {unknown[0]!r}")
     try:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
