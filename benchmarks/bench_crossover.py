@@ -13,7 +13,8 @@ over its full ranges ([-pi, pi)^3), the wall time of the whole call:
 * ``2 workers``: ``spherekin.batch.solve_many(mech, X, workers=2)``: starting the local cluster of 2
   single-threaded worker processes, the job, closing the cluster.
 
-Both tables must be equal (checked). Medians of ``--repeats`` runs (the two modes alternate). The
+This process's first imports (pandas and the batch modules, ~0.5 s) are paid by an untimed call
+first; a cluster's workers pay theirs in every timed call (they are new processes). Both tables must be equal (checked). Medians of ``--repeats`` runs (the two modes alternate). The
 crossover is reported twice: the smallest N of the sizes where the cluster's median wall time is
 below the in-process one, and the N where the least-squares lines wall = a + b N of the two modes
 cross, N* = (a_cluster - a_here) / (b_here - b_cluster) (a: the start-up; b: seconds per input).
@@ -64,6 +65,7 @@ def run(sizes, repeats: int, workers: int) -> list[dict]:
     mech = general_3rrr()
     inputs = np.random.default_rng(SEED).uniform(-np.pi, np.pi, (max(sizes), 3))
     walls = {n: {"here": [], "cluster": []} for n in sizes}
+    batch.solve_many(mech, inputs[:1], workers=0)   # untimed: this process's first imports (pandas, ...)
     for rep in range(repeats):
         for n in sizes:
             t0 = time.perf_counter()
@@ -96,7 +98,7 @@ def main(argv=None) -> int:
     rows = run(sizes, args.repeats, args.workers)
     cross = crossover(sizes, [r["here_s"] for r in rows], [r["cluster_s"] for r in rows])
     print(f"\ngeneral_3rrr, inputs uniform over [-pi, pi)^3 (seed {SEED}); whole call, medians of {args.repeats} "
-          f"run(s); {os.cpu_count()} cores")
+          f"run(s); {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end (the cluster needs a free core)")
     print(f"{'inputs':>7s} {'in process s':>13s} {f'{args.workers} workers s':>12s} {'faster':>10s}")
     for r in rows:
         faster = "cluster" if r["cluster_s"] < r["here_s"] else "in process"

@@ -341,9 +341,10 @@ def main(argv=None) -> int:
     except OSError as exc:
         parser.error(f"--out: cannot create {args.out.parent}: {exc}")
     print(f"{args.inputs} inputs per mechanism (seed {SEED}), chunks of {args.chunk}, medians of {args.repeats} "
-          f"runs; one core; Python {platform.python_version()}, numpy {np.__version__}", flush=True)
+          f"runs; one core; Python {platform.python_version()}, numpy {np.__version__}; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
     rows = run(args.inputs, args.repeats, args.chunk, args.baseline, args.only)
-    print()
+    print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
     print_table(rows, args.baseline)
     machine = dict(python=platform.python_version(), numpy=np.__version__, machine=platform.machine(),
                    cpus=os.cpu_count(), load_average=os.getloadavg(), date=time.strftime("%Y-%m-%d %H:%M"))
