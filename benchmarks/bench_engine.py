@@ -68,8 +68,9 @@ ROOT = Path(__file__).resolve().parent.parent
 BASELINE = "b4386ee"
 #: Throughput targets (engine / baseline, per core) of issue 30, by the system the engine runs.
 TARGETS = {"platform": 10.0, "loops": 5.0}
-#: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2-4 min in all
-#: with today's per-input costs (5-30 ms a solve, ~180 ms the baseline's elbow-actuated 3-RRR).
+#: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2.5 min in all on
+#: a quiet 2-core machine before the engine (25-50 ms a solve, ~130 ms the baseline's elbow-actuated
+#: 3-RRR; ~5 min at load average 5), less once the engine is faster. 64 rows a chunk: batch's chunk.
 DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, 64
 SEED = 30
 #: Mismatching inputs listed per row in the JSON (all are counted).
