@@ -57,6 +57,7 @@ bench: $(STAMP)
 	$(BIN)/python -m benchmarks.bench_process
 	$(BIN)/python -m benchmarks.bench_batch
 	$(BIN)/python -m benchmarks.bench_track
+	$(BIN)/python -m benchmarks.bench_engine
 
 bench-peers: $(STAMP)
 	@command -v phc >/dev/null || { echo "phc not found: installing PHCpack (Debian package phcpack)"; \

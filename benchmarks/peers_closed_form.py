@@ -41,7 +41,7 @@ import numpy as np
 
 __all__ = ["REAL_TOL", "NULL_GAP", "POLISH_STEPS", "MONOMIALS", "rodrigues", "elbow_axis", "leg_quadrics",
            "quaternion_rotation", "rotation_quaternion", "leg_residuals", "candidate_points", "solve_quadrics", "direct_kinematics",
-           "geometry_of"]
+           "geometry_of", "quadrics_many", "candidate_points_many", "real_roots_many"]
 
 #: A root of the eigenproblem is real when the imaginary part of its coordinates (scaled so that
 #: the largest is 1) is below this. Reason: eigenvectors of the 8 x 8 problem carry errors of
@@ -232,3 +232,78 @@ def direct_kinematics(geometry, inputs) -> list[np.ndarray]:
     """Every real platform pose R (v_i = R v_i^0) of the 3-RRR at actuator inputs (radians)."""
     roots, _ = solve_quadrics(leg_quadrics(geometry, inputs))
     return [quaternion_rotation(q) for q in roots]
+
+
+# ---------------------------------------------------------------- many inputs at once (the floor of bench_engine)
+
+def quadrics_many(w, v0, cosines) -> np.ndarray:
+    """The quadrics of :func:`leg_quadrics` for a stack of inputs: q^T A q = |q|^2 (w . R(q) v0 - c).
+
+    ``w``: the base-side axes (K, 3, 3) (elbow axes w_i(beta_i) of a base-actuated 3-RRR; base axes
+    u_i when the elbows are actuated), ``v0``: the platform axes (3, 3) in the platform frame,
+    ``cosines``: (K, 3) or (3,) the cosine of the angle each pair must make. Returns (K, 3, 4, 4).
+    """
+    w = np.asarray(w, dtype=float)
+    v = np.broadcast_to(np.asarray(v0, dtype=float), w.shape)
+    c = np.broadcast_to(np.asarray(cosines, dtype=float), w.shape[:2])
+    wv = np.einsum("kij,kij->ki", w, v)
+    out = np.zeros(w.shape[:2] + (4, 4))
+    out[..., 0, 0] = wv - c
+    out[..., 1:, 1:] = (w[..., :, None] * v[..., None, :] + v[..., :, None] * w[..., None, :]
+                        - (wv + c)[..., None, None] * np.eye(3))
+    out[..., 0, 1:] = out[..., 1:, 0] = np.cross(v, w)
+    return out
+
+
+def candidate_points_many(quadrics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`candidate_points` of a stack of quadric triples (K, 3, 4, 4) at once, no loop over K.
+
+    Returns (points (K, 8, 4) complex, each scaled so that its largest coordinate is 1; ok (K,) bool:
+    False where the Macaulay matrix has no clear 8-dimensional null space, whose points are then
+    meaningless, where the per-input function raises).
+    """
+    quadrics = np.asarray(quadrics, dtype=float)
+    k = len(quadrics)
+    n2, n4 = len(MONOMIALS[2]), len(MONOMIALS[4])
+    coef = quadrics[:, :, _PI, _PJ] * _MULT                    # (K, 3, 10 pairs)
+    mac = np.zeros((k, 3, n2, n4))
+    rows = np.arange(n2)
+    for p in range(len(_PAIRS)):                               # 10 pairs: a loop over the formula, not the inputs
+        mac[:, :, rows, _MAC_COL[p]] = coef[:, :, p, None]
+    _, sv, vt = np.linalg.svd(mac.reshape(k, 3 * n2, n4))
+    rank = n4 - 8
+    ok = (sv[:, rank] <= NULL_GAP * sv[:, 0]) & (sv[:, rank - 1] >= NULL_GAP * sv[:, 0])
+    null = np.swapaxes(vt[:, rank:], 1, 2)                      # (K, 35, 8)
+    h0, h1 = _SHIFT_H0 @ null, _SHIFT_H1 @ null                  # (K, 20, 8)
+    b = np.linalg.pinv(h0) @ h1                                  # least squares, as lstsq per input
+    _, vecs = np.linalg.eig(b)
+    m3 = h0 @ vecs                                               # (K, 20, 8)
+    cubes = m3[:, _CUBE_ROWS]                                    # (K, 4, 4, 8): [., a, k, r] ~ p_a^2 p_k
+    diag = np.abs(cubes[:, np.arange(4), np.arange(4)])          # (K, 4, 8)
+    best = np.argmax(diag, axis=1)                               # (K, 8)
+    pts = cubes[np.arange(k)[:, None], best, :, np.arange(8)[None, :]]   # (K, 8, 4)
+    big = np.take_along_axis(pts, np.argmax(np.abs(pts), axis=2)[..., None], axis=2)
+    return pts / big, ok
+
+
+def real_roots_many(quadrics: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The real roots of a stack of quadric triples (K, 3, 4, 4), as :func:`solve_quadrics` per input.
+
+    Returns (quaternions (K, 8, 4): unit, polished by POLISH_STEPS Newton steps where real, NaN
+    elsewhere; real (K, 8) bool; ok (K,) bool as :func:`candidate_points_many`). The number of
+    real roots of input k is ``real[k].sum()``.
+    """
+    quadrics = np.asarray(quadrics, dtype=float)
+    pts, ok = candidate_points_many(quadrics)
+    real = (np.abs(pts.imag).max(axis=2) <= REAL_TOL) & ok[:, None]
+    q = pts.real / np.linalg.norm(pts.real, axis=2, keepdims=True)
+    for _ in range(POLISH_STEPS):                                # Newton on every point, real ones kept
+        aq = np.einsum("kaij,krj->krai", quadrics, q)             # (K, 8, 3, 4): A_a q
+        f = np.concatenate([np.einsum("krai,kri->kra", aq, q), (q * q).sum(2, keepdims=True) - 1.0], axis=2)
+        jac = 2.0 * np.concatenate([aq, q[:, :, None, :]], axis=2)   # (K, 8, 4, 4)
+        solvable = np.abs(np.linalg.det(jac)) > 0
+        step = np.zeros_like(q)
+        step[solvable] = np.linalg.solve(jac[solvable], f[solvable][..., None])[..., 0]
+        q = q - step
+    q = q / np.linalg.norm(q, axis=2, keepdims=True)
+    return np.where(real[..., None], q, np.nan), real, ok

@@ -1,0 +1,359 @@
+"""Solves per second per core of the engine (``Problem.solve_many``), against a loop of ``solve`` at
+b4386ee's algorithm and against the degree-8 eigenvalue solve of the 3-RRR, in one run.
+
+Why: every family question (maps, atlases, singularity covers, sweeps) is bounded by the cost of one
+solve; issue 30's engine runs a chunk of inputs as one array program and must give >= 10x the
+throughput of the per-input loop it replaces on the 3-RRR (platform system) and >= 5x on the loop
+systems. The degree-8 eigenvalue solve (no proof, no ranges, no trust layer) is the physical floor
+of the 3-RRR: the ratio to it says how much the proofs still cost.
+
+Timed, on the same seeded inputs (uniform over each actuated joint's range; the full circle where a
+joint is unlimited), one core (BLAS threads set to 1; everything runs in one process at a time):
+
+* ``engine``: ``problem = spherekin.compile(mech)`` once (untimed), then ``problem.solve_many(rows)``
+  over consecutive chunks of ``--chunk`` rows: this checkout's public API, whatever solve_many is;
+* ``baseline``: the source tree of ``--baseline`` (default b4386ee, the last commit before issue 30),
+  exported with ``git archive`` into a temporary directory, in a child process with ``PYTHONPATH``
+  set to that tree (checked: the child imports that tree's spherekin); it compiles each mechanism
+  once (untimed) and times a loop of ``problem.solve(x)`` over the same inputs (handed over as a
+  .npy file). The child stays up for the whole run, so engine and baseline repeats alternate and
+  see the same machine load;
+* ``floor`` (3-RRR rows): :func:`benchmarks.peers_closed_form.real_roots_many`, the Macaulay
+  eigenproblem of the quaternion quadrics (:mod:`benchmarks.peers_closed_form`) vectorized over
+  every input (batched SVD, pinv, eig; the real roots polished by Newton), from the inputs to the
+  real roots. For the elbow-actuated 3-RRR the quadrics are the same with w_i := u_i and
+  cos(alpha2_i) := u_i . v_i, the angle the locked elbow fixes (:func:`floor_quadrics`).
+
+Mechanisms, by file (both trees read the same file): examples/general_3rrr.toml, gosselin.toml,
+four_bar.toml, five_bar.toml, and the elbow-actuated 3-RRR (general_3rrr with each leg's middle
+joint actuated; :func:`benchmarks.bench_systems.elbow_actuated_3rrr`) written as a legs file
+(kind "general", which b4386ee reads) into the temporary directory.
+
+Columns: solves per second (inputs / median wall time of ``--repeats`` runs) of each, the ratio
+engine / baseline against its target, the ratio engine / floor, the mean number of solutions per
+input, and the inputs whose solution counts differ between engine and baseline (or floor and
+engine): a difference is a bug to report, never averaged away. JSON to benchmarks/results/engine.json.
+
+    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk 64] [--baseline b4386ee]
+"""
+
+from __future__ import annotations
+
+import os
+
+# One core: numpy's BLAS threads are fixed before numpy is imported (here and in the child).
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+for _var in THREAD_VARIABLES:
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import dataclasses  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from benchmarks.bench_process import export_tree  # noqa: E402
+from benchmarks.bench_systems import elbow_actuated_3rrr  # noqa: E402
+from benchmarks.peers_closed_form import geometry_of, quadrics_many, real_roots_many  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The last commit before issue 30: its solve is the per-input loop the engine replaces.
+BASELINE = "b4386ee"
+#: Throughput targets (engine / baseline, per core) of issue 30, by the system the engine runs.
+TARGETS = {"platform": 10.0, "loops": 5.0}
+#: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2.5 min in all on
+#: a quiet 2-core machine before the engine (25-50 ms a solve, ~130 ms the baseline's elbow-actuated
+#: 3-RRR; ~5 min at load average 5), less once the engine is faster. 64 rows a chunk: batch's chunk.
+DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, 64
+SEED = 30
+#: Mismatching inputs listed per row in the JSON (all are counted).
+MISMATCHES_LISTED = 10
+
+
+#: The table's rows, in order (the labels ``--only`` takes).
+LABELS = ("general_3rrr", "gosselin", "elbow-actuated 3-RRR", "four-bar", "five-bar")
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One row of the table: a label and the mechanism file both trees read."""
+
+    label: str
+    file: Path
+
+
+def cases(tmp: Path) -> list[Case]:
+    """The benchmark's mechanisms; the elbow-actuated 3-RRR is written to ``tmp`` as a legs file."""
+    from spherekin.mechanism.io import dumps_mechanism
+
+    elbow = tmp / "elbow_actuated_3rrr.toml"
+    # kind "general" (the legs and their axes at the reference configuration), not "3-RRR", which
+    # would write the base-actuated geometry and lose the elbow actuation
+    elbow.write_text(dumps_mechanism(dataclasses.replace(elbow_actuated_3rrr(), kind="general", geometry=None)))
+    ex = ROOT / "examples"
+    files = (ex / "general_3rrr.toml", ex / "gosselin.toml", elbow, ex / "four_bar.toml", ex / "five_bar.toml")
+    return [Case(label, file) for label, file in zip(LABELS, files)]
+
+
+def uniform_inputs(mech, n: int, rng) -> np.ndarray:
+    """``n`` rows (n, actuated) uniform over each actuated joint's range ([-pi, pi) when unlimited)."""
+    cols = []
+    for name in mech.actuated:
+        lo, hi = mech.ranges.get(name) or (-np.pi, np.pi)
+        cols.append(rng.uniform(lo, hi, n))
+    return np.column_stack(cols)
+
+
+# ---------------------------------------------------------------- the floor: degree 8, vectorized
+
+def _rotate(axes, angles, vecs) -> np.ndarray:
+    """Rodrigues for a stack: each of ``vecs`` (3, 3) turned about ``axes`` (3, 3) by ``angles`` (K, 3)."""
+    axes, vecs = np.asarray(axes, float), np.asarray(vecs, float)
+    c, s = np.cos(angles)[..., None], np.sin(angles)[..., None]
+    return (vecs * c + np.cross(axes, vecs) * s
+            + axes * np.einsum("ij,ij->i", axes, vecs)[:, None] * (1.0 - c))
+
+
+def floor_layout(mech) -> str | None:
+    """"base" (a 3-RRR with its base joints actuated), "elbow" (three R-R-R legs with the middle
+    joints actuated) or None: the mechanisms whose direct kinematics are three quaternion quadrics."""
+    if mech.geometry is not None and hasattr(mech.geometry, "distal_link_angles"):
+        return "base"
+    legs = mech.legs
+    if len(legs) == 3 and all(len(leg.joints) == 3 for leg in legs) and \
+            all([j.actuated for j in leg.joints] == [False, True, False] for leg in legs):
+        return "elbow"
+    return None
+
+
+def floor_quadrics(mech, rows) -> np.ndarray:
+    """The three quaternion quadrics (K, 3, 4, 4) of each input row (K, 3) of a 3-RRR (radians).
+
+    Base-actuated (:func:`floor_layout` "base"): w_i = Rot(u_i, beta_i) w_i^0 and cos(alpha2_i).
+    Elbow-actuated: the locked elbow makes leg i a rigid link from u_i to v_i, of angle c_i with
+    cos c_i = u_i . Rot(w_i, gamma_i - gamma_i^ref) v_i^ref (axes and readings at the reference
+    configuration, where the platform pose is ``platform_reference``); then w_i := u_i.
+    """
+    rows = np.asarray(rows, dtype=float)
+    layout = floor_layout(mech)
+    if layout == "base":
+        u, w0, v0, alpha2 = geometry_of(mech)
+        return quadrics_many(_rotate(u, rows, w0), v0, np.cos(alpha2))
+    if layout == "elbow":
+        u, w, v = (np.array([leg.joints[k].axis for leg in mech.legs], float) for k in range(3))
+        ref = np.array([leg.joints[1].reference_angle for leg in mech.legs])
+        cosines = np.einsum("ij,kij->ki", u, _rotate(w, rows - ref, v))
+        v0 = v @ np.asarray(mech.platform_reference, float)      # P^T v_i: the platform frame
+        return quadrics_many(np.broadcast_to(u, rows.shape[:1] + (3, 3)), v0, cosines)
+    raise ValueError(f"mech: expected a 3-RRR (base or elbow joints actuated), got {mech.name!r}")
+
+
+def floor_counts(mech, rows) -> np.ndarray:
+    """Real roots (assemblies over unlimited ranges) of each row by the vectorized degree-8 solve;
+    -1 where its eigenproblem is degenerate."""
+    _, real, ok = real_roots_many(floor_quadrics(mech, rows))
+    return np.where(ok, real.sum(axis=1), -1)
+
+
+# ---------------------------------------------------------------- the baseline, in its own tree
+
+#: The baseline child: reads {"mech": file, "inputs": .npy} lines, answers {"seconds", "counts"}.
+CHILD = r"""
+import json, sys, time
+import numpy as np
+import spherekin
+from spherekin.mechanism import load_mechanism
+from spherekin.problem import compile
+print(json.dumps({"spherekin": spherekin.__file__}), flush=True)
+problems = {}
+for line in sys.stdin:
+    req = json.loads(line)
+    if req["mech"] not in problems:
+        problems[req["mech"]] = compile(load_mechanism(req["mech"]))
+    problem = problems[req["mech"]]
+    rows = np.load(req["inputs"])
+    t0 = time.perf_counter()
+    reports = [problem.solve(x) for x in rows]
+    seconds = time.perf_counter() - t0
+    print(json.dumps({"seconds": seconds, "counts": [len(r.solutions) for r in reports]}), flush=True)
+"""
+
+
+class Baseline:
+    """The baseline tree's child process: ``solve(file, npy)`` -> (seconds, counts)."""
+
+    def __init__(self, tree: Path, tmp: Path):
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        env["PYTHONPATH"] = str(tree)
+        self.tree = tree
+        self.stderr = open(tmp / "baseline.stderr", "w+")
+        self.proc = subprocess.Popen([sys.executable, "-c", CHILD], cwd=tmp, env=env, text=True,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.stderr)
+        where = str(Path(self._answer()["spherekin"]).resolve())
+        if not where.startswith(str(tree.resolve())):
+            self.close()
+            raise SystemExit(f"baseline: PYTHONPATH={tree} imports {where}, not that tree's package")
+
+    def _answer(self) -> dict:
+        line = self.proc.stdout.readline()
+        if not line:
+            self.stderr.seek(0)
+            raise SystemExit(f"baseline child (tree {self.tree}) failed:\n{self.stderr.read()[-2000:]}")
+        return json.loads(line)
+
+    def solve(self, file: Path, npy: Path) -> tuple[float, list[int]]:
+        self.proc.stdin.write(json.dumps({"mech": str(file), "inputs": str(npy)}) + "\n")
+        self.proc.stdin.flush()
+        ans = self._answer()
+        return ans["seconds"], ans["counts"]
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait()
+        self.stderr.close()
+
+
+# ---------------------------------------------------------------- the run
+
+def engine_run(problem, rows, chunk: int) -> tuple[float, list[int]]:
+    """Seconds of ``solve_many`` over consecutive chunks of ``rows``, and the solutions per row."""
+    counts = []
+    t0 = time.perf_counter()
+    for a in range(0, len(rows), chunk):
+        counts += [len(r.solutions) for r in problem.solve_many(rows[a:a + chunk])]
+    return time.perf_counter() - t0, counts
+
+
+def floor_run(mech, rows) -> tuple[float, list[int]]:
+    t0 = time.perf_counter()
+    counts = floor_counts(mech, rows)
+    return time.perf_counter() - t0, [int(c) for c in counts]
+
+
+def mismatches(rows, a, b) -> tuple[int, list]:
+    """How many rows have different counts in ``a`` and ``b``, and the first few (inputs, a, b)."""
+    bad = [k for k, (x, y) in enumerate(zip(a, b)) if x != y]
+    return len(bad), [dict(inputs=[float(v) for v in rows[k]], first=a[k], second=b[k])
+                      for k in bad[:MISMATCHES_LISTED]]
+
+
+def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -> list[dict]:
+    """One dict per mechanism (``only``: labels to keep), the table's numbers and the raw times."""
+    import spherekin
+    from spherekin.mechanism import load_mechanism
+
+    out = []
+    with tempfile.TemporaryDirectory(prefix="spherekin-engine-") as tmp:
+        tmp = Path(tmp)
+        base = Baseline(export_tree(baseline_rev, tmp / "baseline"), tmp)
+        try:
+            for index, case in enumerate(cases(tmp)):
+                if only is not None and case.label not in only:
+                    continue
+                mech = load_mechanism(case.file)
+                problem = spherekin.compile(mech)
+                rows = uniform_inputs(mech, n_inputs, np.random.default_rng([SEED, index]))
+                npy = tmp / "inputs.npy"
+                np.save(npy, rows)
+                has_floor = floor_layout(mech) is not None
+                times = {"engine": [], "baseline": [], "floor": []}
+                counts = {}
+                for _ in range(repeats):             # alternating: each sees the same machine load
+                    for name in ("engine", "baseline", "floor"):
+                        if name == "engine":
+                            t, c = engine_run(problem, rows, chunk)
+                        elif name == "baseline":
+                            t, c = base.solve(case.file, npy)
+                        elif has_floor:
+                            t, c = floor_run(mech, rows)
+                        else:
+                            continue
+                        times[name].append(t)
+                        if counts.setdefault(name, c) != c:
+                            raise SystemExit(f"{case.label}: {name} gave other solution counts on a repeat")
+                rate = {k: n_inputs / statistics.median(v) for k, v in times.items() if v}
+                target = TARGETS.get(problem.system, TARGETS["loops"])
+                n_bad, listed = mismatches(rows, counts["engine"], counts["baseline"])
+                row = dict(mechanism=case.label, system=problem.system, inputs=n_inputs, chunk=chunk,
+                           mean_solutions=float(np.mean(counts["engine"])),
+                           engine_per_s=rate["engine"], baseline_per_s=rate["baseline"],
+                           ratio=rate["engine"] / rate["baseline"], target=target,
+                           count_mismatches=n_bad, mismatched_inputs=listed,
+                           floor_per_s=rate.get("floor"), engine_over_floor=None, floor_mismatches=None,
+                           times=times)
+                if has_floor:
+                    row["engine_over_floor"] = rate["engine"] / rate["floor"]
+                    row["floor_mismatches"], row["floor_mismatched_inputs"] = mismatches(
+                        rows, counts["floor"], counts["engine"])
+                row["verdict"] = "PASS" if row["ratio"] >= target and n_bad == 0 else "FAIL"
+                out.append(row)
+                print(f"{case.label}: engine {rate['engine']:.1f}/s, baseline {rate['baseline']:.1f}/s"
+                      + (f", floor {rate['floor']:.0f}/s" if has_floor else ""), flush=True)
+        finally:
+            base.close()
+    return out
+
+
+def print_table(rows, baseline_rev: str) -> None:
+    head = (f"{'mechanism':21s} {'system':8s} {'sols':>5s} {'engine/s':>9s} {'base/s':>8s} {'ratio':>6s} "
+            f"{'target':>6s} {'floor/s':>8s} {'eng/flr':>8s} {'counts':>9s}  verdict")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        floor = f"{r['floor_per_s']:8.0f} {r['engine_over_floor']:8.4f}" if r["floor_per_s"] else f"{'-':>8s} {'-':>8s}"
+        agree = "agree" if r["count_mismatches"] == 0 else f"{r['count_mismatches']} differ"
+        print(f"{r['mechanism']:21s} {r['system']:8s} {r['mean_solutions']:5.2f} {r['engine_per_s']:9.1f} "
+              f"{r['baseline_per_s']:8.1f} {r['ratio']:6.2f} {r['target']:5.0f}x {floor} {agree:>9s}  {r['verdict']}")
+    print(f"solves per second per core (medians); base: a loop of solve at {baseline_rev}; ratio = engine / base; "
+          "eng/flr = engine / the vectorized degree-8 eigen solve; counts: engine vs base, per input")
+    for r in rows:
+        if r["count_mismatches"]:
+            print(f"BUG: {r['mechanism']}: {r['count_mismatches']} inputs where engine and baseline counts differ, "
+                  f"e.g. {r['mismatched_inputs'][0]}")
+        if r.get("floor_mismatches"):
+            print(f"note: {r['mechanism']}: {r['floor_mismatches']} inputs where the floor's real roots and the "
+                  f"engine's count differ, e.g. {r['floor_mismatched_inputs'][0]}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--inputs", type=int, default=DEFAULT_INPUTS, help="seeded inputs per mechanism")
+    parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, help="timed runs; medians are shown")
+    parser.add_argument("--chunk", type=int, default=DEFAULT_CHUNK, help="rows per solve_many call")
+    parser.add_argument("--baseline", default=BASELINE, help="git revision of the baseline (default %(default)s)")
+    parser.add_argument("--only", nargs="+", metavar="LABEL", help="these mechanisms only (labels of the table)")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "engine.json")
+    args = parser.parse_args(argv)
+    for key in ("inputs", "repeats", "chunk"):
+        if getattr(args, key) < 1:
+            parser.error(f"--{key}: expected a whole number >= 1, got {getattr(args, key)}")
+    unknown = [label for label in args.only or () if label not in LABELS]
+    if unknown:
+        parser.error(f"--only: expected labels among {', '.join(LABELS)}, got {unknown[0]!r}")
+    try:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        parser.error(f"--out: cannot create {args.out.parent}: {exc}")
+    print(f"{args.inputs} inputs per mechanism (seed {SEED}), chunks of {args.chunk}, medians of {args.repeats} "
+          f"runs; one core; Python {platform.python_version()}, numpy {np.__version__}; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
+    rows = run(args.inputs, args.repeats, args.chunk, args.baseline, args.only)
+    print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
+    print_table(rows, args.baseline)
+    machine = dict(python=platform.python_version(), numpy=np.__version__, machine=platform.machine(),
+                   cpus=os.cpu_count(), load_average=os.getloadavg(), date=time.strftime("%Y-%m-%d %H:%M"))
+    args.out.write_text(json.dumps(dict(benchmark="engine", baseline=args.baseline, seed=SEED, repeats=args.repeats,
+                                        machine=machine, rows=rows), indent=2))
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
