@@ -777,19 +777,30 @@ class SphericalMechanism:
         R = Rot(a_1, d_1) ... Rot(a_k, d_k) R_ref along the spanning tree's path from the ground to
         the output (product of exponentials, axes a_i in the reference configuration, d_i = +-(reading_i
         - reference_angle_i)); for legs, the reference leg (a 3-RRR: the R with v_i = R v_i^0). Only
-        that path's passive joints are needed.
+        that path's passive joints are needed. :meth:`poses_from_passive` at one configuration.
         """
         values = dict(zip(self.actuated, self.check_inputs(inputs)))
         if self.output is None:
             return None
-        path = self.link_paths[self.output]
-        need = [st.joint for st in path if st.joint not in values]
+        need = [st.joint for st in self.link_paths[self.output] if st.joint not in values]
         angles = self._check_angles("passive_angles", passive_angles, need)
         bad = [n for n in angles if n in values]
         if bad:
             raise ValueError(f"passive_angles: {bad} are actuated joints; give them in inputs")
-        readings = {n: np.array([v]) for n, v in {**angles, **values}.items()}
-        return self._steps_rotation(path, readings)[0] @ self.platform_reference_matrix
+        return self.poses_from_passive(np.array([list(values.values())], dtype=float).reshape(1, -1),
+                                       {n: [v] for n, v in angles.items()})[0]
+
+    def poses_from_passive(self, inputs, passive_angles: Mapping[str, Sequence[float]]) -> np.ndarray | None:
+        """:meth:`pose_from_passive` at N configurations at once: ``inputs`` (N, number of actuated
+        joints) and ``passive_angles`` name -> N readings (radians; the output path's passive joints
+        at least); shape (N, 3, 3), or None for a mechanism without an output link. Unchecked
+        beyond shapes: the readings are the solver's own."""
+        if self.output is None:
+            return None
+        inputs = np.asarray(inputs, dtype=float)
+        readings = {n: np.asarray(v, dtype=float).reshape(-1) for n, v in passive_angles.items()}
+        readings.update({n: inputs[:, i] for i, n in enumerate(self.actuated)})
+        return self._steps_rotation(self.link_paths[self.output], readings) @ self.platform_reference_matrix
 
     def forward(self, joint_angles: Mapping[str, float], form: str = "auto") -> ForwardResult:
         """Forward evaluation: every joint reading (radians) -> pose (None without an output link), the
@@ -947,38 +958,49 @@ class SphericalMechanism:
 
     def singularity(self, joint_angles: Mapping[str, float], tol: float = SINGULARITY_TOL) -> SingularityReport:
         """Classify a configuration as regular, serial-, parallel- or doubly singular (see
-        :class:`SingularityReport`; tolerance SINGULARITY_TOL by default)."""
+        :class:`SingularityReport`; tolerance SINGULARITY_TOL by default): :meth:`singularities` at one
+        configuration."""
+        readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        return self.singularities({n: [v] for n, v in readings.items()}, tol)[0]
+
+    def singularities(self, joint_angles: Mapping[str, Sequence[float]],
+                      tol: float = SINGULARITY_TOL) -> list[SingularityReport]:
+        """:meth:`singularity` at N configurations at once: ``joint_angles`` every joint's name -> N
+        readings (radians); one :class:`SingularityReport` per configuration, in order (the leg and
+        loop Jacobians of all N in one stack of SVDs)."""
         if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(tol) or not tol > 0:
             raise ValueError(f"tol: expected a positive tolerance, got {tol!r}")
         tol = float(tol)
-        jac = self.jacobians(joint_angles)
-        serial_margin, serial_legs = math.inf, []
+        missing = [n for n in self.joint_names if n not in joint_angles]
+        if missing:
+            raise ValueError(f"joint_angles: missing angle(s) for {missing}")
+        readings = {n: np.asarray(joint_angles[n], dtype=float).reshape(-1) for n in self.joint_names}
+        leg_j, k_mat = self._constraints(readings)
+        n = k_mat.shape[0]
+        serial_margin = np.full(n, math.inf)
+        serial_legs = [[] for _ in range(n)]
         for leg in self.legs:
             act = np.array([j.actuated for j in leg.joints])
             if not act.any():
                 continue
-            jl = jac["legs"][leg.name]
-            _, s, vt = np.linalg.svd(jl)  # full: vt is k x k
-            s_full = np.concatenate([s, np.zeros(len(leg.joints) - len(s))])
-            serial_margin = min(serial_margin, float(s_full.min()))
-            null = vt[s_full < tol]
+            jl = leg_j[leg.name]                                              # (N, 3, k)
+            _, s, vt = np.linalg.svd(jl)                                      # full: vt is (N, k, k)
+            s_full = np.concatenate([s, np.zeros((n, len(leg.joints) - s.shape[1]))], axis=1)
+            serial_margin = np.minimum(serial_margin, s_full.min(axis=1))
             # a null motion of the leg (platform still) that moves an actuated joint
-            if null.size and np.linalg.norm(null[:, act]) > math.sqrt(tol):
-                serial_legs.append(leg.name)
-        kp = jac["K_p"]
-        if kp.shape[1] == 0:
-            parallel_margin = math.inf
+            null = s_full < tol                                              # (N, k): rows of vt
+            moved = np.sqrt(np.einsum("nr,nra->n", null.astype(float), vt[:, :, act] ** 2))
+            for i in np.flatnonzero(null.any(axis=1) & (moved > math.sqrt(tol))):
+                serial_legs[i].append(leg.name)
+        pas = [self.joint_names.index(name) for name in self.passive]
+        kp = k_mat[:, :, pas]
+        if kp.shape[2] == 0:
+            parallel_margin = np.full(n, math.inf)
+        elif kp.shape[2] > kp.shape[1]:
+            parallel_margin = np.zeros(n)
         else:
-            s = np.linalg.svd(kp, compute_uv=False)
-            parallel_margin = float(s.min()) if kp.shape[1] <= kp.shape[0] else 0.0
-        return SingularityReport(
-            serial=bool(serial_legs),
-            parallel=parallel_margin < tol,
-            serial_margin=serial_margin,
-            parallel_margin=parallel_margin,
-            serial_legs=tuple(serial_legs),
-            tol=tol,
-        )
-
-
+            parallel_margin = np.linalg.svd(kp, compute_uv=False).min(axis=1)
+        return [SingularityReport(serial=bool(legs), parallel=bool(pm < tol), serial_margin=float(sm),
+                                  parallel_margin=float(pm), serial_legs=tuple(legs), tol=tol)
+                for legs, sm, pm in zip(serial_legs, serial_margin, parallel_margin)]
