@@ -439,8 +439,20 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
 
     ``first_success``: return, per point, the result of certify (first success, or the first
     non-square/singular failure, or the last failure; radii_tried set); else a list of results per
-    radius per point.
+    radius per point. With ``first_success``, every point is tested at the first radius, and only
+    the points that fail there (with K(X) computed) at the others: a test's verdict depends on its
+    point and radius alone, so the results are those of the one pass over every radius, and a
+    regular root (certified at the first radius) costs one box instead of len(rs).
     """
+    if first_success and len(rs) > 1:
+        out = [replace(res, radii_tried=(rs[0],)) for (res,) in _krawczyk_batch(system, ys, rs[:1], tol, False,
+                                                                                 stack, which)]
+        again = [p for p, res in enumerate(out) if not (res.certified or res.krawczyk_box is None)]
+        if again:
+            rest = _krawczyk_batch(system, ys[again], rs[1:], tol, True, stack, None if which is None else which[again])
+            for p, res in zip(again, rest):
+                out[p] = replace(res, radii_tried=(rs[0], *res.radii_tried))
+        return out
     tplan = plan_of(system) if stack is None else stack.plan
     n_pts, m = ys.shape
     n_eq = 3 * len(system.loops)
