@@ -23,7 +23,7 @@ from spherekin.search.boxloop import SolverLimitError
 from spherekin.core.angles import RANGE_TOL
 from spherekin.trust import solutions
 from spherekin.trust.krawczyk import certify_many, certify_stacked, krawczyk_many, krawczyk_stacked
-from spherekin.trust.solutions import finalize, finalize_many, is_proven
+from spherekin.trust.solutions import LOCAL_CHART, finalize, finalize_many, is_proven
 from spherekin.trust.transversal import stack_systems
 
 from conftest import GOSSELIN_INPUTS
@@ -319,7 +319,7 @@ def test_a_point_is_certified_only_in_its_own_inputs_system():
     ch = built("general_3rrr")
     a, b = next((i, j) for i in range(len(ch.inputs)) for j in range(i + 1, len(ch.inputs))
                 if ch.many([i])[0] and ch.many([j])[0])
-    systems = [solutions._system_of(ch.mech, ch.inputs[k], ch.names) for k in (a, b)]
+    systems = [ch.mech.loop_system(ch.inputs[k], {n: (-LOCAL_CHART, LOCAL_CHART) for n in ch.names}) for k in (a, b)]
     stack = stack_systems(systems)
     pts = np.array([s.angles for s in ch.many([a])[0]])
     own = certify_stacked(stack, np.zeros(len(pts), int), pts)
@@ -375,3 +375,5 @@ def test_finalize_many_refuses_a_bad_chunk():
         finalize_many(ch.mech, np.zeros((2, 3)), ch.names, [[], []], ch.tol)
     with pytest.raises(ValueError, match="clusters: expected one sequence"):
         finalize_many(ch.mech, np.zeros((2, 1)), ch.names, [[]], ch.tol)
+    assert finalize_many(ch.mech, [], ch.names, [], ch.tol) == []
+    assert finalize_many(ch.mech, np.zeros((2, 1)), ch.names, [[], []], ch.tol) == [[], []]

@@ -734,7 +734,8 @@ class SphericalMechanism:
             loop = ClosureLoop(factors)
             loops.append(loop)
             indices.append(tuple(order.index(u.name) for u in loop.unknowns))
-        counts = {n: sum(n in lp.names for lp in loops) for n in order}
+        in_loops = [set(lp.names) for lp in loops]          # (a loop's names are computed on each access)
+        counts = {n: sum(n in names for names in in_loops) for n in order}
         return LoopSystem(
             loops=tuple(loops),
             unknowns=tuple(unknowns.values()),

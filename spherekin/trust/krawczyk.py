@@ -15,7 +15,10 @@ the point y. C = J(y)^-1 is an ordinary float inverse (any C is valid; a good on
 Two implementations, with the same inputs and results:
 
 * fast (:func:`krawczyk`, :func:`certify`, :func:`certify_many`, :func:`krawczyk_many`): the
-  enclosures of :func:`spherekin.trust.transversal.enclose`, vectorized over points, radii and boxes.
+  enclosures of :func:`spherekin.trust.transversal.enclose`, vectorized over points, radii and boxes;
+  :func:`certify_stacked` and :func:`krawczyk_stacked` do the same for the points and boxes of several
+  systems of one mechanism at once (a :class:`~spherekin.trust.transversal.SystemStack`: one
+  mechanism at the inputs of a chunk), each tested in its own system only.
   K uses (I - C J(X)) (X - y) in [-s, s], s = |I - C J(X)| rho with X - y in [-rho, rho] (a
   superset of the usual evaluation: both conclusions of the test stay valid). Outside the IEEE
   default floating-point environment (:func:`spherekin.core.intervals.rounding_environment_ok`) the

@@ -40,6 +40,11 @@ Statuses (docs/results-format.md):
 
 :func:`count_summary` gives the proven count and whether the count is exact: exact when every
 entry is certified, or singular with a certificate.
+
+:func:`finalize_many` does this for a chunk of inputs at once: the common case (each cluster one
+polished point, certified in floats, its hull covered) runs every stage as one array call over all
+the points of the chunk, each point evaluated in its own input's equations only; any other input
+goes through :func:`finalize`. Both call the same stage functions, so the answers are the same.
 """
 
 from __future__ import annotations
@@ -405,6 +410,8 @@ def finalize_many(mechanism, inputs, names, clusters, tol, refine=None) -> list[
     """
     values = np.asarray(inputs, dtype=float)
     n_act = len(mechanism.actuated)
+    if values.size == 0:
+        values = values.reshape(0, n_act)                # an empty chunk
     if values.ndim != 2 or values.shape[1] != n_act:
         raise ValueError(f"inputs: expected shape (K, {n_act}) (one row of actuator angles per input), "
                          f"got {values.shape}")
@@ -505,15 +512,10 @@ def _fast_entries(mechanism, values, names, clusters, todo, tol) -> dict:
     flat = [e for j in sorted(entries) for e in entries[j]]
     owner = np.array([j for j in sorted(entries) for _ in entries[j]])
     clash = _not_all_distinct(flat, owner)
-    order = _sort_order(flat, owner)
-    out = {}
-    for j in sorted(entries):
-        k = todo[j]
-        if clash[j]:
-            out[k] = _tail(entries[j], tol)
-        else:
-            out[k] = [flat[i] for i in order if owner[i] == j]
-    return out
+    order = _sort_order(flat, owner)                       # by owner first: each input's run in order
+    runs = np.split(order, np.cumsum([len(entries[j]) for j in sorted(entries)])[:-1])
+    return {todo[j]: _tail(entries[j], tol) if clash[j] else [flat[i] for i in run]
+            for j, run in zip(sorted(entries), runs)}
 
 
 def _all_per_input(flags, of, n: int) -> np.ndarray:
