@@ -20,11 +20,12 @@ from benchmarks.peers_closed_form import direct_kinematics, geometry_of
 from spherekin.mechanism import five_bar, four_bar, general_3rrr, gosselin
 from spherekin.problem import REFINE_FACTOR, REFINE_MAX_BOXES, REFINE_MIN_TOL, compile
 from spherekin.search.boxloop import SolverLimitError
+from spherekin.closure import closure_plan
 from spherekin.core.angles import RANGE_TOL
 from spherekin.trust import solutions
 from spherekin.trust.krawczyk import certify_many, certify_stacked, krawczyk_many, krawczyk_stacked
 from spherekin.trust.solutions import LOCAL_CHART, finalize, finalize_many, is_proven
-from spherekin.trust.transversal import stack_systems
+from spherekin.trust.transversal import stack_inputs, stack_systems
 
 from conftest import GOSSELIN_INPUTS
 
@@ -334,6 +335,22 @@ def test_a_point_is_certified_only_in_its_own_inputs_system():
         assert np.array_equal(got.certified, want.certified) and np.array_equal(got.no_solution, want.no_solution)
         assert np.array_equal(got.krawczyk_lo, want.krawczyk_lo, equal_nan=True)
         assert got.certified.all() == (which[0] == 0) and not (which[0] == 1 and got.certified.any())
+
+
+@pytest.mark.parametrize("name", ["general_3rrr", "five_bar"])
+def test_a_stack_of_inputs_has_each_inputs_own_constants(name):
+    """stack_inputs (constants from loop_constants, no system built per input) holds exactly the
+    constants of each input's own loop_system, and builds that system when asked for it."""
+    ch = built(name)
+    chart = {n: (-LOCAL_CHART, LOCAL_CHART) for n in ch.names}
+    rows = np.array(ch.inputs[:9])
+    systems = [ch.mech.loop_system(tuple(r), chart) for r in rows]
+    lazy, eager = stack_inputs(ch.mech, rows, chart), stack_systems(systems)
+    assert np.array_equal(lazy.consts, eager.consts) and len(lazy.systems) == len(rows)
+    assert lazy.closure.same_structure(eager.closure)
+    built5 = lazy.systems[5]
+    assert built5.inputs == systems[5].inputs and built5.names == systems[5].names
+    assert np.array_equal(closure_plan(built5.loops, built5.unknowns, built5.loop_indices).offsets, eager.consts[5])
 
 
 def test_swapped_clusters_are_not_certified_at_the_other_input():

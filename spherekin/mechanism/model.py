@@ -709,7 +709,7 @@ class SphericalMechanism:
                 if r is None:
                     raise ValueError(f"passive_ranges[{n!r}]: expected (lo, hi) with hi - lo < 2*pi, got None")
                 overrides[n] = check_range(f"passive_ranges[{n!r}]", r)
-        known = dict(zip(self.actuated, values))
+        consts = self.loop_constants([values], form)[0]
         unknowns = {}
         for name in self.loop_unknowns:
             rng = overrides.get(name, self.joint(name).range)
@@ -722,13 +722,11 @@ class SphericalMechanism:
             unknowns[name] = Unknown(name, rng[0], rng[1])
         loops, indices = [], []
         order = list(unknowns)
-        for g in self.loop_geometry:
+        for li, g in enumerate(self.loop_geometry):
             factors = []
-            for spec in g.factor_specs(form):
-                if spec.joint is None:
-                    factors.append(spec.offset)
-                elif spec.joint in known:
-                    factors.append(wrap(spec.offset + spec.sign * known[spec.joint]))
+            for i, spec in enumerate(g.factor_specs(form)):
+                if spec.joint is None or spec.joint in self.actuated:
+                    factors.append(float(consts[li, i]))
                 else:
                     factors.append(Term(unknowns[spec.joint], spec.offset, spec.sign))
             loop = ClosureLoop(factors)
@@ -746,6 +744,24 @@ class SphericalMechanism:
             loop_legs=tuple(g.legs for g in self.loop_geometry),
             form=form,
         )
+
+    def loop_constants(self, inputs, form: str = "auto") -> np.ndarray:
+        """The constant angle (radians) of every factor of :meth:`loop_system` at K actuator inputs at
+        once: ``inputs`` (K, number of actuated joints), radians, unchecked (the solver's own); shape
+        (K, L, n), L loops padded with 0 to n factors. A factor of a fixed angle is its offset, of an
+        actuated joint wrap(offset + sign * input), of a passive joint its term's offset. The one rule
+        of the known angles: :meth:`loop_system` reads its own from here."""
+        values = np.asarray(inputs, dtype=float).reshape(-1, len(self.actuated))
+        specs = [g.factor_specs(form) for g in self.loop_geometry]
+        out = np.zeros((len(values), len(specs), max((len(f) for f in specs), default=0)))
+        for li, loop in enumerate(specs):
+            for i, spec in enumerate(loop):
+                if spec.joint in self.actuated:
+                    phis = spec.offset + spec.sign * values[:, self.actuated.index(spec.joint)]
+                    out[:, li, i] = [wrap(float(v)) for v in phis]      # math.remainder: scalar, exact
+                else:
+                    out[:, li, i] = spec.offset
+        return out
 
     # ---------------------------------------------------------------- poses and forward evaluation
 

@@ -59,7 +59,7 @@ from ..core.angles import RANGE_TOL, in_range_many, into_range_many, near_groups
 from .extended import EXTENDED_RADII, certify_extended, krawczyk_boxes_extended, polish_extended
 from .krawczyk import (ANGLE_TOLERANCE, CERTIFY_RADII, FINE_ANGLE_TOLERANCE, BoxTests, certify_many, certify_stacked,
                        krawczyk_many, krawczyk_stacked)
-from .transversal import stack_systems, transversal_equations
+from .transversal import stack_inputs, transversal_equations
 from .polish import polish, polish_many
 from ..results import Cluster, Solution, Status
 
@@ -433,7 +433,7 @@ def finalize_many(mechanism, inputs, names, clusters, tol, refine=None) -> list[
 def _fast_entries(mechanism, values, names, clusters, todo, tol) -> dict:
     """input k -> its entries, for the inputs of ``todo`` whose clusters all take the common case
     of :func:`finalize_many`; the others are left out (finalize answers them)."""
-    stack = stack_systems([_system_of(mechanism, values[k], names) for k in todo])
+    stack = stack_inputs(mechanism, values[todo], _chart(names))
     sols = [sol for k in todo for sol in clusters[k]]
     n_cl = len(sols)
     cl_in = np.repeat(np.arange(len(todo)), [len(clusters[k]) for k in todo])     # stack index of each cluster
@@ -565,7 +565,12 @@ def _sort_order(entries: list, owner) -> np.ndarray:
 
 def _system_of(mechanism, inputs, names):
     """The LoopSystem finalize evaluates at ``inputs``: every unknown on the chart LOCAL_CHART."""
-    return mechanism.loop_system(inputs, {n: (-LOCAL_CHART, LOCAL_CHART) for n in names})
+    return mechanism.loop_system(inputs, _chart(names))
+
+
+def _chart(names) -> dict:
+    """Every unknown on the chart of half-width LOCAL_CHART around 0."""
+    return {n: (-LOCAL_CHART, LOCAL_CHART) for n in names}
 
 
 def _shifted(box, e: Solution, ref: Solution):

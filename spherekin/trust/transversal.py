@@ -57,6 +57,7 @@ __all__ = [
     "plan_of",
     "SystemStack",
     "stack_systems",
+    "stack_inputs",
     "enclose",
     "transversal_labels",
     "transversal_equations",
@@ -216,7 +217,7 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
 class SystemStack:
     """LoopSystems of one mechanism at K inputs, for tests of many points of many systems at once.
 
-    ``systems`` (K): the systems (same loops, unknowns and factors; their constant angles differ:
+    ``systems`` (K, a sequence): the systems (same loops, unknowns and factors; their constant angles differ:
     the inputs are known angles); ``plan``: the :class:`TransversalPlan` of the first; ``closure``:
     its :class:`~spherekin.closure.ClosurePlan`; ``consts`` (K, L, n): every system's constant
     angles (radians), ``consts[k]`` being ``plan_of(systems[k]).const``.
@@ -242,6 +243,40 @@ def stack_systems(systems: Sequence[LoopSystem]) -> SystemStack:
             raise ValueError(f"systems[{k}]: expected the loops of systems[0] with other constant angles "
                              f"(one mechanism at other inputs), got other unknowns or factors")
     return SystemStack(systems, plan_of(first), plans[0], np.stack([p.offsets for p in plans]))
+
+
+class _SystemsAt(Sequence):
+    """``mechanism.loop_system(inputs[k], passive_ranges)`` for k < K, each built when first asked for."""
+
+    def __init__(self, mechanism, inputs, passive_ranges, first: LoopSystem):
+        self._build = lambda k: mechanism.loop_system(tuple(float(v) for v in inputs[k]), passive_ranges)
+        self._built = {0: first}
+        self._n = len(inputs)
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(self._n))]
+        k = range(self._n)[k]
+        if k not in self._built:
+            self._built[k] = self._build(k)
+        return self._built[k]
+
+
+def stack_inputs(mechanism, inputs, passive_ranges) -> SystemStack:
+    """The :class:`SystemStack` of ``mechanism.loop_system(inputs[k], passive_ranges)`` for the K rows of
+    ``inputs`` ((K, number of actuated joints), radians), without building K systems: the first is
+    built, every system's constants come from ``mechanism.loop_constants`` (the rule loop_system
+    reads its known angles from), and ``systems[k]`` is built when asked for."""
+    inputs = np.asarray(inputs, dtype=float)
+    if inputs.ndim != 2 or not len(inputs):
+        raise ValueError(f"inputs: expected a (K, {len(mechanism.actuated)}) array with K >= 1, got shape {inputs.shape}")
+    first = mechanism.loop_system(tuple(float(v) for v in inputs[0]), passive_ranges)
+    plan = closure_plan(first.loops, first.unknowns, first.loop_indices)
+    return SystemStack(_SystemsAt(mechanism, inputs, passive_ranges, first), plan_of(first), plan,
+                       mechanism.loop_constants(inputs, first.form))
 
 
 def enclose(plan: TransversalPlan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, tol: float,
