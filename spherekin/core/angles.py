@@ -16,8 +16,8 @@ import numpy as np
 from .groups import connected_groups
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
-           "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE", "check_geometry_angle",
-           "near_groups"]
+           "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
+           "check_geometry_angle", "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written

@@ -500,7 +500,8 @@ def _fast_entries(mechanism, values, names, clusters, todo, tol) -> dict:
     for n, (c, i) in enumerate(zip(cand[keep], np.flatnonzero(keep))):
         sol, cert, s0 = sols[c], cert_of[c], first[c]
         pt = _Point(theta[s0], batch.result(s0), float(np.abs(theta[s0] - seeds[s0]).max()), cert=cert,
-                    box=tuple(np.array(v) for v in zip(*cert.box)), enc=tuple(np.array(v) for v in zip(*cert.krawczyk_box)))
+                    box=tuple(np.array(v) for v in zip(*cert.box)),
+                    enc=tuple(np.array(v) for v in zip(*cert.krawczyk_box)))
         if tests[c]:
             pt.evidence["covers_cluster"] = True
         stats["tests"] = int(tests[c])
