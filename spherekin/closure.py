@@ -43,7 +43,7 @@ from typing import Sequence, Union
 import numpy as np
 
 from .core import bernstein
-from .core.rotations import Z, normalized_closure, rx
+from .core.rotations import normalized_closure
 
 __all__ = [
     "KNOWN_ANGLE_SNAP",
@@ -66,6 +66,9 @@ __all__ = [
     "ROUTES",
     "TRANSVERSAL_ENTRIES",
     "closure_at",
+    "ClosurePlan",
+    "closure_plan",
+    "closure_many",
 ]
 
 #: |cos| or |sin| of a known angle below this is taken as exactly 0 (and the other as +-1).
@@ -583,10 +586,94 @@ class ClosureLoop:
 # F_n and dF_n/dtheta at angles (floats)
 # --------------------------------------------------------------------------------------------
 
-def _derivative_factor(phi: float) -> np.ndarray:
-    """(d/dphi Rx(phi)) Z."""
-    c, s = np.cos(phi), np.sin(phi)
-    return np.array([[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]]) @ Z
+@dataclass(frozen=True, eq=False)
+class ClosurePlan:
+    """The factors of loops (Eq. 2) as arrays, for :func:`closure_many` (L loops padded to n factors).
+
+    ``offsets`` (L, n): the constant part of each factor angle (radians: a known angle, or a term's
+    offset; 0 for padding); ``slots`` (L, n): the position of the factor's unknown among the
+    unknowns, -1 for a known angle, -2 for padding (a factor I); ``signs`` (L, n): +-1 for a term,
+    0 otherwise; ``n_unknowns``: M. Systems of one mechanism at different inputs have the same
+    slots and signs and differ only in their offsets (the inputs are known angles).
+    """
+
+    offsets: np.ndarray
+    slots: np.ndarray
+    signs: np.ndarray
+    n_unknowns: int
+
+    def same_structure(self, other: "ClosurePlan") -> bool:
+        """Whether ``other`` has the same factors up to the constants (offsets may differ)."""
+        return (self.n_unknowns == other.n_unknowns and self.slots.shape == other.slots.shape
+                and bool(np.array_equal(self.slots, other.slots)) and bool(np.array_equal(self.signs, other.signs)))
+
+
+def closure_plan(loops: Sequence["ClosureLoop"], unknowns: Sequence[Unknown],
+                 loop_indices: Sequence[Sequence[int]] | None = None) -> ClosurePlan:
+    """The :class:`ClosurePlan` of ``loops``: a term's unknown is found among ``unknowns`` by identity,
+    or, given ``loop_indices`` (as :attr:`spherekin.mechanism.LoopSystem.loop_indices`), it is
+    ``unknowns[loop_indices[l][j]]`` for the j-th term of loop l."""
+    n = max((len(loop.factors) for loop in loops), default=0)
+    offsets = np.zeros((len(loops), n))
+    slots = np.full((len(loops), n), -2, dtype=np.intp)
+    signs = np.zeros((len(loops), n))
+    for li, loop in enumerate(loops):
+        j = 0
+        for i, f in enumerate(loop.factors):
+            if isinstance(f, Term):
+                slots[li, i] = (loop_indices[li][j] if loop_indices is not None
+                                else next(k for k, u in enumerate(unknowns) if u is f.unknown))
+                offsets[li, i], signs[li, i] = f.offset, f.sign
+                j += 1
+            else:
+                offsets[li, i], slots[li, i] = float(f), -1
+    return ClosurePlan(offsets, slots, signs, len(unknowns))
+
+
+def closure_many(plan: ClosurePlan, theta, offsets=None, jacobian: bool = False):
+    """F_n = prod_i Rx(phi_i) Z of Eq. (2) for every loop at P points: ``theta`` (P, M) passive
+    angles (radians); ``offsets`` (P, L, n): each point's constant angles (default ``plan.offsets``
+    for every point: one system). Shape (P, L, 3, 3); with ``jacobian``, also dF_n/dtheta, shape
+    (P, L, 3, 3, M), as ``(F, J)``.
+
+    phi_i = offset_i + sign_i theta_k(i); with M_i = Rx(phi_i) Z, the derivative is the sum over
+    the factors of unknown k of sign_i M_1 ... M_{i-1} (dRx/dphi)(phi_i) Z M_{i+1} ... M_n (prefix
+    and suffix products), evaluated for every point and loop at once, one factor at a time.
+    """
+    theta = np.asarray(theta, dtype=float)
+    n_pts = len(theta)
+    n_loops, n = plan.slots.shape
+    offs = np.broadcast_to(plan.offsets, (n_pts, n_loops, n)) if offsets is None else offsets
+    terms = plan.slots >= 0
+    phis = offs + np.where(terms, plan.signs * theta[:, np.where(terms, plan.slots, 0)], 0.0)
+    c, s = np.cos(phis), np.sin(phis)
+    # Rx(phi) Z = [[0, -1, 0], [c, 0, -s], [s, 0, c]]; padding: I
+    mats = np.zeros((n_pts, n_loops, n, 3, 3))
+    mats[..., 0, 1] = -1.0
+    mats[..., 1, 0], mats[..., 1, 2] = c, -s
+    mats[..., 2, 0], mats[..., 2, 2] = s, c
+    pad = plan.slots == -2
+    if pad.any():
+        mats[:, pad] = np.eye(3)
+    prefix = [np.broadcast_to(np.eye(3), (n_pts, n_loops, 3, 3))]
+    for i in range(n):
+        prefix.append(prefix[-1] @ mats[:, :, i])
+    f = np.array(prefix[-1])
+    if not jacobian:
+        return f
+    # (d/dphi Rx(phi)) Z = [[0, 0, 0], [-s, 0, -c], [c, 0, -s]]
+    jac_t = np.zeros((n_loops, plan.n_unknowns, n_pts, 3, 3))                # (L, M, P, 3, 3)
+    suffix = np.broadcast_to(np.eye(3), (n_pts, n_loops, 3, 3))
+    for i in range(n - 1, -1, -1):
+        ls = np.flatnonzero(terms[:, i])
+        if len(ls):
+            d = np.zeros((n_pts, len(ls), 3, 3))
+            d[..., 1, 0], d[..., 1, 2] = -s[:, ls, i], -c[:, ls, i]
+            d[..., 2, 0], d[..., 2, 2] = c[:, ls, i], -s[:, ls, i]
+            t = prefix[i][:, ls] @ d @ suffix[:, ls]
+            jac_t[ls, plan.slots[ls, i]] += (plan.signs[ls, i][:, None, None, None] * t.transpose(1, 0, 2, 3))
+        suffix = mats[:, :, i] @ suffix
+    return f, jac_t.transpose(2, 0, 3, 4, 1)
 
 
 def closure_at(loops: Sequence["ClosureLoop"], unknowns: Sequence[Unknown], theta, jacobian: bool = False,
@@ -600,37 +687,10 @@ def closure_at(loops: Sequence["ClosureLoop"], unknowns: Sequence[Unknown], thet
     :attr:`spherekin.mechanism.LoopSystem.loop_indices`), ``loop_indices[l][j]`` for the j-th term
     of loop l. With M_i = Rx(phi_i) Z, the derivative is the sum over the factors of
     unknown k of sign_i M_1 ... M_{i-1} (dRx/dphi)(phi_i) Z M_{i+1} ... M_n (prefix and suffix
-    products). The one float evaluation of the closure equations at angles: polishing
-    (:mod:`spherekin.trust.polish`) and the transversal system (:mod:`spherekin.trust.transversal`)
-    call it.
+    products). :func:`closure_many` at one point, the one float evaluation of the closure equations
+    at angles: polishing (:mod:`spherekin.trust.polish`) and the transversal system
+    (:mod:`spherekin.trust.transversal`) call it.
     """
     theta = np.asarray(theta, dtype=float)
-    fs, js = [], []
-    for li, loop in enumerate(loops):
-        row = []
-        for f in loop.factors:
-            if isinstance(f, Term):
-                j = sum(k >= 0 for _, k, _ in row)
-                k = (loop_indices[li][j] if loop_indices is not None
-                     else next(i for i, u in enumerate(unknowns) if u is f.unknown))
-                row.append((f.offset, k, f.sign))
-            else:
-                row.append((float(f), -1, 1))
-        phis = np.array([off + (sg * theta[k] if k >= 0 else 0.0) for off, k, sg in row])
-        mats = rx(phis) @ Z
-        n = len(mats)
-        prefix = [np.eye(3)]
-        for m in mats:
-            prefix.append(prefix[-1] @ m)
-        fs.append(prefix[-1])
-        if jacobian:
-            suffix = [np.eye(3)] * (n + 1)
-            for i in range(n - 1, -1, -1):
-                suffix[i] = mats[i] @ suffix[i + 1]
-            block = np.zeros((3, 3, len(theta)))
-            for i, (off, k, sg) in enumerate(row):
-                if k >= 0:
-                    block[:, :, k] += sg * (prefix[i] @ _derivative_factor(phis[i]) @ suffix[i + 1])
-            js.append(block)
-    f_all = np.array(fs).reshape(len(fs), 3, 3)
-    return (f_all, np.array(js).reshape(len(fs), 3, 3, len(theta))) if jacobian else f_all
+    out = closure_many(closure_plan(loops, unknowns, loop_indices), theta[None], jacobian=jacobian)
+    return (out[0][0], out[1][0]) if jacobian else out[0]

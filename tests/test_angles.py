@@ -75,3 +75,16 @@ def test_angles_beyond_a_turn_are_refused_with_the_degrees_hint(theta):
 def test_the_turn_bound_is_two_pi_with_the_range_tolerance():
     # independent: 2 pi from its digits, and the tolerance the range ends use (1e-10)
     assert 6.283185307179586 + 0.5e-10 <= MAX_INPUT_ANGLE <= 6.283185307179586 + 1.5e-10
+
+
+def test_into_range_many_is_into_range_entry_by_entry():
+    from spherekin.core.angles import into_range, into_range_many
+
+    theta = np.random.default_rng(3).uniform(-7.0, 7.0, 400)
+    for rng in (None, (-1.0, 2.0), (2.5, 4.0), (-math.pi, math.pi)):
+        got = into_range_many(theta, rng)
+        assert np.array_equal(got, [into_range(t, rng) for t in theta])
+        inside = [t for t, g in zip(theta, got) if rng is not None and rng[0] - 1e-10 <= g <= rng[1] + 1e-10]
+        # an angle moved into the range is the same angle modulo 2 pi (independent of the code's rule)
+        assert all(abs(math.remainder(g - t, 2 * math.pi)) < 1e-12 for t, g in zip(theta, got))
+        assert rng is None or len(inside) > 0

@@ -49,3 +49,38 @@ def test_polish_rejects_bad_start():
         polish(loops, unknowns, [0.1, np.nan, 0.2])
     with pytest.raises(ValueError, match="theta0"):
         polish(loops, unknowns, [0.1, 0.2])
+
+
+def test_polish_many_polishes_each_point_in_its_own_system_as_polish_does_alone():
+    """polish_many over the roots of several inputs at once (each row with its own constants):
+    every row is polish of that input's system alone, bit for bit, and converges to the inverse
+    kinematics root of its own input (not another's)."""
+    from spherekin.closure import closure_plan
+    from spherekin.trust.polish import polish_many
+
+    mech = general_3rrr()
+    rng = np.random.default_rng(7)
+    starts, truths, systems = [], [], []
+    seed = 10
+    while len(systems) < 4:
+        modes = mech.inverse_kinematics(Rotation.random(random_state=seed).as_matrix())
+        seed += 1
+        if not modes:
+            continue
+        exact = {n: modes[0].joint_angles[n] for n in mech.passive}
+        system = mech.loop_system(modes[0].inputs, {n: (a - 1.0, a + 1.0) for n, a in exact.items()})
+        truth = np.array([exact[u.name] for u in system.unknowns])
+        systems.append(system)
+        truths.append(truth)
+        starts.append(truth + rng.uniform(-1e-4, 1e-4, truth.shape))
+    plans = [closure_plan(s.loops, s.unknowns, s.loop_indices) for s in systems]
+    offsets = np.stack([p.offsets for p in plans])
+    batch = polish_many(plans[0], np.array(starts), offsets)
+    for k, system in enumerate(systems):
+        alone = polish(system.loops, system.unknowns, starts[k])
+        assert np.array_equal(batch.theta[k], alone.theta) and batch.iterations[k] == alone.iterations
+        assert batch.converged[k]
+        np.testing.assert_allclose(batch.theta[k], truths[k], atol=1e-11)
+    # the same starts with the constants of the next input: another system, other roots
+    other = polish_many(plans[0], np.array(starts), np.roll(offsets, 1, axis=0))
+    assert all(np.abs(other.theta[k] - truths[k]).max() > 1e-8 for k in range(4))

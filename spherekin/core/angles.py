@@ -16,8 +16,8 @@ import numpy as np
 from .groups import connected_groups
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
-           "into_range", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE", "check_geometry_angle",
-           "near_groups"]
+           "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
+           "check_geometry_angle", "near_groups"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -85,6 +85,15 @@ def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:
         return float(theta)
     lo = float(rng[0])
     return lo - tol + float(np.mod(float(theta) - (lo - tol), TWO_PI))
+
+
+def into_range_many(theta, rng, tol: float = RANGE_TOL) -> np.ndarray:
+    """:func:`into_range` of every entry of the array ``theta`` (radians): an array of its shape."""
+    theta = np.asarray(theta, dtype=float)
+    if rng is None:
+        return theta.copy()
+    lo = float(rng[0])
+    return np.where(in_range_many(theta, rng, tol), lo - tol + np.mod(theta - (lo - tol), TWO_PI), theta)
 
 
 def beyond_turn(theta) -> np.ndarray:

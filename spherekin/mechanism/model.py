@@ -709,7 +709,7 @@ class SphericalMechanism:
                 if r is None:
                     raise ValueError(f"passive_ranges[{n!r}]: expected (lo, hi) with hi - lo < 2*pi, got None")
                 overrides[n] = check_range(f"passive_ranges[{n!r}]", r)
-        known = dict(zip(self.actuated, values))
+        consts = self.loop_constants([values], form)[0]
         unknowns = {}
         for name in self.loop_unknowns:
             rng = overrides.get(name, self.joint(name).range)
@@ -722,19 +722,18 @@ class SphericalMechanism:
             unknowns[name] = Unknown(name, rng[0], rng[1])
         loops, indices = [], []
         order = list(unknowns)
-        for g in self.loop_geometry:
+        for li, g in enumerate(self.loop_geometry):
             factors = []
-            for spec in g.factor_specs(form):
-                if spec.joint is None:
-                    factors.append(spec.offset)
-                elif spec.joint in known:
-                    factors.append(wrap(spec.offset + spec.sign * known[spec.joint]))
+            for i, spec in enumerate(g.factor_specs(form)):
+                if spec.joint is None or spec.joint in self.actuated:
+                    factors.append(float(consts[li, i]))
                 else:
                     factors.append(Term(unknowns[spec.joint], spec.offset, spec.sign))
             loop = ClosureLoop(factors)
             loops.append(loop)
             indices.append(tuple(order.index(u.name) for u in loop.unknowns))
-        counts = {n: sum(n in lp.names for lp in loops) for n in order}
+        in_loops = [set(lp.names) for lp in loops]          # (a loop's names are computed on each access)
+        counts = {n: sum(n in names for names in in_loops) for n in order}
         return LoopSystem(
             loops=tuple(loops),
             unknowns=tuple(unknowns.values()),
@@ -745,6 +744,24 @@ class SphericalMechanism:
             loop_legs=tuple(g.legs for g in self.loop_geometry),
             form=form,
         )
+
+    def loop_constants(self, inputs, form: str = "auto") -> np.ndarray:
+        """The constant angle (radians) of every factor of :meth:`loop_system` at K actuator inputs at
+        once: ``inputs`` (K, number of actuated joints), radians, unchecked (the solver's own); shape
+        (K, L, n), L loops padded with 0 to n factors. A factor of a fixed angle is its offset, of an
+        actuated joint wrap(offset + sign * input), of a passive joint its term's offset. The one rule
+        of the known angles: :meth:`loop_system` reads its own from here."""
+        values = np.asarray(inputs, dtype=float).reshape(-1, len(self.actuated))
+        specs = [g.factor_specs(form) for g in self.loop_geometry]
+        out = np.zeros((len(values), len(specs), max((len(f) for f in specs), default=0)))
+        for li, loop in enumerate(specs):
+            for i, spec in enumerate(loop):
+                if spec.joint in self.actuated:
+                    phis = spec.offset + spec.sign * values[:, self.actuated.index(spec.joint)]
+                    out[:, li, i] = [wrap(float(v)) for v in phis]      # math.remainder: scalar, exact
+                else:
+                    out[:, li, i] = spec.offset
+        return out
 
     # ---------------------------------------------------------------- poses and forward evaluation
 
@@ -777,19 +794,30 @@ class SphericalMechanism:
         R = Rot(a_1, d_1) ... Rot(a_k, d_k) R_ref along the spanning tree's path from the ground to
         the output (product of exponentials, axes a_i in the reference configuration, d_i = +-(reading_i
         - reference_angle_i)); for legs, the reference leg (a 3-RRR: the R with v_i = R v_i^0). Only
-        that path's passive joints are needed.
+        that path's passive joints are needed. :meth:`poses_from_passive` at one configuration.
         """
         values = dict(zip(self.actuated, self.check_inputs(inputs)))
         if self.output is None:
             return None
-        path = self.link_paths[self.output]
-        need = [st.joint for st in path if st.joint not in values]
+        need = [st.joint for st in self.link_paths[self.output] if st.joint not in values]
         angles = self._check_angles("passive_angles", passive_angles, need)
         bad = [n for n in angles if n in values]
         if bad:
             raise ValueError(f"passive_angles: {bad} are actuated joints; give them in inputs")
-        readings = {n: np.array([v]) for n, v in {**angles, **values}.items()}
-        return self._steps_rotation(path, readings)[0] @ self.platform_reference_matrix
+        return self.poses_from_passive(np.array([list(values.values())], dtype=float).reshape(1, -1),
+                                       {n: [v] for n, v in angles.items()})[0]
+
+    def poses_from_passive(self, inputs, passive_angles: Mapping[str, Sequence[float]]) -> np.ndarray | None:
+        """:meth:`pose_from_passive` at N configurations at once: ``inputs`` (N, number of actuated
+        joints) and ``passive_angles`` name -> N readings (radians; the output path's passive joints
+        at least); shape (N, 3, 3), or None for a mechanism without an output link. Unchecked
+        beyond shapes: the readings are the solver's own."""
+        if self.output is None:
+            return None
+        inputs = np.asarray(inputs, dtype=float)
+        readings = {n: np.asarray(v, dtype=float).reshape(-1) for n, v in passive_angles.items()}
+        readings.update({n: inputs[:, i] for i, n in enumerate(self.actuated)})
+        return self._steps_rotation(self.link_paths[self.output], readings) @ self.platform_reference_matrix
 
     def forward(self, joint_angles: Mapping[str, float], form: str = "auto") -> ForwardResult:
         """Forward evaluation: every joint reading (radians) -> pose (None without an output link), the
@@ -947,38 +975,49 @@ class SphericalMechanism:
 
     def singularity(self, joint_angles: Mapping[str, float], tol: float = SINGULARITY_TOL) -> SingularityReport:
         """Classify a configuration as regular, serial-, parallel- or doubly singular (see
-        :class:`SingularityReport`; tolerance SINGULARITY_TOL by default)."""
+        :class:`SingularityReport`; tolerance SINGULARITY_TOL by default): :meth:`singularities` at one
+        configuration."""
+        readings = self._check_angles("joint_angles", joint_angles, self.joint_names)
+        return self.singularities({n: [v] for n, v in readings.items()}, tol)[0]
+
+    def singularities(self, joint_angles: Mapping[str, Sequence[float]],
+                      tol: float = SINGULARITY_TOL) -> list[SingularityReport]:
+        """:meth:`singularity` at N configurations at once: ``joint_angles`` every joint's name -> N
+        readings (radians); one :class:`SingularityReport` per configuration, in order (the leg and
+        loop Jacobians of all N in one stack of SVDs)."""
         if isinstance(tol, (bool, np.bool_)) or not isinstance(tol, (int, float, np.integer, np.floating)) \
                 or not math.isfinite(tol) or not tol > 0:
             raise ValueError(f"tol: expected a positive tolerance, got {tol!r}")
         tol = float(tol)
-        jac = self.jacobians(joint_angles)
-        serial_margin, serial_legs = math.inf, []
+        missing = [n for n in self.joint_names if n not in joint_angles]
+        if missing:
+            raise ValueError(f"joint_angles: missing angle(s) for {missing}")
+        readings = {n: np.asarray(joint_angles[n], dtype=float).reshape(-1) for n in self.joint_names}
+        leg_j, k_mat = self._constraints(readings)
+        n = k_mat.shape[0]
+        serial_margin = np.full(n, math.inf)
+        serial_legs = [[] for _ in range(n)]
         for leg in self.legs:
             act = np.array([j.actuated for j in leg.joints])
             if not act.any():
                 continue
-            jl = jac["legs"][leg.name]
-            _, s, vt = np.linalg.svd(jl)  # full: vt is k x k
-            s_full = np.concatenate([s, np.zeros(len(leg.joints) - len(s))])
-            serial_margin = min(serial_margin, float(s_full.min()))
-            null = vt[s_full < tol]
+            jl = leg_j[leg.name]                                              # (N, 3, k)
+            _, s, vt = np.linalg.svd(jl)                                      # full: vt is (N, k, k)
+            s_full = np.concatenate([s, np.zeros((n, len(leg.joints) - s.shape[1]))], axis=1)
+            serial_margin = np.minimum(serial_margin, s_full.min(axis=1))
             # a null motion of the leg (platform still) that moves an actuated joint
-            if null.size and np.linalg.norm(null[:, act]) > math.sqrt(tol):
-                serial_legs.append(leg.name)
-        kp = jac["K_p"]
-        if kp.shape[1] == 0:
-            parallel_margin = math.inf
+            null = s_full < tol                                              # (N, k): rows of vt
+            moved = np.sqrt(np.einsum("nr,nra->n", null.astype(float), vt[:, :, act] ** 2))
+            for i in np.flatnonzero(null.any(axis=1) & (moved > math.sqrt(tol))):
+                serial_legs[i].append(leg.name)
+        pas = [self.joint_names.index(name) for name in self.passive]
+        kp = k_mat[:, :, pas]
+        if kp.shape[2] == 0:
+            parallel_margin = np.full(n, math.inf)
+        elif kp.shape[2] > kp.shape[1]:
+            parallel_margin = np.zeros(n)
         else:
-            s = np.linalg.svd(kp, compute_uv=False)
-            parallel_margin = float(s.min()) if kp.shape[1] <= kp.shape[0] else 0.0
-        return SingularityReport(
-            serial=bool(serial_legs),
-            parallel=parallel_margin < tol,
-            serial_margin=serial_margin,
-            parallel_margin=parallel_margin,
-            serial_legs=tuple(serial_legs),
-            tol=tol,
-        )
-
-
+            parallel_margin = np.linalg.svd(kp, compute_uv=False).min(axis=1)
+        return [SingularityReport(serial=bool(legs), parallel=bool(pm < tol), serial_margin=float(sm),
+                                  parallel_margin=float(pm), serial_legs=tuple(legs), tol=tol)
+                for legs, sm, pm in zip(serial_legs, serial_margin, parallel_margin)]

@@ -15,7 +15,10 @@ the point y. C = J(y)^-1 is an ordinary float inverse (any C is valid; a good on
 Two implementations, with the same inputs and results:
 
 * fast (:func:`krawczyk`, :func:`certify`, :func:`certify_many`, :func:`krawczyk_many`): the
-  enclosures of :func:`spherekin.trust.transversal.enclose`, vectorized over points, radii and boxes.
+  enclosures of :func:`spherekin.trust.transversal.enclose`, vectorized over points, radii and boxes;
+  :func:`certify_stacked` and :func:`krawczyk_stacked` do the same for the points and boxes of several
+  systems of one mechanism at once (a :class:`~spherekin.trust.transversal.SystemStack`: one
+  mechanism at the inputs of a chunk), each tested in its own system only.
   K uses (I - C J(X)) (X - y) in [-s, s], s = |I - C J(X)| rho with X - y in [-rho, rho] (a
   superset of the usual evaluation: both conclusions of the test stay valid). Outside the IEEE
   default floating-point environment (:func:`spherekin.core.intervals.rounding_environment_ok`) the
@@ -39,8 +42,8 @@ import numpy as np
 
 from ..core import intervals as iv_ops
 from ..mechanism import LoopSystem
-from .transversal import (ANGLE_TOLERANCE, TransversalPlan, check_system, check_theta, check_tolerance, enclose,
-                          interval_eval, plan_of, transversal_equations)
+from .transversal import (ANGLE_TOLERANCE, SystemStack, TransversalPlan, check_system, check_theta, check_tolerance,
+                          enclose, interval_eval, plan_of, transversal_equations)
 
 __all__ = [
     "FINE_ANGLE_TOLERANCE",
@@ -51,9 +54,11 @@ __all__ = [
     "BoxTests",
     "krawczyk",
     "krawczyk_many",
+    "krawczyk_stacked",
     "krawczyk_reference",
     "certify",
     "certify_many",
+    "certify_stacked",
     "certify_reference",
     "check_radii",
 ]
@@ -218,6 +223,26 @@ def certify_many(system: LoopSystem, thetas, radii: Sequence[float] = CERTIFY_RA
     return _certify_points(system, ys.reshape(len(ys), len(system.unknowns)), rs, tol)
 
 
+def certify_stacked(stack: SystemStack, which, thetas, radii: Sequence[float] = CERTIFY_RADII,
+                    angle_tolerance: float = ANGLE_TOLERANCE) -> list[KrawczykResult]:
+    """:func:`certify_many` for points of several systems of one mechanism (a
+    :class:`~spherekin.trust.transversal.SystemStack`, e.g. one mechanism at the K inputs of a chunk),
+    in one vectorized pass: point i (``thetas`` (P, M), radians) is tested in
+    ``stack.systems[which[i]]`` only, and its result equals ``certify_many(stack.systems[which[i]],
+    [thetas[i]], radii, angle_tolerance)[0]``.
+    """
+    ys = np.asarray(thetas, dtype=float)
+    m = len(stack.systems[0].unknowns)
+    if ys.ndim != 2 or ys.shape[1] != m or not np.all(np.isfinite(ys)):
+        raise ValueError(f"thetas: expected a (P, {m}) array of finite angles (radians), got shape {ys.shape}")
+    w = _check_which(stack, which, len(ys))
+    rs = check_radii(radii)
+    tol = check_tolerance(angle_tolerance)
+    if not len(ys):
+        return []
+    return _certify_points(stack.systems[0], ys, rs, tol, stack, w)
+
+
 class BoxTests:
     """Krawczyk tests of B general boxes X_b = [lo_b, hi_b] (radians) at points y_b in them.
 
@@ -251,6 +276,26 @@ def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = 
     IEEE default rounding environment every box is inconclusive (a refusal, never a wrong verdict).
     """
     check_system(system)
+    return _box_tests(system, None, None, lo, hi, ys, angle_tolerance)
+
+
+def krawczyk_stacked(stack: SystemStack, which, lo, hi, ys=None, angle_tolerance: float = ANGLE_TOLERANCE) -> BoxTests:
+    """:func:`krawczyk_many` for boxes of several systems of one mechanism (a
+    :class:`~spherekin.trust.transversal.SystemStack`): box b is tested in ``stack.systems[which[b]]``
+    (``which`` (B,) ints); each verdict is the one krawczyk_many gives for that box in its own system."""
+    return _box_tests(stack.systems[0], stack, _check_which(stack, which, len(lo)), lo, hi, ys, angle_tolerance)
+
+
+def _check_which(stack: SystemStack, which, n: int) -> np.ndarray:
+    """``which`` as an int array (n,) of indices into ``stack.systems``; ValueError naming it otherwise."""
+    w = np.asarray(which)
+    if w.shape != (n,) or (n and (w.dtype.kind not in "iu" or w.min() < 0 or w.max() >= len(stack.systems))):
+        raise ValueError(f"which: expected {n} indices of systems in [0, {len(stack.systems)}), got {which!r}")
+    return w.astype(np.intp)
+
+
+def _box_tests(system: LoopSystem, stack: SystemStack | None, which, lo, hi, ys, angle_tolerance) -> BoxTests:
+    """:func:`krawczyk_many` (``stack`` None) or :func:`krawczyk_stacked`: one implementation."""
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)
     m = len(system.unknowns)
@@ -266,7 +311,8 @@ def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = 
     nan = np.full((b, m), np.nan)
     if b == 0 or not iv_ops.rounding_environment_ok():
         return BoxTests(np.zeros(b, bool), np.zeros(b, bool), nan, nan.copy())
-    core = _krawczyk_core(plan_of(system), ys, lo[:, None], hi[:, None], tol)
+    plan = plan_of(system) if stack is None else stack.plan
+    core = _krawczyk_core(plan, ys, lo[:, None], hi[:, None], tol, None if stack is None else stack.consts, which)
     k_lo, k_hi = core["k_lo"][:, 0], core["k_hi"][:, 0]
     finite = np.all(np.isfinite(k_lo) & np.isfinite(k_hi), axis=1)
     inside = finite & np.all((k_lo > lo) & (k_hi < hi), axis=1) & (core["other"][:, 0] <= OVERDETERMINED_BOUND)
@@ -274,10 +320,12 @@ def krawczyk_many(system: LoopSystem, lo, hi, ys=None, angle_tolerance: float = 
     return BoxTests(inside & ~disjoint, disjoint, k_lo, k_hi)
 
 
-def _certify_points(system: LoopSystem, ys: np.ndarray, rs: list[float], tol: float) -> list[KrawczykResult]:
+def _certify_points(system: LoopSystem, ys: np.ndarray, rs: list[float], tol: float,
+                    stack: SystemStack | None = None, which: np.ndarray | None = None) -> list[KrawczykResult]:
     if not iv_ops.rounding_environment_ok():
-        return [certify_reference(system, y, rs, tol) for y in ys]
-    return _krawczyk_batch(system, ys, rs, tol, first_success=True)
+        return [certify_reference(system if stack is None else stack.systems[w], y, rs, tol)
+                for y, w in zip(ys, np.zeros(len(ys), int) if which is None else which)]
+    return _krawczyk_batch(system, ys, rs, tol, first_success=True, stack=stack, which=which)
 
 
 def _subsystem_rows(j_mid: np.ndarray) -> np.ndarray:
@@ -332,8 +380,12 @@ def _excludes_zero(f_all, j_all, ys, x_lo, x_hi, j_mid) -> np.ndarray:
     return natural | np.any((g[0] > 0) | (g[1] < 0), axis=-1)
 
 
-def _krawczyk_core(plan: TransversalPlan, ys: np.ndarray, x_lo: np.ndarray, x_hi: np.ndarray, tol: float) -> dict:
+def _krawczyk_core(plan: TransversalPlan, ys: np.ndarray, x_lo: np.ndarray, x_hi: np.ndarray, tol: float,
+                   consts: np.ndarray | None = None, which: np.ndarray | None = None) -> dict:
     """Krawczyk operators of the boxes X = [x_lo, x_hi] (P, R, M) around the points ys (P, M).
+
+    ``consts`` (K, L, n), ``which`` (P,): point p is of the system with constants consts[which[p]]
+    (a :class:`~spherekin.trust.transversal.SystemStack`; default: the plan's own system for all).
 
     Returns arrays: ``residual`` (P,) bounds max |F(y)|; ``sv`` (P, min(E, M)) singular values of
     the float J(y); ``regular`` (P,); ``rows`` (P, M) the equations of the square (sub)system (all
@@ -348,7 +400,8 @@ def _krawczyk_core(plan: TransversalPlan, ys: np.ndarray, x_lo: np.ndarray, x_hi
     lo = np.concatenate((ys, x_lo.reshape(-1, m)))
     hi = np.concatenate((ys, x_hi.reshape(-1, m)))
     center = np.concatenate((ys, np.repeat(ys, n_rad, axis=0)))
-    f_all, j_all = enclose(plan, lo, hi, center, tol, jacobian=True)
+    of_box = None if which is None else np.concatenate((which, np.repeat(which, n_rad)))
+    f_all, j_all = enclose(plan, lo, hi, center, tol, jacobian=True, consts=consts, which=of_box)
     f_y = f_all[:, :n_pts]                                           # (2, P, E)
     residual = iv_ops.magnitude(f_y).max(axis=-1, initial=0.0)
     j_mid = 0.5 * (j_all[0, :n_pts] + j_all[1, :n_pts])              # a float J(y) (any C is valid)
@@ -384,20 +437,32 @@ def _krawczyk_core(plan: TransversalPlan, ys: np.ndarray, x_lo: np.ndarray, x_hi
 
 
 def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol: float,
-                    first_success: bool) -> list:
+                    first_success: bool, stack: SystemStack | None = None, which: np.ndarray | None = None) -> list:
     """Krawczyk tests of every point ys[p] (P, M) at every radius rs[k] in one vectorized pass.
 
     ``first_success``: return, per point, the result of certify (first success, or the first
     non-square/singular failure, or the last failure; radii_tried set); else a list of results per
-    radius per point.
+    radius per point. With ``first_success``, every point is tested at the first radius, and only
+    the points that fail there (with K(X) computed) at the others: a test's verdict depends on its
+    point and radius alone, so the results are those of the one pass over every radius, and a
+    regular root (certified at the first radius) costs one box instead of len(rs).
     """
-    tplan = plan_of(system)
+    if first_success and len(rs) > 1:
+        out = [replace(res, radii_tried=(rs[0],)) for (res,) in _krawczyk_batch(system, ys, rs[:1], tol, False,
+                                                                                 stack, which)]
+        again = [p for p, res in enumerate(out) if not (res.certified or res.krawczyk_box is None)]
+        if again:
+            rest = _krawczyk_batch(system, ys[again], rs[1:], tol, True, stack, None if which is None else which[again])
+            for p, res in zip(again, rest):
+                out[p] = replace(res, radii_tried=(rs[0], *res.radii_tried))
+        return out
+    tplan = plan_of(system) if stack is None else stack.plan
     n_pts, m = ys.shape
     n_eq = 3 * len(system.loops)
     radii = np.asarray(rs, dtype=float)
     x_lo = ys[:, None, :] - radii[None, :, None]                     # (P, R, M), the floats of X
     x_hi = ys[:, None, :] + radii[None, :, None]
-    core = _krawczyk_core(tplan, ys, x_lo, x_hi, tol)
+    core = _krawczyk_core(tplan, ys, x_lo, x_hi, tol, None if stack is None else stack.consts, which)
     out = []
     for p in range(n_pts):
         base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(core["residual"][p]),

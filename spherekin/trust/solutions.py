@@ -40,6 +40,11 @@ Statuses (docs/results-format.md):
 
 :func:`count_summary` gives the proven count and whether the count is exact: exact when every
 entry is certified, or singular with a certificate.
+
+:func:`finalize_many` does this for a chunk of inputs at once: the common case (each cluster one
+polished point, certified in floats, its hull covered) runs every stage as one array call over all
+the points of the chunk, each point evaluated in its own input's equations only; any other input
+goes through :func:`finalize`. Both call the same stage functions, so the answers are the same.
 """
 
 from __future__ import annotations
@@ -49,15 +54,17 @@ import math
 
 import numpy as np
 
-from ..core.angles import RANGE_TOL, in_range, into_range, near_groups, wrap
+from ..closure import closure_plan
+from ..core.angles import RANGE_TOL, in_range_many, into_range_many, near_groups, wrap
 from .extended import EXTENDED_RADII, certify_extended, krawczyk_boxes_extended, polish_extended
-from .krawczyk import CERTIFY_RADII, FINE_ANGLE_TOLERANCE, BoxTests, certify_many, krawczyk_many
-from .transversal import transversal_equations
-from .polish import polish
+from .krawczyk import (ANGLE_TOLERANCE, CERTIFY_RADII, FINE_ANGLE_TOLERANCE, BoxTests, certify_many, certify_stacked,
+                       krawczyk_many, krawczyk_stacked)
+from .transversal import stack_inputs, transversal_equations
+from .polish import polish, polish_many
 from ..results import Cluster, Solution, Status
 
 __all__ = ["DEDUPE_TOL", "MAX_SEEDS", "MAX_RESOLVE_BOXES", "SEPARATION_FRACTION", "SOLUTION_BOUND", "STATUSES",
-           "finalize", "count_summary", "is_proven"]
+           "finalize", "finalize_many", "count_summary", "is_proven"]
 
 #: Statuses a finalized entry can have (see the module docstring and docs/results-format.md).
 STATUSES = tuple(Status)
@@ -299,6 +306,19 @@ def _retest_extended(extended, test: BoxTests, lo, hi, certified, stats: dict) -
     return out
 
 
+def _float_certificates(run, n: int) -> list:
+    """The float certificates of n points: ``run(indices, angle_tolerance)`` (the results of those
+    points) at the default angle tolerance, then, for each whose K(X) was computed but not inside X,
+    at the finer one (:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`); one result per point."""
+    certs = list(run(list(range(n)), ANGLE_TOLERANCE))
+    again = [i for i, c in enumerate(certs) if not c.certified and c.krawczyk_box is not None and not c.no_solution]
+    if again:
+        for i, f in zip(again, run(again, FINE_ANGLE_TOLERANCE)):
+            if f.certified:
+                certs[i] = f
+    return certs
+
+
 def _certify_with_fallback(certify_fn, system, thetas, radii, extended=None) -> list:
     """``certify_fn`` on the points ``thetas`` at the default angle tolerance, then, for each whose
     K(X) was computed but not inside X, at the finer one (:data:`spherekin.trust.krawczyk.FINE_ANGLE_TOLERANCE`),
@@ -306,13 +326,8 @@ def _certify_with_fallback(certify_fn, system, thetas, radii, extended=None) -> 
     ``radii``; the evidence records which: ``angle_tolerance`` 0); one result per point, in order."""
     if not len(thetas):
         return []
-    certs = list(certify_fn(system, thetas, radii=radii))
-    again = [i for i, c in enumerate(certs) if not c.certified and c.krawczyk_box is not None and not c.no_solution]
-    if again:
-        fine = certify_fn(system, [thetas[i] for i in again], radii=radii, angle_tolerance=FINE_ANGLE_TOLERANCE)
-        for i, f in zip(again, fine):
-            if f.certified:
-                certs[i] = f
+    certs = _float_certificates(lambda idx, t: certify_fn(system, [thetas[i] for i in idx], radii=radii,
+                                                          angle_tolerance=t), len(thetas))
     if extended is not None:
         for i, c in enumerate(certs):
             if not c.certified and c.krawczyk_box is not None and not c.no_solution:
@@ -360,12 +375,203 @@ def finalize(mechanism, inputs, names, clusters, tol, certify=None, refine=None,
         certify = certify_many
     out = []
     if clusters:
-        system = mechanism.loop_system(inputs, {n: (-LOCAL_CHART, LOCAL_CHART) for n in names})
+        system = _system_of(mechanism, inputs, names)
         ext = _Extended(mechanism, inputs, names) if extended else None
         out = _finalize_clusters(mechanism, system, inputs, names, clusters, tol, certify, refine, ext)
-    unique = _merge_nearby_unproven(_unique(out), tol)
+    return _tail(out, tol)
+
+
+def _tail(entries: list, tol: float) -> list:
+    """An input's entries with the roots found twice kept once (:func:`_unique`), the nearby unproven
+    ones merged (:func:`_merge_nearby_unproven`), sorted by angles (rounded to 1e-9)."""
+    unique = _merge_nearby_unproven(_unique(entries), tol)
     unique.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return unique
+
+
+def finalize_many(mechanism, inputs, names, clusters, tol, refine=None) -> list[list[Solution]]:
+    """:func:`finalize` for a chunk of K inputs at once: ``inputs`` (K, number of actuated joints;
+    radians), ``clusters[k]`` the clusters found at ``inputs[k]`` (as finalize takes them),
+    ``refine``: None or ``refine(k)``, the ``refine`` callable of input k (or None). Returns, for
+    every k, what ``finalize(mechanism, inputs[k], names, clusters[k], tol, refine=refine(k))``
+    returns (default certification, extended precision where it needs it).
+
+    The common case runs over every point of the chunk at once: every cluster whose seeds polish
+    to one point that the float Krawczyk test certifies, whose hull that test covers (or whose
+    members lie in the certified box), and whose entries are distinct roots. Each stage is one
+    array call over all such points, each point evaluated only with its own input's constants
+    (:class:`~spherekin.trust.transversal.SystemStack`, an input-index column): polishing
+    (:func:`~spherekin.trust.polish.polish_many`), certification
+    (:func:`~spherekin.trust.krawczyk.certify_stacked`, :func:`~spherekin.trust.krawczyk.krawczyk_stacked`),
+    classification (:meth:`~spherekin.mechanism.SphericalMechanism.singularities`). An input with any
+    other cluster (one to resolve, refine, a continuum, a point not certified in floats) goes
+    through :func:`finalize` whole. Both paths call the same stage functions, and a stage gives a
+    point the same floats alone or in a chunk.
+    """
+    values = np.asarray(inputs, dtype=float)
+    n_act = len(mechanism.actuated)
+    if values.size == 0:
+        values = values.reshape(0, n_act)                # an empty chunk
+    if values.ndim != 2 or values.shape[1] != n_act:
+        raise ValueError(f"inputs: expected shape (K, {n_act}) (one row of actuator angles per input), "
+                         f"got {values.shape}")
+    if len(clusters) != len(values):
+        raise ValueError(f"clusters: expected one sequence of clusters per input ({len(values)}), got {len(clusters)}")
+    names = tuple(names)
+    out: list = [[] for _ in values]
+    todo = [k for k in range(len(values)) if len(clusters[k])]
+    fast = _fast_entries(mechanism, values, names, clusters, todo, tol) if todo else {}
+    for k in todo:
+        if k in fast:
+            out[k] = fast[k]
+        else:
+            out[k] = finalize(mechanism, tuple(float(v) for v in values[k]), names, clusters[k], tol,
+                              refine=refine(k) if refine is not None else None)
+    return out
+
+
+def _fast_entries(mechanism, values, names, clusters, todo, tol) -> dict:
+    """input k -> its entries, for the inputs of ``todo`` whose clusters all take the common case
+    of :func:`finalize_many`; the others are left out (finalize answers them)."""
+    stack = stack_inputs(mechanism, values[todo], _chart(names))
+    sols = [sol for k in todo for sol in clusters[k]]
+    n_cl = len(sols)
+    cl_in = np.repeat(np.arange(len(todo)), [len(clusters[k]) for k in todo])     # stack index of each cluster
+    lo = np.array([sol.lo for sol in sols], dtype=float)
+    hi = np.array([sol.hi for sol in sols], dtype=float)
+    centre = 0.5 * (lo + hi)
+    # 1. polish every seed of every cluster (the centre; member boxes of clusters of several)
+    many = {c: _seeds(sol) for c, sol in enumerate(sols) if sol.members is not None and len(sol.members) > 1}
+    n_seeds = np.ones(n_cl, dtype=int)
+    seeds = centre
+    if many:
+        n_seeds[list(many)] = [len(v) for v in many.values()]
+        seeds = np.concatenate([many[c] if c in many else centre[c:c + 1] for c in range(n_cl)])
+    seed_cl = np.repeat(np.arange(n_cl), n_seeds)
+    batch, theta, outside = _polish_seeds(stack.closure, stack.consts[cl_in[seed_cl]], seeds, centre[seed_cl],
+                                          lo[seed_cl], hi[seed_cl], tol)
+    valid = batch.converged & ~outside
+    left = np.bincount(seed_cl, weights=batch.converged & outside, minlength=n_cl).astype(int)
+    first = np.full(n_cl, -1)
+    idx = np.flatnonzero(valid)
+    with_valid, at = np.unique(seed_cl[idx], return_index=True)                  # first valid seed of each
+    first[with_valid] = idx[at]
+    # one point per cluster: every valid seed within DEDUPE_TOL of the cluster's first one (_polish_cluster)
+    far = valid & (np.abs(theta - theta[first[seed_cl]]).max(axis=1) > DEDUPE_TOL)
+    ok = (first >= 0) & (np.bincount(seed_cl, weights=far, minlength=n_cl) == 0)
+    ok &= _all_per_input(ok, cl_in, len(todo))[cl_in]
+    # 2. certify the points (one per cluster) at CERTIFY_RADII (no other point to keep apart)
+    cand = np.flatnonzero(ok)
+    pts = theta[first[cand]]
+    certs = _float_certificates(lambda i, t: certify_stacked(stack, cl_in[cand][i], pts[i], list(CERTIFY_RADII), t),
+                                len(cand))
+    ok[cand] = [c.certified for c in certs]
+    cert_of = dict(zip(cand.tolist(), certs))
+    # 3. account for each cluster (_resolve): the hull with the certified box in one Krawczyk test,
+    #    or (a cluster of one point) every member box inside the certified box
+    ok &= _all_per_input(ok, cl_in, len(todo))[cl_in]
+    cand = np.flatnonzero(ok)
+    box = np.array([cert_of[c].box for c in cand], dtype=float).reshape(len(cand), len(names), 2)
+    hull = np.any(hi[cand] > lo[cand], axis=1)
+    tests = np.zeros(n_cl, dtype=int)
+    if hull.any():
+        c_h = cand[hull]
+        test = krawczyk_stacked(stack, cl_in[c_h], np.minimum(lo[c_h], box[hull, :, 0]),
+                                np.maximum(hi[c_h], box[hull, :, 1]), theta[first[c_h]], FINE_ANGLE_TOLERANCE)
+        ok[c_h] = test.certified
+        tests[c_h] = 1
+    if (~hull).any():
+        c_p = cand[~hull]
+        mem = [sols[c].members if sols[c].members is not None else np.array([[sols[c].lo, sols[c].hi]]) for c in c_p]
+        mem_cl = np.repeat(np.arange(len(c_p)), [len(m) for m in mem])
+        mem = np.concatenate(mem).astype(float)
+        b = box[~hull][mem_cl]
+        out_of_box = ~(np.all(b[:, :, 0] <= mem[:, 0], axis=1) & np.all(mem[:, 1] <= b[:, :, 1], axis=1))
+        ok[c_p] = np.bincount(mem_cl, weights=out_of_box, minlength=len(c_p)) == 0
+    ok &= _all_per_input(ok, cl_in, len(todo))[cl_in]
+    # 4. classify every point of the inputs kept, all at once, and build their entries
+    cand = np.flatnonzero(ok)
+    if not len(cand):
+        return {}
+    keep, angles = _readings(mechanism, names, theta[first[cand]])
+    sings, poses = _classify_many(mechanism, values[todo], cl_in[cand[keep]], names, angles[keep])
+    stats = dict(tests=0, excluded=0)
+    entries: dict = {int(j): [] for j in np.unique(cl_in[cand])}
+    for n, (c, i) in enumerate(zip(cand[keep], np.flatnonzero(keep))):
+        sol, cert, s0 = sols[c], cert_of[c], first[c]
+        pt = _Point(theta[s0], batch.result(s0), float(np.abs(theta[s0] - seeds[s0]).max()), cert=cert,
+                    box=tuple(np.array(v) for v in zip(*cert.box)),
+                    enc=tuple(np.array(v) for v in zip(*cert.krawczyk_box)))
+        if tests[c]:
+            pt.evidence["covers_cluster"] = True
+        stats["tests"] = int(tests[c])
+        ev = _cluster_evidence(sol, int(n_seeds[c]), 1, stats, 0, int(left[c]))
+        entries[int(cl_in[c])].append(_classify(sol, pt, names, angles[i], ev, [], sings[n],
+                                                None if poses is None else poses[n]))
+    # 5. the tail of finalize: with every pair of an input's entries distinct roots, _unique keeps
+    #    them all and there is nothing unproven to merge; else finalize's own tail
+    flat = [e for j in sorted(entries) for e in entries[j]]
+    owner = np.array([j for j in sorted(entries) for _ in entries[j]])
+    clash = _not_all_distinct(flat, owner)
+    order = _sort_order(flat, owner)                       # by owner first: each input's run in order
+    runs = np.split(order, np.cumsum([len(entries[j]) for j in sorted(entries)])[:-1])
+    return {todo[j]: _tail(entries[j], tol) if clash[j] else [flat[i] for i in run]
+            for j, run in zip(sorted(entries), runs)}
+
+
+def _all_per_input(flags, of, n: int) -> np.ndarray:
+    """(n,) whether every flag of each input is set (``of``: the input of each flag)."""
+    return np.bincount(of, weights=~np.asarray(flags, bool), minlength=n) == 0
+
+
+def _not_all_distinct(entries: list, owner) -> dict:
+    """input -> whether some pair of its proven entries is not shown distinct by :func:`_relation`
+    (later entry against earlier, as :func:`_unique` compares them), for all pairs at once."""
+    owner = np.asarray(owner)
+    clash = {int(j): False for j in np.unique(owner)}
+    if len(entries) < 2:
+        return clash
+    ang = np.array([e.angles for e in entries])
+    box_lo = np.array([e.lo for e in entries])
+    box_hi = np.array([e.hi for e in entries])
+    enc = [_enclosure(e) for e in entries]
+    enc_lo = np.array([a for a, _ in enc])
+    enc_hi = np.array([b for _, b in enc])
+    starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+    counts = np.diff(np.r_[starts, len(owner)])
+    pairs = [(starts[counts > b] + a, starts[counts > b] + b) for b in range(1, counts.max()) for a in range(b)]
+    if not pairs:
+        return clash
+    u = np.concatenate([p[0] for p in pairs])
+    e = np.concatenate([p[1] for p in pairs])
+    d = ang[e] - ang[u]
+    k = d - wrap(d)
+    ee_lo, ee_hi, be_lo, be_hi = enc_lo[e] - k, enc_hi[e] - k, box_lo[e] - k, box_hi[e] - k
+    same = (np.all(box_lo[u] <= ee_lo, axis=1) & np.all(ee_hi <= box_hi[u], axis=1)) | \
+           (np.all(be_lo <= enc_lo[u], axis=1) & np.all(enc_hi[u] <= be_hi, axis=1))
+    distinct = (np.any(ee_hi < box_lo[u], axis=1) | np.any(box_hi[u] < ee_lo, axis=1)) | \
+               (np.any(enc_hi[u] < be_lo, axis=1) | np.any(be_hi < enc_lo[u], axis=1))
+    for j in np.unique(owner[e[same | ~distinct]]):
+        clash[int(j)] = True
+    return clash
+
+
+def _sort_order(entries: list, owner) -> np.ndarray:
+    """Indices of ``entries`` by owner, then by angles rounded to 1e-9 (finalize's order), stably."""
+    if not entries:
+        return np.zeros(0, int)
+    keys = np.round(np.array([e.angles for e in entries]), 9)
+    return np.lexsort(tuple(keys.T[::-1]) + (np.asarray(owner),))
+
+
+def _system_of(mechanism, inputs, names):
+    """The LoopSystem finalize evaluates at ``inputs``: every unknown on the chart LOCAL_CHART."""
+    return mechanism.loop_system(inputs, _chart(names))
+
+
+def _chart(names) -> dict:
+    """Every unknown on the chart of half-width LOCAL_CHART around 0."""
+    return {n: (-LOCAL_CHART, LOCAL_CHART) for n in names}
 
 
 def _shifted(box, e: Solution, ref: Solution):
@@ -448,28 +654,40 @@ def _merge_nearby_unproven(entries: list, tol: float) -> list:
     return out
 
 
+def _polish_seeds(plan, offsets, seeds, centre, lo, hi, tol: float):
+    """Polish the seeds (S, M) of clusters at once (:func:`spherekin.trust.polish.polish_many`; seed s
+    with the constants ``offsets[s]``, None: the plan's). ``centre``, ``lo``, ``hi`` (S, M): the hull
+    of each seed's cluster. Returns (the PolishBatch, the polished points (S, M) unwrapped next to
+    their cluster's centre, whether each lies outside its cluster by more than tol + RANGE_TOL)."""
+    batch = polish_many(plan, seeds, offsets)
+    theta = centre + wrap(batch.theta - centre)
+    slack = tol + RANGE_TOL
+    outside = np.any(theta < lo - slack, axis=1) | np.any(theta > hi + slack, axis=1)
+    return batch, theta, outside
+
+
 def _polish_cluster(system, sol: Cluster, tol: float):
     """(distinct converged points that stay in the cluster, how many left it, the best point) from
     polishing the cluster's seeds (:func:`_seeds`)."""
-    centre = 0.5 * (sol.lo + sol.hi)
-    slack = tol + RANGE_TOL
+    seeds = _seeds(sol)
+    centre = np.broadcast_to(0.5 * (sol.lo + sol.hi), seeds.shape)
+    plan = closure_plan(system.loops, system.unknowns, system.loop_indices)
+    batch, thetas, outside = _polish_seeds(plan, None, seeds, centre, np.broadcast_to(sol.lo, seeds.shape),
+                                           np.broadcast_to(sol.hi, seeds.shape), tol)
     points: list[_Point] = []
     left_cluster = 0
     best = None
-    for seed in _seeds(sol):
-        p = polish(system.loops, system.unknowns, seed)
-        theta = np.asarray(p.theta, float)
-        theta = centre + wrap(theta - centre)
-        if best is None or p.residual < best[1].residual:
-            best = (theta, p, float(np.abs(theta - seed).max()))
-        if not p.converged:
+    for i, (seed, theta) in enumerate(zip(seeds, thetas)):
+        if best is None or batch.residual[i] < best[1].residual:
+            best = (theta, batch.result(i), float(np.abs(theta - seed).max()))
+        if not batch.converged[i]:
             continue
-        if np.any(theta < sol.lo - slack) or np.any(theta > sol.hi + slack):
+        if outside[i]:
             left_cluster += 1
             continue
         if any(np.abs(theta - q.theta).max() <= DEDUPE_TOL for q in points):
             continue
-        points.append(_Point(theta, p, float(np.abs(theta - seed).max())))
+        points.append(_Point(theta, batch.result(i), float(np.abs(theta - seed).max())))
     return points, left_cluster, best
 
 
@@ -563,7 +781,6 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
              extended=None) -> list[Solution]:
     """One cluster's entries from its certified points: the rest of the cluster accounted for
     (:func:`_resolve`), searched again finer when unresolved, its points classified."""
-    ranges = mechanism.ranges
     stats = dict(tests=0, excluded=0, covered=0, new_roots=0, capped=False)
     unresolved = _resolve(system, sol, points, certify, stats, extended)
     refined_empty = None
@@ -580,22 +797,16 @@ def _account(mechanism, system, inputs, names, sol, tol, certify, refine, points
             # The finer search let go of every box, yet polishing converged in this cluster: the
             # two disagree, so neither is a proof; the region is reported, never dropped (issue 26)
             refined_empty = finer_tol
-    cluster_ev = {"cluster_boxes": sol.n_boxes, "seeds": len(_seeds(sol)), "points": len(points),
-                  "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
-                  "unresolved_boxes": len(unresolved)}
-    if stats.get("extended_tests"):
-        cluster_ev["extended_precision_tests"] = stats["extended_tests"]
-    if left_cluster:
-        cluster_ev["polished_out_of_cluster"] = left_cluster
-    if refined_empty is not None:
-        cluster_ev["refined_search_empty"] = {"tol": refined_empty}
+    cluster_ev = _cluster_evidence(sol, len(_seeds(sol)), len(points), stats, len(unresolved), left_cluster,
+                                   refined_empty)
     kept = []
-    for pt in points:
-        angles = {n: float(a) for n, a in zip(names, wrap(pt.theta))}
-        if not all(in_range(a, ranges[n]) for n, a in angles.items()):
-            continue  # the root lies outside the joint ranges
-        angles = {n: into_range(a, ranges[n]) for n, a in angles.items()}
-        kept.append(_classify(mechanism, inputs, sol, pt, angles, cluster_ev, unresolved))
+    if points:
+        keep, angles = _readings(mechanism, names, np.array([pt.theta for pt in points]))
+        sings, poses = _classify_many(mechanism, np.array([inputs], dtype=float), np.zeros(int(keep.sum()), int),
+                                      names, angles[keep])
+        for j, i in enumerate(np.flatnonzero(keep)):
+            kept.append(_classify(sol, points[i], names, angles[i], cluster_ev, unresolved, sings[j],
+                                  None if poses is None else poses[j]))
     if unresolved and all(is_proven(s) for s in kept):   # else a non-proven entry already says so
         kept.append(_cluster_entry(sol, unresolved, cluster_ev, stats, best))
     return kept
@@ -624,15 +835,55 @@ def _merge_unproven(entries: list, sol: Cluster | Solution, tol: float) -> list:
     return proven + [merged]
 
 
-def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict, unresolved) -> Solution:
-    joints = {**dict(zip(mechanism.actuated, (float(v) for v in inputs))), **angles}
-    sing = mechanism.singularity(joints)
+def _cluster_evidence(sol, n_seeds: int, n_points: int, stats: dict, n_unresolved: int, left_cluster: int,
+                      refined_empty=None) -> dict:
+    """The ``cluster`` evidence of a cluster's entries: its boxes, seeds, points, sub-box tests."""
+    ev = {"cluster_boxes": sol.n_boxes, "seeds": n_seeds, "points": n_points,
+          "subbox_tests": stats["tests"], "subboxes_excluded": stats["excluded"],
+          "unresolved_boxes": n_unresolved}
+    if stats.get("extended_tests"):
+        ev["extended_precision_tests"] = stats["extended_tests"]
+    if left_cluster:
+        ev["polished_out_of_cluster"] = int(left_cluster)
+    if refined_empty is not None:
+        ev["refined_search_empty"] = {"tol": refined_empty}
+    return ev
+
+
+def _readings(mechanism, names, thetas):
+    """(keep (N,), angles (N, M)): whether each point (N, M; radians, unknowns ``names``) lies in the
+    joint ranges (every angle, modulo 2 pi), and its angles wrapped into them."""
+    ranges = mechanism.ranges
+    wrapped = wrap(np.asarray(thetas, dtype=float).reshape(len(thetas), len(names)))
+    keep = np.ones(len(wrapped), bool)
+    angles = np.empty_like(wrapped)
+    for j, n in enumerate(names):
+        keep &= in_range_many(wrapped[:, j], ranges[n])
+        angles[:, j] = into_range_many(wrapped[:, j], ranges[n])
+    return keep, angles
+
+
+def _classify_many(mechanism, inputs, of, names, angles):
+    """(singularity reports, poses (N, 3, 3) or None) at N points: ``angles`` (N, M; radians, unknowns
+    ``names``) at the inputs ``inputs[of]`` ((K, actuated) radians, ``of`` (N,) ints), in one call each
+    (:meth:`~spherekin.mechanism.SphericalMechanism.singularities`, ``poses_from_passive``)."""
+    if not len(angles):
+        return [], None
+    at = np.asarray(inputs, dtype=float)[of]
+    passive = {n: angles[:, j] for j, n in enumerate(names)}
+    joints = {**{n: at[:, i] for i, n in enumerate(mechanism.actuated)}, **passive}
+    return mechanism.singularities(joints), mechanism.poses_from_passive(at, passive)
+
+
+def _classify(sol, pt: _Point, names, theta, cluster_ev: dict, unresolved, sing, pose) -> Solution:
+    """The entry of a polished point ``pt`` of cluster ``sol``: ``theta`` (M,) its angles in the
+    joint ranges, ``sing`` its singularity report and ``pose`` its platform rotation (or None)."""
     p, cert = pt.polished, pt.cert
     ev = {"polish_iterations": p.iterations, "polish_residual": p.residual, "moved": pt.seed_moved,
           **pt.evidence, "serial_margin": float(sing.serial_margin), "parallel_margin": float(sing.parallel_margin),
           "singularity": sing.kind, "krawczyk_certified": bool(cert.certified), "krawczyk": cert.summary(),
           "cluster": dict(cluster_ev)}
-    theta = np.array(list(angles.values()))
+    theta = np.array(theta, dtype=float)
     proven = pt.box is not None       # a Krawczyk test proved a box holding exactly this root
     ev["krawczyk_certified"] = proven
     if proven and sing.kind == "regular":
@@ -653,7 +904,7 @@ def _classify(mechanism, inputs, sol, pt: _Point, angles: dict, cluster_ev: dict
         # where the root is, in the box's frame: what tells two proven entries apart (_unique)
         ev["root_enclosure"] = {"lo": (pt.enc[0] + shift).tolist(), "hi": (pt.enc[1] + shift).tolist()}
     return Solution(theta, lo + shift, hi + shift, sol.n_boxes, residual=p.residual,
-                    singularity=sing.kind, platform_rotation=mechanism.pose_from_passive(inputs, angles),
+                    singularity=sing.kind, platform_rotation=pose,
                     status=status, evidence=ev)
 
 

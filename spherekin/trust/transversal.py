@@ -41,12 +41,13 @@ angles (pi/2, pi, ...) that the floats round.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from ..core import intervals as iv_ops
-from ..closure import KNOWN_ANGLE_SNAP, TRANSVERSAL_ENTRIES, Term, closure_at
+from ..closure import KNOWN_ANGLE_SNAP, TRANSVERSAL_ENTRIES, ClosurePlan, Term, closure_at, closure_plan
 from ..core.intervals import add_unchecked, cos_sin_table_unchecked, mul_unchecked, sub_unchecked
 from ..mechanism import LoopSystem
 
@@ -54,6 +55,9 @@ __all__ = [
     "ANGLE_TOLERANCE",
     "TransversalPlan",
     "plan_of",
+    "SystemStack",
+    "stack_systems",
+    "stack_inputs",
     "enclose",
     "transversal_labels",
     "transversal_equations",
@@ -174,7 +178,7 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
     system; ValueError when an unknown appears twice in one loop)."""
     n_loops = len(system.loops)
     n = max((len(loop.factors) for loop in system.loops), default=0)
-    const = np.zeros((n_loops, n))
+    const = closure_plan(system.loops, system.unknowns, system.loop_indices).offsets   # 0 for padding
     slot = np.zeros((n_loops, n), dtype=np.intp)
     padding = np.zeros((n_loops, n), dtype=bool)
     negative = np.zeros((n_loops, n), dtype=bool)
@@ -189,12 +193,9 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
             if isinstance(fac, Term):
                 g = indices[n_terms]                  # loop_indices follow the order of the loop's terms
                 n_terms += 1
-                const[k, pos] = fac.offset
                 slot[k, pos] = g + 1
                 negative[k, pos] = fac.sign == -1
                 terms.append((k, pos, g, fac.sign == -1))
-            else:
-                const[k, pos] = float(fac)
     t = np.array(terms, dtype=np.intp).reshape(-1, 4)
     n_t = len(t)
     # sign -1: swap the two products of every entry, which negates it (u_a F_b - u_b F_a)
@@ -212,13 +213,82 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
                  jac_f_row=jac_f_row)
 
 
+@dataclass(frozen=True, eq=False)
+class SystemStack:
+    """LoopSystems of one mechanism at K inputs, for tests of many points of many systems at once.
+
+    ``systems`` (K, a sequence): the systems (same loops, unknowns and factors; their constant angles differ:
+    the inputs are known angles); ``plan``: the :class:`TransversalPlan` of the first; ``closure``:
+    its :class:`~spherekin.closure.ClosurePlan`; ``consts`` (K, L, n): every system's constant
+    angles (radians), ``consts[k]`` being ``plan_of(systems[k]).const``.
+    """
+
+    systems: tuple
+    plan: TransversalPlan
+    closure: ClosurePlan
+    consts: np.ndarray
+
+
+def stack_systems(systems: Sequence[LoopSystem]) -> SystemStack:
+    """The :class:`SystemStack` of ``systems`` (at least one); ValueError when two differ in more than their constants."""
+    systems = tuple(systems)
+    if not systems:
+        raise ValueError("systems: expected at least one LoopSystem, got none")
+    for s in systems:
+        check_system(s)
+    plans = [closure_plan(s.loops, s.unknowns, s.loop_indices) for s in systems]
+    first = systems[0]
+    for k, (s, p) in enumerate(zip(systems, plans)):
+        if s.names != first.names or not plans[0].same_structure(p):
+            raise ValueError(f"systems[{k}]: expected the loops of systems[0] with other constant angles "
+                             f"(one mechanism at other inputs), got other unknowns or factors")
+    return SystemStack(systems, plan_of(first), plans[0], np.stack([p.offsets for p in plans]))
+
+
+class _SystemsAt(Sequence):
+    """``mechanism.loop_system(inputs[k], passive_ranges)`` for k < K, each built when first asked for."""
+
+    def __init__(self, mechanism, inputs, passive_ranges, first: LoopSystem):
+        self._build = lambda k: mechanism.loop_system(tuple(float(v) for v in inputs[k]), passive_ranges)
+        self._built = {0: first}
+        self._n = len(inputs)
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(self._n))]
+        k = range(self._n)[k]
+        if k not in self._built:
+            self._built[k] = self._build(k)
+        return self._built[k]
+
+
+def stack_inputs(mechanism, inputs, passive_ranges) -> SystemStack:
+    """The :class:`SystemStack` of ``mechanism.loop_system(inputs[k], passive_ranges)`` for the K rows of
+    ``inputs`` ((K, number of actuated joints), radians), without building K systems: the first is
+    built, every system's constants come from ``mechanism.loop_constants`` (the rule loop_system
+    reads its known angles from), and ``systems[k]`` is built when asked for."""
+    inputs = np.asarray(inputs, dtype=float)
+    if inputs.ndim != 2 or not len(inputs):
+        raise ValueError(f"inputs: expected a (K, {len(mechanism.actuated)}) array with K >= 1, got shape {inputs.shape}")
+    first = mechanism.loop_system(tuple(float(v) for v in inputs[0]), passive_ranges)
+    plan = closure_plan(first.loops, first.unknowns, first.loop_indices)
+    return SystemStack(_SystemsAt(mechanism, inputs, passive_ranges, first), plan_of(first), plan,
+                       mechanism.loop_constants(inputs, first.form))
+
+
 def enclose(plan: TransversalPlan, lo: np.ndarray, hi: np.ndarray, center: np.ndarray, tol: float,
-             jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+             jacobian: bool = True, consts: np.ndarray | None = None,
+             which: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Interval arrays F (2, B, E) and J (2, B, E, M) over B boxes [lo, hi] (B, M) of unknowns.
 
     ``center`` (B, M): a point of each box (the expansion point of cos/sin); every constant angle
     c stands for [c - tol, c + tol]. Every F(theta), dF/dtheta(theta) for theta in box b and
     constants in their intervals lies in F[:, b], J[:, b]. See the module docstring for the math.
+    Several systems of one structure (a :class:`SystemStack`): ``consts`` (K, L, n) their constant
+    angles and ``which`` (B,) the system of each box (default: the plan's own constants for all).
     """
     b, m = center.shape
     n_loops, n = plan.n_loops, plan.n_factors
@@ -228,14 +298,16 @@ def enclose(plan: TransversalPlan, lo: np.ndarray, hi: np.ndarray, center: np.nd
     # c +- tol, in one batch: (2, 2, 1 + B M + L n)
     radius = np.maximum(center - lo, hi - center)
     np.nextafter(radius, math.inf, out=radius, where=radius != 0)
-    cs = cos_sin_table_unchecked(np.concatenate(((0.0,), center.ravel(), plan.const.ravel())),
-                        np.concatenate(((0.0,), radius.ravel(), np.full(plan.const.size, tol))))
+    const = plan.const if consts is None else consts
+    cs = cos_sin_table_unchecked(np.concatenate(((0.0,), center.ravel(), const.ravel())),
+                        np.concatenate(((0.0,), radius.ravel(), np.full(const.size, tol))))
     # phi = c + sign t: cos phi = cos c cos t - sin c (sign sin t), sin phi = sin c cos t + cos c (sign sin t)
     table = np.empty((2, 3, n_th))                                                    # cos t, sin t, -sin t
     table[:, :2] = cs[:, :, :n_th]
     np.negative(cs[::-1, 1, :n_th], out=table[:, 2])
     theta_q = table[:, plan.theta_rows, plan.theta_slot + m * np.arange(b)[:, None] * (plan.theta_slot > 0)]
-    const_q = cs[:, _QUAD_CONST, plan.const_cols + n_th]                              # (2, 4, n, 1, L)
+    cols = plan.const_cols if consts is None else plan.const_cols + plan.const.size * which[None, :, None]
+    const_q = cs[:, _QUAD_CONST, cols + n_th]                                         # (2, 4, n, 1 or B, L)
     prods = mul_unchecked(const_q, theta_q)                                                    # (2, 4, n, B, L)
     cos_phi = sub_unchecked(prods[:, 0], prods[:, 1])[..., None]                               # (2, n, B, L, 1)
     sin_phi = add_unchecked(prods[:, 2], prods[:, 3])[..., None]
