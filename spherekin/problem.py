@@ -46,7 +46,7 @@ from .systems.loops import CompiledLoops, Loops
 from .systems.platform import CompiledPlatform, Platform
 from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
                       EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
-from .trust.solutions import count_summary, finalize, is_proven
+from .trust.solutions import count_summary, finalize_many, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                      check_strategy, clusters_in_range, partial_report, search_platform, search_platform_many,
                      SearchInterrupted)
@@ -239,11 +239,14 @@ class Problem:
     def _trust(self, values, report, tol, refine: bool):
         """(solutions, stats of refined searches, seconds): :func:`spherekin.trust.solutions.finalize` on the
         clusters of ``report``; with ``refine``, unresolved clusters are searched again, finer."""
+        return self._trust_many([values], [report], tol, refine)[0]
+
+    def _refiner(self, values, refined: list):
+        """The ``refine`` callable of :func:`~spherekin.trust.solutions.finalize` at ``values``: a new search
+        of a cluster's hull (which holds every root of its boxes) at a finer tol; its stats go to ``refined``."""
         s = self.strategy
-        refined: list[SolverStats] = []
 
         def again(lo, hi, t):
-            # a new search of a cluster's hull (which holds every root of its boxes) at a finer tol
             finer = t * REFINE_FACTOR
             if finer < REFINE_MIN_TOL:
                 return None
@@ -255,10 +258,30 @@ class Problem:
             refined.append(sub.stats)
             return sub.clusters, finer
 
+        return again
+
+    def _trust_many(self, values: list, reports: list, tols, refine) -> list:
+        """(solutions, stats of refined searches, seconds) of every input: the trust layer over all the
+        points of the chunk at once (:func:`spherekin.trust.solutions.finalize_many`, per tolerance).
+        ``tols``: one tol for all or one per input; ``refine``: one flag for all or one per input
+        (unresolved clusters searched again, finer). The seconds are each input's share of the chunk's."""
+        tols = tols if isinstance(tols, list) else [tols] * len(values)
+        refine = refine if isinstance(refine, list) else [refine] * len(values)
+        refined: list[list[SolverStats]] = [[] for _ in values]
+        solutions: list = [None] * len(values)
         t0 = time.perf_counter()
-        solutions = finalize(self.mechanism, values, report.unknowns, report.clusters, tol,
-                             refine=again if refine else None)
-        return solutions, refined, time.perf_counter() - t0
+        groups: dict = {}
+        for k, (tol, report) in enumerate(zip(tols, reports)):   # a covering run has a tolerance of its own
+            groups.setdefault((tol, tuple(report.unknowns)), []).append(k)
+        for (tol, unknowns), members in groups.items():
+            found = finalize_many(self.mechanism, np.array([values[k] for k in members], dtype=float), unknowns,
+                                  [reports[k].clusters for k in members], tol,
+                                  refine=lambda i: self._refiner(values[members[i]], refined[members[i]])
+                                  if refine[members[i]] else None)
+            for k, sols in zip(members, found):
+                solutions[k] = sols
+        share = (time.perf_counter() - t0) / max(len(values), 1)
+        return [(solutions[k], refined[k], share) for k in range(len(values))]
 
     def _report(self, values, report: SearchReport, solutions, refined, t_final, fallback,
                 limit: SearchLimit | None) -> SolveReport:
@@ -375,13 +398,6 @@ class Problem:
             if len(values) > 1:
                 raise KeyboardInterrupt from None
             return [None]                 # on its own: _search_loops reports what was found so far
-
-    def _trust_many(self, values: list, reports: list, tols, refine) -> list:
-        """(solutions, stats of refined searches, seconds) of every input: :meth:`_trust` on each.
-        ``tols``: one tol for all or one per input; ``refine``: one flag for all or one per input."""
-        tols = tols if isinstance(tols, list) else [tols] * len(values)
-        refine = refine if isinstance(refine, list) else [refine] * len(values)
-        return [self._trust(v, r, t, refine=f) for v, r, t, f in zip(values, reports, tols, refine)]
 
     def _checked_rows(self, key: str, inputs) -> np.ndarray:
         """``inputs`` as an array (K, actuated joints), every row checked (one error naming the row)."""
