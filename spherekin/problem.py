@@ -518,11 +518,12 @@ class Problem:
                 out.append(f"the platform search left {f.unresolved} box(es) it could not isolate (a parallel "
                            "singularity or a double root nearby): solved with the loop equations")
                 continue
+            near = np.abs(poses[mine, None] - poses[None, mine]).max(axis=(2, 3)) <= DUPLICATE_POSE
             kept: list[int] = []
-            for i in mine:
-                if any(np.abs(poses[i] - poses[j]).max() <= DUPLICATE_POSE for j in kept):
-                    continue                              # the same root from an overlapping chart
-                kept.append(i)
+            for i in range(len(mine)):
+                if not near[i, kept].any():               # else the same root from an overlapping chart
+                    kept.append(i)
+            kept = [mine[i] for i in kept]
             kept = [i for i in kept if inside[i]]
             boxes = [AcceptedBox(readings[i], readings[i].copy(), int(points[i][0])) for i in kept]
             clusters = clusters_in_range(boxes, self.ranges, s.tol)

@@ -17,7 +17,7 @@ from .groups import connected_groups
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
            "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
-           "check_geometry_angle", "near_groups"]
+           "check_geometry_angle", "near_groups", "PAIRWISE_MAX"]
 
 TWO_PI = 2.0 * math.pi
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
@@ -126,6 +126,12 @@ def check_geometry_angle(key: str, theta: float) -> float:
     return theta
 
 
+#: :func:`near_groups` compares every pair of up to this many boxes in one array operation (an
+#: N x N x M array: 512 boxes of 6 angles are 1.5 M entries, 12 MB); more boxes (a continuum's
+#: covering) are compared row by row. The groups are the same either way.
+PAIRWISE_MAX = 512
+
+
 def near_groups(lo, hi, gap: float) -> list[list[int]]:
     """The boxes [lo_k, hi_k] (K, M; radians) grouped by nearness modulo 2 pi, transitively.
 
@@ -137,8 +143,12 @@ def near_groups(lo, hi, gap: float) -> list[list[int]]:
     """
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    if len(lo) <= PAIRWISE_MAX:           # every pair in one array operation
+        close = np.all(np.abs(wrap(mid[None, :] - mid[:, None])) <= half[None, :] + half[:, None] + gap, axis=2)
+        i, j = np.nonzero(np.triu(close, 1))
+        return connected_groups(len(lo), list(zip(i.tolist(), j.tolist())))
     edges = []
-    for i in range(len(lo)):
+    for i in range(len(lo)):              # row by row: memory linear in the number of boxes
         close = np.all(np.abs(wrap(mid[i + 1:] - mid[i])) <= half[i + 1:] + half[i] + gap, axis=1)
         edges += [(i, int(j)) for j in np.flatnonzero(close) + i + 1]
     return connected_groups(len(lo), edges)
