@@ -379,8 +379,8 @@ class Problem:
         if todo:
             todo.sort()
             searched = self._search_loops_many([values[k] for k in todo], progress)
-            runs = [self._search_loops(values[k], s.tol, progress, None) if found is None else (found, None, s.tol)
-                    for k, found in zip(todo, searched)]          # None: a cap, handled as for one input
+            runs = [self._search_loops(values[k], s.tol, progress, None) if run is None else run
+                    for k, run in zip(todo, searched)]            # None: a cap, handled as for one input
             trusted = self._trust_many([values[k] for k in todo], [r for r, _, _ in runs], [t for _, _, t in runs],
                                        refine=[limit is None or not limit.interrupted for _, limit, _ in runs])
             for k, (report, limit, _), (solutions, refined, t_final) in zip(todo, runs, trusted):
@@ -388,16 +388,18 @@ class Problem:
         return out
 
     def _search_loops_many(self, values: list, progress) -> list:
-        """The loop equations' search reports of ``values`` in one box loop (None: the input reached
-        a cap); Ctrl-C in a chunk of one hands over what was found (as :meth:`_search_loops`)."""
+        """(report, limit, tol) of the loop equations' search of each of ``values``, in one box loop;
+        None where the input reached a cap (solved on its own then). Ctrl-C in a chunk of one hands
+        over what was found (:meth:`_interrupted`); in a larger chunk it stops the chunk."""
         s = self.strategy
         try:
-            return list(self.loops.search_many(np.array(values), self.ranges, tol=s.tol, max_boxes=s.max_boxes,
-                                               progress=progress))
-        except SearchInterrupted:
+            found = self.loops.search_many(np.array(values), self.ranges, tol=s.tol, max_boxes=s.max_boxes,
+                                           progress=progress)
+        except SearchInterrupted as exc:
             if len(values) > 1:
-                raise KeyboardInterrupt from None
-            return [None]                 # on its own: _search_loops reports what was found so far
+                raise KeyboardInterrupt(*exc.args) from None
+            return [self._interrupted(exc, s.tol)]
+        return [None if report is None else (report, None, s.tol) for report in found]
 
     def _checked_rows(self, key: str, inputs) -> np.ndarray:
         """``inputs`` as an array (K, actuated joints), every row checked (one error naming the row)."""
@@ -498,6 +500,7 @@ class Problem:
         s = self.strategy
         owner = np.array([k for k, f in enumerate(found) if f is not None for _ in f.points], dtype=int)
         points = [p for f in found if f is not None for p in f.points]
+        poses, readings, inside = np.empty((0, 3, 3)), np.empty((0, len(self.names))), np.empty(0, dtype=bool)
         if points:
             poses = self.platform.poses(np.array([c for c, _ in points]), np.array([x for _, x in points]))
             readings = self.platform.readings(np.array(values, dtype=float)[owner], poses)
@@ -518,7 +521,7 @@ class Problem:
                 out.append(f"the platform search left {f.unresolved} box(es) it could not isolate (a parallel "
                            "singularity or a double root nearby): solved with the loop equations")
                 continue
-            near = np.abs(poses[mine, None] - poses[None, mine]).max(axis=(2, 3)) <= DUPLICATE_POSE
+            near = np.abs(poses[mine][:, None] - poses[mine][None, :]).max(axis=(2, 3), initial=0.0) <= DUPLICATE_POSE
             kept: list[int] = []
             for i in range(len(mine)):
                 if not near[i, kept].any():               # else the same root from an overlapping chart
@@ -531,6 +534,15 @@ class Problem:
             out.append((SearchReport(self.names, tuple(clusters), (), stats, settings), [poses[i] for i in kept]))
         return out
 
+    def _interrupted(self, exc: SearchInterrupted, tol: float) -> tuple:
+        """(report, limit, tol) of a loop search stopped by Ctrl-C (or SIGTERM): what was accepted so far
+        is finalized and reported, marked as interrupted (the count is then never exact), instead of
+        being lost."""
+        s = self.strategy
+        settings = Settings(formulation=self._loop_formulation, pruner=s.pruner, lp_backend=s.lp_backend,
+                            parameterization=s.parameterization, tol=tol, isolate=s.isolate, jobs=s.jobs, charts=0)
+        return partial_report(exc, self.ranges, settings), SearchLimit(str(exc), tol, tol, interrupted=True), tol
+
     def _search_loops(self, values, tol, progress, trace):
         """(report, limit, tol): the loop equations' search; a capped one is re-run as a covering."""
         s = self.strategy
@@ -542,12 +554,7 @@ class Problem:
         try:
             return run(tol), None, tol
         except SearchInterrupted as exc:
-            # Ctrl-C: what was accepted so far is finalized and reported, marked as interrupted (the
-            # count is then never exact), instead of being lost
-            settings = Settings(formulation=self._loop_formulation, pruner=s.pruner, lp_backend=s.lp_backend,
-                                parameterization=s.parameterization, tol=tol, isolate=s.isolate, jobs=s.jobs,
-                                charts=0)
-            return partial_report(exc, self.ranges, settings), SearchLimit(str(exc), tol, tol, interrupted=True), tol
+            return self._interrupted(exc, tol)
         except SolverLimitError as exc:
             # A continuum of solutions (or a cap too small for this tol): cover the solution set with
             # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the

@@ -142,4 +142,4 @@ def test_a_small_job_in_this_process_is_one_parquet_file_and_resumes(tmp_path, m
     from spherekin.batch.engine import CHUNK_INPUTS, default_chunk_size
 
     assert default_chunk_size(3, 0) == CHUNK_INPUTS
-    assert default_chunk_size(16, 2) == 2 and default_chunk_size(3, 2) == 1 and default_chunk_size(10**6, 2) == 64
+    assert default_chunk_size(16, 2) == 2 and default_chunk_size(3, 2) == 1 and default_chunk_size(10**6, 2) == CHUNK_INPUTS == 256

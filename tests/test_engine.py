@@ -187,3 +187,15 @@ def test_an_input_that_reaches_a_cap_in_a_chunk_is_reported_as_alone_and_the_oth
         assert table(rep) == table(alone) and same_angles(angles(rep), angles(alone))
         if not was_hit:
             assert table(rep)[:2] == table(free.solve(row))[:2]
+
+
+def test_a_chunk_in_which_no_input_has_a_root():
+    """Chunks of one and of several inputs of general_3rrr without any assembly (the degree-8
+    reference finds no real root): empty reports, and solve says why."""
+    mech = general_3rrr()
+    x = (-0.12569221115499563, -2.0415665121775284, 1.4074629084552868)
+    assert reference_roots(geometry_of(mech), x).count == 0
+    problem = compile(mech)
+    report = problem.solve(x)
+    assert report.solutions == () and report.count_exact and report.empty_reason is not None
+    assert [len(r.solutions) for r in problem.solve_many([x, x], chunk=2)] == [0, 0]

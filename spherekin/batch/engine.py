@@ -43,20 +43,24 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..cluster import connect as cluster_connect
 from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
+from ..problem import DEFAULT_CHUNK
 from .rows import report_rows
 
 __all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
            "CompiledProblem", "solve_chunk", "default_chunk_size", "chunks", "connect", "run"]
 
 #: Jobs of at most this many inputs run in this process, without a cluster. Reason: starting an
-#: embedded cluster (worker processes that import numpy, pandas and spherekin) costs ~2-4 s, the
-#: time of ~150-250 solves; for fewer inputs the cluster would only slow the job down.
-IN_PROCESS_MAX_INPUTS = 64
-#: Inputs per task, at most (and per chunk of a job in this process). Reason: a solve takes ~5-30 ms
-#: and a Dask task costs ~1 ms of scheduling and transfer, so 64 inputs keep that overhead near 0.1%,
-#: while a chunk still finishes in about a second: progress stays live, Ctrl-C is quick, and a
-#: resumed job redoes little.
-CHUNK_INPUTS = 64
+#: embedded cluster of 2 workers costs ~3 s (worker processes that import numpy, pandas and
+#: spherekin, each compiling the problem), and the engine solves ~2-4 ms an input in process, so
+#: 2 workers save ~1.5 ms an input at best: they pay from ~2,000 inputs on an idle 2-core machine,
+#: and not within 3,000 on a loaded one (benchmarks/bench_crossover.py, benchmarks/README.md).
+IN_PROCESS_MAX_INPUTS = 2000
+#: Inputs per task, at most (and per chunk of a job in this process): the chunk
+#: ``Problem.solve_many`` solves as one array program (:data:`spherekin.problem.DEFAULT_CHUNK`).
+#: Reason: the engine's throughput levels off there (benchmarks/README.md), a Dask task's ~1 ms of
+#: scheduling and transfer is then well below 1%, and a chunk (2-7 ms an input) still finishes in
+#: about a second: progress stays live, Ctrl-C is quick, and a resumed job redoes little.
+CHUNK_INPUTS = DEFAULT_CHUNK
 
 
 @dataclass(frozen=True)

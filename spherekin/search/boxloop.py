@@ -474,12 +474,19 @@ def search_platform(charts, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOX
     return PlatformSearch(tuple(sorted(points, key=_chart_order)), len(accepted) + len(failed) + len(spurious), stats)
 
 
-#: Boxes per numpy call in the box loop of a chunk of inputs (:func:`search_platform_many`,
-#: :func:`solve_system_many`). Reason: each batch costs a fixed ~two dozen numpy calls whatever
-#: its size, so a chunk's boxes are taken many at a time (one input's search rarely has more than
-#: a few hundred alive at once, so BATCH fits it); at this size the largest array of a batch (a
-#: block's control points, ~100 floats a box) stays within a few MB.
+#: Boxes per numpy call in the box loop of a chunk of inputs, at most (:func:`search_platform_many`,
+#: :func:`solve_system_many`: BATCH per input of the chunk, up to this). Reason: each batch costs a
+#: fixed ~two dozen numpy calls whatever its size, so a chunk's boxes are taken many at a time (one
+#: input's search rarely has more than a few hundred alive at once, so BATCH fits it, and a chunk
+#: of one runs as a single solve always did: its progress lines and Ctrl-C come as often); at this
+#: size the largest array of a batch (a block's control points, ~100 floats a box) stays within a
+#: few MB.
 CHUNK_BATCH = 4096
+
+
+def _chunk_batch(n_inputs: int) -> int:
+    """Boxes per batch of the box loop of ``n_inputs`` inputs (:data:`CHUNK_BATCH`)."""
+    return min(CHUNK_BATCH, BATCH * n_inputs)
 
 
 def _chart_order(item) -> tuple:
@@ -518,7 +525,7 @@ def _shares(loop: _LoopResult, n_inputs, pruner, lp0, doubts0, seconds) -> dict:
 
 def search_platform_many(charts: ChartSet, n_inputs: int, pruner, tol: float, max_boxes: int = DEFAULT_MAX_BOXES,
                          max_depth: int | None = None, progress: Callable[[dict], None] | None = None,
-                         batch: int = CHUNK_BATCH) -> tuple:
+                         batch: int | None = None) -> tuple:
     """:func:`search_platform` for each input of a chunk, as one box loop over all their boxes.
 
     ``charts``: the platform chart sets of the ``n_inputs`` inputs stacked input-major
@@ -535,6 +542,7 @@ def search_platform_many(charts: ChartSet, n_inputs: int, pruner, tol: float, ma
     lp0, doubts0 = getattr(pruner, "lp_count", 0), getattr(pruner, "doubts", 0)
     if max_depth is None:
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
+    batch = _chunk_batch(n_inputs) if batch is None else batch
     loop = _loop(charts, pruner, tol, max_boxes, max_depth, None, True, progress, None, owner, n_inputs, batch)
     points, spurious, failed = _solve_isolated(charts, loop.isolated)
     points_of = _by_input(points, owner, n_inputs)
@@ -563,7 +571,7 @@ def solve_system_many(charts: ChartSet, n_inputs: int, ranges: Mapping[str, tupl
                       formulation: str, pruner: str, lp_backend: str | None, parameterization: str, tol: float,
                       isolate: bool = True, max_boxes: int = DEFAULT_MAX_BOXES, max_depth: int | None = None,
                       pruners: dict | None = None, t_setup: float = 0.0,
-                      progress: Callable[[dict], None] | None = None, batch: int = CHUNK_BATCH) -> tuple:
+                      progress: Callable[[dict], None] | None = None, batch: int | None = None) -> tuple:
     """:func:`solve_system` (``jobs=1``) for each input of a chunk, as one box loop over all their boxes.
 
     ``charts``: the loop equations' chart sets of the ``n_inputs`` inputs stacked input-major
@@ -581,6 +589,7 @@ def solve_system_many(charts: ChartSet, n_inputs: int, ranges: Mapping[str, tupl
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)
     built = pruner_for(charts, pruner, lp_backend, pruners)
     lp0, doubts0 = getattr(built, "lp_count", 0), getattr(built, "doubts", 0)
+    batch = _chunk_batch(n_inputs) if batch is None else batch
     loop = _loop(charts, built, tol, max_boxes, max_depth, None, isolate, progress, None, owner, n_inputs, batch)
     points, spurious, failed = _solve_isolated(charts, loop.isolated)
     accepted = loop.accepted
