@@ -527,6 +527,49 @@ def _predict(eqs: LegEquations, dc, beta0, beta1):
     return w[0] if ok[0] else None
 
 
+def cayley_coordinates(q) -> np.ndarray:
+    """w (..., 3) with C(w) = Q for rotations Q (..., 3, 3) (not a half turn): the inverse of
+    :func:`cayley`, w = 2 vee(Q - Q^T) / (1 + trace Q)."""
+    q = np.asarray(q, dtype=float)
+    vee = np.stack([q[..., 2, 1] - q[..., 1, 2], q[..., 0, 2] - q[..., 2, 0], q[..., 1, 0] - q[..., 0, 1]], -1)
+    return 2.0 * vee / (1.0 + np.trace(q, axis1=-2, axis2=-1))[..., None]
+
+
+#: The rows predicted together from one pose (:func:`_predict_rows`) lie within this (largest input
+#: change, radians) of its row. Reason: Newton from the tangent predictor converges to the same root
+#: when the predictor's error (~ |input change|^2) is well inside the root's basin; 0.1 rad (FIRST_STEP,
+#: the walk's first step) keeps that error ~0.01 for general_3rrr, and a wrong prediction costs time only
+#: (its step is not proven and is walked; the poses agree or the prediction restarts there).
+PREDICT_REACH = 0.1
+
+
+def _predict_rows(eqs: LegEquations, d0, rows) -> tuple[np.ndarray, np.ndarray]:
+    """(poses (m + 1, 3, 3), w (m, 3)): the displacements predicted at rows[0 .. m] (inputs
+    (K, 3), radians) from ``d0`` at rows[0], and each step's Cayley coordinates (poses[j] C(w[j]) =
+    poses[j + 1]); m < K - 1 where Newton fails first. In blocks: every row within PREDICT_REACH of a
+    block's first row is predicted at once (:func:`_predict_many` from that row's pose), the block's
+    last pose starts the next block."""
+    poses, steps = [np.asarray(d0, dtype=float)], []
+    k = 0
+    while k < len(rows) - 1:
+        reach = np.abs(rows[k + 1:] - rows[k]).max(axis=1)
+        end = k + 1 + max(1, int(np.argmax(reach > PREDICT_REACH)) if (reach > PREDICT_REACH).any() else len(reach))
+        block = rows[k + 1:end]
+        w, found = _predict_many(eqs, np.broadcast_to(poses[-1], (len(block), 3, 3)),
+                                 np.broadcast_to(rows[k], block.shape), block)
+        good = len(block) if found.all() else int(np.argmin(found))
+        if not good:
+            break
+        new = poses[-1] @ cayley(w[:good])
+        before = np.concatenate([poses[-1][None], new[:-1]])
+        steps.append(cayley_coordinates(np.swapaxes(before, -1, -2) @ new))
+        poses.extend(new)
+        if good < len(block):
+            break
+        k = end - 1
+    return np.array(poses), (np.concatenate(steps) if steps else np.empty((0, 3)))
+
+
 def _boxes(w1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The step boxes hull(0, w1) widened by the margin (module doc), for rows of w1 (N, 3)."""
     pad = MARGIN_RELATIVE * np.abs(w1).max(axis=-1, keepdims=True) + MARGIN
@@ -839,18 +882,10 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     k = 0
     while k < n - 1 and stop is None and leaves is None:
         last = min(n - 1, k + BATCH)                 # predict segments k .. last - 1 (fewer if Newton fails)
-        pose, w_pred = [dcs[k]], []
-        for j in range(k, last):
-            w1 = _predict(eqs, pose[-1], path[j], path[j + 1])
-            if w1 is None:
-                break
-            w_pred.append(w1)
-            pose.append(pose[-1] @ cayley(w1))
-        m = len(w_pred)
-        pose = np.array(pose)                        # pose[j]: the predicted displacement at row k + j
+        pose, w_m = _predict_rows(eqs, dcs[k], path[k:last + 1])   # pose[j]: the displacement at row k + j
+        m = len(w_m)
         proven = np.zeros(m, dtype=bool)
         if m:
-            w_m = np.array(w_pred)
             proven, lo_m, hi_m = _certify_steps(eqs, pose[:m], w_m, path[k:k + m], path[k + 1:k + m + 1])
             inside = np.ones(m, dtype=bool)
             if joints.limited and proven.any():      # each step proven inside the ranges, else walked finer
