@@ -44,9 +44,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Samples of the pose curve on which its input length is measured (``--spacing``). Reason: the rows
-#: are placed by linear interpolation of the curve parameter between samples; 20,000 keeps the
+#: are placed by linear interpolation of the curve parameter between samples; 1,000 keeps the
 #: spacing within ~1e-4 of itself for the curve's 1.35 rad of input.
-CURVE_SAMPLES = 20_000
+CURVE_SAMPLES = 1_000
 
 
 def _curve(ts):
