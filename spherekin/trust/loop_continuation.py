@@ -29,8 +29,11 @@ x1, never to another assembly. A point test at x1 (radius POINT_RADIUS around th
 the new root, which the next step's box holds: the chain of proofs is unbroken. (The transversal
 entries also vanish where F_n is a half turn about a coordinate axis; a continuous path of roots
 from a closure stays one, since those matrices are isolated from I, and every Newton root is
-checked against the whole F_n.) Failed steps are halved, successful ones grow by STEP_GROWTH, and a
-segment's first step is the previous segment's last one (or the whole segment); a step below MIN_STEP that cannot be proven ends the track at a
+checked against the whole F_n.) Up to BATCH rows are predicted (Newton from row to row) and their
+steps proven in one Krawczyk call; a segment whose step is not proven, or not proven inside the
+ranges, is walked on its own: failed steps are halved, successful ones grow by STEP_GROWTH, and its
+first step is the previous segment's last one (or the whole segment); where the walk does not end at
+the predicted root (AGREE_TOL) the batch ends there. A step below MIN_STEP that cannot be proven ends the track at a
 parallel singularity, located by bisection (Newton from the last proven pose converging with the
 sign of det J_p kept: the branch exists) to LOCATE_TOL. The constants (POINT_RADIUS, MIN_STEP,
 LOCATE_TOL, MARGIN, Newton's, FIRST_STEP) are those of the platform tracker, for the
@@ -57,7 +60,7 @@ import numpy as np
 from ..closure import ClosureLoop, Term, Unknown, closure_at
 from ..core import intervals as iv
 from ..core.angles import in_range_many, into_range, span_in_range_many, wrap
-from .continuation import (FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
+from .continuation import (AGREE_TOL, BATCH, FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
                            NEWTON_TOL, POINT_RADIUS, SIGMA, STEPS_PER_INPUT, RangeStop, SingularStop,
                            Track, TrackedPose)
 from .transversal import enclose, plan_of
@@ -248,9 +251,22 @@ class LoopEquations:
         return (k_lo[0], k_hi[0]) if ok.all() else None
 
 
+    def certify_steps(self, theta0, theta1, x0, x1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`certify_step` of N steps at once, in one Krawczyk call: roots ``theta0`` ->
+        ``theta1`` (N, M each) over the segments x0 -> x1 (N, A each); (proven (N,), lo, hi (N, M):
+        the Krawczyk images of the step boxes, meaningful where proven)."""
+        n = len(theta0)
+        w_lo, w_hi = step_box(theta0, theta1)
+        ok, k_lo, k_hi = self.krawczyk(np.concatenate((w_lo, theta1 - POINT_RADIUS)),
+                                       np.concatenate((w_hi, theta1 + POINT_RADIUS)),
+                                       np.concatenate((x0, x1)), np.concatenate((x1, x1)), image=True)
+        return ok[:n] & ok[n:], k_lo[:n], k_hi[:n]
+
+
 def step_box(theta0, theta1) -> tuple[np.ndarray, np.ndarray]:
-    """W = hull(theta0, theta1) widened by the margins (MARGIN_RELATIVE, MARGIN; radians, (M,) each)."""
-    pad = MARGIN_RELATIVE * float(np.abs(theta1 - theta0).max(initial=0.0)) + MARGIN
+    """W = hull(theta0, theta1) widened by the margins (MARGIN_RELATIVE, MARGIN; radians, (M,) each,
+    or (N, M) for N steps)."""
+    pad = MARGIN_RELATIVE * np.abs(theta1 - theta0).max(axis=-1, keepdims=True, initial=0.0) + MARGIN
     return np.minimum(theta0, theta1) - pad, np.maximum(theta0, theta1) + pad
 
 
@@ -269,6 +285,15 @@ class _Ranges:
             if not in_range_many(v, rng):
                 return name
         return None
+
+    def steps_inside(self, w_lo, w_hi, x0, x1) -> np.ndarray:
+        """:meth:`step_inside` of N proven steps (boxes (N, M), inputs (N, A) each): a boolean per step."""
+        lo = np.concatenate((np.minimum(x0, x1), w_lo), axis=1)
+        hi = np.concatenate((np.maximum(x0, x1), w_hi), axis=1)
+        ok = np.ones(len(lo), dtype=bool)
+        for j, rng in enumerate(self.ranges):
+            ok &= span_in_range_many(lo[:, j], hi[:, j], rng)
+        return ok
 
     def step_inside(self, w_lo, w_hi, x0, x1) -> bool:
         """Whether every joint is proven inside its range over a proven step (its box W, inputs x0 -> x1)."""
@@ -436,16 +461,50 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
     n_steps = rejected = 0
     budget = MAX_STEPS + STEPS_PER_INPUT * n
     seg = None
+    last = FIRST_STEP                             # the input change of the last proven step (radians)
     k = 0
-    for k in range(n - 1):
-        seg = _walk(eqs, ranges, thetas[-1], path[k], path[k + 1], budget - n_steps - rejected,
-                    FIRST_STEP if seg is None else seg.last_step)
-        n_steps += seg.steps
-        rejected += seg.rejected
-        if seg.theta is None:
-            break
-        thetas.append(seg.theta)
-        steps_of.append(seg.steps)
+    while k < n - 1 and (seg is None or seg.theta is not None):
+        # predict up to BATCH rows (Newton, in floats), prove every step in one Krawczyk call, walk
+        # the segments whose step is not proven (or not proven inside the ranges) in order
+        end = min(n - 1, k + BATCH)
+        pred = [thetas[-1]]
+        for j in range(k, end):
+            th = eqs.predict(pred[-1], path[j], path[j + 1])
+            if th is None:
+                break
+            pred.append(th)
+        m = len(pred) - 1
+        pred = np.array(pred)
+        good = np.zeros(m, dtype=bool)
+        if m:
+            good, k_lo, k_hi = eqs.certify_steps(pred[:m], pred[1:], path[k:k + m], path[k + 1:k + m + 1])
+            if ranges.limited and good.any():
+                good[good] = ranges.steps_inside(k_lo[good], k_hi[good], path[k:k + m][good],
+                                                 path[k + 1:k + m + 1][good])
+        rejected += int((~good).sum())
+        for j in range(m + (m < end - k)):        # the batch's segments in order (and the one Newton failed on)
+            r = k + j
+            if j < m and good[j]:
+                n_steps += 1
+                last = float(np.abs(path[r + 1] - path[r]).max(initial=0.0)) or last
+                thetas.append(pred[j + 1])
+                steps_of.append(1)
+                continue
+            seg = _walk(eqs, ranges, pred[j], path[r], path[r + 1], budget - n_steps - rejected, last)
+            n_steps += seg.steps
+            rejected += seg.rejected
+            if seg.theta is None:
+                k = r
+                break
+            last = seg.last_step
+            thetas.append(seg.theta)
+            steps_of.append(seg.steps)
+            if j + 1 < len(pred) and np.abs(seg.theta - pred[j + 1]).max() > AGREE_TOL:
+                k = r + 1                          # not the predicted root: the later steps start elsewhere
+                break
+            thetas[-1] = pred[j + 1] if j + 1 < len(pred) else seg.theta
+        else:
+            k = k + j + 1
     reached = len(thetas)
     all_names = [j.name for j in mechanism.joints]
     act = eqs.actuated
