@@ -25,8 +25,15 @@ which proves that for *every* input of the step the equations have exactly one r
 that the Jacobian is regular there): the root moves continuously inside W from w = 0 to the root at
 x1, so the new pose is the continuation of the old one, never another assembly mode. A point
 Krawczyk test at x1 on a box of radius POINT_RADIUS around w1 then proves the new root to that
-accuracy, the next step's box contains that one, and the chain of proofs is unbroken. A step that
-cannot be proven is halved; the step grows again after successes.
+accuracy, the next step's box contains that one, and the chain of proofs is unbroken.
+
+In arrays: up to BATCH rows are predicted at once (:func:`_predict_rows`: Newton on every row within
+PREDICT_REACH of a block's first pose in one call), and every step between consecutive rows is proven
+in one call (:func:`_certify_steps`); the margin of W (MARGIN_RELATIVE) lets 0.01-rad rows pass as
+they are. The segments whose step is not proven are walked together (:func:`_walk_segments`): each
+round proves the next step of every walk in one call, a failed step halved, a proven one followed by
+one STEP_GROWTH times longer; a walk's end must agree with its row's predicted pose (AGREE_TOL) for
+the batch's later steps, proven from that pose, to follow on, else the batch ends at that row.
 
 Near a parallel singularity (a fold, where the assembly mode meets another and ends) the Jacobian
 tends to a singular matrix and the provable steps shrink geometrically. When a step below
@@ -835,11 +842,10 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     (largest |Eq. (1)|) with every joint in its range; it is polished by Newton and proven (a point
     Krawczyk test) first.
 
-    How: segments are predicted in floats (tangent + Newton, one step per path segment) up to
-    BATCH at a time, then all their steps are proven in one batch of interval arithmetic; from the
-    first segment whose step is not proven, that segment is walked in adaptive proven steps (halved
-    on failure, grown after success), and prediction resumes after it. Every accepted step has its
-    own proof; none depends on the prediction being right. Every row reached, and the end of every
+    How (module doc): rows are predicted in floats up to BATCH at a time, then every step between
+    them is proven in one batch of interval arithmetic; the segments whose step is not proven are
+    walked together in adaptive proven steps (halved on failure, grown after success), each round
+    one array call. Every accepted step has its own proof; none depends on the prediction being right. Every row reached, and the end of every
     adaptive step, is tested against the joint ranges (module doc); the track ends at the first
     pose outside (a :class:`RangeStop`) or at a parallel singularity (a :class:`SingularStop`).
     """
