@@ -11,7 +11,19 @@ from benchmarks.bench_track import smooth_path
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of
 from spherekin.mechanism import general_3rrr, gosselin
 from spherekin.systems.platform import platform_legs
-from spherekin.trust.continuation import LegEquations, _predict, cayley, track
+from scipy.spatial.transform import Rotation
+
+from spherekin.trust.continuation import LegEquations, _predict, cayley, cayley_coordinates, track
+
+
+def test_cayley_coordinates_invert_cayley_for_many_rotations_at_once():
+    rng = np.random.default_rng(30)
+    rots = Rotation.random(50, random_state=rng)
+    vec = rots.as_rotvec()                           # angle t about n: w = 2 tan(t / 2) n
+    t = np.linalg.norm(vec, axis=1, keepdims=True)
+    w = 2 * np.tan(t / 2) * vec / t
+    np.testing.assert_allclose(cayley_coordinates(rots.as_matrix()), w, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(cayley(w), rots.as_matrix(), atol=1e-13)   # (N, 3) -> (N, 3, 3)
 
 
 @pytest.mark.parametrize("make", [general_3rrr, gosselin])
