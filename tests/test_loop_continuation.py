@@ -401,12 +401,13 @@ def test_a_crank_turn_at_0_01_rad_rows_is_proven_one_step_a_row_in_batches_on_th
         assert [p.proven_steps for p in tr.poses] == [0] + [1] * (len(path) - 1)
 
 
-def test_a_2_rad_jump_of_the_crank_is_split_proven_and_stays_on_its_branch():
+def test_jumps_of_the_crank_are_split_together_proven_and_stay_on_their_branch():
     from spherekin.trust.loop_continuation import LoopEquations
 
     mech = four_bar()
     problem = compile_problem(mech)
-    xs = np.concatenate([np.arange(5) * 0.01, [2.04], 2.04 + np.arange(1, 5) * 0.01])   # one jump: rows 4 -> 5
+    # two jumps in one batch, both walked (together): rows 4 -> 5 (+2 rad) and 9 -> 10 (-1.5 rad)
+    xs = np.concatenate([np.arange(5) * 0.01, 2.04 + np.arange(5) * 0.01, 0.58 + np.arange(3) * 0.01])
     path = xs[:, None]
     eqs = LoopEquations(mech, path[0])
     other = 0
@@ -418,8 +419,9 @@ def test_a_2_rad_jump_of_the_crank_is_split_proven_and_stays_on_its_branch():
             np.testing.assert_allclose(np.array([p.passive_angles[n] for n in ("B", "D", "C")]),
                                        closed_form_readings(p.inputs["A"], sign), atol=1e-9)
         steps = [p.proven_steps for p in tr.poses]
-        assert steps[5] > 1 and steps[:5] == [0, 1, 1, 1, 1] and steps[6:] == [1] * 4   # the jump was split
-        assert tr.rejected_steps >= 1
+        assert steps[5] > 1 and steps[10] > 1                 # the jumps were split, the rows between not
+        assert steps[:5] == [0, 1, 1, 1, 1] and steps[6:10] == [1] * 4 and steps[11:] == [1] * 2
+        assert tr.rejected_steps >= 2
         # the float prediction alone (tangent + Newton over the jump, no proof)
         theta = eqs.predict(np.array([tr.poses[4].passive_angles[n] for n in tr.passive_joints]), path[4], path[5])
         other += theta is None or angle_gap(theta[tr.passive_joints.index("D")], rocker_of_crank(path[5, 0], sign)) > 1e-6
