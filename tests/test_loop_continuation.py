@@ -376,3 +376,53 @@ def test_a_passive_joint_that_leaves_its_range_and_comes_back_between_two_rows_e
         mid = 0.5 * (lo_t + hi_t)
         lo_t, hi_t = (mid, hi_t) if rocker_of_crank(mid, sign) <= hi + RANGE_TOL else (lo_t, mid)
     assert abs(tr.stop.last_proven_inputs["A"] - lo_t) < 1e-9
+
+
+def test_a_crank_turn_at_0_01_rad_rows_is_proven_one_step_a_row_in_batches_on_the_closed_form(monkeypatch):
+    # issue 30: the steps of up to BATCH rows are proven in one Krawczyk call (before: one call per step)
+    from spherekin.trust.continuation import BATCH
+    from spherekin.trust.loop_continuation import LoopEquations
+
+    calls = []
+    krawczyk = LoopEquations.krawczyk
+    monkeypatch.setattr(LoopEquations, "krawczyk", lambda self, *a, **kw: calls.append(1) or krawczyk(self, *a, **kw))
+    problem = compile_problem(four_bar())
+    path = np.arange(-math.pi, math.pi, 0.01)[:, None]
+    for k in range(2):
+        calls.clear()
+        tr = problem.track(path, start=k)
+        assert len(calls) == 1 + math.ceil((len(path) - 1) / BATCH)       # the start's proof, then one per batch
+        assert tr.complete and len(tr.poses) == len(path)
+        sign = branch_of(tr.poses[0].passive_angles["D"], rocker_of_crank, path[0, 0])
+        for p in tr.poses:
+            np.testing.assert_allclose(np.array([p.passive_angles[n] for n in ("B", "D", "C")]),
+                                       closed_form_readings(p.inputs["A"], sign), atol=1e-9)
+        assert tr.rejected_steps == 0 and tr.proven_steps == len(path) - 1
+        assert [p.proven_steps for p in tr.poses] == [0] + [1] * (len(path) - 1)
+
+
+def test_jumps_of_the_crank_are_split_together_proven_and_stay_on_their_branch():
+    from spherekin.trust.loop_continuation import LoopEquations
+
+    mech = four_bar()
+    problem = compile_problem(mech)
+    # two jumps in one batch, both walked (together): rows 4 -> 5 (+2 rad) and 9 -> 10 (-1.5 rad)
+    xs = np.concatenate([np.arange(5) * 0.01, 2.04 + np.arange(5) * 0.01, 0.58 + np.arange(3) * 0.01])
+    path = xs[:, None]
+    eqs = LoopEquations(mech, path[0])
+    other = 0
+    for k in range(2):
+        tr = problem.track(path, start=k)
+        assert tr.complete and len(tr.poses) == len(path)
+        sign = branch_of(tr.poses[0].passive_angles["D"], rocker_of_crank, path[0, 0])
+        for p in tr.poses:                         # every row on the start's branch of the closed form
+            np.testing.assert_allclose(np.array([p.passive_angles[n] for n in ("B", "D", "C")]),
+                                       closed_form_readings(p.inputs["A"], sign), atol=1e-9)
+        steps = [p.proven_steps for p in tr.poses]
+        assert steps[5] > 1 and steps[10] > 1                 # the jumps were split, the rows between not
+        assert steps[:5] == [0, 1, 1, 1, 1] and steps[6:10] == [1] * 4 and steps[11:] == [1] * 2
+        assert tr.rejected_steps >= 2
+        # the float prediction alone (tangent + Newton over the jump, no proof)
+        theta = eqs.predict(np.array([tr.poses[4].passive_angles[n] for n in tr.passive_joints]), path[4], path[5])
+        other += theta is None or angle_gap(theta[tr.passive_joints.index("D")], rocker_of_crank(path[5, 0], sign)) > 1e-6
+    assert other >= 1                             # accepting it unproven would lose or swap an assembly

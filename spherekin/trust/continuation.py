@@ -25,8 +25,15 @@ which proves that for *every* input of the step the equations have exactly one r
 that the Jacobian is regular there): the root moves continuously inside W from w = 0 to the root at
 x1, so the new pose is the continuation of the old one, never another assembly mode. A point
 Krawczyk test at x1 on a box of radius POINT_RADIUS around w1 then proves the new root to that
-accuracy, the next step's box contains that one, and the chain of proofs is unbroken. A step that
-cannot be proven is halved; the step grows again after successes.
+accuracy, the next step's box contains that one, and the chain of proofs is unbroken.
+
+In arrays: up to BATCH rows are predicted at once (:func:`_predict_rows`: Newton on every row within
+PREDICT_REACH of a block's first pose in one call), and every step between consecutive rows is proven
+in one call (:func:`_certify_steps`); the margin of W (MARGIN_RELATIVE) lets 0.01-rad rows pass as
+they are. The segments whose step is not proven are walked together (:func:`_walk_segments`): each
+round proves the next step of every walk in one call, a failed step halved, a proven one followed by
+one STEP_GROWTH times longer; a walk's end must agree with its row's predicted pose (AGREE_TOL) for
+the batch's later steps, proven from that pose, to follow on, else the batch ends at that row.
 
 Near a parallel singularity (a fold, where the assembly mode meets another and ends) the Jacobian
 tends to a singular matrix and the provable steps shrink geometrically. When a step below
@@ -61,18 +68,21 @@ from ..systems.platform import (leg_constants, not_applicable, passive_names, pa
                                 platform_legs)
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
-           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "krawczyk_step", "track",
-           "not_tracked"]
+           "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "cayley_coordinates",
+           "krawczyk_step", "track", "not_tracked"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
 #: change of coordinates D_c -> D_c C(w1) and is still far below any tolerance of a pose.
 POINT_RADIUS = 1e-10
 #: The step box W = hull(0, w1) is widened on each side by MARGIN_RELATIVE |w1| + MARGIN. Reason:
-#: the box must hold the previous root's proven box (POINT_RADIUS) with room, and a Krawczyk
-#: image needs some slack inside W; 10 POINT_RADIUS + 5% of the step does both.
+#: the box must hold the previous root's proven box (POINT_RADIUS) with room (10 POINT_RADIUS), and
+#: the Krawczyk image needs slack inside W: it is hull(0, w1) (the segment's roots) plus terms
+#: ~ c |W|^2, so with |W| = (1 + 2 r) |w1| a margin r |w1| passes while |w1| < r / (c (1 + 2 r)^2),
+#: largest at r = 1/2 (4x the steps that 5% passes: 0.01-rad rows of general_3rrr pass first time,
+#: none did at 5%). The joint ranges are tested on the Krawczyk image, not on W (_certify_steps).
 MARGIN = 10 * POINT_RADIUS
-MARGIN_RELATIVE = 0.05
+MARGIN_RELATIVE = 0.5
 #: A step (largest input change, radians) below this that still cannot be proven ends the track.
 #: Reason: next to a fold the provable step shrinks like the distance d to it, while the two modes
 #: that meet there are ~sqrt(d) apart; 1e-13 follows a mode to within ~1e-12 of its end (the modes
@@ -268,10 +278,12 @@ class Track:
 
 
 def cayley(w) -> np.ndarray:
-    """C(w) (3, 3): the rotation by 2 atan(|w|/2) about w (module doc)."""
+    """C(w) (..., 3, 3): the rotation by 2 atan(|w|/2) about w (module doc), for w (..., 3)."""
     w = np.asarray(w, dtype=float)
-    n = float(w @ w)
-    k = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    n = (w * w).sum(axis=-1)[..., None, None]
+    zero = np.zeros(w.shape[:-1])
+    k = np.stack([np.stack([zero, -w[..., 2], w[..., 1]], -1), np.stack([w[..., 2], zero, -w[..., 0]], -1),
+                  np.stack([-w[..., 1], w[..., 0], zero], -1)], -2)
     return np.eye(3) + (4.0 / (4.0 + n)) * (k + 0.5 * (k @ k))
 
 
@@ -373,7 +385,15 @@ def krawczyk_step(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> bool:
 
 def krawczyk_steps(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> np.ndarray:
     """:func:`krawczyk_step` of N steps at once: displacements ``dc`` (N, 3, 3), boxes [w_lo, w_hi]
-    (N, 3 each), segments beta0 -> beta1 (N, 3 each); a boolean per step.
+    (N, 3 each), segments beta0 -> beta1 (N, 3 each); a boolean per step (:func:`_krawczyk_images`)."""
+    return _krawczyk_images(eqs, dc, w_lo, w_hi, beta0, beta1)[0]
+
+
+def _krawczyk_images(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> tuple[np.ndarray, np.ndarray]:
+    """(proven (N,), K (2, N, 3)): :func:`krawczyk_steps` and the Krawczyk images K of the boxes.
+    Where a step is proven, K lies inside [w_lo, w_hi] and holds the root of every input of the step
+    (each root w* in the box is w* - Y h(w*, beta), which the mean-value form below encloses in K):
+    a tighter enclosure of the roots than the box itself, the one the joint ranges are tested on.
 
     Each segment is beta(sigma) = beta1 + sigma delta, delta = beta1 - beta0, sigma in [-1, 0]
     (widened by SIGMA - 1 at both ends); h(m, beta(sigma)) is enclosed in the mean-value form
@@ -409,35 +429,67 @@ def krawczyk_steps(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> np.ndarra
     dev = iv.sub(iv.from_bounds(w_lo, w_hi), point_m)
     k = iv.add(center, iv.matmul(slope, dev[..., None])[..., 0])
     inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
-    return ok & inside
+    return ok & inside, k
+
+
+def _solve_many(jac, rhs) -> tuple[np.ndarray, np.ndarray]:
+    """(x (N, 3), solved (N,)): J x = rhs for N systems J (N, 3, 3), rhs (N, 3); not solved (x = 0)
+    where J is singular or anything is not finite."""
+    det = np.linalg.det(jac)
+    solved = np.isfinite(det) & (det != 0) & np.isfinite(rhs).all(axis=-1)
+    x = np.zeros(rhs.shape)
+    if solved.any():
+        try:
+            x[solved] = np.linalg.solve(jac[solved], rhs[solved][..., None])[..., 0]
+        except np.linalg.LinAlgError:          # an exactly singular pivot det did not see: one at a time
+            for i in np.flatnonzero(solved):
+                try:
+                    x[i] = np.linalg.solve(jac[i], rhs[i])
+                except np.linalg.LinAlgError:
+                    solved[i] = False
+    return x, solved
+
+
+def _newton_many(eqs: LegEquations, dc, w, beta) -> tuple[np.ndarray, np.ndarray]:
+    """(w (N, 3), converged (N,)): Newton on h(., beta) = 0 from w for N systems at once
+    (displacements ``dc`` (N, 3, 3), inputs ``beta`` (N, 3)); each stops after a step below
+    NEWTON_TOL, or after NEWTON_ITERATIONS with |h| < 1e-13."""
+    w = np.array(w, dtype=float)
+    active = np.ones(len(w), dtype=bool)
+    converged = np.zeros(len(w), dtype=bool)
+    for _ in range(NEWTON_ITERATIONS):
+        idx = np.flatnonzero(active)
+        if not len(idx):
+            return w, converged
+        h, jac = eqs.values(dc[idx], w[idx], beta[idx])
+        dw, solved = _solve_many(jac, h)
+        new = w[idx] - dw
+        finite = solved & np.isfinite(new).all(axis=-1)
+        w[idx[finite]] = new[finite]
+        done = finite & (np.abs(dw).max(axis=-1) <= NEWTON_TOL)
+        converged[idx[done]] = True
+        active[idx[~finite | done]] = False
+    idx = np.flatnonzero(active)
+    if len(idx):
+        h, _ = eqs.values(dc[idx], w[idx], beta[idx])
+        converged[idx] = np.abs(h).max(axis=-1) < 1e-13
+    return w, converged
 
 
 def _newton(eqs: LegEquations, dc, w, beta):
-    """(w, converged): Newton on h(., beta) = 0 from w."""
-    w = np.array(w, dtype=float)
-    for _ in range(NEWTON_ITERATIONS):
-        h, jac = eqs.values(dc, w, beta)
-        try:
-            dw = np.linalg.solve(jac, h)
-        except np.linalg.LinAlgError:
-            return w, False
-        w = w - dw
-        if not np.all(np.isfinite(w)):
-            return w, False
-        if np.abs(dw).max() <= NEWTON_TOL:
-            return w, True
-    h, _ = eqs.values(dc, w, beta)
-    return w, bool(np.abs(h).max() < 1e-13)
+    """(w, converged): :func:`_newton_many` of one system."""
+    w, ok = _newton_many(eqs, np.asarray(dc, dtype=float)[None], np.asarray(w, dtype=float)[None],
+                         np.asarray(beta, dtype=float)[None])
+    return w[0], bool(ok[0])
 
 
-def _tangent(eqs: LegEquations, dc, beta, dbeta) -> np.ndarray | None:
-    """dw for an input change dbeta at w = 0 (first order): -J^-1 (dh/dbeta) dbeta."""
-    _, jac = eqs.values(dc, np.zeros(3), beta)
-    rate = np.einsum("ij,ij->i", eqs.elbow_rate(beta) @ dc, eqs.b) * np.asarray(dbeta)
-    try:
-        return -np.linalg.solve(jac, rate)
-    except np.linalg.LinAlgError:
-        return None
+def _tangents(eqs: LegEquations, dc, beta, dbeta) -> tuple[np.ndarray, np.ndarray]:
+    """(dw (N, 3), found (N,)): for input changes dbeta (N, 3) at w = 0 (first order, inputs beta
+    (N, 3), displacements ``dc`` (N, 3, 3)): -J^-1 (dh/dbeta) dbeta."""
+    _, jac = eqs.values(dc, np.zeros(np.shape(beta)), beta)
+    rate = np.einsum("...ij,...ij->...i", eqs.elbow_rate(beta) @ dc, eqs.b) * np.asarray(dbeta)
+    dw, found = _solve_many(jac, rate)
+    return -dw, found
 
 
 def _branch_exists(eqs: LegEquations, dc, beta0, beta, sign: float) -> bool:
@@ -466,13 +518,63 @@ def _locate(eqs: LegEquations, dc, beta0, direction, lo: float, hi: float) -> tu
     return lo, hi
 
 
+def _predict_many(eqs: LegEquations, dc, beta0, beta1) -> tuple[np.ndarray, np.ndarray]:
+    """(w (N, 3), found (N,)): Newton's roots at beta1 (N, 3) from the tangent predictor at w = 0
+    (inputs beta0 (N, 3), displacements ``dc`` (N, 3, 3)); not found: no proof of anything."""
+    beta0, beta1 = np.asarray(beta0, dtype=float), np.asarray(beta1, dtype=float)
+    guess, found = _tangents(eqs, dc, beta0, beta1 - beta0)
+    w, converged = _newton_many(eqs, dc, guess, beta1)
+    return w, found & converged
+
+
 def _predict(eqs: LegEquations, dc, beta0, beta1):
-    """Newton's root at beta1 from the tangent predictor at w = 0 (beta0), or None (not proven)."""
-    guess = _tangent(eqs, dc, beta0, beta1 - beta0)
-    if guess is None:
-        return None
-    w1, ok = _newton(eqs, dc, guess, beta1)
-    return w1 if ok else None
+    """:func:`_predict_many` of one step: w (3,), or None."""
+    w, ok = _predict_many(eqs, np.asarray(dc, dtype=float)[None], np.asarray(beta0, dtype=float)[None],
+                          np.asarray(beta1, dtype=float)[None])
+    return w[0] if ok[0] else None
+
+
+def cayley_coordinates(q) -> np.ndarray:
+    """w (..., 3) with C(w) = Q for rotations Q (..., 3, 3) (not a half turn): the inverse of
+    :func:`cayley`, w = 2 vee(Q - Q^T) / (1 + trace Q)."""
+    q = np.asarray(q, dtype=float)
+    vee = np.stack([q[..., 2, 1] - q[..., 1, 2], q[..., 0, 2] - q[..., 2, 0], q[..., 1, 0] - q[..., 0, 1]], -1)
+    return 2.0 * vee / (1.0 + np.trace(q, axis1=-2, axis2=-1))[..., None]
+
+
+#: The rows predicted together from one pose (:func:`_predict_rows`) lie within this (largest input
+#: change, radians) of its row. Reason: Newton from the tangent predictor converges to the same root
+#: when the predictor's error (~ |input change|^2) is well inside the root's basin; 0.1 rad (FIRST_STEP,
+#: the walk's first step) keeps that error ~0.01 for general_3rrr, and a wrong prediction costs time only
+#: (its step is not proven and is walked; the poses agree or the prediction restarts there).
+PREDICT_REACH = 0.1
+
+
+def _predict_rows(eqs: LegEquations, d0, rows) -> tuple[np.ndarray, np.ndarray]:
+    """(poses (m + 1, 3, 3), w (m, 3)): the displacements predicted at rows[0 .. m] (inputs
+    (K, 3), radians) from ``d0`` at rows[0], and each step's Cayley coordinates (poses[j] C(w[j]) =
+    poses[j + 1]); m < K - 1 where Newton fails first. In blocks: every row within PREDICT_REACH of a
+    block's first row is predicted at once (:func:`_predict_many` from that row's pose), the block's
+    last pose starts the next block."""
+    poses, steps = [np.asarray(d0, dtype=float)], []
+    k = 0
+    while k < len(rows) - 1:
+        reach = np.abs(rows[k + 1:] - rows[k]).max(axis=1)
+        end = k + 1 + max(1, int(np.argmax(reach > PREDICT_REACH)) if (reach > PREDICT_REACH).any() else len(reach))
+        block = rows[k + 1:end]
+        w, found = _predict_many(eqs, np.broadcast_to(poses[-1], (len(block), 3, 3)),
+                                 np.broadcast_to(rows[k], block.shape), block)
+        good = len(block) if found.all() else int(np.argmin(found))
+        if not good:
+            break
+        new = poses[-1] @ cayley(w[:good])
+        before = np.concatenate([poses[-1][None], new[:-1]])
+        steps.append(cayley_coordinates(np.swapaxes(before, -1, -2) @ new))
+        poses.extend(new)
+        if good < len(block):
+            break
+        k = end - 1
+    return np.array(poses), (np.concatenate(steps) if steps else np.empty((0, 3)))
 
 
 def _boxes(w1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -481,20 +583,30 @@ def _boxes(w1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(0.0, w1) - pad, np.maximum(0.0, w1) + pad
 
 
-def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> np.ndarray:
-    """Which of N predicted steps are proven: the step box over the segment, then the point box of
-    radius POINT_RADIUS around the new root at beta1 (module doc)."""
+def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(proven (N,), lo, hi (N, 3)): which of N predicted steps are proven (the step box over the
+    segment, then the point box of radius POINT_RADIUS around the new root at beta1; module doc),
+    and boxes holding the root of every input of each step: the Krawczyk image of the step box
+    where proven (:func:`_krawczyk_images`), else the step box."""
     lo, hi = _boxes(w1)
-    ok = krawczyk_steps(eqs, dcs, lo, hi, beta0, beta1)
+    ok, k = _krawczyk_images(eqs, dcs, lo, hi, beta0, beta1)
     if ok.any():
         ok[ok] = krawczyk_steps(eqs, dcs[ok], w1[ok] - POINT_RADIUS, w1[ok] + POINT_RADIUS, beta1[ok], beta1[ok])
-    return ok
+    return ok, np.where(ok[:, None], k[0], lo), np.where(ok[:, None], k[1], hi)
 
 
 #: Segments predicted (Newton, in floats) and then certified together, at most. Reason: one batch of
 #: interval arithmetic over many steps costs little more than over one (numpy's per-call overhead
 #: dominates a 3 x 3 system); a prediction that goes wrong wastes at most this many steps' work.
 BATCH = 256
+#: A walked segment (its step not proven at once, :func:`_walk_segments`) ends at a displacement
+#: that must agree with the one predicted for its row to this (largest entry) for the batch's later
+#: steps, proven from the predicted one, to follow on. Reason: both are Newton's roots (~1e-15 apart
+#: when they are the same root); the walk's last step proves the mode's root within POINT_RADIUS of
+#: its end, so within ~2 POINT_RADIUS of the predicted one, inside the next step's box (its margin
+#: is MARGIN = 10 POINT_RADIUS), which holds one root: the next step continues the mode. Else the
+#: batch ends at that row and the prediction restarts from the walk's end.
+AGREE_TOL = POINT_RADIUS
 
 
 #: Width (radians) added to each side of an enclosed joint angle (:meth:`JointRanges.steps_inside`):
@@ -629,8 +741,9 @@ def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d
                  parts: list | None = None):
     """Re-walk the proven step from s_a (displacement ``d_a``) to s_b of the segment x0 -> x1 in
     halves until every part is proven inside the ranges (:meth:`JointRanges.steps_inside`) or a part
-    ends outside them. Appends (s, D, w) at the end of each part to ``record``; returns D at s_b, or
+    ends outside them. Appends (s, D, w, lo, hi) at the end of each part to ``record``; returns D at s_b, or
     None when the last part appended ends outside (the exit lies in it: :func:`_locate_exit`).
+    Each part's joint angles are enclosed over its Krawczyk image (:func:`_certify_steps`).
     ``parts`` counts the parts walked (RuntimeError beyond MAX_RANGE_PARTS)."""
     parts = [] if parts is None else parts
     parts.append(s_a)
@@ -641,15 +754,15 @@ def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d
     span = float(np.abs(direction).max())
     b_a, b_b = x0 + s_a * direction, (x1 if s_b == 1.0 else x0 + s_b * direction)
     w = _predict(eqs, d_a, b_a, b_b)
-    proven = w is not None and bool(_certify_steps(eqs, d_a[None], w[None], b_a[None], b_b[None])[0])
-    if proven:
+    proven, lo, hi = ((np.zeros(1, dtype=bool), None, None) if w is None
+                      else _certify_steps(eqs, d_a[None], w[None], b_a[None], b_b[None]))
+    if proven[0]:
         d_b = d_a @ cayley(w)
         if joints.first_outside(b_b, d_b) is not None:
-            record.append((s_b, d_b, w))
+            record.append((s_b, d_b, w, lo[0], hi[0]))
             return None
-        lo, hi = _boxes(w[None])
         if (s_b - s_a) * span <= LOCATE_TOL or joints.steps_inside(d_a[None], lo, hi, b_a[None], b_b[None])[0]:
-            record.append((s_b, d_b, w))
+            record.append((s_b, d_b, w, lo[0], hi[0]))
             return d_b
     elif (s_b - s_a) * span <= MIN_STEP:
         raise RuntimeError("track: a part of a proven step could not be proven again while testing the joint "
@@ -661,7 +774,8 @@ def _ranges_walk(eqs: LegEquations, joints: "JointRanges", x0, x1, s_a: float, d
 
 def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
     """Where a joint leaves its range on the proven ``steps`` of the segment x0 -> x1 from the
-    in-range displacement ``d0`` at x0: ``steps`` = (s, D, w) at the end of each, in order. None when
+    in-range displacement ``d0`` at x0: ``steps`` = (s, D, w, lo, hi) at the end of each, in order
+    (lo, hi: a box holding the root of every input of the step, relative to its start). None when
     every step is proven inside the ranges; else (s_a, D_a, record): the last pose proven in range
     and the proven parts after it, the last one ending outside (for :func:`_locate_exit`)."""
     if not joints.limited or not steps:
@@ -670,7 +784,7 @@ def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
     s_prev = np.array([0.0] + [st[0] for st in steps[:-1]])
     d_prev = np.array([d0] + [st[1] for st in steps[:-1]])
     s_end = np.array([st[0] for st in steps])
-    lo, hi = _boxes(np.array([st[2] for st in steps]))
+    lo, hi = np.array([st[3] for st in steps]), np.array([st[4] for st in steps])
     ends = x0 + s_end[:, None] * direction
     inside = joints.steps_inside(d_prev, lo, hi, x0 + s_prev[:, None] * direction, ends)
     for j in np.flatnonzero(~inside):
@@ -682,13 +796,13 @@ def _segment_exit(eqs: LegEquations, joints: "JointRanges", x0, x1, d0, steps):
 
 
 def _locate_exit(eqs: LegEquations, joints: JointRanges, x0, x1, s0: float, d0, step):
-    """Where a joint leaves its range on the proven ``step`` = (s1, D, w) of the segment x0 -> x1,
+    """Where a joint leaves its range on the proven ``step`` = (s1, D, w, lo, hi) of the segment x0 -> x1,
     from the pose D = ``d0`` at s0, in range, to s1, outside: bisection on it (Newton from the step's
     start: the step is proven, so every input of it has exactly one root in its box, which the root
     found must lie in) to LOCATE_TOL in input. Returns (s_in, s_out, D at s_in): the last input found
     in range and the first outside."""
     direction = x1 - x0
-    s1, _, w1 = step
+    s1, w1 = step[0], step[2]
     box_lo, box_hi = _boxes(np.asarray(w1)[None])
     b0 = x0 + s0 * direction
     lo, hi, d_lo = s0, s1, d0
@@ -728,11 +842,10 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     (largest |Eq. (1)|) with every joint in its range; it is polished by Newton and proven (a point
     Krawczyk test) first.
 
-    How: segments are predicted in floats (tangent + Newton, one step per path segment) up to
-    BATCH at a time, then all their steps are proven in one batch of interval arithmetic; from the
-    first segment whose step is not proven, that segment is walked in adaptive proven steps (halved
-    on failure, grown after success), and prediction resumes after it. Every accepted step has its
-    own proof; none depends on the prediction being right. Every row reached, and the end of every
+    How (module doc): rows are predicted in floats up to BATCH at a time, then every step between
+    them is proven in one batch of interval arithmetic; the segments whose step is not proven are
+    walked together in adaptive proven steps (halved on failure, grown after success), each round
+    one array call. Every accepted step has its own proof; none depends on the prediction being right. Every row reached, and the end of every
     adaptive step, is tested against the joint ranges (module doc); the track ends at the first
     pose outside (a :class:`RangeStop`) or at a parallel singularity (a :class:`SingularStop`).
     """
@@ -773,60 +886,56 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
     stop = None
     leaves = None            # (segment k, _segment_exit's answer) where a joint leaves its range
     k = 0
-    while k < n - 1:
-        pred_dc, pred_w = [], []
-        d = dcs[k]
-        last = min(n - 1, k + BATCH)                 # predict segments k .. last - 1
-        for j in range(k, last):
-            w1 = _predict(eqs, d, path[j], path[j + 1])
-            if w1 is None:
-                break
-            pred_dc.append(d)
-            pred_w.append(w1)
-            d = d @ cayley(w1)
-        m = len(pred_w)
-        good = 0
+    while k < n - 1 and stop is None and leaves is None:
+        last = min(n - 1, k + BATCH)                 # predict segments k .. last - 1 (fewer if Newton fails)
+        pose, w_m = _predict_rows(eqs, dcs[k], path[k:last + 1])   # pose[j]: the displacement at row k + j
+        m = len(w_m)
+        proven = np.zeros(m, dtype=bool)
         if m:
-            dc_m, w_m = np.array(pred_dc), np.array(pred_w)
-            ok = _certify_steps(eqs, dc_m, w_m, path[k:k + m], path[k + 1:k + m + 1])
-            good = m if ok.all() else int(np.argmin(ok))
-            for j in range(good):
-                dcs[k + j + 1] = dc_m[j] @ cayley(w_m[j])
-                steps_of[k + j + 1] = 1
-            if joints.limited and good:              # each step proven inside the ranges, else walked finer
-                inside = joints.steps_inside(dc_m[:good], *_boxes(w_m[:good]), path[k:k + good],
-                                             path[k + 1:k + good + 1])
-                for j in np.flatnonzero(~inside):
-                    found = _segment_exit(eqs, joints, path[k + j], path[k + j + 1], dc_m[j],
-                                          [(1.0, dcs[k + j + 1], w_m[j])])
-                    if found is not None:
-                        leaves = (k + j, found)
-                        break
-                if leaves is not None:               # segment k + j ends the track
-                    n_steps += leaves[0] - k + 1
-                    k = leaves[0]
+            proven, lo_m, hi_m = _certify_steps(eqs, pose[:m], w_m, path[k:k + m], path[k + 1:k + m + 1])
+            inside = np.ones(m, dtype=bool)
+            if joints.limited and proven.any():      # each step proven inside the ranges, else walked finer
+                inside[proven] = joints.steps_inside(pose[:m][proven], lo_m[proven], hi_m[proven],
+                                                     path[k:k + m][proven], path[k + 1:k + m + 1][proven])
+        # every segment whose step is not proven (and the one Newton failed on) walked together
+        walked = [j for j in range(m) if not proven[j]] + ([m] if m < last - k else [])
+        walks = dict(zip(walked, _walk_segments(eqs, pose[walked], path[k + np.array(walked, dtype=int)],
+                                                path[k + 1 + np.array(walked, dtype=int)],
+                                                budget - n_steps - rejected))) if walked else {}
+        rejected += sum(1 for j in walked if j < m)   # the batch's first proof of each failed
+        for j in range(m + (m < last - k)):          # the batch's segments in order, up to an end
+            r = k + j
+            if j in walks:
+                walk = walks[j]
+                n_steps += walk.steps
+                rejected += walk.rejected
+                found = _segment_exit(eqs, joints, path[r], path[r + 1], pose[j], walk.record)
+                if found is not None:                # before the singularity, if any: the range ends the track
+                    leaves = (r, found)
                     break
-            n_steps += good
-            rejected += int(good < m)
-            k += good
-            if good == m and k == last:
-                continue                             # every predicted step proven: predict the next batch
-        if k >= n - 1:
-            break
-        d, steps, rej, stop, record = _adaptive_segment(eqs, dcs[k], path[k], path[k + 1],
-                                                        budget - n_steps - rejected)
-        n_steps += steps
-        rejected += rej
-        found = _segment_exit(eqs, joints, path[k], path[k + 1], dcs[k], record)
-        if found is not None:                        # before the singularity, if any: the range ends the track
-            leaves, stop = (k, found), None
-            break
-        if stop is not None:
-            stop = dict(stop, row=k)
-            break
-        dcs[k + 1] = d
-        steps_of[k + 1] = steps
-        k += 1
+                if walk.stop is not None:
+                    stop = dict(walk.stop, row=r)
+                    break
+                steps_of[r + 1] = walk.steps
+                if j + 1 < len(pose) and np.abs(walk.end - pose[j + 1]).max() > AGREE_TOL:
+                    dcs[r + 1] = walk.end            # not the predicted pose: the later steps start elsewhere
+                    break
+                dcs[r + 1] = pose[j + 1] if j + 1 < len(pose) else walk.end
+            else:
+                if not inside[j]:
+                    found = _segment_exit(eqs, joints, path[r], path[r + 1], pose[j],
+                                          [(1.0, pose[j + 1], w_m[j], lo_m[j], hi_m[j])])
+                    if found is not None:
+                        n_steps += 1
+                        leaves = (r, found)
+                        break
+                n_steps += 1
+                steps_of[r + 1] = 1
+                dcs[r + 1] = pose[j + 1]
+        else:
+            k = k + j + 1
+            continue
+        k = r if (stop is not None or leaves is not None) else r + 1
     reached = k + 1
     rotations = dcs[:reached] @ ref
     angles = joints.angles(path[:reached], dcs[:reached])
@@ -871,33 +980,68 @@ def _exit_pose(eqs: LegEquations, d_in, here, there):
     return d_in if w is None else d_in @ cayley(w)
 
 
-def _adaptive_segment(eqs: LegEquations, dc, x0, x1, budget: int):
-    """Walk the segment x0 -> x1 in proven steps (halved on failure, grown after success):
-    (displacement at x1, steps, rejected, None, record), or (None, steps, rejected, where it
-    stopped, record) when no step of MIN_STEP can be proven (module doc). ``record``: (s, D, w) at
-    the end of every proven step (s along the segment, D the displacement there, w its Cayley step)."""
+@dataclass(frozen=True)
+class _Walk:
+    """One segment walked in adaptive proven steps (:func:`_walk_segments`): ``end`` (the
+    displacement at x1; None when the walk stopped or was abandoned), ``steps`` and ``rejected``
+    (steps tried), ``stop`` (where it stopped at a singularity: s, b0, lo, hi, dc; else None),
+    ``record``: (s, D, w, lo, hi) at the end of every proven step (s along the segment, D the
+    displacement there, w its Cayley step, lo/hi a box holding the root of every input of the step)."""
+
+    end: np.ndarray | None
+    steps: int
+    rejected: int
+    stop: dict | None
+    record: list
+
+
+def _walk_segments(eqs: LegEquations, dcs, x0, x1, budget: int) -> list:
+    """Walk M segments x0 -> x1 (M, 3 each; in path order) from the displacements ``dcs`` (M, 3, 3)
+    in proven steps, halved on failure and grown after success; each round predicts
+    (:func:`_predict_many`) and proves (:func:`_certify_steps`) the next step of every walk still
+    going in one array call, whatever M: a :class:`_Walk` per segment. A walk ends at x1, or where no
+    step of MIN_STEP can be proven (module doc); the walks after one that stopped are abandoned
+    (the track ends there). ``budget``: steps (proven and rejected) of all walks before RuntimeError."""
+    m = len(dcs)
     direction = x1 - x0
-    span = float(np.abs(direction).max())
-    s, h = 0.0, 1.0 if span <= FIRST_STEP else FIRST_STEP / span
-    steps = rejected = 0
-    record = []
-    while s < 1.0:
-        if steps + rejected > budget:
+    span = np.abs(direction).max(axis=1)
+    s = np.zeros(m)
+    h = np.where(span <= FIRST_STEP, 1.0, FIRST_STEP / np.maximum(span, FIRST_STEP))
+    dc = np.array(dcs, dtype=float)
+    steps, rejected = np.zeros(m, dtype=int), np.zeros(m, dtype=int)
+    records: list = [[] for _ in range(m)]
+    stops: list = [None] * m
+    active = np.ones(m, dtype=bool)
+    while active.any():
+        if steps.sum() + rejected.sum() > budget:
             raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
                                "(proven and rejected): the path is too long or too close to a singularity for "
                                "one track; split it into shorter paths")
-        t = min(1.0, s + h)
-        b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
-        w1 = _predict(eqs, dc, b0, b1)
-        if w1 is not None and _certify_steps(eqs, dc[None], w1[None], b0[None], b1[None])[0]:
-            dc = dc @ cayley(w1)
-            s, h = t, h * STEP_GROWTH
-            steps += 1
-            record.append((s, dc, w1))
-            continue
-        rejected += 1
-        h *= 0.5
-        if h * span < MIN_STEP:
-            lo, hi = _locate(eqs, dc, b0, direction, 0.0, 1.0 - s)
-            return None, steps, rejected, {"s": s, "b0": b0, "lo": lo, "hi": hi, "dc": dc}, record
-    return dc, steps, rejected, None, record
+        idx = np.flatnonzero(active)
+        t = np.minimum(1.0, s[idx] + h[idx])
+        b0 = x0[idx] + s[idx, None] * direction[idx]
+        b1 = np.where((t == 1.0)[:, None], x1[idx], x0[idx] + t[:, None] * direction[idx])
+        w, found = _predict_many(eqs, dc[idx], b0, b1)
+        ok = np.zeros(len(idx), dtype=bool)
+        lo, hi = np.zeros((len(idx), 3)), np.zeros((len(idx), 3))
+        if found.any():
+            ok[found], lo[found], hi[found] = _certify_steps(eqs, dc[idx[found]], w[found], b0[found], b1[found])
+        good = idx[ok]
+        if len(good):
+            dc[good] = dc[good] @ cayley(w[ok])
+            s[good] = t[ok]
+            h[good] *= STEP_GROWTH
+            steps[good] += 1
+            for i, g in zip(np.flatnonzero(ok), good):
+                records[g].append((float(s[g]), dc[g].copy(), w[i], lo[i], hi[i]))
+            active[good[s[good] == 1.0]] = False
+        bad = idx[~ok]
+        rejected[bad] += 1
+        h[bad] *= 0.5
+        for g in bad[h[bad] * span[bad] < MIN_STEP][:1]:          # the first in path order ends the track
+            b0_g = x0[g] + s[g] * direction[g]
+            lo_s, hi_s = _locate(eqs, dc[g], b0_g, direction[g], 0.0, 1.0 - s[g])
+            stops[g] = {"s": float(s[g]), "b0": b0_g, "lo": lo_s, "hi": hi_s, "dc": dc[g].copy()}
+            active[g:] = False
+    return [_Walk(dc[i] if s[i] == 1.0 else None, int(steps[i]), int(rejected[i]), stops[i], records[i])
+            for i in range(m)]

@@ -29,8 +29,11 @@ x1, never to another assembly. A point test at x1 (radius POINT_RADIUS around th
 the new root, which the next step's box holds: the chain of proofs is unbroken. (The transversal
 entries also vanish where F_n is a half turn about a coordinate axis; a continuous path of roots
 from a closure stays one, since those matrices are isolated from I, and every Newton root is
-checked against the whole F_n.) Failed steps are halved, successful ones grow by STEP_GROWTH, and a
-segment's first step is the previous segment's last one (or the whole segment); a step below MIN_STEP that cannot be proven ends the track at a
+checked against the whole F_n.) Up to BATCH rows are predicted (Newton from row to row) and their
+steps proven in one Krawczyk call; the segments whose step is not proven, or not proven inside the
+ranges, are walked together (:func:`_walks`, one Krawczyk call a round): failed steps are halved,
+successful ones grow by STEP_GROWTH, and a walk's first step is the previous segment's last one (or
+the whole segment); where a walk does not end at the predicted root (AGREE_TOL) the batch ends there. A step below MIN_STEP that cannot be proven ends the track at a
 parallel singularity, located by bisection (Newton from the last proven pose converging with the
 sign of det J_p kept: the branch exists) to LOCATE_TOL. The constants (POINT_RADIUS, MIN_STEP,
 LOCATE_TOL, MARGIN, Newton's, FIRST_STEP) are those of the platform tracker, for the
@@ -57,7 +60,7 @@ import numpy as np
 from ..closure import ClosureLoop, Term, Unknown, closure_at
 from ..core import intervals as iv
 from ..core.angles import in_range_many, into_range, span_in_range_many, wrap
-from .continuation import (FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
+from .continuation import (AGREE_TOL, BATCH, FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
                            NEWTON_TOL, POINT_RADIUS, SIGMA, STEPS_PER_INPUT, RangeStop, SingularStop,
                            Track, TrackedPose)
 from .transversal import enclose, plan_of
@@ -248,9 +251,22 @@ class LoopEquations:
         return (k_lo[0], k_hi[0]) if ok.all() else None
 
 
+    def certify_steps(self, theta0, theta1, x0, x1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`certify_step` of N steps at once, in one Krawczyk call: roots ``theta0`` ->
+        ``theta1`` (N, M each) over the segments x0 -> x1 (N, A each); (proven (N,), lo, hi (N, M):
+        the Krawczyk images of the step boxes, meaningful where proven)."""
+        n = len(theta0)
+        w_lo, w_hi = step_box(theta0, theta1)
+        ok, k_lo, k_hi = self.krawczyk(np.concatenate((w_lo, theta1 - POINT_RADIUS)),
+                                       np.concatenate((w_hi, theta1 + POINT_RADIUS)),
+                                       np.concatenate((x0, x1)), np.concatenate((x1, x1)), image=True)
+        return ok[:n] & ok[n:], k_lo[:n], k_hi[:n]
+
+
 def step_box(theta0, theta1) -> tuple[np.ndarray, np.ndarray]:
-    """W = hull(theta0, theta1) widened by the margins (MARGIN_RELATIVE, MARGIN; radians, (M,) each)."""
-    pad = MARGIN_RELATIVE * float(np.abs(theta1 - theta0).max(initial=0.0)) + MARGIN
+    """W = hull(theta0, theta1) widened by the margins (MARGIN_RELATIVE, MARGIN; radians, (M,) each,
+    or (N, M) for N steps)."""
+    pad = MARGIN_RELATIVE * np.abs(theta1 - theta0).max(axis=-1, keepdims=True, initial=0.0) + MARGIN
     return np.minimum(theta0, theta1) - pad, np.maximum(theta0, theta1) + pad
 
 
@@ -269,6 +285,15 @@ class _Ranges:
             if not in_range_many(v, rng):
                 return name
         return None
+
+    def steps_inside(self, w_lo, w_hi, x0, x1) -> np.ndarray:
+        """:meth:`step_inside` of N proven steps (boxes (N, M), inputs (N, A) each): a boolean per step."""
+        lo = np.concatenate((np.minimum(x0, x1), w_lo), axis=1)
+        hi = np.concatenate((np.maximum(x0, x1), w_hi), axis=1)
+        ok = np.ones(len(lo), dtype=bool)
+        for j, rng in enumerate(self.ranges):
+            ok &= span_in_range_many(lo[:, j], hi[:, j], rng)
+        return ok
 
     def step_inside(self, w_lo, w_hi, x0, x1) -> bool:
         """Whether every joint is proven inside its range over a proven step (its box W, inputs x0 -> x1)."""
@@ -297,45 +322,73 @@ class _Segment:
     joint: str | None = None
 
 
-def _walk(eqs: LoopEquations, ranges: _Ranges, theta, x0, x1, budget: int, first: float = FIRST_STEP) -> _Segment:
-    """Walk the segment x0 -> x1 from the proven root ``theta`` in proven steps (module doc), the
-    first step min(``first``, FIRST_STEP) radians of input (the previous segment's last proven step:
-    where the provable steps are short, e.g. an elbow-actuated 3-RRR, the whole segment is not tried
-    and rejected at every row) or the whole segment when shorter."""
+def _walks(eqs: LoopEquations, ranges: _Ranges, thetas, x0, x1, budget: int, firsts) -> list:
+    """Walk W segments x0 -> x1 (W, A each; in path order) from the proven roots ``thetas`` (W, M)
+    in proven steps (module doc), the next step of every walk still going proven in one Krawczyk call
+    a round (:meth:`LoopEquations.certify_steps`): a :class:`_Segment` each. A walk's first step is
+    min(``firsts``[i], FIRST_STEP) radians of input (the previous segment's last proven step: where
+    the provable steps are short, e.g. an elbow-actuated 3-RRR, the whole segment is not tried and
+    rejected at every row) or the whole segment when shorter. The walks after one that stops (a
+    singularity or a range) are abandoned (None): the track ends there. ``budget``: steps (proven and
+    rejected) of all walks before RuntimeError."""
+    n = len(thetas)
     direction = x1 - x0
-    span = float(np.abs(direction).max(initial=0.0))
-    first = min(first, FIRST_STEP)
-    s, h = 0.0, 1.0 if span <= first else first / span
-    steps = rejected = 0
-    last = first
-    while s < 1.0:
-        if steps + rejected > budget:
+    span = np.abs(direction).max(axis=1, initial=0.0)
+    last = np.minimum(np.asarray(firsts, dtype=float), FIRST_STEP)
+    s = np.zeros(n)
+    h = np.where(span <= last, 1.0, last / np.maximum(span, last))
+    theta = np.array(thetas, dtype=float)
+    steps, rejected = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
+    out: list = [None] * n
+    active = np.ones(n, dtype=bool)
+    while active.any():
+        if steps.sum() + rejected.sum() > budget:
             raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
                                "(proven and rejected): the path is too long or too close to a singularity for "
                                "one track; split it into shorter paths")
-        t = min(1.0, s + h)
-        b0, b1 = x0 + s * direction, (x1 if t == 1.0 else x0 + t * direction)
-        theta1 = eqs.predict(theta, b0, b1)
-        proof = None if theta1 is None else eqs.certify_step(theta, theta1, b0, b1)
-        if proof is not None:
-            w_lo, w_hi = proof                    # every root of the step lies in this box
-            if ranges.limited and ranges.outside(b1, theta1) is not None:
-                lo, hi, theta_in, joint = _locate_exit(eqs, ranges, theta, theta1, x0, direction, s, t, w_lo, w_hi)
-                return _Segment(None, steps, rejected, last, "range", lo, theta_in, lo, hi, joint)
-            if ranges.limited and (t - s) * span > LOCATE_TOL and not ranges.step_inside(w_lo, w_hi, b0, b1):
-                rejected += 1                     # proven, but not inside the ranges: walked again in halves
-                h *= 0.5
+        idx = np.flatnonzero(active)
+        t = np.minimum(1.0, s[idx] + h[idx])
+        b0 = x0[idx] + s[idx, None] * direction[idx]
+        b1 = np.where((t == 1.0)[:, None], x1[idx], x0[idx] + t[:, None] * direction[idx])
+        new = [eqs.predict(theta[i], b0[q], b1[q]) for q, i in enumerate(idx)]
+        found = np.array([th is not None for th in new])
+        ok = np.zeros(len(idx), dtype=bool)
+        w_lo, w_hi = np.zeros((len(idx), eqs.m)), np.zeros((len(idx), eqs.m))
+        if found.any():
+            theta1 = np.array([th for th in new if th is not None]).reshape(-1, eqs.m)
+            ok[found], w_lo[found], w_hi[found] = eqs.certify_steps(theta[idx[found]], theta1, b0[found], b1[found])
+        for q, i in enumerate(idx):
+            if not active[i]:                       # abandoned this round: a walk before it stopped
                 continue
-            last = h * span if span else last     # the step tried (not cut at the segment end) was proven
-            theta, s, h = theta1, t, h * STEP_GROWTH
-            steps += 1
-            continue
-        rejected += 1
-        h *= 0.5
-        if h * span < MIN_STEP:
-            lo, hi = _locate_singular(eqs, theta, b0, direction, 1.0 - s)
-            return _Segment(None, steps, rejected, last, "singular", s, theta, s + lo, s + hi)
-    return _Segment(theta, steps, rejected, last)
+            if ok[q]:                               # every root of the step lies in [w_lo, w_hi]
+                if ranges.limited and ranges.outside(b1[q], new[q]) is not None:
+                    lo, hi, theta_in, joint = _locate_exit(eqs, ranges, theta[i], new[q], x0[i], direction[i],
+                                                           s[i], t[q], w_lo[q], w_hi[q])
+                    out[i] = _Segment(None, int(steps[i]), int(rejected[i]), float(last[i]), "range", lo, theta_in,
+                                      lo, hi, joint)
+                    active[i:] = False
+                    continue
+                if (ranges.limited and (t[q] - s[i]) * span[i] > LOCATE_TOL
+                        and not ranges.step_inside(w_lo[q], w_hi[q], b0[q], b1[q])):
+                    rejected[i] += 1                # proven, but not inside the ranges: walked again in halves
+                    h[i] *= 0.5
+                    continue
+                if span[i]:
+                    last[i] = h[i] * span[i]        # the step tried (not cut at the segment end) was proven
+                theta[i], s[i], h[i] = new[q], t[q], h[i] * STEP_GROWTH
+                steps[i] += 1
+                if s[i] == 1.0:
+                    out[i] = _Segment(theta[i].copy(), int(steps[i]), int(rejected[i]), float(last[i]))
+                    active[i] = False
+                continue
+            rejected[i] += 1
+            h[i] *= 0.5
+            if h[i] * span[i] < MIN_STEP:
+                lo, hi = _locate_singular(eqs, theta[i], b0[q], direction[i], 1.0 - s[i])
+                out[i] = _Segment(None, int(steps[i]), int(rejected[i]), float(last[i]), "singular", float(s[i]),
+                                  theta[i].copy(), s[i] + lo, s[i] + hi)
+                active[i:] = False
+    return out
 
 
 def _locate_exit(eqs, ranges, theta, theta1, x0, direction, s0, s1, w_lo, w_hi):
@@ -436,16 +489,58 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
     n_steps = rejected = 0
     budget = MAX_STEPS + STEPS_PER_INPUT * n
     seg = None
+    last = FIRST_STEP                             # the input change of the last proven step (radians)
     k = 0
-    for k in range(n - 1):
-        seg = _walk(eqs, ranges, thetas[-1], path[k], path[k + 1], budget - n_steps - rejected,
-                    FIRST_STEP if seg is None else seg.last_step)
-        n_steps += seg.steps
-        rejected += seg.rejected
-        if seg.theta is None:
-            break
-        thetas.append(seg.theta)
-        steps_of.append(seg.steps)
+    while k < n - 1 and (seg is None or seg.theta is not None):
+        # predict up to BATCH rows (Newton, in floats), prove every step in one Krawczyk call, walk
+        # the segments whose step is not proven (or not proven inside the ranges) together
+        end = min(n - 1, k + BATCH)
+        pred = [thetas[-1]]
+        for j in range(k, end):
+            th = eqs.predict(pred[-1], path[j], path[j + 1])
+            if th is None:
+                break
+            pred.append(th)
+        m = len(pred) - 1
+        pred = np.array(pred)
+        good = np.zeros(m, dtype=bool)
+        if m:
+            good, k_lo, k_hi = eqs.certify_steps(pred[:m], pred[1:], path[k:k + m], path[k + 1:k + m + 1])
+            if ranges.limited and good.any():
+                good[good] = ranges.steps_inside(k_lo[good], k_hi[good], path[k:k + m][good],
+                                                 path[k + 1:k + m + 1][good])
+        rejected += int((~good).sum())
+        # the segments to walk (and the one Newton failed on), together; each walk's first step the
+        # previous segment's proven one where that was proven in the batch, else the last known
+        walked = [j for j in range(m) if not good[j]] + ([m] if m < end - k else [])
+        spans = np.abs(np.diff(path[k:k + m + 2], axis=0)).max(axis=1, initial=0.0)
+        firsts = [spans[j - 1] if j and good[j - 1] and spans[j - 1] else last for j in walked]
+        idx = k + np.array(walked, dtype=int)
+        walks = dict(zip(walked, _walks(eqs, ranges, pred[walked], path[idx], path[idx + 1],
+                                        budget - n_steps - rejected, firsts))) if walked else {}
+        for j in range(m + (m < end - k)):        # the batch's segments in order (and the one Newton failed on)
+            r = k + j
+            if j not in walks:
+                n_steps += 1
+                last = float(spans[j]) or last
+                thetas.append(pred[j + 1])
+                steps_of.append(1)
+                continue
+            seg = walks[j]
+            n_steps += seg.steps
+            rejected += seg.rejected
+            if seg.theta is None:
+                k = r
+                break
+            last = seg.last_step
+            thetas.append(seg.theta)
+            steps_of.append(seg.steps)
+            if j + 1 < len(pred) and np.abs(seg.theta - pred[j + 1]).max() > AGREE_TOL:
+                k = r + 1                          # not the predicted root: the later steps start elsewhere
+                break
+            thetas[-1] = pred[j + 1] if j + 1 < len(pred) else seg.theta
+        else:
+            k = k + j + 1
     reached = len(thetas)
     all_names = [j.name for j in mechanism.joints]
     act = eqs.actuated
