@@ -39,11 +39,16 @@ def track_rows(mechanism, track):
     path row reached, its one solution the tracked assembly (status certified: every step proven)."""
     from ..results import Solution, Status
 
+    poses = list(track.poses)
+    kinds = []
+    if poses:          # every pose's classification in one call (a path of 1,000 rows: not 1,000)
+        readings = {n: [p.inputs[n] if n in p.inputs else p.passive_angles[n] for p in poses]
+                    for n in {**poses[0].inputs, **poses[0].passive_angles}}
+        kinds = [r.kind for r in mechanism.singularities(readings)]
     items = []
-    for p in track.poses:
+    for p, kind in zip(poses, kinds):
         angles = np.array(list(p.passive_angles.values()))
-        sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual,
-                       mechanism.singularity({**p.inputs, **p.passive_angles}).kind, Status.CERTIFIED)
+        sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual, kind, Status.CERTIFIED)
         items.append((p.row, np.array(list(p.inputs.values())), tuple(p.passive_angles), (sol,)))
     return solution_rows(mechanism, items)
 
