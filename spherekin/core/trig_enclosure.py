@@ -33,8 +33,13 @@ Angles beyond :data:`MAX_ANGLE` are refused (no joint angle is one; pi/2 would n
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
-__all__ = ["WORK_BITS", "MAX_ANGLE", "HALF_PI_320", "FixedCosSin", "cos_sin_fixed", "cos_sin_enclosure"]
+import numpy as np
+
+__all__ = ["WORK_BITS", "MAX_ANGLE", "HALF_PI_320", "FixedCosSin", "cos_sin_fixed", "cos_sin_enclosure_exact",
+           "VECTOR_MAX_ANGLE", "HALF_PI_PARTS", "HALF_PI_TAIL_BOUND", "TINY_ANGLE", "R_MAX", "COS_ERROR",
+           "SIN_RELATIVE_ERROR", "cos_sin_enclosure_many", "cos_sin_enclosure"]
 
 #: pi/2 rounded down to a multiple of 2^-320 (an integer in units of 2^-320), i.e.
 #: HALF_PI_320 <= 2^320 pi/2 < HALF_PI_320 + 1; checked against mpmath in the tests.
@@ -122,8 +127,10 @@ def cos_sin_fixed(a: float) -> FixedCosSin:
     return FixedCosSin(c, s, err, w)
 
 
-def cos_sin_enclosure(a: float) -> tuple[float, float, float, float]:
-    """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a`` (radians).
+def cos_sin_enclosure_exact(a: float) -> tuple[float, float, float, float]:
+    """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a`` (radians),
+    by the fixed-point integer method (steps 1-5 above; ~27 us a call): the slow reference of
+    :func:`cos_sin_enclosure_many` and its fallback outside its range.
 
     Rigorous (see the module docstring) and normally the two floats adjacent to each exact value;
     exact at a = 0. ValueError for a non-finite ``a`` or |a| > MAX_ANGLE.
@@ -139,3 +146,231 @@ def cos_sin_enclosure(a: float) -> tuple[float, float, float, float]:
     c, s, err, w = f.cos, f.sin, f.error, f.bits
     return (max(_float_below(c - err, w), -1.0), min(_float_above(c + err, w), 1.0),
             max(_float_below(s - err, w), -1.0), min(_float_above(s + err, w), 1.0))
+
+
+# --------------------------------------------------------------------------------------------
+# The vectorized enclosure (double-double arithmetic; derivation in the module docstring, part B)
+# --------------------------------------------------------------------------------------------
+
+#: Unit roundoff of binary64 (round to nearest).
+_U = Fraction(1, 1 << 53)
+#: Largest |a| of the vector path (radians; larger angles take the exact routine). Reason: it keeps
+#: |k| <= 2^20 * 2/pi + 1 < 2^20 = :data:`K_BITS`, so k times a 33-bit part of pi/2 is exact.
+VECTOR_MAX_ANGLE = 2.0 ** 20
+#: Bits of |k| the Cody-Waite parts leave room for (53 - 33 bits of each part).
+K_BITS = 20
+#: Bits of each Cody-Waite part of pi/2 (53 - K_BITS).
+PART_BITS = 53 - K_BITS
+#: pi/2 = P1 + P2 + P3 + P4 + P5 + delta, each part the next PART_BITS bits of pi/2 (truncated from
+#: HALF_PI_320, so 0 <= delta < 2^-164 + 2^-320 <= HALF_PI_TAIL_BOUND).
+HALF_PI_PARTS = tuple(float(Fraction((HALF_PI_320 >> (321 - PART_BITS * (j + 1))) & ((1 << PART_BITS) - 1),
+                                     1 << (PART_BITS * (j + 1) - 1))) for j in range(5))
+#: Upper bound of the truncation delta = pi/2 - sum(HALF_PI_PARTS) >= 0 (checked with mpmath in the tests).
+HALF_PI_TAIL_BOUND = 2.0 ** -163
+#: |a| at or below which the closed forms of step B0 are used. Reason: a^2/2 <= 2^-53 (cos a in
+#: [pred 1, 1]) and |a|^3/6 < half the gap below |a| (sin a strictly between pred a and a).
+TINY_ANGLE = 2.0 ** -26
+#: Bound of |r| on the vector path (radians). Reason: |r| <= pi/4 + 2^-31 < R_MAX (part B1); the run
+#: time check |r_hi| <= R_MAX (1 - 2^-40) keeps |r_hi + r_lo| <= R_MAX for the constants of part B3.
+R_MAX = 0.7854
+#: Smallest |r| of the vector path. Reason: keeps every product of the series far above the
+#: subnormal range (TwoProduct is exact there); no float of the range comes near it.
+R_MIN = 2.0 ** -200
+#: Degree from which the series are summed in plain double (then double-double below it). Reason:
+#: the plain-double part then errs by < 2^-80 relative, far below the gap of the results.
+DD_DEGREE = 6
+#: Degree of the truncated series (in r^2). Reason: r^30/30! < 2^-117 for |r| <= R_MAX.
+SERIES_DEGREE = 14
+#: Relative error of one double-double product (DWTimesDW1 with Dekker's TwoProduct; part B2).
+DD_MUL_ERROR = 9 * _U * _U
+#: Relative error of the double-double sums of the Horner steps (part B2; needs |p| <= 0.31 |c|).
+DD_ADD_ERROR = 5 * _U * _U
+#: Factor making a float bound computed with m <= 40 roundings of nonnegative numbers an upper bound:
+#: (1 - u)^-41 < 1 + 2^-46.
+BOUND_SLACK = 1.0 + 2.0 ** -46
+#: A result is rounded to floats only if its error bound E <= |h| 2^-55 (< half the gap of h);
+#: otherwise the exact routine decides that entry.
+GAP_FRACTION = 2.0 ** -55
+
+_SPLIT = float((1 << 27) + 1)      # Dekker's splitter for binary64
+
+
+def _fraction_up(x: Fraction) -> float:
+    """The smallest float >= x (x a positive Fraction)."""
+    f = float(x)
+    return f if Fraction(f) >= x else math.nextafter(f, math.inf)
+
+
+def _series_error_bounds() -> tuple[float, float]:
+    """(COS_ERROR, SIN_RELATIVE_ERROR) of part B3 in exact rational arithmetic, rounded up."""
+    n, m = SERIES_DEGREE, DD_DEGREE
+    r = Fraction(R_MAX)
+    x = r * r
+    fact = [Fraction(math.factorial(j)) for j in range(2 * n + 60)]
+    cosh = sum(x ** i / fact[2 * i] for i in range(25)) + 2 * x ** 25 / fact[50]        # >= cosh R
+    sinh_r = sum(x ** i / fact[2 * i + 1] for i in range(25)) + 2 * x ** 25 / fact[51]  # >= sinh R / R
+    eps = DD_MUL_ERROR
+    j = 3 * m + 1
+    gamma = j * eps / (1 - j * eps)                                   # gamma_{3M+1}(9u^2)
+    plain = 2 * (n - m) + 1                                           # roundings of the plain-double part
+    gamma_plain = plain * _U / (1 - plain * _U)
+    grow = Fraction(101, 100)                                         # sum_i>=M |c_i| x^(i-M) <= 1.01 |c_M|
+    t_cos = (gamma_plain * grow + _U * Fraction(11, 10)) / fact[2 * m] * x ** m * (1 + gamma)
+    t_sin = (gamma_plain * grow + _U * Fraction(11, 10)) / fact[2 * m + 1] * x ** m * (1 + gamma)
+    cos_err = gamma * cosh + t_cos + x ** (n + 1) / fact[2 * n + 2]
+    q_err = gamma * sinh_r + t_sin + x ** (n + 1) / fact[2 * n + 3]
+    sin_rel = q_err + eps * (1 + q_err)
+    return _fraction_up(cos_err), _fraction_up(sin_rel * (1 + _U) / (1 - _U))
+
+
+#: |computed cos r - cos r| for the computed double-double r (part B3; absolute, cos r >= 0.7).
+#: SIN_RELATIVE_ERROR: |computed sin r - sin r| / |r_hi| (part B3).
+COS_ERROR, SIN_RELATIVE_ERROR = _series_error_bounds()
+
+
+def _dd_coefficients(odd: bool) -> tuple[tuple[float, float], ...]:
+    """(hi, lo) of (-1)^i / (2i + odd)! for i < DD_DEGREE: hi + lo within u^2 |c| of the exact value."""
+    out = []
+    for i in range(DD_DEGREE):
+        c = Fraction((-1) ** i, math.factorial(2 * i + odd))
+        hi = float(c)
+        out.append((hi, float(c - Fraction(hi))))
+    return tuple(out)
+
+
+_COS_DD = _dd_coefficients(False)
+_SIN_DD = _dd_coefficients(True)
+_COS_PLAIN = tuple((-1) ** i / math.factorial(2 * i) for i in range(DD_DEGREE, SERIES_DEGREE + 1))
+_SIN_PLAIN = tuple((-1) ** i / math.factorial(2 * i + 1) for i in range(DD_DEGREE, SERIES_DEGREE + 1))
+
+
+def _two_sum(a, b):
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+def _fast_two_sum(a, b):
+    s = a + b
+    return s, b - (s - a)
+
+
+def _split(a):
+    t = _SPLIT * a
+    hi = t - (t - a)
+    return hi, a - hi
+
+
+def _two_product(a, b, a_split=None):
+    p = a * b
+    ah, al = _split(a) if a_split is None else a_split
+    bh, bl = _split(b)
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _dd_mul(xh, xl, yh, yl, x_split=None):
+    """DWTimesDW1 (part B2): relative error <= DD_MUL_ERROR for normalized inputs."""
+    ch, c1 = _two_product(xh, yh, x_split)
+    c3 = c1 + (xh * yl + xl * yh)
+    return _fast_two_sum(ch, c3)
+
+
+def _dd_add(ch, cl, ph, pl):
+    """Sum of a double-double constant c and p with |p| <= 0.31 |c| (part B2): error <= DD_ADD_ERROR |c + p|."""
+    sh, sl = _two_sum(ch, ph)
+    return _fast_two_sum(sh, sl + (cl + pl))
+
+
+def _horner(xh, xl, x_split, dd_coefs, plain_coefs):
+    """Part B3: sum_i c_i x^i for the double-double x (plain double from DD_DEGREE up)."""
+    t = np.full(xh.shape, plain_coefs[-1])
+    for c in plain_coefs[-2::-1]:
+        t = t * xh + c
+    yh, yl = t, np.zeros_like(t)
+    for ch, cl in dd_coefs[::-1]:
+        ph, pl = _dd_mul(xh, xl, yh, yl, x_split)
+        yh, yl = _dd_add(ch, cl, ph, pl)
+    return yh, yl
+
+
+def _round_out(h, l, err):
+    """Part B5: floats lo <= v <= hi for every v with |v - (h + l)| <= err, where h = RN(h + l)
+    and err <= |h| GAP_FRACTION (entries where that fails are marked in the returned mask)."""
+    ok = err <= np.abs(h) * GAP_FRACTION
+    lo = np.where(l >= err, h, np.nextafter(h, -math.inf))
+    hi = np.where(-l >= err, h, np.nextafter(h, math.inf))
+    return np.maximum(lo, -1.0), np.minimum(hi, 1.0), ok
+
+
+def cos_sin_enclosure_many(a) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(cos_lo, cos_hi, sin_lo, sin_hi): float arrays of a's shape enclosing cos and sin of each entry
+    of the float array ``a`` (radians), elementwise.
+
+    Rigorous (module docstring, part B) and, like :func:`cos_sin_enclosure_exact`, normally the two
+    floats adjacent to each exact value: at most one float wider on each side, which happens only
+    where the exact value lies within the error bound (< 2^-70 relative) of a float, or exactly on
+    one. Every entry's result depends on that entry alone (same floats alone or in any array).
+    Entries with |a| > VECTOR_MAX_ANGLE (or outside the checked ranges) take the exact routine;
+    a = 0 gives (1, 1, 0, 0). ValueError for a non-finite entry or |a| > MAX_ANGLE.
+    """
+    a = np.asarray(a, dtype=float)
+    shape = a.shape
+    a = a.ravel()
+    finite = np.isfinite(a)
+    if not finite.all():
+        cos_sin_enclosure_exact(float(a[~finite][0]))            # raises the ValueError
+    mag = np.abs(a)
+    fast = mag <= VECTOR_MAX_ANGLE
+    # B1: Cody-Waite reduction r = a - k pi/2, |k| < 2^K_BITS
+    x = np.where(fast, a, 0.0)
+    k = np.rint(x * (2.0 / math.pi))
+    p1, p2, p3, p4, p5 = (k * part for part in HALF_PI_PARTS)     # exact (33-bit parts, |k| < 2^20)
+    r1 = x - p1                                                   # exact (part B1)
+    s2, e2 = _two_sum(r1, -p2)
+    s3, e3 = _two_sum(s2, -p3)
+    rh, rl = _two_sum(s3, ((e2 + e3) - p4) - p5)
+    r_err = ((np.abs(e2) + np.abs(e3)) + (np.abs(p4) + np.abs(p5))) * 2.0 ** -51 + np.abs(k) * HALF_PI_TAIL_BOUND
+    r_abs = np.abs(rh)
+    fast &= (r_abs <= R_MAX * (1.0 - 2.0 ** -40)) & (r_abs >= R_MIN)
+    rh = np.where(fast, rh, 0.5)                                  # harmless values off the vector path
+    rl = np.where(fast, rl, 0.0)
+    # B2-B3: x = r^2, cos r = P(x), sin r = r Q(x)
+    r_split = _split(rh)
+    xh, xl = _dd_mul(rh, rl, rh, rl, r_split)
+    x_split = _split(xh)
+    ch, cl = _horner(xh, xl, x_split, _COS_DD, _COS_PLAIN)
+    qh, ql = _horner(xh, xl, x_split, _SIN_DD, _SIN_PLAIN)
+    sh, sl = _dd_mul(rh, rl, qh, ql, r_split)
+    cos_err = (COS_ERROR + r_err) * BOUND_SLACK
+    sin_err = (np.abs(rh) * SIN_RELATIVE_ERROR + r_err) * BOUND_SLACK
+    # B4: quadrant
+    quadrant = np.mod(k, 4.0)
+    swap = (quadrant == 1.0) | (quadrant == 3.0)
+    c_h, c_l, c_e = np.where(swap, sh, ch), np.where(swap, sl, cl), np.where(swap, sin_err, cos_err)
+    s_h, s_l, s_e = np.where(swap, ch, sh), np.where(swap, cl, sl), np.where(swap, cos_err, sin_err)
+    c_neg = (quadrant == 1.0) | (quadrant == 2.0)
+    s_neg = (quadrant == 2.0) | (quadrant == 3.0)
+    c_h, c_l = np.where(c_neg, -c_h, c_h), np.where(c_neg, -c_l, c_l)
+    s_h, s_l = np.where(s_neg, -s_h, s_h), np.where(s_neg, -s_l, s_l)
+    # B5: outward rounding
+    c_lo, c_hi, c_ok = _round_out(c_h, c_l, c_e)
+    s_lo, s_hi, s_ok = _round_out(s_h, s_l, s_e)
+    fast &= c_ok & s_ok
+    # B0: zero and tiny angles
+    tiny = mag <= TINY_ANGLE
+    c_lo[tiny], c_hi[tiny] = np.nextafter(1.0, 0.0), 1.0
+    s_lo[tiny] = np.where(a[tiny] > 0, np.nextafter(a[tiny], -math.inf), a[tiny])
+    s_hi[tiny] = np.where(a[tiny] > 0, a[tiny], np.nextafter(a[tiny], math.inf))
+    zero = a == 0.0
+    c_lo[zero], c_hi[zero], s_lo[zero], s_hi[zero] = 1.0, 1.0, 0.0, 0.0
+    # the rest: the exact routine, entry by entry
+    for n in np.flatnonzero(~(fast | tiny)).tolist():
+        c_lo[n], c_hi[n], s_lo[n], s_hi[n] = cos_sin_enclosure_exact(float(a[n]))
+    return c_lo.reshape(shape), c_hi.reshape(shape), s_lo.reshape(shape), s_hi.reshape(shape)
+
+
+def cos_sin_enclosure(a: float) -> tuple[float, float, float, float]:
+    """(cos_lo, cos_hi, sin_lo, sin_hi) of one float ``a`` (radians): :func:`cos_sin_enclosure_many`
+    at one point, so a point gets the same floats alone or in an array. ValueError as there."""
+    c_lo, c_hi, s_lo, s_hi = cos_sin_enclosure_many(np.array([float(a)]))
+    return float(c_lo[0]), float(c_hi[0]), float(s_lo[0]), float(s_hi[0])
