@@ -336,7 +336,8 @@ def cos_sin_ball(center, radius) -> tuple[np.ndarray, np.ndarray]:
     a = center and |d| <= r = radius: cos(a + d) = cos a cos d - sin a sin d and
     sin(a + d) = sin a cos d + cos a sin d, where cos d in [1 - r^2/2, 1] and
     |sin d| <= rho = min(r, 1), so |x sin d| <= rho max|x| for x in an interval; results are
-    intersected with [-1, 1]. cos a and sin a come from :func:`point_cos_sin`.
+    intersected with [-1, 1]. cos a and sin a come from
+    :func:`spherekin.core.trig_enclosure.cos_sin_enclosure_many` (the floats of :func:`point_cos_sin`).
     """
     table = cos_sin_table(center, radius)
     return table[:, 0], table[:, 1]

@@ -423,8 +423,8 @@ def cos_sin_enclosure_many(a) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     of the float array ``a`` (radians), elementwise.
 
     Rigorous (module docstring, part B) and, like :func:`cos_sin_enclosure_exact`, normally the two
-    floats adjacent to each exact value: never more than 2 gaps wide (lo >= pred h, hi <= succ h
-    for the double-double value's float h), one float wider than adjacent on a side only where the
+    floats adjacent to each exact value: on the vector path never more than 2 gaps wide (lo >= pred h,
+    hi <= succ h for the double-double value's float h), one float wider than adjacent on a side only where the
     exact value lies within the error bound (< 2^-70 relative) of a float. Every entry's result
     depends on that entry alone (the same floats alone or in any array). Entries with
     |a| > VECTOR_MAX_ANGLE (or failing a checked range) take the exact routine; a = 0 gives
