@@ -61,7 +61,8 @@ B2. double-double operations with their relative errors (inputs (xh, xl), (yh, y
    Fast2Sum(ch, c3). With m = |xh yh|: the dropped xl yl <= u^2 m; the two products and their sum
    err by <= 4u^2 m + O(u^3) m; the last sum by <= u (|c1| + |c2|) <= 3u^2 m + O(u^3) m; and
    m <= |x y| / (1 - u)^2: relative error <= 8u^2 + O(u^3) <= :data:`DD_MUL_ERROR` = 9u^2.
-   sum of a constant c and p with |p| <= 0.31 |c| (each Horner step below): (sh, sl) = TwoSum(ch, ph),
+   sum of a constant c and p with |p| <= 0.31 |c| (each Horner step below): (sh, sl) = Fast2Sum(ch, ph)
+   (exact, as |ph| < |ch|),
    w = fl(sl + fl(cl + pl)), Fast2Sum(sh, w); error <= u (2 + u) u (|ch| + |ph|) + u^2 |sh|
    <= u^2 |c + p| ((2 + u) 1.31 / 0.69 + 1) / (1 - u) <= :data:`DD_ADD_ERROR` = 5u^2 |c + p|.
 B3. series at the double-double r^ = r_hi + r_lo: x^ = r^ r^ (B2 product); cos r^ = P(x),
@@ -340,7 +341,7 @@ def _dd_mul(xh, xl, yh, yl, x_split=None):
 
 def _dd_add(ch, cl, ph, pl):
     """Sum of a double-double constant c and p with |p| <= 0.31 |c| (part B2): error <= DD_ADD_ERROR |c + p|."""
-    sh, sl = _two_sum(ch, ph)
+    sh, sl = _fast_two_sum(ch, ph)                # exact: |ph| <= 0.31 |c| (1 + u) < |ch|
     return _fast_two_sum(sh, sl + (cl + pl))
 
 
