@@ -383,6 +383,9 @@ def test_cos_sin_table_at_radius_zero_is_the_vector_point_enclosure_alone_or_in_
     table = I.cos_sin_table(centers, np.zeros_like(centers))
     c_lo, c_hi, s_lo, s_hi = cos_sin_enclosure_many(centers)
     assert np.array_equal(table[:, 0], np.stack((c_lo, c_hi))) and np.array_equal(table[:, 1], np.stack((s_lo, s_hi)))
+    assert centers.size > I.SMALL_TABLE                 # the array path; a few entries take the cached points
+    small = I.cos_sin_table(centers[:I.SMALL_TABLE], np.zeros(I.SMALL_TABLE))
+    assert np.array_equal(small, table[..., :I.SMALL_TABLE])
     for n, a in enumerate(centers.tolist()):
         assert I.point_cos_sin(a) == (c_lo[n], c_hi[n], s_lo[n], s_hi[n])
         c, s = mp_cos_sin(a)

@@ -34,6 +34,7 @@ from .trig_enclosure import cos_sin_enclosure, cos_sin_enclosure_many
 
 __all__ = [
     "POINT_CACHE_SIZE",
+    "SMALL_TABLE",
     "point",
     "from_bounds",
     "outward",
@@ -64,6 +65,12 @@ __all__ = [
 #: mechanism (joint offsets, known factor angles, ~a dozen per loop system) recur in every
 #: certification of one solve and across radii; 2**14 entries (~2 MB) hold thousands of systems.
 POINT_CACHE_SIZE = 1 << 14
+
+#: Entries up to which :func:`cos_sin_table` takes the point enclosures one by one from the cache of
+#: :func:`point_cos_sin` (the same floats as the array routine). Reason: one numpy call of
+#: cos_sin_enclosure_many costs ~0.3 ms whatever its size, one uncached point ~16 us, a cached one
+#: ~0.3 us (few-entry tables recur in tracking steps, with their constant angles).
+SMALL_TABLE = 32
 
 _INF = math.inf
 _DIRECTIONS: dict[tuple, np.ndarray] = {}
@@ -299,8 +306,12 @@ def cos_sin_table_unchecked(center: np.ndarray, radius: np.ndarray) -> np.ndarra
     """cos_sin_table without argument checks (center, radius: finite float arrays of one shape, radius >= 0)."""
     shape = center.shape
     # (2 endpoints, 2 functions (cos, sin), *shape): cos(a), sin(a) at the points
-    point_cs = np.stack(cos_sin_enclosure_many(center)).reshape((2, 2) + shape)   # (c_lo, c_hi, s_lo, s_hi)
-    point_cs = np.ascontiguousarray(point_cs.transpose((1, 0) + tuple(range(2, point_cs.ndim))))
+    if center.size <= SMALL_TABLE:      # the same floats entry by entry (cached), cheaper for few entries
+        table = np.array([point_cos_sin(a) for a in center.ravel().tolist()], dtype=float).reshape((-1, 2, 2))
+        point_cs = table.transpose(2, 1, 0).reshape((2, 2) + shape)
+    else:
+        point_cs = np.stack(cos_sin_enclosure_many(center)).reshape((2, 2) + shape)   # (c_lo, c_hi, s_lo, s_hi)
+        point_cs = np.ascontiguousarray(point_cs.transpose((1, 0) + tuple(range(2, point_cs.ndim))))
     # cos d in [k, 1] with k = 1 - r^2/2 rounded down (exactly 1 when r = 0)
     half_r2 = np.nextafter(np.nextafter(radius * radius, _INF) * 0.5, _INF)
     k = np.maximum(np.nextafter(1.0 - half_r2, -_INF), -1.0)
