@@ -372,3 +372,21 @@ def test_rounding_environment_check_fails_when_a_probe_disagrees(monkeypatch, pr
 def test_bad_input_raises_value_error(call, message):
     with pytest.raises(ValueError, match=message):
         call()
+
+
+def test_cos_sin_table_at_radius_zero_is_the_vector_point_enclosure_alone_or_in_a_chunk():
+    """One definition of the point enclosure: the table's radius-0 entries are cos_sin_enclosure_many's
+    floats, equal to point_cos_sin's for each point alone, and contain the 60-digit values."""
+    from spherekin.core.trig_enclosure import cos_sin_enclosure_many
+    rng = np.random.default_rng(30)
+    centers = np.concatenate((rng.uniform(-8, 8, 50), [0.0, math.pi / 2, 1e-9, 3e6]))
+    table = I.cos_sin_table(centers, np.zeros_like(centers))
+    c_lo, c_hi, s_lo, s_hi = cos_sin_enclosure_many(centers)
+    assert np.array_equal(table[:, 0], np.stack((c_lo, c_hi))) and np.array_equal(table[:, 1], np.stack((s_lo, s_hi)))
+    assert centers.size > I.SMALL_TABLE                 # the array path; a few entries take the cached points
+    small = I.cos_sin_table(centers[:I.SMALL_TABLE], np.zeros(I.SMALL_TABLE))
+    assert np.array_equal(small, table[..., :I.SMALL_TABLE])
+    for n, a in enumerate(centers.tolist()):
+        assert I.point_cos_sin(a) == (c_lo[n], c_hi[n], s_lo[n], s_hi[n])
+        c, s = mp_cos_sin(a)
+        assert contains_mp(c_lo[n], c_hi[n], c) and contains_mp(s_lo[n], s_hi[n], s)

@@ -15,8 +15,9 @@ gives infinite endpoints (still an enclosure); callers reject non-finite results
 switch on flush-to-zero, which breaks it); callers must use a different method when it fails.
 
 The only transcendental functions are cos and sin (:func:`cos_sin`, :func:`cos_sin_ball`): at
-a float point a they come from :func:`spherekin.core.trig_enclosure.cos_sin_enclosure` (fixed-point
-integer arithmetic with a counted error bound, outward-rounded, independent of the FPU), then
+a float point a they come from :func:`spherekin.core.trig_enclosure.cos_sin_enclosure_many`
+(double-double arithmetic with a proven error bound, outward-rounded; the fixed-point integer
+routine beyond its range), the same floats for a point alone or in any array, then
 over [a - r, a + r] from cos(a + d) = cos a cos d - sin a sin d,
 sin(a + d) = sin a cos d + cos a sin d with cos d in [1 - r^2/2, 1] and |sin d| <= min(r, 1),
 both true for every real d with |d| <= r, evaluated in this arithmetic.
@@ -29,10 +30,11 @@ import math
 
 import numpy as np
 
-from .trig_enclosure import cos_sin_enclosure
+from .trig_enclosure import cos_sin_enclosure, cos_sin_enclosure_many
 
 __all__ = [
     "POINT_CACHE_SIZE",
+    "SMALL_TABLE",
     "point",
     "from_bounds",
     "outward",
@@ -63,6 +65,12 @@ __all__ = [
 #: mechanism (joint offsets, known factor angles, ~a dozen per loop system) recur in every
 #: certification of one solve and across radii; 2**14 entries (~2 MB) hold thousands of systems.
 POINT_CACHE_SIZE = 1 << 14
+
+#: Entries up to which :func:`cos_sin_table` takes the point enclosures one by one from the cache of
+#: :func:`point_cos_sin` (the same floats as the array routine). Reason: one numpy call of
+#: cos_sin_enclosure_many costs ~0.3 ms whatever its size, one uncached point ~16 us, a cached one
+#: ~0.3 us (few-entry tables recur in tracking steps, with their constant angles).
+SMALL_TABLE = 32
 
 _INF = math.inf
 _DIRECTIONS: dict[tuple, np.ndarray] = {}
@@ -273,7 +281,7 @@ def point_cos_sin(a: float) -> tuple[float, float, float, float]:
     """(cos_lo, cos_hi, sin_lo, sin_hi): floats enclosing cos(a) and sin(a) for a float ``a``.
 
     :func:`spherekin.core.trig_enclosure.cos_sin_enclosure` (normally the two floats adjacent to each
-    exact value), cached: a pure function of a.
+    exact value; the same floats as :func:`cos_sin_table` gives at radius 0), cached: a pure function of a.
     """
     return cos_sin_enclosure(a)
 
@@ -298,8 +306,12 @@ def cos_sin_table_unchecked(center: np.ndarray, radius: np.ndarray) -> np.ndarra
     """cos_sin_table without argument checks (center, radius: finite float arrays of one shape, radius >= 0)."""
     shape = center.shape
     # (2 endpoints, 2 functions (cos, sin), *shape): cos(a), sin(a) at the points
-    table = np.array([point_cos_sin(a) for a in center.ravel().tolist()], dtype=float).reshape((-1, 2, 2))
-    point_cs = table.transpose(2, 1, 0).reshape((2, 2) + shape)
+    if center.size <= SMALL_TABLE:      # the same floats entry by entry (cached), cheaper for few entries
+        table = np.array([point_cos_sin(a) for a in center.ravel().tolist()], dtype=float).reshape((-1, 2, 2))
+        point_cs = table.transpose(2, 1, 0).reshape((2, 2) + shape)
+    else:
+        point_cs = np.stack(cos_sin_enclosure_many(center)).reshape((2, 2) + shape)   # (c_lo, c_hi, s_lo, s_hi)
+        point_cs = np.ascontiguousarray(point_cs.transpose((1, 0) + tuple(range(2, point_cs.ndim))))
     # cos d in [k, 1] with k = 1 - r^2/2 rounded down (exactly 1 when r = 0)
     half_r2 = np.nextafter(np.nextafter(radius * radius, _INF) * 0.5, _INF)
     k = np.maximum(np.nextafter(1.0 - half_r2, -_INF), -1.0)
@@ -335,7 +347,8 @@ def cos_sin_ball(center, radius) -> tuple[np.ndarray, np.ndarray]:
     a = center and |d| <= r = radius: cos(a + d) = cos a cos d - sin a sin d and
     sin(a + d) = sin a cos d + cos a sin d, where cos d in [1 - r^2/2, 1] and
     |sin d| <= rho = min(r, 1), so |x sin d| <= rho max|x| for x in an interval; results are
-    intersected with [-1, 1]. cos a and sin a come from :func:`point_cos_sin`.
+    intersected with [-1, 1]. cos a and sin a come from
+    :func:`spherekin.core.trig_enclosure.cos_sin_enclosure_many` (the floats of :func:`point_cos_sin`).
     """
     table = cos_sin_table(center, radius)
     return table[:, 0], table[:, 1]
