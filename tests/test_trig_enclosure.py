@@ -216,3 +216,21 @@ def test_the_double_double_error_bound_holds_and_is_needed():
                 worst = max(worst, float(miss / mpf(err)))
     assert worst > 2.0 ** -40                                       # the bound is not vacuous either
 
+
+
+def test_the_kept_error_constants_and_coefficients_are_their_exact_derivations():
+    """The module keeps COS_ERROR, SIN_RELATIVE_ERROR and the double-double series coefficients as
+    literals (no ``fractions`` import on the solve path); they must be what the exact derivations
+    give, and the coefficients within u^2 of 1/(2i)! and 1/(2i+1)! (checked in fractions here)."""
+    from fractions import Fraction
+    import math
+
+    from spherekin.core import trig_enclosure as te
+
+    assert (te.COS_ERROR, te.SIN_RELATIVE_ERROR) == te.series_error_bounds()
+    assert te._COS_DD == te.dd_coefficients(False) and te._SIN_DD == te.dd_coefficients(True)
+    u2 = Fraction(1, 1 << 106)
+    for odd, table in ((0, te._COS_DD), (1, te._SIN_DD)):
+        for i, (hi, lo) in enumerate(table):
+            exact = Fraction((-1) ** i, math.factorial(2 * i + odd))
+            assert abs(Fraction(hi) + Fraction(lo) - exact) <= u2 * abs(exact)

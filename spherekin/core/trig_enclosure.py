@@ -61,11 +61,11 @@ B2. double-double operations with their relative errors (inputs (xh, xl), (yh, y
    product (DWTimesDW1): (ch, c1) = TwoProduct(xh, yh), c3 = fl(c1 + fl(fl(xh yl) + fl(xl yh))),
    Fast2Sum(ch, c3). With m = |xh yh|: the dropped xl yl <= u^2 m; the two products and their sum
    err by <= 4u^2 m + O(u^3) m; the last sum by <= u (|c1| + |c2|) <= 3u^2 m + O(u^3) m; and
-   m <= |x y| / (1 - u)^2: relative error <= 8u^2 + O(u^3) <= :data:`DD_MUL_ERROR` = 9u^2.
+   m <= |x y| / (1 - u)^2: relative error <= 8u^2 + O(u^3) <= 9u^2 (:data:`DD_MUL_ERROR_U2`).
    sum of a constant c and p with |p| <= 0.31 |c| (each Horner step below): (sh, sl) = Fast2Sum(ch, ph)
    (exact, as |ph| < |ch|),
    w = fl(sl + fl(cl + pl)), Fast2Sum(sh, w); error <= u (2 + u) u (|ch| + |ph|) + u^2 |sh|
-   <= u^2 |c + p| ((2 + u) 1.31 / 0.69 + 1) / (1 - u) <= :data:`DD_ADD_ERROR` = 5u^2 |c + p|.
+   <= u^2 |c + p| ((2 + u) 1.31 / 0.69 + 1) / (1 - u) <= 5u^2 |c + p| (:data:`DD_ADD_ERROR_U2`).
 B3. series at the double-double r^ = r_hi + r_lo: x^ = r^ r^ (B2 product); cos r^ = P(x),
    sin r^ = r^ Q(x), P = sum_{i<=N} (-1)^i x^i / (2i)!, Q = sum_{i<=N} (-1)^i x^i / (2i+1)!,
    N = :data:`SERIES_DEGREE` = 14 (the rests, alternating and decreasing for x < 1, are below
@@ -97,14 +97,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 
 __all__ = ["WORK_BITS", "MAX_ANGLE", "HALF_PI_320", "FixedCosSin", "cos_sin_fixed", "cos_sin_enclosure_exact",
            "VECTOR_MAX_ANGLE", "HALF_PI_PARTS", "HALF_PI_TAIL_BOUND", "TINY_ANGLE", "R_MAX", "COS_ERROR",
            "SIN_RELATIVE_ERROR", "DoubleDoubleCosSin", "cos_sin_double_double", "cos_sin_enclosure_many",
-           "cos_sin_enclosure"]
+           "cos_sin_enclosure", "series_error_bounds", "dd_coefficients", "DD_MUL_ERROR_U2", "DD_ADD_ERROR_U2"]
 
 #: pi/2 rounded down to a multiple of 2^-320 (an integer in units of 2^-320), i.e.
 #: HALF_PI_320 <= 2^320 pi/2 < HALF_PI_320 + 1; checked against mpmath in the tests.
@@ -217,8 +216,6 @@ def cos_sin_enclosure_exact(a: float) -> tuple[float, float, float, float]:
 # The vectorized enclosure (double-double arithmetic; derivation in the module docstring, part B)
 # --------------------------------------------------------------------------------------------
 
-#: Unit roundoff of binary64 (round to nearest).
-_U = Fraction(1, 1 << 53)
 #: Largest |a| of the vector path (radians; larger angles take the exact routine). Reason: it keeps
 #: |k| <= 2^20 * 2/pi + 1 < 2^20 = :data:`K_BITS`, so k times a 33-bit part of pi/2 is exact.
 VECTOR_MAX_ANGLE = 2.0 ** 20
@@ -228,8 +225,8 @@ K_BITS = 20
 PART_BITS = 53 - K_BITS
 #: pi/2 = P1 + P2 + P3 + P4 + P5 + delta, each part the next PART_BITS bits of pi/2 (truncated from
 #: HALF_PI_320, so 0 <= delta < 2^-164 + 2^-320 <= HALF_PI_TAIL_BOUND).
-HALF_PI_PARTS = tuple(float(Fraction((HALF_PI_320 >> (321 - PART_BITS * (j + 1))) & ((1 << PART_BITS) - 1),
-                                     1 << (PART_BITS * (j + 1) - 1))) for j in range(5))
+HALF_PI_PARTS = tuple(math.ldexp((HALF_PI_320 >> (321 - PART_BITS * (j + 1))) & ((1 << PART_BITS) - 1),
+                                 -(PART_BITS * (j + 1) - 1)) for j in range(5))
 #: Upper bound of the truncation delta = pi/2 - sum(HALF_PI_PARTS) >= 0 (checked with mpmath in the tests).
 HALF_PI_TAIL_BOUND = 2.0 ** -163
 #: |a| at or below which the closed forms of step B0 are used. Reason: a^2/2 <= 2^-53 (cos a in
@@ -246,10 +243,12 @@ R_MIN = 2.0 ** -200
 DD_DEGREE = 6
 #: Degree of the truncated series (in r^2). Reason: r^30/30! < 2^-117 for |r| <= R_MAX.
 SERIES_DEGREE = 14
-#: Relative error of one double-double product (DWTimesDW1 with Dekker's TwoProduct; part B2).
-DD_MUL_ERROR = 9 * _U * _U
-#: Relative error of the double-double sums of the Horner steps (part B2; needs |p| <= 0.31 |c|).
-DD_ADD_ERROR = 5 * _U * _U
+#: Relative error of one double-double product, in units of u^2 (u = 2^-53, the unit roundoff;
+#: DWTimesDW1 with Dekker's TwoProduct; part B2).
+DD_MUL_ERROR_U2 = 9
+#: Relative error of the double-double sums of the Horner steps, in units of u^2 (part B2; needs
+#: |p| <= 0.31 |c|).
+DD_ADD_ERROR_U2 = 5
 #: Factor making a float bound computed with m <= 40 roundings of nonnegative numbers an upper bound:
 #: (1 - u)^-41 < 1 + 2^-46.
 BOUND_SLACK = 1.0 + 2.0 ** -46
@@ -260,14 +259,18 @@ GAP_FRACTION = 2.0 ** -55
 _SPLIT = float((1 << 27) + 1)      # Dekker's splitter for binary64
 
 
-def _fraction_up(x: Fraction) -> float:
-    """The smallest float >= x (x a positive Fraction)."""
-    f = float(x)
-    return f if Fraction(f) >= x else math.nextafter(f, math.inf)
+def series_error_bounds() -> tuple[float, float]:
+    """(COS_ERROR, SIN_RELATIVE_ERROR) of part B3 in exact rational arithmetic, rounded up: their
+    derivation, run by the tests (the module keeps its result as literals, so that importing it
+    imports no ``fractions``: the default solve's imports are kept to what it uses)."""
+    from fractions import Fraction
 
+    def _fraction_up(x: Fraction) -> float:            # the smallest float >= x (x > 0)
+        f = float(x)
+        return f if Fraction(f) >= x else math.nextafter(f, math.inf)
 
-def _series_error_bounds() -> tuple[float, float]:
-    """(COS_ERROR, SIN_RELATIVE_ERROR) of part B3 in exact rational arithmetic, rounded up."""
+    _U = Fraction(1, 1 << 53)                          # the unit roundoff u
+    DD_MUL_ERROR = DD_MUL_ERROR_U2 * _U * _U
     n, m = SERIES_DEGREE, DD_DEGREE
     r = Fraction(R_MAX)
     x = r * r
@@ -288,13 +291,18 @@ def _series_error_bounds() -> tuple[float, float]:
     return _fraction_up(cos_err), _fraction_up(sin_rel * (1 + _U) / (1 - _U))
 
 
-#: |computed cos r - cos r| for the computed double-double r (part B3; absolute, cos r >= 0.7).
-#: SIN_RELATIVE_ERROR: |computed sin r - sin r| / |r_hi| (part B3).
-COS_ERROR, SIN_RELATIVE_ERROR = _series_error_bounds()
+#: |computed cos r - cos r| for the computed double-double r (part B3; absolute, cos r >= 0.7):
+#: :func:`series_error_bounds`, kept as a literal (tests/test_trig_enclosure.py recomputes it).
+COS_ERROR = float.fromhex('0x1.20ce8916ae618p-82')
+#: |computed sin r - sin r| / |r_hi| (part B3): :func:`series_error_bounds`, as COS_ERROR.
+SIN_RELATIVE_ERROR = float.fromhex('0x1.637fa543bb2cap-86')
 
 
-def _dd_coefficients(odd: bool) -> tuple[tuple[float, float], ...]:
-    """(hi, lo) of (-1)^i / (2i + odd)! for i < DD_DEGREE: hi + lo within u^2 |c| of the exact value."""
+def dd_coefficients(odd: bool) -> tuple[tuple[float, float], ...]:
+    """(hi, lo) of (-1)^i / (2i + odd)! for i < DD_DEGREE: hi + lo within u^2 |c| of the exact value
+    (the derivation of the literals _COS_DD, _SIN_DD, recomputed by the tests)."""
+    from fractions import Fraction
+
     out = []
     for i in range(DD_DEGREE):
         c = Fraction((-1) ** i, math.factorial(2 * i + odd))
@@ -303,8 +311,8 @@ def _dd_coefficients(odd: bool) -> tuple[tuple[float, float], ...]:
     return tuple(out)
 
 
-_COS_DD = _dd_coefficients(False)
-_SIN_DD = _dd_coefficients(True)
+_COS_DD = ((float.fromhex('0x1.0000000000000p+0'), float.fromhex('0x0.0p+0')), (float.fromhex('-0x1.0000000000000p-1'), float.fromhex('0x0.0p+0')), (float.fromhex('0x1.5555555555555p-5'), float.fromhex('0x1.5555555555555p-59')), (float.fromhex('-0x1.6c16c16c16c17p-10'), float.fromhex('0x1.f49f49f49f49fp-65')), (float.fromhex('0x1.a01a01a01a01ap-16'), float.fromhex('0x1.a01a01a01a01ap-76')), (float.fromhex('-0x1.27e4fb7789f5cp-22'), float.fromhex('-0x1.cbbc05b4fa99ap-76')))
+_SIN_DD = ((float.fromhex('0x1.0000000000000p+0'), float.fromhex('0x0.0p+0')), (float.fromhex('-0x1.5555555555555p-3'), float.fromhex('-0x1.5555555555555p-57')), (float.fromhex('0x1.1111111111111p-7'), float.fromhex('0x1.1111111111111p-63')), (float.fromhex('-0x1.a01a01a01a01ap-13'), float.fromhex('-0x1.a01a01a01a01ap-73')), (float.fromhex('0x1.71de3a556c734p-19'), float.fromhex('-0x1.c154f8ddc6c00p-73')), (float.fromhex('-0x1.ae64567f544e4p-26'), float.fromhex('0x1.c062e06d1f209p-80')))
 _COS_PLAIN = tuple((-1) ** i / math.factorial(2 * i) for i in range(DD_DEGREE, SERIES_DEGREE + 1))
 _SIN_PLAIN = tuple((-1) ** i / math.factorial(2 * i + 1) for i in range(DD_DEGREE, SERIES_DEGREE + 1))
 

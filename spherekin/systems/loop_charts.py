@@ -65,7 +65,6 @@ depends on no actuated joint is the node build itself (its arrays and tolerances
 from __future__ import annotations
 
 import math
-from fractions import Fraction
 from typing import Mapping
 
 import numpy as np
@@ -122,7 +121,11 @@ def _node_matrix(nodes) -> np.ndarray:
 
 
 def _inverse_defect(v: np.ndarray, p: np.ndarray) -> float:
-    """max(||V P - I||_inf, ||V P - I||_1, ||P V - I||_inf, ||P V - I||_1), exactly (fractions of the floats)."""
+    """max(||V P - I||_inf, ||V P - I||_1, ||P V - I||_inf, ||P V - I||_1), exactly (fractions of the floats).
+    ``fractions`` is imported here, at a compile that needs it, not with the module: a default solve
+    does not import it."""
+    from fractions import Fraction
+
     vf = [[Fraction(float(x)) for x in row] for row in v]
     pf = [[Fraction(float(x)) for x in row] for row in p]
     out = 0.0
