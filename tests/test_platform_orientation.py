@@ -304,20 +304,20 @@ def test_disagreement_between_platform_roots_and_finalized_solutions():
 
 
 def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equations(monkeypatch):
-    """The wiring of the check: the first finalize (platform roots) loses one entry, as a broken
+    """The wiring of the check: the first trust layer (platform roots) loses one entry, as a broken
     passive-angle map or polish would; the input must be solved again with the loop equations."""
     import spherekin.problem as pipeline
     from tests.conftest import GOSSELIN_INPUTS
 
-    real = pipeline.finalize
+    real = pipeline.finalize_many
     calls = []
 
     def lossy(*args, **kwargs):
-        out = real(*args, **kwargs)
-        calls.append(len(out))
-        return out[1:] if len(calls) == 1 else out
+        out = real(*args, **kwargs)            # one list of entries per input of the chunk (one here)
+        calls.append(len(out[0]))
+        return [out[0][1:]] if len(calls) == 1 else out
 
-    monkeypatch.setattr(pipeline, "finalize", lossy)
+    monkeypatch.setattr(pipeline, "finalize_many", lossy)
     rep = pipeline.solve(gosselin(), GOSSELIN_INPUTS)
     assert calls == [8, 8]
     assert "found 8 assemblies and the trust layer 7" in rep.settings.fallback

@@ -590,7 +590,13 @@ def solve_system_many(charts: ChartSet, n_inputs: int, ranges: Mapping[str, tupl
     built = pruner_for(charts, pruner, lp_backend, pruners)
     lp0, doubts0 = getattr(built, "lp_count", 0), getattr(built, "doubts", 0)
     batch = _chunk_batch(n_inputs) if batch is None else batch
-    loop = _loop(charts, built, tol, max_boxes, max_depth, None, isolate, progress, None, owner, n_inputs, batch)
+    try:
+        loop = _loop(charts, built, tol, max_boxes, max_depth, None, isolate, progress, None, owner, n_inputs, batch)
+    except SolverLimitError as exc:          # Ctrl-C: the work done until then, as solve_system counts it
+        exc.add_stats(charts=per, lps_solved=getattr(built, "lp_count", 0) - lp0,
+                      lp_doubts=getattr(built, "doubts", 0) - doubts0, time_setup=t_setup,
+                      time_total=time.perf_counter() - t0 + t_setup)
+        raise
     points, spurious, failed = _solve_isolated(charts, loop.isolated)
     accepted = loop.accepted
     counts = {name: v.copy() for name, v in loop.counts.items()}
@@ -667,6 +673,7 @@ def solve_system(
     progress: Callable[[dict], None] | None = None,
     trace: Callable[[dict], None] | None = None,
     pruners: dict | None = None,
+    charts: ChartSet | None = None,
 ) -> SearchReport:
     """All roots of a system of closure loops inside the joint ranges (Section 4, Eq. 12).
 
@@ -693,12 +700,16 @@ def solve_system(
     ``pruners``: a dict the caller keeps across calls (a compiled :class:`spherekin.problem.Problem`
     keeps one for all its inputs), in which the pruner is built once per chart layout
     (:func:`pruner_for`) instead of once per call; with ``jobs > 1`` each worker builds its own.
+
+    ``charts``: the chart set of ``build`` over ``ranges`` when the caller has it already (a
+    compiled one: :meth:`spherekin.systems.loops.CompiledLoops.charts_many`); ``build`` is then not called.
     """
     check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs)
     if trace is not None and jobs != 1:
         raise ValueError(f"trace: only available with jobs=1, got jobs={jobs}")
     t0 = time.perf_counter()
-    charts = make_charts(parameterization, build, ranges, formulation)
+    if charts is None:
+        charts = make_charts(parameterization, build, ranges, formulation)
     t_setup = time.perf_counter() - t0
     if max_depth is None:
         max_depth = DEPTH_PER_UNKNOWN * len(charts.variables)

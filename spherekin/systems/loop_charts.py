@@ -172,8 +172,15 @@ class _Array:
         k, c = w.shape[0], self.shape[self.chart_axis]
         # einsum, not a BLAS product: a (K, J) x (J, M) product with J <= 27 gains nothing from BLAS
         # and its threads cost ~100x on a busy machine (measured: 32 ms vs 0.4 ms at K = 256)
-        flat = np.einsum("kj,jm->km", w, self.tensors.reshape(self.tensors.shape[0], -1)) if self.axes else \
-            np.broadcast_to(self.tensors.reshape(1, -1), (k, self.tensors[0].size))
+        # and the terms are summed one by one in a fixed order (not einsum, whose order depends on
+        # the array sizes), so that an input's chart set has the same bits in any chunk
+        if self.axes:
+            tensors = self.tensors.reshape(self.tensors.shape[0], -1)
+            flat = w[:, :1] * tensors[0]
+            for j in range(1, tensors.shape[0]):
+                flat += w[:, j:j + 1] * tensors[j]
+        else:
+            flat = np.broadcast_to(self.tensors.reshape(1, -1), (k, self.tensors[0].size))
         out = flat.reshape((k,) + self.shape)
         if self.chart_axis == 0:
             return np.ascontiguousarray(out).reshape((k * c,) + self.shape[1:])
@@ -399,7 +406,11 @@ class LoopCharts:
         k = rows.shape[0]
         trip = _triples(rows)
         weights, lams = {}, {}
-        lam_a = np.abs(np.einsum("kai,aij->kaj", trip, np.stack(self._p))).sum(axis=2)
+        p = np.stack(self._p)                  # (A, 3, 3); the sum over i term by term (see _at)
+        lam_a = trip[:, :, 0, None] * p[None, :, 0, :]
+        for i in range(1, p.shape[1]):
+            lam_a += trip[:, :, i, None] * p[None, :, i, :]
+        lam_a = np.abs(lam_a).sum(axis=2)
         lam_a = (lam_a * (1 + 8 * _EPS) + np.array(self._lam_abs)) * np.array(self._slack)
         coeffs, tols, bilinear = [], [], []
         for blk in self.blocks:

@@ -22,11 +22,18 @@ from ..search.parameterizations import ChartSet
 from .base import SYSTEMS, Compiled, Strategy, System
 from .loop_charts import LoopCharts
 
-__all__ = ["LOOP_FORMULATION", "Loops", "CompiledLoops"]
+__all__ = ["LOOP_FORMULATION", "COMPILED_MAX_BUILDS", "Loops", "CompiledLoops"]
 
 #: The loop formulation of "auto" and of the platform system's fallback (the fastest one that
 #: finds every solution, benchmarks/README.md).
 LOOP_FORMULATION = "halves"
+
+
+#: The loop charts are compiled (:mod:`.loop_charts`) when that takes at most this many direct
+#: builds (3 per actuated joint, multiplied). Reason: a four- or five-bar's 3 or 9 builds (~0.1-0.2 s)
+#: are paid back within a chunk of a few inputs and cost a one-off solve little; a 3-RRR's 27
+#: builds of 6-unknown loops (~1-3 s) would be paid by every fallback of a small job.
+COMPILED_MAX_BUILDS = 9
 
 
 def _ranges_key(ranges) -> tuple:
@@ -46,6 +53,8 @@ class CompiledLoops(Compiled):
         self.pruners: dict = {}
         #: ranges -> :class:`spherekin.systems.loop_charts.LoopCharts`, compiled at the first charts_many over them
         self.loop_charts: dict = {}
+        #: the joint ranges of the unknowns (every solve's; :meth:`uses_compiled`), hashable
+        self.home = _ranges_key({n: mechanism.ranges[n] for n in self.names})
 
     def builder(self, inputs) -> Callable:
         """chart -> (loops, unknowns) of the loop equations at actuator ``inputs`` (radians)."""
@@ -66,13 +75,13 @@ class CompiledLoops(Compiled):
                                                loop_joints=loop_joints)
         return self.loop_charts[key]
 
-    def worth_compiling(self, rows, ranges) -> bool:
-        """Whether :meth:`search_many` builds the charts of ``rows`` with :meth:`charts_many`: when they
-        are compiled over ``ranges`` already, or when the rows are at least as many as the direct
-        builds compiling takes (3 per actuated joint of a loop, multiplied: :mod:`.loop_charts`), so
-        that compiling never costs a solve more than it saves. Both builds are rigorous."""
-        key = _ranges_key(ranges)
-        return key in self.loop_charts or len(rows) >= 3 ** len(self.mechanism.actuated)
+    def uses_compiled(self, ranges) -> bool:
+        """Whether the searches over ``ranges`` build their charts with :meth:`charts_many` (compiled
+        once) rather than directly per input: over the joint ranges of the mechanism (every solve's),
+        when compiling takes at most COMPILED_MAX_BUILDS direct builds. Decided by the mechanism,
+        never by the chunk or by what was solved before, so that an input gets the same charts alone
+        (:meth:`search`) or in a chunk (:meth:`search_many`). Both builds are rigorous."""
+        return 3 ** len(self.mechanism.actuated) <= COMPILED_MAX_BUILDS and _ranges_key(ranges) == self.home
 
     def charts_many(self, rows, ranges, dense: bool = True) -> ChartSet:
         """The chart sets (:func:`spherekin.search.parameterizations.make_charts`) of the K input rows
@@ -107,10 +116,12 @@ class CompiledLoops(Compiled):
         """:func:`spherekin.search.boxloop.solve_system` on these equations at ``inputs`` over ``ranges``
         (name -> (lo, hi) radians, or None), with the strategy's names and the kept pruners."""
         s = self.strategy
+        charts = self.charts_many(np.asarray(inputs, dtype=float)[None], ranges, dense=False) \
+            if self.uses_compiled(ranges) else None
         return solve_system(self.builder(inputs), ranges, formulation=self.formulation, pruner=s.pruner,
                             lp_backend=s.lp_backend, parameterization=s.parameterization, tol=tol, isolate=s.isolate,
                             jobs=jobs, max_boxes=max_boxes, max_depth=s.max_depth, progress=progress, trace=trace,
-                            pruners=self.pruners)
+                            pruners=self.pruners, charts=charts)
 
     def search_many(self, rows, ranges, *, tol: float, max_boxes: int, progress=None) -> tuple:
         """:func:`spherekin.search.boxloop.solve_system_many` at every row of ``rows`` (K, actuated;
@@ -118,7 +129,7 @@ class CompiledLoops(Compiled):
         s = self.strategy
         t0 = time.perf_counter()
         rows = np.asarray(rows, dtype=float)
-        if self.worth_compiling(rows, ranges):
+        if self.uses_compiled(ranges):
             charts = self.charts_many(rows, ranges, dense=False)
         else:
             charts = stack_chart_sets([make_charts(s.parameterization, self.builder(row), ranges, self.formulation)

@@ -515,8 +515,8 @@ def _fast_entries(mechanism, values, names, clusters, todo, tol) -> dict:
     clash = _not_all_distinct(flat, owner)
     order = _sort_order(flat, owner)                       # by owner first: each input's run in order
     runs = np.split(order, np.cumsum([len(entries[j]) for j in sorted(entries)])[:-1])
-    return {todo[j]: _tail(entries[j], tol) if clash[j] else [flat[i] for i in run]
-            for j, run in zip(sorted(entries), runs)}
+    return {todo[j]: _tail(entries[j], tol) if clash.get(j, False) else [flat[i] for i in run]
+            for j, run in zip(sorted(entries), runs)}         # an input whose roots all left its ranges: none
 
 
 def _all_per_input(flags, of, n: int) -> np.ndarray:
