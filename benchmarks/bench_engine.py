@@ -34,7 +34,7 @@ engine / baseline against its target, the ratio engine / floor, the mean number 
 input, and the inputs whose solution counts differ between engine and baseline (or floor and
 engine): a difference is a bug to report, never averaged away. JSON to benchmarks/results/engine.json.
 
-    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk 64] [--baseline b4386ee]
+    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk 256] [--baseline b4386ee]
 """
 
 from __future__ import annotations
@@ -62,6 +62,7 @@ import numpy as np  # noqa: E402
 from benchmarks.bench_process import export_tree  # noqa: E402
 from benchmarks.bench_systems import elbow_actuated_3rrr  # noqa: E402
 from benchmarks.peers_closed_form import geometry_of, quadrics_many, real_roots_many  # noqa: E402
+from spherekin.problem import DEFAULT_CHUNK as LIBRARY_CHUNK  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The last commit before issue 30: its solve is the per-input loop the engine replaces.
@@ -70,8 +71,9 @@ BASELINE = "b4386ee"
 TARGETS = {"platform": 10.0, "loops": 5.0}
 #: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2.5 min in all on
 #: a quiet 2-core machine before the engine (25-50 ms a solve, ~130 ms the baseline's elbow-actuated
-#: 3-RRR; ~5 min at load average 5), less once the engine is faster. 64 rows a chunk: batch's chunk.
-DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, 64
+#: 3-RRR; ~5 min at load average 5), less once the engine is faster. Rows a chunk: the library's
+#: (spherekin.problem.DEFAULT_CHUNK, batch's too), so the 128 rows are one chunk.
+DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, LIBRARY_CHUNK
 SEED = 30
 #: Mismatching inputs listed per row in the JSON (all are counted).
 MISMATCHES_LISTED = 10
