@@ -8,6 +8,8 @@ the path of issues 15-27 instead: 1,000 rows on one pass of the curve, ~0.0013 r
 to follow the assembly that starts at the first pose:
 
 * ``track``: ``problem.track(path, start=R0)``, every step proven (spherekin.trust.continuation);
+* ``full solves (solve_many, the engine) + nearest``: the same with every input in chunks of the
+  array engine (issue 30), the fastest full solves there are;
 * ``full solves + nearest``: ``problem.solve(x)`` at every input (the compiled problem: the
   fastest full solve there is), then the solution nearest to the previous pose (what one would do
   without a tracker; it has no proof that it did not switch modes).
@@ -113,7 +115,7 @@ def main(argv=None) -> int:
     problem = compile_problem(mech)
     problem.track(path[:20], start=rots[0])                 # warm-up (imports, caches)
     problem.solve(path[0])
-    t_track, t_full, ok_track, ok_full = [], [], True, True
+    t_track, t_full, t_engine, ok_track, ok_full, ok_engine = [], [], [], True, True, True
     for run in range(args.runs):
         t0 = time.perf_counter()
         tr = problem.track(path, start=rots[0])
@@ -128,6 +130,14 @@ def main(argv=None) -> int:
             followed.append(previous)
         t_full.append(time.perf_counter() - t0)
         ok_full &= max(np.abs(f - r).max() for f, r in zip(followed, rots)) < 1e-9
+        t0 = time.perf_counter()                              # the same with the array engine (issue 30)
+        previous, followed = rots[0], []
+        for report in problem.solve_many(path):
+            poses = [s.platform_rotation for s in report.solutions if s.platform_rotation is not None]
+            previous = min(poses, key=lambda r: np.abs(r - previous).max())
+            followed.append(previous)
+        t_engine.append(time.perf_counter() - t0)
+        ok_engine &= max(np.abs(f - r).max() for f, r in zip(followed, rots)) < 1e-9
         print(f"run {run + 1}/{args.runs}: track {t_track[-1]:.3f} s, full solves {t_full[-1]:.2f} s", flush=True)
     outputs = {"printed": [], "--json": [], "--out": []}
     t_cli_batch = []
@@ -153,20 +163,24 @@ def main(argv=None) -> int:
                 print(f"process run {run + 1}/{args.runs}: spherekin track "
                       + ", ".join(f"{t[-1]:.2f} s ({k})" for k, t in outputs.items())
                       + f"; spherekin batch {t_cli_batch[-1]:.2f} s", flush=True)
-    track_s, full_s = statistics.median(t_track), statistics.median(t_full)
+    track_s, full_s, engine_s = statistics.median(t_track), statistics.median(t_full), statistics.median(t_engine)
     n = args.steps
     print(f"\ngeneral_3rrr, a smooth path of {n} inputs {gaps.mean():.4g} rad apart (largest input change between "
           f"rows; max {gaps.max():.4g}); medians of {args.runs} run(s); {os.cpu_count()} cores")
     print(f"{'method':44s} {'seconds':>8s} {'ms per row':>11s} {'poses right':>12s}")
     print(f"{'track (every step proven), in process':44s} {track_s:8.3f} {1e3 * track_s / n:11.3f} {str(ok_track):>12s}")
     print(f"{'full solves + nearest, in process':44s} {full_s:8.3f} {1e3 * full_s / n:11.3f} {str(ok_full):>12s}")
-    print(f"speedup of track in process: {full_s / track_s:.1f}x (target >= 20 at 0.01 rad); "
+    print(f"{'full solves (solve_many, the engine) + nearest':44s} {engine_s:8.3f} {1e3 * engine_s / n:11.3f}"
+          f" {str(ok_engine):>12s}")
+    print(f"speedup of track in process: {full_s / track_s:.1f}x over solve, {engine_s / track_s:.1f}x over the engine "
+          "(target >= 20 at 0.01 rad); "
           f"proven steps {tr.proven_steps}, rejected {tr.rejected_steps}")
     result = {"machine": {"cores": os.cpu_count(), "processor": platform.processor(),
                           "python": platform.python_version()},
               "date": time.strftime("%Y-%m-%d"), "steps": n, "spacing": float(gaps.mean()),
               "spacing_max": float(gaps.max()), "runs": args.runs, "track_s": t_track, "full_s": t_full,
               "speedup": full_s / track_s, "track_right": bool(ok_track), "full_right": bool(ok_full),
+              "engine_s": t_engine, "speedup_engine": engine_s / track_s, "engine_right": bool(ok_engine),
               "proven_steps": tr.proven_steps, "rejected_steps": tr.rejected_steps}
     if args.cli:
         cli_batch = statistics.median(t_cli_batch)
