@@ -89,3 +89,17 @@ def dask_client():
     yield client
     client.close()
     cluster.close()
+
+
+def singular_beta1(geometry, lo, hi, n_lo):
+    """A general_3rrr parallel singularity in closed form: bisection on beta1 (beta2 = 0, beta3 = 0.5)
+    for where the degree-8 reference's real-root count drops from n_lo (tests of both trackers)."""
+    from benchmarks.peers_closed_form import direct_kinematics
+
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if len(direct_kinematics(geometry, (mid, 0.0, 0.5))) == n_lo:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)

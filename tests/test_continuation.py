@@ -10,6 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of, leg_residuals
+from tests.conftest import singular_beta1
 from benchmarks.sweep_roots import random_3rrr
 from spherekin import compile as compile_problem
 from spherekin.core import intervals as iv
@@ -115,23 +116,12 @@ def test_tracked_poses_are_the_poses_that_generated_the_path(which, mech):
     assert tr.proven_steps >= len(path) - 1
 
 
-def _singular_input(geometry, lo, hi, n_lo):
-    """Bisection on beta1 (beta2 = 0, beta3 = 0.5) for where the reference's count drops from n_lo."""
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if len(direct_kinematics(geometry, (mid, 0.0, 0.5))) == n_lo:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
 def test_a_path_into_a_parallel_singularity_stops_there_on_its_own_branch(mech):
     geometry = geometry_of(mech)
     # the reference has 6 assemblies at beta1 = -2.72 and 4 at -2.71 (beta2 = 0, beta3 = 0.5): two meet between
     assert len(direct_kinematics(geometry, (-2.72, 0.0, 0.5))) == 6
     assert len(direct_kinematics(geometry, (-2.71, 0.0, 0.5))) == 4
-    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    x_star = singular_beta1(geometry, -2.72, -2.71, 6)
     path = np.column_stack([np.linspace(-3.0, -2.6, 17), np.zeros(17), np.full(17, 0.5)])
     stopped = 0
     for start in direct_kinematics(geometry, path[0]):
@@ -155,7 +145,7 @@ def test_a_path_into_a_parallel_singularity_stops_there_on_its_own_branch(mech):
 
 def test_two_modes_1e_4_apart_without_a_singularity_do_not_swap(mech):
     geometry = geometry_of(mech)
-    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    x_star = singular_beta1(geometry, -2.72, -2.71, 6)
     # go towards the singularity until the two modes that meet are ~1e-4 apart, then back
     for d in np.logspace(-6, -10, 41):
         poses = direct_kinematics(geometry, (x_star - d, 0.0, 0.5))
@@ -223,7 +213,7 @@ def test_krawczyk_step_refuses_a_box_holding_two_modes(mech):
     from spherekin.trust.continuation import krawczyk_step
 
     geometry = geometry_of(mech)
-    x_star = _singular_input(geometry, -2.72, -2.71, 6)
+    x_star = singular_beta1(geometry, -2.72, -2.71, 6)
     beta = np.array([x_star - 1e-6, 0.0, 0.5])
     poses = direct_kinematics(geometry, beta)
     a, b = min(itertools.combinations(poses, 2), key=lambda p: np.abs(p[0] - p[1]).max())

@@ -9,6 +9,7 @@ import pytest
 
 from benchmarks.bench_track import smooth_path
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from tests.conftest import singular_beta1
 from spherekin.mechanism import general_3rrr, gosselin
 from spherekin.systems.platform import platform_legs
 from scipy.spatial.transform import Rotation
@@ -42,17 +43,6 @@ def test_a_path_at_0_01_rad_rows_is_proven_step_by_step_at_the_first_try(make):
     assert [p.proven_steps for p in tr.poses] == [0] + [1] * (len(path) - 1)
 
 
-def _singular_input(geometry, lo, hi, n_lo):
-    """Bisection on beta1 (beta2 = 0, beta3 = 0.5) for where the reference's count drops from n_lo."""
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if len(direct_kinematics(geometry, (mid, 0.0, 0.5))) == n_lo:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
 def _continued(geometry, x0, x1, poses, samples):
     """The reference's continuation of each of ``poses`` (at x0) along the straight inputs x0 -> x1:
     the nearest of its poses at each of ``samples`` points (the modes stay far apart against the
@@ -69,7 +59,7 @@ def test_big_jumps_next_to_a_fold_are_split_proven_and_never_swap_modes():
     # of the six assemblies meet; beta2 = 0, beta3 = 0.5), one jump back, 0.01-rad rows back to -3.05
     mech = general_3rrr()
     geometry = geometry_of(mech)
-    turn = _singular_input(geometry, -2.72, -2.71, 6) - 1e-3
+    turn = singular_beta1(geometry, -2.72, -2.71, 6) - 1e-3
     out = np.linspace(-3.05, -3.0, 6)
     xs = np.concatenate([out, [turn], out[::-1]])
     path = np.column_stack([xs, np.zeros(len(xs)), np.full(len(xs), 0.5)])
