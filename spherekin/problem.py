@@ -323,10 +323,11 @@ class Problem:
         out: list[SolveReport] = []
         for first in range(0, len(rows), int(chunk)):
             part = rows[first:first + int(chunk)]
+            values = [tuple(float(v) for v in row) for row in part]          # checked above
             if self.strategy.jobs == 1:
-                out += self._solve_chunk([self.mechanism.check_inputs(row) for row in part], None)
+                out += self._solve_chunk(values, None)
             else:                               # jobs > 1: each input's charts on Dask workers
-                out += [self._solve(self.mechanism.check_inputs(row), None, None) for row in part]
+                out += [self._solve(v, None, None) for v in values]
             if progress is not None:
                 progress(len(out), len(rows))
         return tuple(out)
@@ -408,12 +409,7 @@ class Problem:
             raise ValueError(f"{key}: expected an array of shape (K, {len(self.mechanism.actuated)}) "
                              f"(one column per actuated joint: {', '.join(self.mechanism.actuated)}), "
                              f"got shape {rows.shape}")
-        for k, row in enumerate(rows):
-            try:
-                self.mechanism.check_inputs(row)
-            except ValueError as exc:
-                raise ValueError(f"{key} row {k}: {exc}") from None
-        return rows
+        return self.mechanism.check_input_rows(rows, f"{key} row {{k}}")
 
     # ------------------------------------------------------------------ a path
 

@@ -526,3 +526,31 @@ def test_factor_specs_are_the_terms_of_the_loop_system():
                     assert math.remainder(float(factor) - want, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
                 else:
                     assert (factor.unknown.name, factor.offset, factor.sign) == (spec.joint, spec.offset, spec.sign)
+
+
+def test_check_input_rows_refuses_exactly_the_rows_check_inputs_refuses():
+    import dataclasses
+    """The array check of many rows against check_inputs row by row: range ends (widened by
+    RANGE_TOL), just beyond them, a full turn, NaN, infinity; the first bad row is named."""
+    import math
+
+    from spherekin.core.angles import MAX_INPUT_ANGLE, RANGE_TOL
+    from spherekin.mechanism import four_bar
+
+    mech = four_bar()
+    mech = dataclasses.replace(mech, legs=(dataclasses.replace(mech.legs[0], joints=(
+        dataclasses.replace(mech.legs[0].joints[0], range=(-0.5, 1.0)),) + mech.legs[0].joints[1:]),)
+        + mech.legs[1:])
+    values = [-0.5, 1.0, -0.5 - 0.5 * RANGE_TOL, 1.0 + 0.5 * RANGE_TOL, -0.5 - 2 * RANGE_TOL, 1.0 + 2 * RANGE_TOL,
+              0.3, math.nan, math.inf, MAX_INPUT_ANGLE + 1.0]
+    for v in values:
+        try:
+            mech.check_inputs([v])
+            alone = True
+        except ValueError:
+            alone = False
+        if alone:
+            assert mech.check_input_rows([[0.3], [v]]).tolist() == [[0.3], [v]]
+        else:
+            with pytest.raises(ValueError, match=r"^row 1: inputs \(A\)"):
+                mech.check_input_rows([[0.3], [v], [math.nan]])

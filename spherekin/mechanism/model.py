@@ -54,7 +54,7 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import check_turn, in_range, into_range
+from ..core.angles import MAX_INPUT_ANGLE, check_turn, in_range, in_range_many, into_range
 from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik, wrap
 from .checks import check_name, check_range, check_rotation, parse_angle, shown
@@ -671,6 +671,25 @@ class SphericalMechanism:
                 raise ValueError(f"inputs ({name}): {v!r} is outside the joint range [{rng[0]!r}, {rng[1]!r}]")
             out.append(v)
         return tuple(out)
+
+    def check_input_rows(self, rows, row_label: str = "row {k}") -> np.ndarray:
+        """K rows of actuator inputs (K, len(actuated); radians) checked as :meth:`check_inputs`
+        checks one, as one array operation (a chunk or a path of thousands of rows); returns them as
+        a float array. The first row refused gets :meth:`check_inputs`'s message, prefixed with
+        ``row_label`` formatted with its index k."""
+        arr = np.asarray(rows, dtype=float)
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(arr) & (np.abs(arr) <= MAX_INPUT_ANGLE)
+            ok &= np.stack([in_range_many(arr[:, a], self.joint(n).range) for a, n in enumerate(self.actuated)],
+                           axis=1)
+        for k in np.flatnonzero(~ok.all(axis=1))[:1]:
+            try:
+                self.check_inputs(arr[k])
+            except ValueError as exc:
+                raise ValueError(f"{row_label.format(k=k)}: {exc}") from None
+            raise ValueError(f"{row_label.format(k=k)}: expected finite angles (radians) within a turn of 0 and "
+                             f"inside the joint ranges, got {tuple(arr[k])}")
+        return arr
 
     def _check_angles(self, key: str, angles, required: Sequence[str]) -> dict[str, float]:
         if not isinstance(angles, Mapping):

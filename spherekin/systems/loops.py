@@ -14,7 +14,6 @@ from typing import Callable
 
 import numpy as np
 
-from ..core.angles import MAX_INPUT_ANGLE, in_range_many
 from ..search.boxloop import solve_system, solve_system_many
 from ..search.parameterizations import make_charts, stack_chart_sets
 from ..search.formulations import FORMULATIONS
@@ -99,17 +98,7 @@ class CompiledLoops(Compiled):
         if arr is None or arr.ndim != 2 or arr.shape[1] != len(m.actuated) or arr.shape[0] == 0:
             raise ValueError(f"rows: expected a (K, {len(m.actuated)}) array of actuator angles in radians "
                              f"{m.actuated}, got {np.shape(rows) if arr is not None else rows!r}")
-        # the rules of check_inputs on the whole array; the first row refused gets its message
-        with np.errstate(invalid="ignore"):
-            ok = np.isfinite(arr) & (np.abs(arr) <= MAX_INPUT_ANGLE)
-            ok &= np.stack([in_range_many(arr[:, a], m.joint(n).range) for a, n in enumerate(m.actuated)], axis=1)
-        for k in np.flatnonzero(~ok.all(axis=1))[:1]:
-            try:
-                m.check_inputs(arr[k])
-            except ValueError as exc:
-                raise ValueError(f"rows[{k}]: {exc}") from None
-            raise ValueError(f"rows[{k}]: expected finite angles (radians) within a turn of 0 and inside the "
-                             f"joint ranges, got {tuple(arr[k])}")
+        arr = m.check_input_rows(arr, "rows[{k}]")
         return self.compiled_charts(ranges).charts(arr, dense)
 
     def search(self, inputs, ranges, *, tol: float, jobs: int, max_boxes: int, progress=None, trace=None):
