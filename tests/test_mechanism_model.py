@@ -529,9 +529,9 @@ def test_factor_specs_are_the_terms_of_the_loop_system():
 
 
 def test_check_input_rows_refuses_exactly_the_rows_check_inputs_refuses():
-    import dataclasses
     """The array check of many rows against check_inputs row by row: range ends (widened by
     RANGE_TOL), just beyond them, a full turn, NaN, infinity; the first bad row is named."""
+    import dataclasses
     import math
 
     from spherekin.core.angles import MAX_INPUT_ANGLE, RANGE_TOL
