@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from spherekin.core import bernstein
-from spherekin.search.isolation import (SquareSystem, _derivative_bounds, evaluate_at, jacobian_at, krawczyk_boxes,
+from spherekin.search.isolation import (KRAWCZYK_RCOND, SquareSystem, _derivative_bounds, _inverses, evaluate_at, jacobian_at, krawczyk_boxes,
                                  newton)
 from conftest import times_linear
 
@@ -205,3 +205,41 @@ def test_spurious_only_when_proven():
     near_vals = evaluate_at(near[1], u)
     assert abs(float(near_vals[0, 0])) > 0.1
     assert spurious_proven(square, near, tols, u)[0]
+
+
+
+def test_a_batch_with_an_exactly_singular_midpoint_jacobian_gives_the_other_boxes_their_own_verdicts():
+    """A box centred between the two roots of (x0 - r1)(x0 - r2) has mid(J) with a zero row (the
+    derivative's range is symmetric about 0; dyadic data, so exactly): no inverse, the whole box
+    back, not isolated; the boxes batched with it get exactly what they get alone (LAPACK's
+    inverse raises for a whole batch holding a singular matrix)."""
+    n, r1, r2 = 3, 0.25, 0.75
+    c = two_root_system(n, r1, r2, [0.5, 0.25])
+    singular = np.array([[0.25, 0.75], [0.25, 0.75], [0.0, 0.5]])
+    regular = np.stack([np.array([r1, 0.5, 0.25]) - 1e-3, np.array([r1, 0.5, 0.25]) + 2e-3], axis=-1)
+    regular2 = np.stack([np.array([r2, 0.5, 0.25]) - 2e-3, np.array([r2, 0.5, 0.25]) + 1e-3], axis=-1)
+    batch = np.stack([regular, singular, regular2])
+    cps, tols = on_boxes(c, batch)
+    jlo, jhi = _derivative_bounds(cps[0], tols[0])
+    assert np.all(jlo[0, :, 1] + jhi[0, :, 1] == 0.0)                       # mid(J) row 0 is exactly 0
+    iso, lo, hi = krawczyk_boxes(square(n), cps, tols)
+    assert not iso[1] and np.array_equal(lo[1], np.zeros(n)) and np.array_equal(hi[1], np.ones(n))
+    for b in (0, 2):
+        iso1, lo1, hi1 = krawczyk_boxes(square(n), *on_boxes(c, batch[b:b + 1]))
+        assert iso1[0] and iso[b]
+        assert np.array_equal(lo1[0], lo[b]) and np.array_equal(hi1[0], hi[b])
+
+
+def test_the_conditioning_gate_agrees_with_the_svd_away_from_its_threshold():
+    """mid(J) is inverted where its reciprocal condition number (1-norm estimate) is above
+    KRAWCZYK_RCOND: checked against numpy's SVD (the 2-norm one, within a factor N) on matrices
+    of prescribed singular values 1 and rc, rc far from the threshold on either side."""
+    rng = np.random.default_rng(7)
+    for rc in (1e-14, 1e-12, 1e-8, 1e-4):
+        q1, _ = np.linalg.qr(rng.normal(size=(40, 3, 3)))
+        q2, _ = np.linalg.qr(rng.normal(size=(40, 3, 3)))
+        jmid = q1 @ (np.array([1.0, 0.5, rc])[:, None] * q2)
+        sv = np.linalg.svd(jmid, compute_uv=False)
+        ok, c = _inverses(jmid)
+        assert np.all(ok == (sv[:, -1] / sv[:, 0] > KRAWCZYK_RCOND))
+        assert np.allclose(c[ok] @ jmid[ok], np.eye(3), atol=1e-6)
