@@ -314,9 +314,9 @@ def _box_tests(system: LoopSystem, stack: SystemStack | None, which, lo, hi, ys,
     plan = plan_of(system) if stack is None else stack.plan
     core = _krawczyk_core(plan, ys, lo[:, None], hi[:, None], tol, None if stack is None else stack.consts, which)
     k_lo, k_hi = core["k_lo"][:, 0], core["k_hi"][:, 0]
-    finite = np.all(np.isfinite(k_lo) & np.isfinite(k_hi), axis=1)
-    inside = finite & np.all((k_lo > lo) & (k_hi < hi), axis=1) & (core["other"][:, 0] <= OVERDETERMINED_BOUND)
-    disjoint = (finite & np.any((k_hi < lo) | (k_lo > hi), axis=1)) | core["excluded"][:, 0]
+    _, inside, disjoint, _ = _verdicts(k_lo, k_hi, lo, hi)
+    inside &= core["other"][:, 0] <= OVERDETERMINED_BOUND
+    disjoint |= core["excluded"][:, 0]
     return BoxTests(inside & ~disjoint, disjoint, k_lo, k_hi)
 
 
@@ -448,8 +448,7 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
     regular root (certified at the first radius) costs one box instead of len(rs).
     """
     if first_success and len(rs) > 1:
-        out = [replace(res, radii_tried=(rs[0],)) for (res,) in _krawczyk_batch(system, ys, rs[:1], tol, False,
-                                                                                 stack, which)]
+        out = [res for (res,) in _krawczyk_batch(system, ys, rs[:1], tol, False, stack, which)]   # radii_tried (rs[0],)
         again = [p for p, res in enumerate(out) if not (res.certified or res.krawczyk_box is None)]
         if again:
             rest = _krawczyk_batch(system, ys[again], rs[1:], tol, True, stack, None if which is None else which[again])
@@ -463,21 +462,44 @@ def _krawczyk_batch(system: LoopSystem, ys: np.ndarray, rs: Sequence[float], tol
     x_lo = ys[:, None, :] - radii[None, :, None]                     # (P, R, M), the floats of X
     x_hi = ys[:, None, :] + radii[None, :, None]
     core = _krawczyk_core(tplan, ys, x_lo, x_hi, tol, None if stack is None else stack.consts, which)
+    square, regular = core["rows"] is not None, core["regular"]
+    verdicts = _verdicts(core["k_lo"], core["k_hi"], x_lo, x_hi)      # (P, R) each, all points at once
+    # Python floats and tuples for the results, converted once for the whole batch
+    boxes, k_lo, k_hi = np.stack((x_lo, x_hi), axis=-1).tolist(), core["k_lo"].tolist(), core["k_hi"].tolist()
+    verdicts = [v.tolist() for v in verdicts]
+    centers, residuals, svs = ys.tolist(), core["residual"].tolist(), core["sv"].tolist()
+    others = core["other"].tolist()
+    rows = None if core["rows"] is None or n_eq == m else core["rows"].tolist()
     out = []
     for p in range(n_pts):
-        base = dict(names=system.names, center=tuple(float(v) for v in ys[p]), residual=float(core["residual"][p]),
-                    singular_values=tuple(float(v) for v in core["sv"][p]), n_equations=n_eq, n_unknowns=m,
-                    subsystem_rows=None if core["rows"] is None or n_eq == m else tuple(int(i) for i in core["rows"][p]),
-                    angle_tolerance=tol)
+        base = dict(names=system.names, center=tuple(centers[p]), residual=residuals[p],
+                    singular_values=tuple(svs[p]), n_equations=n_eq, n_unknowns=m,
+                    subsystem_rows=None if rows is None else tuple(rows[p]), angle_tolerance=tol)
         results = []
         for ri, r in enumerate(rs):
-            k = None if not core["regular"][p] else (core["k_lo"][p, ri], core["k_hi"][p, ri])
-            results.append(_outcome(base, r, x_lo[p, ri], x_hi[p, ri], core["rows"] is not None,
-                                    bool(core["regular"][p]), k, float(core["other"][p, ri])))
+            k = (k_lo[p][ri], k_hi[p][ri]) if regular[p] else None
+            verdict = tuple(v[p][ri] for v in verdicts) if regular[p] else None
+            results.append(_outcome(base, r, tuple(map(tuple, boxes[p][ri])), square, bool(regular[p]), k,
+                                    others[p][ri], verdict))
             if first_success and (results[-1].certified or results[-1].krawczyk_box is None):
                 break
-        out.append(replace(results[-1], radii_tried=tuple(rs[:len(results)])) if first_success else results)
+        if not first_success:
+            out.append(results)
+        else:
+            out.append(results[-1] if len(results) == 1 else replace(results[-1], radii_tried=tuple(rs[:len(results)])))
     return out
+
+
+def _verdicts(k_lo, k_hi, x_lo, x_hi) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(finite, inside, disjoint, contraction) of K(X) = [k_lo, k_hi] against X = [x_lo, x_hi], any
+    leading shape (the last axis the unknowns): K(X) finite; in the interior of X; missing X;
+    max_k width(K_k) / width(X_k) (nan where K(X) is not)."""
+    finite = np.all(np.isfinite(k_lo) & np.isfinite(k_hi), axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        inside = finite & np.all((k_lo > x_lo) & (k_hi < x_hi), axis=-1)
+        disjoint = finite & np.any((k_hi < x_lo) | (k_lo > x_hi), axis=-1)
+        ratio = np.max((k_hi - k_lo) / (x_hi - x_lo), axis=-1, initial=-math.inf)   # -inf: no unknown
+    return finite, inside, disjoint, ratio
 
 
 def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, c) -> tuple[np.ndarray, np.ndarray]:
@@ -499,17 +521,19 @@ def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, c) -> tuple[np.ndarray, np.ndarr
     return k[0], k[1]
 
 
-def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k, other: float = 0.0) -> KrawczykResult:
-    """The KrawczykResult of one box X = [x_lo, x_hi] from K(X) = (k_lo, k_hi) (floats enclosing it).
+def _outcome(base: dict, r: float, box: tuple, square: bool, regular: bool, k, other: float = 0.0,
+             verdict: tuple | None = None) -> KrawczykResult:
+    """The KrawczykResult of one box X (``box``: one (lo, hi) pair of floats per unknown) from
+    K(X) = (k_lo, k_hi) (sequences of floats enclosing it; None when not computed).
 
     ``square``: a square (sub)system could be formed (False when there are fewer equations than
-    unknowns); ``other``: bound of the equations left out of the subsystem over X.
+    unknowns); ``other``: bound of the equations left out of the subsystem over X; ``verdict``:
+    :func:`_verdicts` of K(X) and X when the caller computed them for many boxes at once.
     """
     names = base["names"]
     sv = base["singular_values"]
-    common = dict(base, radius=r, box=tuple((float(a), float(b)) for a, b in zip(x_lo, x_hi)),
-                  krawczyk_box=None, contraction=math.nan, no_solution=False, radii_tried=(r,),
-                  other_bound=float(other))
+    common = dict(base, radius=r, box=box, krawczyk_box=None, contraction=math.nan, no_solution=False,
+                  radii_tried=(r,), other_bound=float(other))
     if not square:
         return KrawczykResult(certified=False, reason=f"not certified: {base['n_equations']} equations, "
                                                       f"{base['n_unknowns']} unknowns (not isolated roots)", **common)
@@ -520,14 +544,11 @@ def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k, o
             reason=(f"not certified: singular midpoint Jacobian (smallest singular value {smin:.3g}, "
                     f"{smin / sv[0] if sv and sv[0] else 0.0:.3g} of the largest, below {MIDPOINT_RCOND_MIN:g})"),
             **common)
-    k_lo, k_hi = np.asarray(k[0], dtype=float), np.asarray(k[1], dtype=float)
-    x_lo, x_hi = np.asarray(x_lo, dtype=float), np.asarray(x_hi, dtype=float)
-    finite = bool(np.all(np.isfinite(k_lo)) and np.all(np.isfinite(k_hi)))
-    inside = finite and bool(np.all((k_lo > x_lo) & (k_hi < x_hi)))
-    disjoint = finite and bool(np.any((k_hi < x_lo) | (k_lo > x_hi)))
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        ratio = float(np.max((k_hi - k_lo) / (x_hi - x_lo)))
-    common.update(krawczyk_box=tuple((float(a), float(b)) for a, b in zip(k_lo, k_hi)), contraction=ratio,
+    if verdict is None:
+        verdict = tuple(v.item() for v in _verdicts(np.asarray(k[0], dtype=float), np.asarray(k[1], dtype=float),
+                                                    *(np.asarray(b, dtype=float) for b in zip(*box))))
+    finite, inside, disjoint, ratio = verdict
+    common.update(krawczyk_box=tuple(zip(map(float, k[0]), map(float, k[1]))), contraction=float(ratio),
                   no_solution=disjoint)
     if inside and other > OVERDETERMINED_BOUND and not disjoint:
         return KrawczykResult(certified=False, reason=(
@@ -540,6 +561,7 @@ def _outcome(base: dict, r: float, x_lo, x_hi, square: bool, regular: bool, k, o
     elif disjoint:
         why = "K(X) does not meet X, so X holds no solution"
     else:
+        (x_lo, x_hi), (k_lo, k_hi) = (np.asarray(v, dtype=float) for v in zip(*box)), np.asarray(k, dtype=float)
         excess = np.maximum(x_lo - k_lo, k_hi - x_hi)
         worst = int(np.argmax(excess))
         why = (f"K(X) is not inside X (contraction {ratio:.3g}; {names[worst]!r} leaves X by "
@@ -573,7 +595,7 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
                 subsystem_rows=tuple(int(i) for i in rows) if square and n_eq > n_unk else None, angle_tolerance=tol)
     regular = bool(sv) and sv[-1] > MIDPOINT_RCOND_MIN * sv[0]
     if not (square and regular):
-        return _outcome(base, r, lo, hi, square, regular, None)
+        return _outcome(base, r, tuple(zip(map(float, lo), map(float, hi))), square, regular, None)
     c_float = np.linalg.inv(j_sq)
     xs = [iv.mpf([a, b]) for a, b in zip(lo, hi)]
     f_box, j_box = interval_eval(system, xs, tol, jacobian=True)
@@ -592,7 +614,8 @@ def krawczyk_reference(system: LoopSystem, theta, radius: float,
             acc = acc + a_ij * dx[j]
         k_box.append(acc)
     k_float = [_outward(k) for k in k_box]           # floats enclosing K(X) (exact at iv's 53 bits)
-    return _outcome(base, r, lo, hi, True, True, ([a for a, _ in k_float], [b for _, b in k_float]), other)
+    return _outcome(base, r, tuple(zip(map(float, lo), map(float, hi))), True, True,
+                    ([a for a, _ in k_float], [b for _, b in k_float]), other)
 
 
 def certify_reference(system: LoopSystem, theta, radii: Sequence[float] = CERTIFY_RADII,
