@@ -44,11 +44,11 @@ from .search.formulations import FORMULATIONS
 from .systems import AUTO, LOOP_FORMULATION, SYSTEMS, Strategy, choose, system_choices
 from .systems.loops import CompiledLoops, Loops
 from .systems.platform import CompiledPlatform, Platform
-from .results import (AcceptedBox, EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
+from .results import (EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
                       EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES, EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many, is_proven
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
-                     check_strategy, clusters_in_range, partial_report, search_platform, search_platform_many,
+                     check_strategy, clusters_in_range_many, partial_report, search_platform, search_platform_many,
                      SearchInterrupted)
 from .search.parameterizations import stack_chart_sets
 
@@ -505,29 +505,20 @@ class Problem:
                 inside &= in_range_many(readings[:, j], rng, s.tol + RANGE_TOL)
         settings = Settings(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
                             parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=n_charts)
+        answered = np.array([f is not None and not f.unresolved for f in found], dtype=bool)
+        kept = np.flatnonzero(first_of_duplicates(poses, owner, len(found)) & inside & answered[owner])
+        clusters = clusters_in_range_many(readings[kept], readings[kept], owner[kept], len(found), self.ranges, s.tol)
+        kept_of = np.split(kept, np.searchsorted(owner[kept], np.arange(1, len(found))))
         out: list = []
-        first = 0
         for k, f in enumerate(found):
             if f is None:
                 out.append(None)
-                continue
-            mine = range(first, first + len(f.points))
-            first += len(f.points)
-            if f.unresolved:
+            elif f.unresolved:
                 out.append(f"the platform search left {f.unresolved} box(es) it could not isolate (a parallel "
                            "singularity or a double root nearby): solved with the loop equations")
-                continue
-            near = np.abs(poses[mine][:, None] - poses[mine][None, :]).max(axis=(2, 3), initial=0.0) <= DUPLICATE_POSE
-            kept: list[int] = []
-            for i in range(len(mine)):
-                if not near[i, kept].any():               # else the same root from an overlapping chart
-                    kept.append(i)
-            kept = [mine[i] for i in kept]
-            kept = [i for i in kept if inside[i]]
-            boxes = [AcceptedBox(readings[i], readings[i].copy(), int(points[i][0])) for i in kept]
-            clusters = clusters_in_range(boxes, self.ranges, s.tol)
-            stats = dataclasses.replace(f.stats, time_setup=t_setup, time_total=f.stats.time_total + t_setup)
-            out.append((SearchReport(self.names, tuple(clusters), (), stats, settings), [poses[i] for i in kept]))
+            else:
+                stats = dataclasses.replace(f.stats, time_setup=t_setup, time_total=f.stats.time_total + t_setup)
+                out.append((SearchReport(self.names, tuple(clusters[k]), (), stats, settings), list(poses[kept_of[k]])))
         return out
 
     def _interrupted(self, exc: SearchInterrupted, tol: float) -> tuple:
@@ -566,6 +557,28 @@ class Problem:
                                     jobs=s.jobs, charts=0)
                 report = partial_report(exc2, self.ranges, settings)
             return report, limit, covering
+
+
+def first_of_duplicates(poses: np.ndarray, owner: np.ndarray, n_inputs: int) -> np.ndarray:
+    """(N,) bool: which of the roots ``poses`` (N, 3, 3; ``owner`` (N,) the input of each, each
+    input's roots in the order found) to keep: a root is dropped when a root kept before it, of the
+    same input, is within DUPLICATE_POSE (the same root found on an overlapping chart). One pass per
+    position in an input's list, each over every input of the chunk at once."""
+    n = len(poses)
+    keep = np.zeros(n, dtype=bool)
+    if not n:
+        return keep
+    counts = np.bincount(owner, minlength=n_inputs)
+    order = np.argsort(owner, kind="stable")
+    pos = np.empty(n, dtype=np.intp)
+    pos[order] = np.arange(n) - np.repeat(np.cumsum(counts) - counts, counts)
+    flat = np.full((n_inputs, int(counts.max()), 9), np.nan)       # NaN: no root (never near)
+    flat[owner, pos] = poses.reshape(n, 9)
+    near = np.abs(flat[:, :, None] - flat[:, None]).max(axis=3) <= DUPLICATE_POSE         # (K, P, P)
+    kept = np.zeros(flat.shape[:2], dtype=bool)
+    for i in range(flat.shape[1]):
+        kept[:, i] = ~np.isnan(flat[:, i, 0]) & ~np.any(near[:, i, :i] & kept[:, :i], axis=1)
+    return kept[owner, pos]
 
 
 def disagreement(solutions, poses) -> str | None:

@@ -17,8 +17,10 @@ from scipy.spatial.transform import Rotation
 
 from spherekin.mechanism import gosselin, load_mechanism
 from spherekin.search.boxloop import (BoxLimitError, DepthLimitError, SolverLimitError, charts_for_range,
-                              solve_system)
+                                      clusters_in_range, clusters_in_range_many,
+                                      solve_system)
 from spherekin.problem import solve
+from spherekin.results import AcceptedBox
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 INPUTS = (0.3, -0.2, 0.5)
@@ -333,3 +335,62 @@ def test_a_capped_search_hands_over_the_roots_it_had_isolated():
     for p in points:
         joints = {**dict(zip(mech.actuated, x)), **dict(zip(mech.loop_unknowns, p.lo.tolist()))}
         assert max(mech.forward(joints).loop_residuals) < 1e-9
+
+
+def _clusters_by_hand(lo, hi, ranges, tol):
+    """Clusters of boxes that are pairwise far apart, written out: one per box, its centre wrapped to
+    [-pi, pi), kept when every centre is within tol + 1e-10 of its range (mod 2 pi), sorted by the
+    centres rounded to 1e-9."""
+    out = []
+    for a, b in zip(lo, hi):
+        c = [math.remainder(0.5 * (x + y), 2 * math.pi) for x, y in zip(a, b)]
+        ok = all(rng is None or (x - (rng[0] - tol - 1e-10)) % (2 * math.pi) <= rng[1] - rng[0] + 2 * (tol + 1e-10)
+                 for x, rng in zip(c, ranges.values()))
+        if ok:
+            out.append((c, list(a), list(b)))
+    return sorted(out, key=lambda t: tuple(round(v, 9) for v in t[0]))
+
+
+def test_clusters_of_many_inputs_are_those_of_each_input_alone():
+    """clusters_in_range_many over a chunk against clusters_in_range input by input (the reference
+    merge) and, for inputs of far-apart boxes, against the clusters written out by hand: near pairs,
+    boxes across +-pi, points (lo == hi), boxes out of range, an input with more than the padded
+    array's boxes, inputs with none."""
+    rng = np.random.default_rng(31)
+    tol = 1e-6
+    ranges = {"a": (-2.0, 2.5), "b": None, "c": (0.5, 6.0)}
+    lo, hi, owner = [], [], []
+    n_inputs = 40
+    for k in range(n_inputs):
+        n = [0, 3, 8, 40][k % 4]
+        c = rng.uniform(-math.pi, math.pi, (n, 3))
+        if k % 5 == 1 and n > 1:
+            c[1] = c[0] + rng.uniform(-1, 1, 3) * tol            # a near pair: merged
+        if k % 7 == 2 and n > 2:
+            c[2, 0] = math.pi - 1e-7                              # across +-pi from c[0]'s copy
+            c[0, :] = c[2, :]
+            c[0, 0] = -math.pi + 1e-7
+        w = rng.uniform(0, tol, (n, 3)) * (rng.random((n, 1)) < 0.5)     # half of them points
+        lo += list(c - w)
+        hi += list(c + w)
+        owner += [k] * n
+    lo, hi, owner = np.array(lo), np.array(hi), np.array(owner)
+    perm = rng.permutation(len(owner))                            # the chunk in any order of inputs
+    many = clusters_in_range_many(lo[perm], hi[perm], owner[perm], n_inputs, ranges, tol)
+    merged = 0
+    for k in range(n_inputs):
+        mine = [i for i in perm if owner[i] == k]
+        alone = clusters_in_range([AcceptedBox(lo[i], hi[i], 0) for i in mine], ranges, tol)
+        assert len(many[k]) == len(alone)
+        for a, b in zip(many[k], alone):
+            assert np.array_equal(a.angles, b.angles) and np.array_equal(a.lo, b.lo) and np.array_equal(a.hi, b.hi)
+            assert a.n_boxes == b.n_boxes and np.array_equal(a.members, b.members)
+        merged += sum(c.n_boxes > 1 for c in alone)
+        far = all(np.abs(np.remainder(lo[i] - lo[j] + math.pi, 2 * math.pi) - math.pi).max() > 3 * tol
+                  for i in mine for j in mine if i < j)
+        if far:
+            hand = _clusters_by_hand(lo[mine], hi[mine], ranges, tol)
+            assert len(hand) == len(many[k])
+            for (c, a, b), got in zip(hand, many[k]):
+                assert np.allclose(got.angles, c, atol=1e-15) and np.array_equal(got.lo, a)
+    assert merged >= 3                                            # the near pairs were merged

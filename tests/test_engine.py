@@ -29,6 +29,7 @@ from benchmarks.reference_roots import reference_roots
 from spherekin import compile
 from spherekin.mechanism import five_bar, general_3rrr, gosselin
 from spherekin.mechanism.io import load_mechanism
+from spherekin.problem import DUPLICATE_POSE, first_of_duplicates
 from spherekin.search.boxloop import search_platform, search_platform_many
 from spherekin.search.parameterizations import stack_chart_sets
 from test_systems import elbow_actuated
@@ -211,3 +212,35 @@ def test_a_chunk_in_which_no_input_has_a_root():
     report = problem.solve(x)
     assert report.solutions == () and report.count_exact and report.empty_reason is not None
     assert [len(r.solutions) for r in problem.solve_many([x, x], chunk=2)] == [0, 0]
+
+
+def test_roots_found_twice_on_overlapping_charts_are_kept_once_per_input():
+    """first_of_duplicates against the rule written as a loop: in each input's list, a root is
+    dropped when a root kept before it, of the same input, is within DUPLICATE_POSE; roots of
+    different inputs never drop each other; a chain a ~ b ~ c with a and c apart keeps a and c."""
+    rng = np.random.default_rng(30)
+    poses, owner = [], []
+    for k in range(12):
+        base = [np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(k % 5)]
+        mine = []
+        for p in base:
+            mine.append(p)
+            if rng.random() < 0.6:
+                mine.append(p + rng.uniform(-1, 1, (3, 3)) * 0.5 * DUPLICATE_POSE)    # the same root again
+        mine = [mine[i] for i in rng.permutation(len(mine))]
+        if k == 7:
+            a = base[0]
+            mine += [a + 1e-3, a + 1e-3 + 0.9 * DUPLICATE_POSE, a + 1e-3 + 1.8 * DUPLICATE_POSE]   # a chain
+        poses += mine
+        owner += [k] * len(mine)
+    poses.append(poses[0].copy())                     # the first input's root at another input: kept
+    owner.append(12)
+    poses, owner = np.array(poses), np.array(owner)
+    expect = []
+    for i in range(len(poses)):
+        kept_before = [j for j in range(i) if owner[j] == owner[i] and expect[j]]
+        expect.append(not any(np.abs(poses[i] - poses[j]).max() <= DUPLICATE_POSE for j in kept_before))
+    got = first_of_duplicates(poses, owner, 13)
+    assert got.tolist() == expect
+    assert 0 < sum(expect) < len(expect) and got[-1]
+    assert got[np.flatnonzero(owner == 7)[-3:]].tolist() == [True, False, True]

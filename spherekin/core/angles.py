@@ -15,7 +15,7 @@ import numpy as np
 
 from .groups import connected_groups
 
-__all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "span_in_range_many",
+__all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "near", "span_in_range_many",
            "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
            "check_geometry_angle", "near_groups", "PAIRWISE_MAX"]
 
@@ -144,11 +144,18 @@ def near_groups(lo, hi, gap: float) -> list[list[int]]:
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     if len(lo) <= PAIRWISE_MAX:           # every pair in one array operation
-        close = np.all(np.abs(wrap(mid[None, :] - mid[:, None])) <= half[None, :] + half[:, None] + gap, axis=2)
+        close = near(mid[:, None], half[:, None], mid[None, :], half[None, :], gap)
         i, j = np.nonzero(np.triu(close, 1))
         return connected_groups(len(lo), list(zip(i.tolist(), j.tolist())))
     edges = []
     for i in range(len(lo)):              # row by row: memory linear in the number of boxes
-        close = np.all(np.abs(wrap(mid[i + 1:] - mid[i])) <= half[i + 1:] + half[i] + gap, axis=1)
+        close = near(mid[i], half[i], mid[i + 1:], half[i + 1:], gap)
         edges += [(i, int(j)) for j in np.flatnonzero(close) + i + 1]
     return connected_groups(len(lo), edges)
+
+
+def near(mid_i, half_i, mid_j, half_j, gap: float) -> np.ndarray:
+    """Whether boxes i and j (centres ``mid``, half-widths ``half``: radians, arrays broadcasting
+    against each other, the last axis the coordinates) are near, the relation of :func:`near_groups`:
+    on every coordinate |wrap(c_j - c_i)| <= r_j + r_i + ``gap``. NaN coordinates are never near."""
+    return np.all(np.abs(wrap(mid_j - mid_i)) <= half_j + half_i + gap, axis=-1)

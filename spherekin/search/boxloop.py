@@ -41,7 +41,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..core import bernstein
-from ..core.angles import RANGE_TOL, in_range, near_groups
+from ..core.angles import RANGE_TOL, in_range, in_range_many, near, near_groups, wrap
 from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
 from .isolation import SquareSystem, krawczyk_boxes, newton, spurious_proven
@@ -50,7 +50,7 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
 from .pruners import check_pruner, excludes_zero, make_pruner
 from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
-__all__ = ["solve_system", "solve_system_many", "search_platform_many", "CHUNK_BATCH", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range",
+__all__ = ["solve_system", "solve_system_many", "search_platform_many", "CHUNK_BATCH", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range", "clusters_in_range_many",
            "partial_report", "charts_for_range", "SolverLimitError", "SearchInterrupted", "DepthLimitError", "BoxLimitError",
            "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
@@ -616,23 +616,28 @@ def solve_system_many(charts: ChartSet, n_inputs: int, ranges: Mapping[str, tupl
     points_of = _by_input(points, owner, n_inputs)
     settings = Settings(formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                         parameterization=parameterization, tol=tol, isolate=isolate, jobs=1, charts=per)
+    boxes_of, found_of = [], []
+    for k in range(n_inputs):
+        mine = sorted(((c - k * per, lo, hi) for c, lo, hi in accepted_of[k]), key=_chart_order)
+        roots = sorted(((c - k * per, x) for c, x in points_of[k]), key=_chart_order)
+        boxes_of.append([AcceptedBox(lo, hi, int(c)) for c, lo, hi in mine])
+        found_of.append([] if capped[k] else [(b.lo, b.hi) for b in boxes_of[-1]] + [(x, x) for _, x in roots])
+    found = [box for f in found_of for box in f]
+    clusters_of = clusters_in_range_many([a for a, _ in found], [b for _, b in found],
+                                         np.repeat(np.arange(n_inputs), [len(f) for f in found_of]),
+                                         n_inputs, ranges, tol)
     out = []
     for k in range(n_inputs):
         if capped[k]:
             out.append(None)
             continue
-        mine = sorted(((c - k * per, lo, hi) for c, lo, hi in accepted_of[k]), key=_chart_order)
-        roots = sorted(((c - k * per, x) for c, x in points_of[k]), key=_chart_order)
-        boxes = [AcceptedBox(lo, hi, int(c)) for c, lo, hi in mine]
-        found = boxes + [AcceptedBox(x, x.copy(), int(c)) for c, x in roots]
         t_r, t_p, t_i = share["times"][k]
         stats = SolverStats(charts=per, **{name: int(v[k]) for name, v in counts.items()},
                             spurious=int(spurious_n[k]), newton_failures=int(failed_n[k]),
                             lps_solved=int(share["lps"][k]), lp_doubts=int(share["doubts"][k]),
                             time_setup=t_setup / n_inputs, time_restrict=t_r, time_prune=t_p, time_isolate=t_i,
                             time_total=float(share["total"][k]) + t_setup / n_inputs)
-        out.append(SearchReport(charts.unknowns, tuple(clusters_in_range(found, ranges, tol)), tuple(boxes),
-                                stats, settings))
+        out.append(SearchReport(charts.unknowns, tuple(clusters_of[k]), tuple(boxes_of[k]), stats, settings))
     return tuple(out)
 
 
@@ -761,6 +766,60 @@ def partial_report(exc: SolverLimitError, ranges, settings: Settings) -> SearchR
 def clusters_in_range(found: list[AcceptedBox], ranges, tol) -> list[Cluster]:
     """The clusters of the boxes found whose centres lie within the joint ranges (tol + RANGE_TOL)."""
     return [c for c in _merge(found, tol) if _within(c.angles, ranges, tol)]
+
+
+#: :func:`clusters_in_range_many` compares the boxes of an input pairwise in one padded array (inputs
+#: x P x P x unknowns) when it has at most this many: the common case (a few roots, each one box or
+#: point); an input with more (a covering, a near-double root's stray boxes) is merged on its own.
+PADDED_MAX_BOXES = 32
+
+
+def clusters_in_range_many(lo, hi, owner, n_inputs: int, ranges, tol) -> list[list[Cluster]]:
+    """:func:`clusters_in_range` of the boxes of each of ``n_inputs`` inputs at once: ``lo``, ``hi``
+    (N, M; radians) the boxes, ``owner`` (N,) the input of each (each input's boxes in the order
+    given); one list of clusters per input, the same clusters (same floats, same order) as
+    clusters_in_range of that input's boxes.
+
+    The common case runs as array operations over the chunk: an input whose boxes are pairwise far
+    apart (no two near, :func:`spherekin.core.angles.near` with the gap of MERGE_GAP_TOLS * tol) has
+    one cluster per box; its centre, range test and order are computed for all such boxes at once.
+    Any other input (or one with more than PADDED_MAX_BOXES boxes) is merged on its own (_merge).
+    """
+    owner = np.asarray(owner, dtype=np.intp)
+    if not len(owner):
+        return [[] for _ in range(n_inputs)]
+    lo = np.array(lo, dtype=float).reshape(len(owner), -1)
+    hi = np.array(hi, dtype=float).reshape(len(owner), -1)
+    m = lo.shape[1]
+    order = np.argsort(owner, kind="stable")                 # each input's boxes, in the order given
+    counts = np.bincount(owner, minlength=n_inputs)
+    pos = np.empty(len(owner), dtype=np.intp)
+    pos[order] = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
+    small = counts <= PADDED_MAX_BOXES
+    width = int(counts[small].max(initial=0))
+    mid, half = np.full((n_inputs, width, m), np.nan), np.full((n_inputs, width, m), np.nan)
+    pad = small[owner]
+    mid[owner[pad], pos[pad]] = 0.5 * (lo[pad] + hi[pad])
+    half[owner[pad], pos[pad]] = 0.5 * (hi[pad] - lo[pad])
+    close = near(mid[:, :, None], half[:, :, None], mid[:, None], half[:, None], MERGE_GAP_TOLS * tol)
+    alone = small & ~np.any(np.triu(close, 1), axis=(1, 2))
+    # one cluster per box of the inputs alone (_merge's floats for a group of one box)
+    centre = wrap(0.5 * (lo + hi)).reshape(len(owner), m)
+    keep = alone[owner]
+    for j, rng in enumerate(ranges.values()):
+        keep &= in_range_many(centre[:, j], rng, tol + RANGE_TOL)
+    rounded = np.round(centre, 9)
+    ranked = np.lexsort([*(rounded[:, j] for j in range(m - 1, -1, -1)), owner])   # by input, then angles
+    ranked = ranked[keep[ranked]]
+    members = np.stack((lo, hi), axis=1)[:, None]                                  # (N, 1, 2, M)
+    out: list[list[Cluster]] = [[] for _ in range(n_inputs)]
+    of = owner.tolist()
+    for i in ranked.tolist():
+        out[of[i]].append(Cluster(centre[i], lo[i], hi[i], 1, members=members[i]))
+    for k in np.flatnonzero(~alone & (counts > 0)).tolist():
+        mine = order[owner[order] == k]
+        out[k] = clusters_in_range([AcceptedBox(lo[i], hi[i], 0) for i in mine], ranges, tol)
+    return out
 
 
 def _within(angles, ranges, tol) -> bool:
