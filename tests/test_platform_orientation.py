@@ -19,7 +19,8 @@ from benchmarks.reference_roots import reference_roots
 from benchmarks.sweep_roots import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
-from spherekin.systems.platform import (CHART_EXTENT, PlatformSystem, chart_control_points, chart_quaternion,
+from spherekin.search.boxloop import search_platform
+from spherekin.systems.platform import (CHART_EXTENT, PlatformSystem, Quaternion, chart_control_points, chart_quaternion,
                                             chart_rotation, form_matrix, not_applicable, passive_names, passive_readings,
                                             passive_readings_many,
                                             quaternion_matrix)
@@ -322,3 +323,60 @@ def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equat
     assert calls == [8, 8]
     assert "found 8 assemblies and the trust layer 7" in rep.settings.fallback
     assert rep.settings.formulation == "halves" and len(rep.solutions) == 8 and rep.count_exact
+
+
+def test_a_chart_drops_the_boxes_where_another_component_is_larger():
+    """Quaternion.contract against the rule written out: a box whose reduction [rlo, rhi] has, on
+    some free component, every point beyond CHART_CORE in modulus (u = CHART_EXTENT (2x - 1)) is
+    discarded (rlo > rhi); any other box keeps its reduction untouched."""
+    rng = np.random.default_rng(34)
+    n = 400
+    lo = rng.uniform(0, 0.9, (n, 3))
+    hi = np.minimum(lo + rng.uniform(0, 0.3, (n, 3)), 1.0)
+    rlo = rng.uniform(0, 0.4, (n, 3))
+    rhi = rng.uniform(0.6, 1.0, (n, 3))
+    rlo[:20] = 0.7                                     # a few already empty
+    rhi[:20] = 0.2
+    charts = PlatformSystem.from_mechanism(gosselin()).charts((0.1, 0.2, 0.3))
+    chart = rng.integers(0, 4, n)
+    got_lo, got_hi = rlo.copy(), rhi.copy()
+    Quaternion().contract(charts, chart, lo, hi, got_lo, got_hi)
+    for b in range(n):
+        a = [CHART_EXTENT * (2 * (lo[b, j] + rlo[b, j] * (hi[b, j] - lo[b, j])) - 1) for j in range(3)]
+        z = [CHART_EXTENT * (2 * (lo[b, j] + rhi[b, j] * (hi[b, j] - lo[b, j])) - 1) for j in range(3)]
+        beyond = any(a[j] > 1 + 1e-9 or z[j] < -1 - 1e-9 for j in range(3))
+        if beyond:
+            assert np.any(got_lo[b] > got_hi[b])
+        else:
+            assert np.array_equal(got_lo[b], rlo[b]) and np.array_equal(got_hi[b], rhi[b])
+
+
+def test_no_root_is_lost_to_the_chart_cores_not_even_tied_ones():
+    """Every root of the 50-digit reference (random 3-RRRs) or of the loop equations (the agile eye,
+    whose serially singular assemblies have two largest components of equal modulus, |u_j| = 1 on
+    two charts) is among the platform search's roots."""
+    from tests.conftest import GOSSELIN_INPUTS
+
+    rng = np.random.default_rng(33)
+    cases = [(gosselin(), GOSSELIN_INPUTS, None)]
+    while len(cases) < 5:                              # random 3-RRRs at inputs with two roots or more
+        mech, data = random_3rrr(rng)
+        inputs, geometry = tuple(rng.uniform(-math.pi, math.pi, 3)), tuple(np.array(v, dtype=float) for v in data)
+        if reference_roots(geometry, inputs).count >= 2:
+            cases.append((mech, inputs, geometry))
+    ties = 0
+    for mech, inputs, geometry in cases:
+        problem = compile(mech)
+        found = search_platform(problem.platform.charts(inputs), problem.platform.pruner, 1e-6)
+        rots = [problem.platform.pose(c, x) for c, x in found.points]
+        if geometry:
+            expect = reference_roots(geometry, inputs).rotations
+        else:                                          # the loop equations: another formulation
+            expect = [s.platform_rotation for s in solve(mech, inputs, formulation="halves").solutions]
+            q = np.array([chart_quaternion(c, x)[0] for c, x in found.points])
+            q = np.sort(np.abs(q) / np.abs(q).max(axis=1, keepdims=True), axis=1)
+            ties += int(np.sum(q[:, -2] > 1 - 1e-9))
+        assert len(expect) >= 2
+        for q in expect:
+            assert min(np.abs(r - q).max() for r in rots) < 1e-9
+    assert ties >= 4                                   # the agile eye's tied assemblies

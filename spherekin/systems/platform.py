@@ -56,7 +56,7 @@ from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterizati
 from ..search.pruners import make_pruner
 from .base import SYSTEMS, Compiled, System
 
-__all__ = ["CHARTS", "CHART_EXTENT", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
+__all__ = ["CHARTS", "CHART_EXTENT", "CHART_CORE", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
@@ -76,6 +76,12 @@ MAX_ASSEMBLIES = 8
 #: |q_i| = |q_j|). With overlapping charts it is interior to both; its duplicate is merged after
 #: polishing.
 CHART_EXTENT = 1.25
+#: A chart searches only where its fixed component is (about) the largest: a box whose every point
+#: has a free component |u_j| > CHART_CORE is discarded (:meth:`Quaternion.contract`; its roots are
+#: found on the chart of their largest component). Reason for 1 + 1e-9, not 1: a root whose largest
+#: components tie (|u_j| = 1 exactly, the agile eye's) must not be dropped on both charts by the
+#: rounding of the chart map (~1e-16).
+CHART_CORE = 1.0 + 1e-9
 #: Accept a chart box when each side is below tol times this. Reason: with q_k = 1 the unit
 #: quaternion q/|q| moves by at most |du| (|q| >= 1) and the rotation angle by twice that, so sides
 #: du <= tol / (2 sqrt 3) bound the rotation's change by tol. (Accepted boxes are not used as
@@ -470,6 +476,26 @@ class Quaternion(Parameterization):
 
     def angles(self, charts, chart, x):
         return np.asarray(x, dtype=float)
+
+    def contract(self, charts, chart, lo, hi, rlo, rhi):
+        """Discard (rlo > rhi) the boxes whose reduction [rlo, rhi] (unit coordinates of the boxes
+        [lo, hi], B x N, in place) lies where a free component exceeds the fixed one: |u_j| >
+        CHART_CORE on the whole reduced box, for some j.
+
+        Why it loses no root: a root's largest component m is fixed to 1 on chart m, where every
+        free |u_j| <= 1 < CHART_CORE, so no box of chart m holding it is discarded; it is found
+        there, in the interior of that chart (CHART_EXTENT). The overlap of the charts stays for
+        the roots on a boundary (|u_j| = 1, found on both charts and merged); what is dropped is
+        the search of the same roots again on other charts (measured on the Gosselin platform:
+        roots found on up to 4 charts, each subdivided down to its isolation).
+        """
+        width = hi - lo
+        mlo, mhi = charts.map_lo[chart], charts.map_hi[chart]
+        ulo = mlo + (mhi - mlo) * (lo + rlo * width)
+        uhi = mlo + (mhi - mlo) * (lo + rhi * width)
+        beyond = np.any((ulo > CHART_CORE) | (uhi < -CHART_CORE), axis=1)
+        rlo[beyond] = 1.0
+        rhi[beyond] = 0.0
 
 
 # ---------------------------------------------------------------------- the system of the registry
