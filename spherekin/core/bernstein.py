@@ -384,9 +384,9 @@ def restrict_batch_last(c, lo, hi, cache: dict | None = None, keys=None):
         v = xp.reshape(c, (lead * prod(dims[:k]), d, prod(dims[k + 1:]), nb))
         rows = []
         for i in range(d):
-            o = mat[i][0] * v[:, 0]
+            o = mat[i][0] * v[:, 0, ...]
             for j in range(1, d):
-                o += mat[i][j] * v[:, j]
+                o += mat[i][j] * v[:, j, ...]
             rows.append(o)
         c = xp.reshape(xp.stack(rows, axis=1), shape)
     return c
