@@ -21,9 +21,11 @@ beside the fast routines (:func:`evaluate_de_casteljau`, :func:`restrict_referen
 
 from __future__ import annotations
 
-from math import comb
+from math import comb, prod
 
 import numpy as np
+
+from .arrays import namespace_of
 
 __all__ = [
     "from_power", "to_power", "evaluate", "evaluate_de_casteljau", "subdivide",
@@ -124,9 +126,40 @@ def _scale_axes(c: np.ndarray, vectors, n: int) -> np.ndarray:
     return c
 
 
+def _basis_terms(t, m: int) -> list:
+    """Bernstein basis b_{i,m}(t), i = 0..m, one array shaped like t each (Python-int exponents;
+    any array module)."""
+    return [comb(m, i) * t**i * (1 - t) ** (m - i) for i in range(m + 1)]
+
+
 def _basis(t: np.ndarray, m: int) -> np.ndarray:
     """Bernstein basis b_{i,m}(t), i = 0..m, stacked on a new last axis (Python-int exponents)."""
-    return np.stack([comb(m, i) * t**i * (1 - t) ** (m - i) for i in range(m + 1)], axis=-1)
+    return np.stack(_basis_terms(t, m), axis=-1)
+
+
+def _restriction_entries(xp, m: int, a, b) -> list[list]:
+    """The entries R[k][j] of :func:`restriction_matrix` (m, a, b) for float arrays a, b of one
+    shape, as a nested list of arrays of that shape (module ``xp``): closed forms for m <= 2, the
+    blossom otherwise, summed in the order :func:`restriction_matrix` sums (i ascending from 0), so
+    the floats are the same."""
+    if m == 0:
+        return [[xp.ones_like(a)]]
+    a1, b1 = 1.0 - a, 1.0 - b
+    if m == 1:
+        return [[a1, a], [b1, b]]
+    if m == 2:
+        return [[a1 * a1, 2.0 * a * a1, a * a], [a1 * b1, a * b1 + a1 * b, a * b], [b1 * b1, 2.0 * b * b1, b * b]]
+    rows = []
+    for k in range(m + 1):
+        ba, bb = _basis_terms(a, m - k), _basis_terms(b, k)
+        row = []
+        for j in range(m + 1):
+            entry = xp.zeros_like(a)
+            for i in range(max(0, j - k), min(m - k, j) + 1):
+                entry = entry + ba[i] * bb[j - i]
+            row.append(entry)
+        rows.append(row)
+    return rows
 
 
 def _casteljau_steps(ct: np.ndarray, s):
@@ -299,32 +332,21 @@ def restrict(c, box, nvars=None) -> np.ndarray:
     return c
 
 
-def restriction_matrices(m: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Float fast path of :func:`restriction_matrix` for 1-D arrays a, b (B,): shape (B, m+1, m+1).
+def restriction_matrices(m: int, a, b):
+    """Float fast path of :func:`restriction_matrix` for 1-D arrays a, b (B,): shape (B, m+1, m+1),
+    in the array module of a and b (:func:`spherekin.core.arrays.namespace_of`).
 
     Closed forms for m <= 2 (the degrees of the closure equations), the blossom otherwise:
     m = 1: rows (1-a, a), (1-b, b); m = 2: rows ((1-a)^2, 2a(1-a), a^2),
     ((1-a)(1-b), a(1-b) + (1-a)b, ab), ((1-b)^2, 2b(1-b), b^2).
     """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    if m > 2:
-        return restriction_matrix(m, a, b)
-    out = np.empty(a.shape + (m + 1, m + 1))
-    a1, b1 = 1.0 - a, 1.0 - b
-    if m == 0:
-        out[..., 0, 0] = 1.0
-    elif m == 1:
-        out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1] = a1, a, b1, b
-    else:
-        out[..., 0, 0], out[..., 0, 1], out[..., 0, 2] = a1 * a1, 2.0 * a * a1, a * a
-        out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = a1 * b1, a * b1 + a1 * b, a * b
-        out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = b1 * b1, 2.0 * b * b1, b * b
-    return out
+    xp = namespace_of(a, b)
+    a = xp.asarray(a, dtype=xp.float64)
+    b = xp.asarray(b, dtype=xp.float64)
+    return xp.stack([xp.stack(row, axis=-1) for row in _restriction_entries(xp, m, a, b)], axis=-2)
 
 
-def restrict_batch_last(c: np.ndarray, lo: np.ndarray, hi: np.ndarray, cache: dict | None = None,
-                        keys=None) -> np.ndarray:
+def restrict_batch_last(c, lo, hi, cache: dict | None = None, keys=None):
     """Restrict B polynomials to B boxes, with the BATCH AXIS LAST: the solver's hot path.
 
     ``c`` (*lead, d_1, ..., d_n, B) float: polynomial b has control points c[..., b] on [0, 1]^n;
@@ -332,13 +354,17 @@ def restrict_batch_last(c: np.ndarray, lo: np.ndarray, hi: np.ndarray, cache: di
     boxes (same shape), as :func:`restrict` does with the batch first. Keeping the batch axis last
     makes every step a contiguous vector operation over boxes (about twice as fast as batched
     matrix products on the batch-first layout; benchmarks/bench_bernstein.py). ``cache`` (a dict,
-    optional) shares the restriction matrices between calls on the same boxes, under the key
-    (keys[k], degree) for axis k (``keys`` default: the axis indices).
-    No validation beyond shapes: callers pass 0 <= lo <= hi <= 1.
+    optional) shares the restriction matrices' entries between calls on the same boxes, under the
+    key (keys[k], degree) for axis k (``keys`` default: the axis indices).
+    No validation beyond shapes: callers pass 0 <= lo <= hi <= 1. Any array module
+    (:func:`spherekin.core.arrays.namespace_of`): array API standard calls only; each new control
+    point is the sum over j of R[i][j] * old_j in that order, so a box's numbers do not depend on
+    its batch.
     """
-    c = np.asarray(c, dtype=float)
-    lo = np.asarray(lo, dtype=float)
-    hi = np.asarray(hi, dtype=float)
+    xp = namespace_of(c, lo, hi)
+    c = xp.asarray(c, dtype=xp.float64)
+    lo = xp.asarray(lo, dtype=xp.float64)
+    hi = xp.asarray(hi, dtype=xp.float64)
     if lo.ndim != 2 or lo.shape != hi.shape or c.ndim < lo.shape[1] + 1 or c.shape[-1] != lo.shape[0]:
         raise ValueError(f"lo, hi: expected shape (B, n) matching c's last axes (..., d_1..d_n, B); "
                          f"got lo {lo.shape}, hi {hi.shape}, c {c.shape}")
@@ -346,25 +372,23 @@ def restrict_batch_last(c: np.ndarray, lo: np.ndarray, hi: np.ndarray, cache: di
     shape = c.shape
     nb = shape[-1]
     dims = shape[-n - 1:-1]
-    lead = int(np.prod(shape[:-n - 1], dtype=int))
+    lead = prod(shape[:-n - 1])
     cache = {} if cache is None else cache
     for k, d in enumerate(dims):
         if d == 1:
             continue
         key = (k if keys is None else keys[k], d)
         if key not in cache:
-            cache[key] = np.ascontiguousarray(np.moveaxis(restriction_matrices(d - 1, lo[:, k], hi[:, k]), 0, -1))
-        mat = cache[key]                                          # (d, d, B)
-        pre = lead * int(np.prod(dims[:k], dtype=int))
-        post = int(np.prod(dims[k + 1:], dtype=int))
-        v = c.reshape(pre, d, post, nb)
-        out = np.empty_like(v)
+            cache[key] = _restriction_entries(xp, d - 1, lo[:, k], hi[:, k])
+        mat = cache[key]                                          # d x d entries, each (B,)
+        v = xp.reshape(c, (lead * prod(dims[:k]), d, prod(dims[k + 1:]), nb))
+        rows = []
         for i in range(d):
-            o = out[:, i]
-            np.multiply(mat[i, 0], v[:, 0], out=o)
+            o = mat[i][0] * v[:, 0, ...]
             for j in range(1, d):
-                o += mat[i, j] * v[:, j]
-        c = out.reshape(shape)
+                o += mat[i][j] * v[:, j, ...]
+            rows.append(o)
+        c = xp.reshape(xp.stack(rows, axis=1), shape)
     return c
 
 

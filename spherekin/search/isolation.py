@@ -38,6 +38,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.arrays import namespace_of
 from ..core.bernstein import restrict_batch_last
 from .pruners import excludes_zero
 
@@ -99,15 +100,18 @@ class SquareSystem:
         return out
 
 
-def _weights_at(m: int, u: np.ndarray) -> np.ndarray:
-    """Bernstein basis b_{i,m}(u), shape (m+1, B) for u of shape (B,)."""
+def _weights_at(m: int, u):
+    """Bernstein basis b_{i,m}(u), shape (m+1, B) for u of shape (B,) (any array module)."""
     from math import comb
 
-    return np.stack([comb(m, i) * u ** i * (1.0 - u) ** (m - i) for i in range(m + 1)])
+    xp = namespace_of(u)
+    return xp.stack([comb(m, i) * u ** i * (1.0 - u) ** (m - i) for i in range(m + 1)])
 
 
-def evaluate_at(c: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Values (E, B) of polynomials c (E, d_1..d_N, B) at points u (B, N) of their boxes."""
+def evaluate_at(c, u):
+    """Values (E, B) of polynomials c (E, d_1..d_N, B) at points u (B, N) of their boxes (any array
+    module: :func:`spherekin.core.arrays.namespace_of`)."""
+    xp = namespace_of(c, u)
     ne, dims, bsz = c.shape[0], c.shape[1:-1], c.shape[-1]
     v = c
     for k in range(len(dims) - 1, -1, -1):
@@ -116,48 +120,60 @@ def evaluate_at(c: np.ndarray, u: np.ndarray) -> np.ndarray:
             w = _weights_at(d - 1, u[:, k])                              # (d, B)
             # sum_j v[..., j, b] w[j, b] as elementwise products in a fixed order (not einsum, whose
             # summation order depends on the array sizes): a box's value never depends on its batch
-            out = v[..., 0, :] * w[0]
+            out = v[..., 0, :] * w[0, :]
             for j in range(1, d):
-                out += v[..., j, :] * w[j]
+                out += v[..., j, :] * w[j, :]
             v = out
         else:
             v = v[..., 0, :]
-    return v.reshape(ne, bsz)
+    return xp.reshape(v, (ne, bsz))
 
 
-def _derivative(c: np.ndarray, k: int) -> np.ndarray | None:
+def _derivative(c, k: int):
     """Control points of dc/du_k (degree m - 1 along axis k), or None when c has degree 0 there."""
     d = c.shape[1 + k]
     if d == 1:
         return None
-    return (d - 1) * np.diff(c, axis=1 + k)
+    xp = namespace_of(c)
+    return (d - 1) * xp.diff(c, axis=1 + k)
 
 
-def jacobian_at(c: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Jacobian (E, N, B) of polynomials c (E, d_1..d_N, B) at points u (B, N)."""
+def jacobian_at(c, u):
+    """Jacobian (E, N, B) of polynomials c (E, d_1..d_N, B) at points u (B, N) (any array module)."""
+    xp = namespace_of(c, u)
     ne, n, bsz = c.shape[0], c.ndim - 2, c.shape[-1]
-    out = np.zeros((ne, n, bsz))
+    zero = None
+    cols = []
     for k in range(n):
         dk = _derivative(c, k)
         if dk is not None:
-            out[:, k] = evaluate_at(dk, u)
-    return out
+            cols.append(evaluate_at(dk, u))
+        else:
+            zero = xp.zeros_like(xp.reshape(c, (ne, -1, bsz))[:, 0, :]) if zero is None else zero
+            cols.append(zero)
+    return xp.stack(cols, axis=1)
 
 
-def _derivative_bounds(c: np.ndarray, tol: np.ndarray):
+def _derivative_bounds(c, tol):
     """Enclosures (E, N, B) of dc/du_k over the box: min/max of the derivative control points,
-    widened by the rounding tolerance of a difference of two control points times the degree."""
+    widened by the rounding tolerance (E, B) of a difference of two control points times the degree
+    (any array module)."""
+    xp = namespace_of(c, tol)
     ne, n, bsz = c.shape[0], c.ndim - 2, c.shape[-1]
-    lo, hi = np.zeros((ne, n, bsz)), np.zeros((ne, n, bsz))
+    zero = None
+    lo, hi = [], []
     for k in range(n):
         dk = _derivative(c, k)
         if dk is None:
+            zero = xp.zeros_like(xp.reshape(c, (ne, -1, bsz))[:, 0, :]) if zero is None else zero
+            lo.append(zero)
+            hi.append(zero)
             continue
-        flat = dk.reshape(ne, -1, bsz)
+        flat = xp.reshape(dk, (ne, -1, bsz))
         widen = 2.0 * (c.shape[1 + k] - 1) * tol
-        lo[:, k] = flat.min(axis=1) - widen
-        hi[:, k] = flat.max(axis=1) + widen
-    return lo, hi
+        lo.append(xp.min(flat, axis=1) - widen)
+        hi.append(xp.max(flat, axis=1) + widen)
+    return xp.stack(lo, axis=1), xp.stack(hi, axis=1)
 
 
 def _inverses(jmid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -27,10 +27,12 @@ below at every root) could be pruned away by rounding.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from math import prod
 from typing import ClassVar, Sequence
 
 import numpy as np
 
+from ..core.arrays import namespace_of
 from .lp_backends import backend_class, make_backend
 from .registry import Registry
 
@@ -43,84 +45,107 @@ __all__ = ["Pruner", "PRUNERS", "make_pruner", "check_pruner", "ProjectedPolyhed
 INTERVAL_MARGIN = 1e-12
 
 
-def _hull_level_interval(s: np.ndarray, vals: np.ndarray):
+def _hull_level_interval(s: Sequence[float], vals):
     """Interval of x where the lower hull of the points (s_i, vals_i) is <= 0.
 
-    ``s`` (m+1,) increasing abscissae, ``vals`` (m+1, ...) ordinates (already shifted by the
-    tolerance), the abscissa axis FIRST so that every step is an elementwise operation over whole
-    arrays (numpy reductions over tiny trailing axes are an order of magnitude slower). Returns
-    (lo, hi) of shape (...), lo = +inf when empty. The set is the convex hull of the admissible
-    abscissae (vals <= 0) and of the crossings of level 0 by the segments joining an admissible
-    and an excluded point; its left end is the first admissible abscissa or a crossing of a
-    segment whose LEFT end is excluded, its right end symmetrically, so each segment i < j is
-    computed once.
+    ``s`` (m+1,) increasing abscissae (Python floats: constants of the degree), ``vals`` (m+1, ...)
+    ordinates (already shifted by the tolerance), the abscissa axis FIRST so that every step is an
+    elementwise operation over whole arrays (numpy reductions over tiny trailing axes are an order of
+    magnitude slower). Returns (lo, hi) of shape (...), lo = +inf when empty. The set is the convex
+    hull of the admissible abscissae (vals <= 0) and of the crossings of level 0 by the segments
+    joining an admissible and an excluded point; its left end is the first admissible abscissa or a
+    crossing of a segment whose LEFT end is excluded, its right end symmetrically, so each segment
+    i < j is computed once. Any array module (:func:`spherekin.core.arrays.namespace_of`).
     """
+    xp = namespace_of(vals)
     ok = vals <= 0
-    lo = np.full(vals.shape[1:], np.inf)
-    hi = np.full(vals.shape[1:], -np.inf)
+    lo = xp.full_like(vals[0, ...], xp.inf)
+    hi = xp.full_like(vals[0, ...], -xp.inf)
     for i in range(len(s) - 1, -1, -1):
-        lo = np.where(ok[i], s[i], lo)
+        lo = xp.where(ok[i, ...], s[i], lo)
     for i in range(len(s)):
-        hi = np.where(ok[i], s[i], hi)
+        hi = xp.where(ok[i, ...], s[i], hi)
+    # numpy's floating-point error state (host-side, whatever the module): a segment whose ends are
+    # both admissible or both excluded divides by zero or gives nan, and its crossing is never used
     with np.errstate(divide="ignore", invalid="ignore"):
         for i in range(len(s)):
             for j in range(i + 1, len(s)):
-                x = s[i] + (s[j] - s[i]) * (vals[i] / (vals[i] - vals[j]))
-                lo = np.where(ok[j] & ~ok[i], np.minimum(lo, x), lo)
-                hi = np.where(ok[i] & ~ok[j], np.maximum(hi, x), hi)
+                x = s[i] + (s[j] - s[i]) * (vals[i, ...] / (vals[i, ...] - vals[j, ...]))
+                lo = xp.where(ok[j, ...] & ~ok[i, ...], xp.minimum(lo, x), lo)
+                hi = xp.where(ok[i, ...] & ~ok[j, ...], xp.maximum(hi, x), hi)
     return lo, hi
 
 
-def pp_intervals(cps: np.ndarray, tol, var: int | None = None):
+def _tolerances(xp, tol, ne: int, bsz: int):
+    """The tolerances ``tol`` (E,) or (E, B) of E equations as an (E, B) array (a broadcast view)."""
+    return xp.broadcast_to(xp.reshape(xp.asarray(tol, dtype=xp.float64), (ne, -1)), (ne, bsz))
+
+
+def pp_intervals(cps, tol, var: int | None = None):
     """Projected-polyhedron intervals for each box, equation and variable.
 
     cps (E, d_1..d_n, B) (batch last), tol (E,) or (E, B). For every variable k with d_k > 1, the
     2-D points (i_k / m_k, w_I) are reduced to the lowest and highest w at each abscissa, whose
     hulls give the interval of x_k where |w| <= tol is reachable. Returns (variables, lo, hi) with
     lo, hi of shape (E, |variables|, B); lo > hi where the equation excludes the box. With ``var``
-    given, returns (lo, hi) of shape (E, B) for that variable only.
+    given, returns (lo, hi) of shape (E, B) for that variable only. Any array module
+    (:func:`spherekin.core.arrays.namespace_of`).
     """
+    xp = namespace_of(cps, tol)
     ne, dims, bsz = cps.shape[0], cps.shape[1:-1], cps.shape[-1]
     variables = tuple(k for k, d in enumerate(dims) if d > 1)
-    t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(ne, -1), (ne, bsz))
-    lo = np.zeros((ne, len(variables), bsz))
-    hi = np.zeros((ne, len(variables), bsz))
+    t = _tolerances(xp, tol, ne, bsz)
     if variables:
         vd = [dims[k] for k in variables]
         mins, maxs = {}, {}
         for j, d in enumerate(vd):                 # the lowest and highest w at each abscissa of x_k
-            v = cps.reshape(ne, int(np.prod(vd[:j], dtype=int)), d, -1, bsz)
-            mins[j], maxs[j] = np.moveaxis(v.min(axis=(1, 3)), 1, 0), np.moveaxis(v.max(axis=(1, 3)), 1, 0)
+            v = xp.reshape(cps, (ne, prod(vd[:j]), d, -1, bsz))
+            mins[j] = xp.moveaxis(xp.min(v, axis=(1, 3)), 1, 0)
+            maxs[j] = xp.moveaxis(xp.max(v, axis=(1, 3)), 1, 0)
+        cols = {}                                  # variable position -> (lo, hi) (E, B)
         for d in sorted(set(vd)):
             group = [j for j, dj in enumerate(vd) if dj == d]
-            low = np.stack([mins[j] for j in group], axis=2) - t[None, :, None, :]     # (d, E, V_d, B)
-            up = np.stack([maxs[j] for j in group], axis=2) + t[None, :, None, :]
-            s = np.linspace(0.0, 1.0, d)
+            low = xp.stack([mins[j] for j in group], axis=2) - t[None, :, None, :]     # (d, E, V_d, B)
+            up = xp.stack([maxs[j] for j in group], axis=2) + t[None, :, None, :]
+            s = np.linspace(0.0, 1.0, d).tolist()   # host constants: the abscissae i / m as numpy rounds them
             # the upper hull admits 0 where the lower hull of the mirrored points -up does
             lo1, hi1 = _hull_level_interval(s, low)                                    # (E, V_d, B)
             lo2, hi2 = _hull_level_interval(s, -up)
-            lo[:, group], hi[:, group] = np.maximum(lo1, lo2), np.minimum(hi1, hi2)
+            glo, ghi = xp.maximum(lo1, lo2), xp.minimum(hi1, hi2)
+            if len(group) == len(vd):              # one degree: every variable, in order
+                lo, hi = glo, ghi
+                break
+            for q, j in enumerate(group):
+                cols[j] = (glo[:, q, :], ghi[:, q, :])
+        if cols:
+            lo = xp.stack([cols[j][0] for j in range(len(vd))], axis=1)
+            hi = xp.stack([cols[j][1] for j in range(len(vd))], axis=1)
+    else:
+        lo = hi = xp.expand_dims(t, axis=1)[:, :0, :]                                  # (E, 0, B)
     if var is None:
         return variables, lo, hi
     if var not in variables:
         raise ValueError(f"var: expected a variable of positive degree {variables}, got {var!r}")
     j = variables.index(var)
-    return lo[:, j], hi[:, j]
+    return lo[:, j, :], hi[:, j, :]
 
 
-def excludes_zero(cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]) -> np.ndarray:
+def excludes_zero(cps: Sequence, tols: Sequence):
     """(B,) True where some equation's control points all lie beyond its slab |w| <= tol.
 
     ``cps``: per block, control points (E, d..., B) (batch last); ``tols``: (E,) or (E, B). By the
     convex hull property the equation then has no zero on the box (the range enclosure of a
-    Bernstein polynomial is [min, max] of its control points).
+    Bernstein polynomial is [min, max] of its control points). Any array module
+    (:func:`spherekin.core.arrays.namespace_of`).
     """
+    xp = namespace_of(*cps, *tols)
     bsz = cps[0].shape[-1]
-    out = np.zeros(bsz, dtype=bool)
+    out = None
     for c, tol in zip(cps, tols):
-        flat = c.reshape(c.shape[0], -1, bsz)
-        t = np.broadcast_to(np.asarray(tol, dtype=float).reshape(c.shape[0], -1), (c.shape[0], bsz))
-        out |= np.any((flat.min(axis=1) > t) | (flat.max(axis=1) < -t), axis=0)
+        flat = xp.reshape(c, (c.shape[0], -1, bsz))
+        t = _tolerances(xp, tol, c.shape[0], bsz)
+        hit = xp.any((xp.min(flat, axis=1) > t) | (xp.max(flat, axis=1) < -t), axis=0)
+        out = hit if out is None else out | hit
     return out
 
 
@@ -174,24 +199,32 @@ class ProjectedPolyhedron(Pruner):
     name = "pp"
 
     def reduce(self, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], widths=None):
+        # any array module (spherekin.core.arrays.namespace_of): each variable's bounds are a row
+        # (B,), tightened by every equation that depends on it
+        xp = namespace_of(*cps, *tols)
         bsz, n = cps[0].shape[-1], cps[0].ndim - 2
-        lo, hi = np.zeros((n, bsz)), np.ones((n, bsz))
-        excluded = np.zeros(bsz, dtype=bool)
+        first = xp.reshape(cps[0], (-1, bsz))[0, :]
+        lo, hi = [xp.zeros_like(first)] * n, [xp.ones_like(first)] * n
+        excluded = None
         for c, tol in zip(cps, tols):
             variables, l, h = pp_intervals(c, tol)
             if variables:
-                v = list(variables)
-                lo[v] = np.maximum(lo[v], l.max(axis=0))
-                hi[v] = np.minimum(hi[v], h.min(axis=0))
+                lmax, hmin = xp.max(l, axis=0), xp.min(h, axis=0)                        # (V, B)
+                for q, k in enumerate(variables):
+                    lo[k] = xp.maximum(lo[k], lmax[q, :])
+                    hi[k] = xp.minimum(hi[k], hmin[q, :])
             else:
                 # an equation that depends on no variable has no projection to prune with: it
                 # excludes the box when its (constant) value lies beyond the slab
-                excluded |= excludes_zero([c], [tol])
-        lo, hi = lo.T, hi.T
-        empty = np.any(lo > hi, axis=1) | excluded
-        lo, hi = np.maximum(lo - INTERVAL_MARGIN, 0.0), np.minimum(hi + INTERVAL_MARGIN, 1.0)
-        lo[empty], hi[empty] = 1.0, 0.0
-        return lo, hi
+                e = excludes_zero([c], [tol])
+                excluded = e if excluded is None else excluded | e
+        lo, hi = xp.stack(lo, axis=1), xp.stack(hi, axis=1)                              # (B, n)
+        empty = xp.any(lo > hi, axis=1)
+        if excluded is not None:
+            empty = empty | excluded
+        lo, hi = xp.maximum(lo - INTERVAL_MARGIN, 0.0), xp.minimum(hi + INTERVAL_MARGIN, 1.0)
+        empty = empty[:, None]
+        return xp.where(empty, 1.0, lo), xp.where(empty, 0.0, hi)
 
 
 @PRUNERS.register
