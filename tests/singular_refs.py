@@ -171,6 +171,20 @@ def _circle_intersections(p, rp: float, q, rq: float):
     return np.array([base + g * n, base - g * n])
 
 
+def four_bar_toml(fb: FourBar, name: str = "four-bar") -> str:
+    """The text of a kind "general" mechanism file of ``fb`` in the layout of examples/four_bar.toml (legs
+    "crank" A-B, driven A, and "rocker" D-C; every reading 0 at ``fb``'s configuration), for tests that give a
+    four-bar with branch points to spherekin."""
+    def vec(v):
+        return "[" + ", ".join(repr(float(x)) for x in v) + "]"
+
+    return (f'kind = "general"\nname = "{name}"\nreference_leg = "crank"\n\n'
+            f'[[legs]]\nname = "crank"\n[[legs.joints]]\nname = "A"\naxis = {vec(fb.A)}\nactuated = true\n'
+            f'[[legs.joints]]\nname = "B"\naxis = {vec(fb.B)}\n\n'
+            f'[[legs]]\nname = "rocker"\n[[legs.joints]]\nname = "D"\naxis = {vec(fb.D)}\n'
+            f'[[legs.joints]]\nname = "C"\naxis = {vec(fb.C)}\n')
+
+
 def four_bar_bd_cos(fb: FourBar):
     """(p, q, r) with cos arc(B(theta), D) = p + q cos theta + r sin theta, B(theta) = Rot(A, theta) B."""
     p = float(fb.A @ fb.B) * float(fb.A @ fb.D)
@@ -262,9 +276,10 @@ def _quaternion_of(rot) -> np.ndarray:
 
 
 def _oracle():
-    from benchmarks.peers_closed_form import quadrics_many, quaternion_rotation, real_roots_many
+    """(quadrics_many, real_roots_many) of the degree-8 solver (imported late: benchmarks/ is a script package)."""
+    from benchmarks.peers_closed_form import quadrics_many, real_roots_many
 
-    return quadrics_many, quaternion_rotation, real_roots_many
+    return quadrics_many, real_roots_many
 
 
 #: Frames in which the oracle counts: (G, H) turns the base frame by G and the platform frame by H (u, w0 ->
@@ -279,23 +294,18 @@ FRAME_SEED = 31
 
 
 def _random_rotation(rng) -> np.ndarray:
+    """A random rotation (3, 3) from a normal 4-vector (a uniformly distributed unit quaternion)."""
     q = rng.normal(size=4)
-    q /= np.linalg.norm(q)
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return _quaternion_rotations(q / np.linalg.norm(q))
 
 
-_rng = np.random.default_rng(FRAME_SEED)
-FRAMES = [(np.eye(3), np.eye(3))] + [(_random_rotation(_rng), _random_rotation(_rng)) for _ in range(2)]
 
 
 def rrr_poses_all_frames(geometry, inputs) -> tuple[np.ndarray, np.ndarray]:
     """The degree-8 oracle (``benchmarks.peers_closed_form.real_roots_many``) at inputs (K, 3), in each frame of
     FRAMES: (rotations (F, K, 8, 3, 3) in the original frame, NaN where not real; real (F, K, 8) bool).
     Raises ValueError where the oracle's Macaulay matrix has no clear null space (never met on general_3rrr)."""
-    quadrics_many, _, real_roots_many = _oracle()
+    quadrics_many, real_roots_many = _oracle()
     u, w0, v0, alpha2 = geometry
     inputs = np.atleast_2d(np.asarray(inputs, dtype=float))
     rots, reals = [], []
@@ -332,6 +342,10 @@ def _quaternion_rotations(q) -> np.ndarray:
     return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
                      np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
                      np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], -2)
+
+
+_rng = np.random.default_rng(FRAME_SEED)
+FRAMES = [(np.eye(3), np.eye(3))] + [(_random_rotation(_rng), _random_rotation(_rng)) for _ in range(2)]
 
 
 #: ODD_COUNT: complex roots come in conjugate pairs, so the real count of the degree-8 system is even. An odd
@@ -380,7 +394,8 @@ def singular_points_on_line(p0, p1, n_samples: int = 400, seed: int = 0, beta3: 
     grid shifted by a random phase from ``seed``, so that different seeds sample different points), and every
     change of count between neighbouring samples is bisected to BISECTION_WIDTH (in t times the segment's
     length); a sample interval holding several changes gives each of them. Crossings between two samples
-    that restore the count (4 -> 2 -> 4) are missed: use enough samples. Returns the points sorted by t (see :class:`SingularPoint`).
+    that restore the count (4 -> 2 -> 4) are missed: use enough samples. Returns the points sorted by t
+    (:class:`SingularPoint`).
     """
     geometry = rrr_geometry() if geometry is None else geometry
     p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from singular_refs import (FourBar, five_bar_count, five_bar_curve_points, five_bar_from_file, five_bar_moving,
-                           five_bar_tangency, five_bar_tracked, four_bar_branch_inputs, four_bar_closure_coefficients,
-                           four_bar_from_arcs, four_bar_from_file, rodrigues, rrr_closure, rrr_counts, rrr_geometry,
-                           rrr_poses, rrr_tracked, seeded_lines, singular_points_on_line, track_box_min_det,
-                           type2_det)
+from singular_refs import (EXAMPLES, FourBar, five_bar_count, five_bar_curve_points, five_bar_from_file,
+                           five_bar_moving, five_bar_tangency, five_bar_tracked, four_bar_branch_inputs,
+                           four_bar_closure_coefficients, four_bar_from_arcs, four_bar_from_file, four_bar_toml,
+                           rodrigues, rrr_closure, rrr_counts, rrr_geometry, rrr_poses, rrr_tracked, seeded_lines,
+                           singular_points_on_line, track_box_min_det, type2_det)
 
 DEG = math.pi / 180
 
@@ -108,6 +108,24 @@ def test_four_bar_branch_inputs_are_every_count_change(arcs):
     assert np.allclose(np.sort(changes), branch, atol=thetas[1] - thetas[0])
 
 
+def test_four_bar_toml_round_trip_and_spherekin_agrees(tmp_path):
+    """four_bar_toml writes the variant as a mechanism file: read back with tomllib it is the same four-bar, and
+    spherekin (public API) reads its input as the references do: 0 assemblies on one side of each branch
+    input, 2 on the other, as the numeric count says (the conventions the issue's tests rely on)."""
+    import spherekin as sk
+
+    fb = _variant(VARIANTS[0])
+    path = tmp_path / "variant.toml"
+    path.write_text(four_bar_toml(fb, "variant"))
+    back = four_bar_from_file(path)
+    assert np.allclose(back.arcs, fb.arcs, atol=1e-12)
+    assert np.allclose(four_bar_branch_inputs(back), four_bar_branch_inputs(fb), atol=1e-12)
+    mech = sk.load_mechanism(path)
+    for theta in four_bar_branch_inputs(fb):
+        for e in (-1e-3, 1e-3):
+            assert len(sk.solve(mech, [theta + e]).solutions) == _rocker_count(fb, theta + e)
+
+
 # ---------------------------------------------------------------- 2. general_3rrr along lines
 
 def test_type2_det_is_the_closure_jacobian():
@@ -118,8 +136,8 @@ def test_type2_det_is_the_closure_jacobian():
         beta = rng.uniform(-math.pi, math.pi, 3)
         rot = rodrigues(rng.normal(size=3), rng.uniform(0, math.pi))
         h = 1e-6
-        jac = np.column_stack([(rrr_closure(geo, beta, rodrigues(e, h) @ rot) - rrr_closure(geo, beta, rodrigues(e, -h) @ rot))[0]
-                               / (2 * h) for e in np.eye(3)])
+        jac = np.column_stack([(rrr_closure(geo, beta, rodrigues(e, h) @ rot)
+                                - rrr_closure(geo, beta, rodrigues(e, -h) @ rot))[0] / (2 * h) for e in np.eye(3)])
         assert math.isclose(np.linalg.det(jac), -type2_det(geo, beta, rot)[0], rel_tol=1e-6, abs_tol=1e-9)
 
 
@@ -195,6 +213,18 @@ def test_five_bar_tangency_sign_is_the_count():
     assert set(five_bar_count(fb, x[keep][f[keep] < 0])) == {2}
     assert set(five_bar_count(fb, x[keep][f[keep] > 0])) == {0}
     assert (f < 0).any() and (f > 0).any()
+
+
+def test_five_bar_count_is_spherekins():
+    """spherekin (public API) reads the five-bar's inputs as the references do: the same counts at seeded inputs."""
+    import spherekin as sk
+
+    fb = five_bar_from_file()
+    mech = sk.load_mechanism(EXAMPLES / "five_bar.toml")
+    x = np.random.default_rng(1).uniform(-3, 3, (6, 2))
+    counts = five_bar_count(fb, x)
+    assert set(counts) == {0, 2}
+    assert [len(sk.solve(mech, list(xx)).solutions) for xx in x] == list(counts)
 
 
 def test_five_bar_curve_points_are_tangencies():
