@@ -20,7 +20,8 @@ from benchmarks.sweep_roots import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
 from spherekin.search.boxloop import search_platform
-from spherekin.systems.platform import (CHART_EXTENT, PlatformSystem, Quaternion, chart_control_points, chart_quaternion,
+from spherekin.search.parameterizations import stack_chart_sets
+from spherekin.systems.platform import (CHART_CORE, CHART_EXTENT, PlatformSystem, Quaternion, chart_control_points, chart_quaternion,
                                             chart_rotation, form_matrix, not_applicable, passive_names, passive_readings,
                                             passive_readings_many,
                                             quaternion_matrix)
@@ -325,30 +326,39 @@ def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equat
     assert rep.settings.formulation == "halves" and len(rep.solutions) == 8 and rep.count_exact
 
 
-def test_a_chart_drops_the_boxes_where_another_component_is_larger():
-    """Quaternion.contract against the rule written out: a box whose reduction [rlo, rhi] has, on
-    some free component, every point beyond CHART_CORE in modulus (u = CHART_EXTENT (2x - 1)) is
-    discarded (rlo > rhi); any other box keeps its reduction untouched."""
+def test_a_chart_drops_exactly_the_boxes_another_chart_surely_searches():
+    """Quaternion.contract against its rule evaluated on the points of each reduced box: on chart k
+    (q_k = 1, the other components u = CHART_EXTENT (2x - 1)), a box is dropped iff some free |u_j|
+    exceeds CHART_CORE on the whole box, or the whole box lies in the core of a chart i < k
+    (max_l |q_l| <= CHART_CORE |q_i|). The extremes of every |u_l| on a box are at its ends or at
+    0, so the box's points are checked on that grid; every other box keeps its reduction. Also:
+    the charts are taken modulo 4 (a chunk stacks the 4 charts of each input)."""
     rng = np.random.default_rng(34)
-    n = 400
-    lo = rng.uniform(0, 0.9, (n, 3))
-    hi = np.minimum(lo + rng.uniform(0, 0.3, (n, 3)), 1.0)
-    rlo = rng.uniform(0, 0.4, (n, 3))
-    rhi = rng.uniform(0.6, 1.0, (n, 3))
-    rlo[:20] = 0.7                                     # a few already empty
-    rhi[:20] = 0.2
-    charts = PlatformSystem.from_mechanism(gosselin()).charts((0.1, 0.2, 0.3))
-    chart = rng.integers(0, 4, n)
+    n = 1500
+    centre = rng.choice([-1.0, 1.0], (n, 3)) * rng.uniform(0.7, 1.3, (n, 3)) * (rng.random((n, 3)) < 0.8)
+    half = rng.uniform(0.005, 0.3, (n, 3))
+    lo = np.clip((centre - half) / (2 * CHART_EXTENT) + 0.5, 0, 1)
+    hi = np.clip((centre + half) / (2 * CHART_EXTENT) + 0.5, 0, 1)
+    rlo, rhi = rng.uniform(0, 0.2, (n, 3)), rng.uniform(0.8, 1.0, (n, 3))
+    charts = stack_chart_sets([PlatformSystem.from_mechanism(gosselin()).charts(v) for v in ((0.1, 0.2, 0.3), (0, 0, 1))])
+    chart = rng.integers(0, 8, n)
     got_lo, got_hi = rlo.copy(), rhi.copy()
     Quaternion().contract(charts, chart, lo, hi, got_lo, got_hi)
+    dropped = 0
     for b in range(n):
-        a = [CHART_EXTENT * (2 * (lo[b, j] + rlo[b, j] * (hi[b, j] - lo[b, j])) - 1) for j in range(3)]
-        z = [CHART_EXTENT * (2 * (lo[b, j] + rhi[b, j] * (hi[b, j] - lo[b, j])) - 1) for j in range(3)]
-        beyond = any(a[j] > 1 + 1e-9 or z[j] < -1 - 1e-9 for j in range(3))
-        if beyond:
-            assert np.any(got_lo[b] > got_hi[b])
+        k = chart[b] % 4
+        ends = [CHART_EXTENT * (2 * (lo[b] + r * (hi[b] - lo[b])) - 1) for r in (rlo[b], rhi[b])]
+        grid = [sorted({ends[0][j], ends[1][j]} | ({0.0} if ends[0][j] < 0 < ends[1][j] else set())) for j in range(3)]
+        points = np.array([np.insert([a, c, d], k, 1.0) for a in grid[0] for c in grid[1] for d in grid[2]])
+        free = [l for l in range(4) if l != k]
+        beyond = any(np.all(np.abs(points[:, l]) > CHART_CORE) for l in free)
+        earlier = any(np.all(np.abs(points).max(axis=1) <= CHART_CORE * np.abs(points[:, i])) for i in range(k))
+        if beyond or earlier:
+            assert np.any(got_lo[b] > got_hi[b]), (b, k, grid)
+            dropped += 1
         else:
-            assert np.array_equal(got_lo[b], rlo[b]) and np.array_equal(got_hi[b], rhi[b])
+            assert np.array_equal(got_lo[b], rlo[b]) and np.array_equal(got_hi[b], rhi[b]), (b, k, grid)
+    assert 100 < dropped < n - 100
 
 
 def test_no_root_is_lost_to_the_chart_cores_not_even_tied_ones():

@@ -56,7 +56,7 @@ from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterizati
 from ..search.pruners import make_pruner
 from .base import SYSTEMS, Compiled, System
 
-__all__ = ["CHARTS", "CHART_EXTENT", "CHART_CORE", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
+__all__ = ["CHARTS", "CHART_EXTENT", "CHART_CORE", "CORE_ROUNDING", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
@@ -76,12 +76,17 @@ MAX_ASSEMBLIES = 8
 #: |q_i| = |q_j|). With overlapping charts it is interior to both; its duplicate is merged after
 #: polishing.
 CHART_EXTENT = 1.25
-#: A chart searches only where its fixed component is (about) the largest: a box whose every point
-#: has a free component |u_j| > CHART_CORE is discarded (:meth:`Quaternion.contract`; its roots are
-#: found on the chart of their largest component). Reason for 1 + 1e-9, not 1: a root whose largest
-#: components tie (|u_j| = 1 exactly, the agile eye's) must not be dropped on both charts by the
-#: rounding of the chart map (~1e-16).
-CHART_CORE = 1.0 + 1e-9
+#: The core of chart k: where every free |u_j| <= CHART_CORE (its fixed component is the largest, up to
+#: this factor); a chart searches its core only, and not the cores of the charts before it
+#: (:meth:`Quaternion.contract`). Reason for 19/16: above 1 so that the cores overlap and a root whose
+#: largest components tie (the agile eye's, at every input) is in the core of the first of them with
+#: room to spare: a later chart drops a box around it once the box is within ~3/16 of the tie, which
+#: is before it is isolated (measured on the Gosselin platform, 128 inputs: isolated roots 20 -> 8.5
+#: an input, boxes 436 -> 397; 9/8 gave 9.3 and 417, 17/16 12.0 and 441); below CHART_EXTENT, so
+#: that a root in a core is interior to its chart (the Krawczyk test needs that).
+CHART_CORE = 1.1875
+#: Relative margin of the core tests for the rounding of the chart map (a few ulps; far above them).
+CORE_ROUNDING = 1e-12
 #: Accept a chart box when each side is below tol times this. Reason: with q_k = 1 the unit
 #: quaternion q/|q| moves by at most |du| (|q| >= 1) and the rotation angle by twice that, so sides
 #: du <= tol / (2 sqrt 3) bound the rotation's change by tol. (Accepted boxes are not used as
@@ -478,24 +483,37 @@ class Quaternion(Parameterization):
         return np.asarray(x, dtype=float)
 
     def contract(self, charts, chart, lo, hi, rlo, rhi):
-        """Discard (rlo > rhi) the boxes whose reduction [rlo, rhi] (unit coordinates of the boxes
-        [lo, hi], B x N, in place) lies where a free component exceeds the fixed one: |u_j| >
-        CHART_CORE on the whole reduced box, for some j.
+        """Discard (rlo > rhi) the boxes whose roots another chart surely finds: the reduction
+        [rlo, rhi] (unit coordinates of the boxes [lo, hi], B x N, updated in place) of a box of
+        chart k is dropped when, on the whole reduced box, (a) some free |u_j| > CHART_CORE, or
+        (b) the box lies in the core of a chart i < k: |u_i| >= 1 / CHART_CORE and every other
+        free |u_l| <= CHART_CORE |u_i| (with the rounding margin CORE_ROUNDING).
 
-        Why it loses no root: a root's largest component m is fixed to 1 on chart m, where every
-        free |u_j| <= 1 < CHART_CORE, so no box of chart m holding it is discarded; it is found
-        there, in the interior of that chart (CHART_EXTENT). The overlap of the charts stays for
-        the roots on a boundary (|u_j| = 1, found on both charts and merged); what is dropped is
-        the search of the same roots again on other charts (measured on the Gosselin platform:
-        roots found on up to 4 charts, each subdivided down to its isolation).
+        Why no root is lost: the core of chart j is where every free |u| <= CHART_CORE (q_j is
+        the largest component, up to the factor CHART_CORE); every root lies in the core of its
+        largest component's chart. Let j be the first chart (lowest index) whose core holds the
+        root: on chart j no box holding it is dropped by (a) (it is in the core) nor by (b) (no
+        earlier core holds it), and it is interior to chart j (CHART_CORE < CHART_EXTENT), so the
+        Krawczyk test can isolate it there. What is dropped is the search of the same root again on
+        other charts: measured on the Gosselin platform, its four serially singular assemblies
+        have |q_0| = |q_1| = |q_2| = |q_3| at every input and were isolated on all four charts
+        (20 roots an input for 8 assemblies).
         """
         width = hi - lo
         mlo, mhi = charts.map_lo[chart], charts.map_hi[chart]
         ulo = mlo + (mhi - mlo) * (lo + rlo * width)
         uhi = mlo + (mhi - mlo) * (lo + rhi * width)
-        beyond = np.any((ulo > CHART_CORE) | (uhi < -CHART_CORE), axis=1)
-        rlo[beyond] = 1.0
-        rhi[beyond] = 0.0
+        big = np.maximum(np.abs(ulo), np.abs(uhi))                                   # max |u| on the box
+        small = np.where((ulo > 0.0) | (uhi < 0.0), np.minimum(np.abs(ulo), np.abs(uhi)), 0.0)   # min |u|
+        drop = np.any(small > CHART_CORE * (1.0 + CORE_ROUNDING), axis=1)                        # (a)
+        fixed = chart % CHARTS                  # the chart's fixed component (a chunk stacks 4 per input)
+        for i in range(CHARTS - 1):             # (b): the core of chart i, as seen from charts k > i
+            later = fixed > i                   # on chart k > i, component i is free variable i
+            floor = small[:, i] * CHART_CORE * (1.0 - CORE_ROUNDING)
+            others = np.delete(big, i, axis=1)
+            drop |= later & (floor >= 1.0) & np.all(others <= floor[:, None], axis=1)
+        rlo[drop] = 1.0
+        rhi[drop] = 0.0
 
 
 # ---------------------------------------------------------------------- the system of the registry
