@@ -38,6 +38,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from .core.angles import RANGE_TOL, in_range_many
+from .core.groups import pad_by_owner
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
@@ -371,8 +372,9 @@ class Problem:
                     pending.append((k, got))
             trusted = self._trust_many([values[k] for k, _ in pending], [got[0] for _, got in pending],
                                        s.tol, refine=False)
-            for (k, (report, poses)), (solutions, refined, t_final) in zip(pending, trusted):
-                fallback[k] = disagreement(solutions, poses)
+            checks = disagreements([solutions for solutions, _, _ in trusted], [got[1] for _, got in pending])
+            for (k, (report, poses)), (solutions, refined, t_final), check in zip(pending, trusted, checks):
+                fallback[k] = check
                 if fallback[k] is None:
                     out[k] = self._report(values[k], report, solutions, refined, t_final, None, None)
                 else:
@@ -559,22 +561,16 @@ class Problem:
             return report, limit, covering
 
 
-def first_of_duplicates(poses: np.ndarray, owner: np.ndarray, n_inputs: int) -> np.ndarray:
+def first_of_duplicates(poses: np.ndarray, owner: np.ndarray, n_inputs: int, within: float = DUPLICATE_POSE) -> np.ndarray:
     """(N,) bool: which of the roots ``poses`` (N, 3, 3; ``owner`` (N,) the input of each, each
     input's roots in the order found) to keep: a root is dropped when a root kept before it, of the
-    same input, is within DUPLICATE_POSE (the same root found on an overlapping chart). One pass per
-    position in an input's list, each over every input of the chunk at once."""
-    n = len(poses)
-    keep = np.zeros(n, dtype=bool)
-    if not n:
+    same input, is ``within`` it (largest entry; default DUPLICATE_POSE: the same root found on an
+    overlapping chart). One pass per place in an input's list, each over every input of the chunk."""
+    keep = np.zeros(len(poses), dtype=bool)
+    if not len(poses):
         return keep
-    counts = np.bincount(owner, minlength=n_inputs)
-    order = np.argsort(owner, kind="stable")
-    pos = np.empty(n, dtype=np.intp)
-    pos[order] = np.arange(n) - np.repeat(np.cumsum(counts) - counts, counts)
-    flat = np.full((n_inputs, int(counts.max()), 9), np.nan)       # NaN: no root (never near)
-    flat[owner, pos] = poses.reshape(n, 9)
-    near = np.abs(flat[:, :, None] - flat[:, None]).max(axis=3) <= DUPLICATE_POSE         # (K, P, P)
+    flat, pos = pad_by_owner(np.asarray(poses).reshape(len(poses), 9), owner, n_inputs)   # NaN: no root
+    near = np.abs(flat[:, :, None] - flat[:, None]).max(axis=3) <= within                  # (K, P, P)
     kept = np.zeros(flat.shape[:2], dtype=bool)
     for i in range(flat.shape[1]):
         kept[:, i] = ~np.isnan(flat[:, i, 0]) & ~np.any(near[:, i, :i] & kept[:, :i], axis=1)
@@ -589,19 +585,33 @@ def disagreement(solutions, poses) -> str | None:
     loop equations. The two must agree, or the input goes to the loop equations (in the manner of
     scipy's ``_check_result``: the fast path's answer is checked, not trusted).
     """
-    bad = [s.status for s in solutions if not is_proven(s)]
-    if bad:
-        return f"the trust layer could not prove {len(bad)} root(s) of the platform search ({', '.join(bad)})"
-    distinct: list = []
-    for r in poses:
-        if not any(np.abs(r - d).max() <= POSE_MATCH for d in distinct):
-            distinct.append(r)
-    got = [s.platform_rotation for s in solutions]
-    if len(got) != len(distinct) or any(
-            not any(g is not None and np.abs(g - r).max() <= POSE_MATCH for g in got) for r in distinct):
-        return (f"the platform search found {len(distinct)} assemblies and the trust layer {len(got)} "
-                "different ones")
-    return None
+    return disagreements([solutions], [poses])[0]
+
+
+def disagreements(solutions: list, poses: list) -> list[str | None]:
+    """:func:`disagreement` of each input of a chunk (``solutions[k]``, ``poses[k]`` of input k), the
+    pose comparisons of every input as array operations (pairs within an input, every input at once)."""
+    out: list[str | None] = [None] * len(solutions)
+    roots = [np.asarray(p, dtype=float).reshape(-1, 3, 3) for p in poses]
+    owner = np.repeat(np.arange(len(roots)), [len(r) for r in roots])
+    flat = np.concatenate(roots) if roots else np.empty((0, 3, 3))
+    distinct = first_of_duplicates(flat, owner, len(roots), POSE_MATCH)
+    n_distinct = np.bincount(owner[distinct], minlength=len(roots))
+    got = [[s.platform_rotation for s in sols] for sols in solutions]
+    g_owner = np.repeat(np.arange(len(got)), [len(g) for g in got])
+    g_flat = np.array([np.full((3, 3), np.nan) if g is None else g for gs in got for g in gs]).reshape(-1, 9)
+    padded, _ = pad_by_owner(g_flat, g_owner, len(got))                    # (K, G, 9); NaN: none
+    d_flat = flat.reshape(-1, 9)[distinct]
+    matched = np.any(np.all(np.abs(padded[owner[distinct]] - d_flat[:, None]) <= POSE_MATCH, axis=2), axis=1)
+    unmatched = np.bincount(owner[distinct], weights=~matched, minlength=len(roots))
+    for k, sols in enumerate(solutions):
+        bad = [s.status for s in sols if not is_proven(s)]
+        if bad:
+            out[k] = f"the trust layer could not prove {len(bad)} root(s) of the platform search ({', '.join(bad)})"
+        elif len(got[k]) != n_distinct[k] or unmatched[k]:
+            out[k] = (f"the platform search found {n_distinct[k]} assemblies and the trust layer {len(got[k])} "
+                      "different ones")
+    return out
 
 
 def compile(

@@ -1,4 +1,5 @@
-"""spherekin.core.groups: connected components against a breadth-first search written here."""
+"""spherekin.core.groups: connected components against a breadth-first search written here; the
+padding by owner against a loop."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ from collections import deque
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spherekin.core.groups import connected_groups
+import numpy as np
+
+from spherekin.core.groups import connected_groups, pad_by_owner
 
 
 def components_by_bfs(n, edges):
@@ -42,3 +45,20 @@ def test_the_groups_are_the_components_in_the_order_of_their_first_vertex(case):
 
 def test_a_chain_joins_transitively_and_an_isolated_vertex_stays_alone():
     assert connected_groups(5, [(3, 1), (1, 0)]) == [[0, 1, 3], [2], [4]]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(0, 5), max_size=40), st.one_of(st.none(), st.integers(0, 6)))
+def test_pad_by_owner_lays_each_owners_rows_out_in_order(owners, width):
+    values = np.arange(len(owners) * 2, dtype=float).reshape(-1, 2) + 0.5
+    padded, pos = pad_by_owner(values, owners, 6, width)
+    per = {k: [i for i, o in enumerate(owners) if o == k] for k in range(6)}
+    p = max((len(v) for v in per.values()), default=0) if width is None else width
+    assert padded.shape == (6, p, 2)
+    for k, rows in per.items():
+        for place in range(p):
+            if place < len(rows):
+                assert padded[k, place].tolist() == values[rows[place]].tolist()
+                assert pos[rows[place]] == place
+            else:
+                assert np.isnan(padded[k, place]).all()

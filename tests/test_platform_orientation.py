@@ -303,6 +303,57 @@ def test_disagreement_between_platform_roots_and_finalized_solutions():
     assert "found 2 assemblies and the trust layer 1" in disagreement([entry(r1)], [r1, r2])
     assert "found 1 assemblies and the trust layer 2" in disagreement([entry(r1), entry(r2)], [r1])
     assert disagreement([entry(r1)], [r2]) is not None                               # moved by polishing
+    assert "found 1 assemblies and the trust layer 1" in disagreement([entry(None)], [r1])   # no pose
+
+
+def test_the_disagreements_of_a_chunk_are_each_inputs_own():
+    """disagreements over a chunk of inputs against the rule written out for each input alone (every
+    entry proven; the distinct roots, greedily within POSE_MATCH, as many as the entries, each
+    matched by one), on random cases: duplicates, a root moved, entries missing or extra, unproven
+    ones, inputs without roots or entries; roots of one input never match entries of another."""
+    from spherekin.problem import POSE_MATCH, disagreements
+    from spherekin.results import Solution
+
+    rng = np.random.default_rng(35)
+
+    def entry(r, status):
+        z = np.zeros(6)
+        return Solution(z, z, z, 1, platform_rotation=r, status=status, evidence={"krawczyk_certified": True})
+
+    def by_hand(sols, roots):
+        if any(s.status not in ("certified", "singular") for s in sols):
+            return "could not prove"
+        distinct = []
+        for r in roots:
+            if all(np.abs(r - d).max() > POSE_MATCH for d in distinct):
+                distinct.append(r)
+        got = [s.platform_rotation for s in sols]
+        ok = len(got) == len(distinct) and all(any(np.abs(g - r).max() <= POSE_MATCH for g in got) for r in distinct)
+        return None if ok else f"found {len(distinct)} assemblies and the trust layer {len(got)}"
+
+    cases = []
+    shared = rot(rng.normal(size=3))
+    for k in range(40):
+        roots = [rot(rng.normal(size=3)) for _ in range(k % 5)] + ([shared] if k % 7 == 0 else [])
+        sols = [entry(r, "certified") for r in roots]
+        roots = roots + [r + 0.5 * POSE_MATCH for r in roots[:k % 3]]           # found twice
+        kind = k % 6
+        if kind == 1 and sols:
+            sols[0] = entry(sols[0].platform_rotation + 3 * POSE_MATCH, "certified")  # moved
+        elif kind == 2 and sols:
+            sols.pop()                                                         # one missing
+        elif kind == 3:
+            sols.append(entry(shared, "singular"))                             # one extra (another input's root)
+        elif kind == 4 and sols:
+            sols[-1] = entry(sols[-1].platform_rotation, "unverified")
+        cases.append((sols, roots))
+    got = disagreements([c[0] for c in cases], [c[1] for c in cases])
+    kinds = set()
+    for (sols, roots), g in zip(cases, got):
+        want = by_hand(sols, roots)
+        assert (g is None) == (want is None) and (want is None or want in g), (want, g)
+        kinds.add(want.split(" ")[0] if want else None)
+    assert kinds == {None, "could", "found"}
 
 
 def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equations(monkeypatch):

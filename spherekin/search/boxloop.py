@@ -41,6 +41,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..core import bernstein
+from ..core.groups import pad_by_owner
 from ..core.angles import RANGE_TOL, in_range, in_range_many, near, near_groups, wrap
 from ..closure import ClosureLoop, Unknown
 from .formulations import FORMULATIONS, ChartBilinear
@@ -791,16 +792,11 @@ def clusters_in_range_many(lo, hi, owner, n_inputs: int, ranges, tol) -> list[li
     lo = np.array(lo, dtype=float).reshape(len(owner), -1)
     hi = np.array(hi, dtype=float).reshape(len(owner), -1)
     m = lo.shape[1]
-    order = np.argsort(owner, kind="stable")                 # each input's boxes, in the order given
     counts = np.bincount(owner, minlength=n_inputs)
-    pos = np.empty(len(owner), dtype=np.intp)
-    pos[order] = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
     small = counts <= PADDED_MAX_BOXES
     width = int(counts[small].max(initial=0))
-    mid, half = np.full((n_inputs, width, m), np.nan), np.full((n_inputs, width, m), np.nan)
-    pad = small[owner]
-    mid[owner[pad], pos[pad]] = 0.5 * (lo[pad] + hi[pad])
-    half[owner[pad], pos[pad]] = 0.5 * (hi[pad] - lo[pad])
+    mid, _ = pad_by_owner(0.5 * (lo + hi), owner, n_inputs, width)               # NaN: no box
+    half, _ = pad_by_owner(0.5 * (hi - lo), owner, n_inputs, width)
     close = near(mid[:, :, None], half[:, :, None], mid[:, None], half[:, None], MERGE_GAP_TOLS * tol)
     alone = small & ~np.any(np.triu(close, 1), axis=(1, 2))
     # one cluster per box of the inputs alone (_merge's floats for a group of one box)
@@ -817,8 +813,7 @@ def clusters_in_range_many(lo, hi, owner, n_inputs: int, ranges, tol) -> list[li
     for i in ranked.tolist():
         out[of[i]].append(Cluster(centre[i], lo[i], hi[i], 1, members=members[i]))
     for k in np.flatnonzero(~alone & (counts > 0)).tolist():
-        mine = order[owner[order] == k]
-        out[k] = clusters_in_range([AcceptedBox(lo[i], hi[i], 0) for i in mine], ranges, tol)
+        out[k] = clusters_in_range([AcceptedBox(lo[i], hi[i], 0) for i in np.flatnonzero(owner == k)], ranges, tol)
     return out
 
 
