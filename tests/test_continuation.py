@@ -491,3 +491,28 @@ def test_the_range_enclosure_of_a_step_never_proves_inside_an_angle_sampled_outs
                         assert got is True, (name, rng_j)
                     checked += 1
     assert checked > 100
+
+
+def test_the_parametric_krawczyk_operator_on_a_linear_family_with_known_roots():
+    """parametric_krawczyk on F(w, x) = A w - x (M = 2; roots w(x) = A^-1 x, x on the segment
+    x1 + sigma delta, sigma in [-1, 0]): a box holding every root of the segment with room to spare
+    is proven and its image holds them; a box missing the roots of one end is not; a singular A is
+    not proven."""
+    from spherekin.core import intervals as iv
+    from spherekin.trust.continuation import SIGMA, parametric_krawczyk
+
+    a = np.array([[2.0, 0.5], [-0.3, 1.5]])
+    x0, x1 = np.array([0.1, -0.2]), np.array([0.14, -0.17])
+    roots = np.linalg.solve(a, np.stack([x0, x1, 0.5 * (x0 + x1)]).T).T      # (3, 2)
+    lo_r, hi_r = roots.min(axis=0), roots.max(axis=0)
+    boxes_lo = np.stack([lo_r - 0.01, lo_r - 0.01, lo_r + 0.3 * (hi_r - lo_r)])
+    boxes_hi = np.stack([hi_r + 0.01, hi_r + 0.01, hi_r + 0.01])
+    mats = np.stack([a, np.array([[1.0, 2.0], [0.5, 1.0]]), a])             # the second singular
+    mid = 0.5 * (boxes_lo + boxes_hi)
+    f_m = iv.point(np.einsum("nij,nj->ni", mats, mid) - x1)                 # F(m, x1)
+    rate = iv.point(np.broadcast_to(-(x1 - x0), (3, 2)))                    # dF/dsigma = -delta
+    j_box = iv.point(mats)
+    sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0])).reshape(2, 1, 1)
+    ok, k = parametric_krawczyk(boxes_lo, boxes_hi, mats, f_m, rate, j_box, sigma)
+    assert ok.tolist() == [True, False, False]
+    assert np.all(k[0, 0] <= lo_r) and np.all(hi_r <= k[1, 0])

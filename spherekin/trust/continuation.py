@@ -69,7 +69,7 @@ from ..systems.platform import (leg_constants, not_applicable, passive_names, pa
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
            "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "cayley_coordinates",
-           "krawczyk_step", "track", "not_tracked"]
+           "krawczyk_step", "parametric_krawczyk", "track", "not_tracked"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -408,11 +408,6 @@ def _krawczyk_images(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> tuple[n
     m = 0.5 * (w_lo + w_hi)
     delta = beta1 - beta0
     _, j_mid = eqs.values(dc, m, 0.5 * (beta0 + beta1))
-    ok = np.isfinite(j_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(j_mid)) > 0)
-    y = np.zeros_like(j_mid)
-    if ok.any():
-        y[ok] = np.linalg.inv(j_mid[ok])
-    ok &= np.isfinite(y).all(axis=(1, 2))
     sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0]))
     spread = iv.scale(np.abs(delta), sigma.reshape(2, 1, 1))                 # |delta| [-SIGMA, SIGMA - 1]
     lo_b = np.minimum(iv.add(iv.point(beta1), spread)[0], iv.sub(iv.point(beta1), spread)[0])
@@ -422,11 +417,33 @@ def _krawczyk_images(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> tuple[n
     h_m, _ = eqs.enclose(dc, point_m, iv.point(beta1))
     rate, _ = eqs.enclose(dc, point_m, beta_box, rate=True)              # dh_i/dbeta_i at m over the segment
     _, j_box = eqs.enclose(dc, iv.from_bounds(w_lo, w_hi), beta_box)
-    y_h = iv.fmatmul(y, h_m[..., None])[..., 0]
-    y_rate = iv.fmatmul(y, iv.scale(delta, rate)[..., None])[..., 0]     # Y dh/dsigma
-    center = iv.sub(iv.sub(point_m, y_h), iv.mul(y_rate, sigma))
-    slope = iv.sub(iv.point(np.eye(3)), iv.fmatmul(y, j_box))
-    dev = iv.sub(iv.from_bounds(w_lo, w_hi), point_m)
+    return parametric_krawczyk(w_lo, w_hi, j_mid, h_m, iv.scale(delta, rate), j_box, sigma.reshape(2, 1, 1))
+
+
+def parametric_krawczyk(w_lo, w_hi, j_mid, f_m, rate, j_box, sigma) -> tuple[np.ndarray, np.ndarray]:
+    """(proven (N,), K (2, N, M)): the parametric Krawczyk operator of both trackers (module doc) on
+    N boxes W = [w_lo, w_hi] (N, M) of the unknowns over segments of inputs x(sigma) = x1 + sigma
+    delta, sigma in ``sigma`` (an interval, (2, 1, 1)):
+
+        K = m - Y F(m, x1) - Y (dF/dsigma)(m, X) sigma + (I - Y J(W, X)) (W - m),
+
+    m the boxes' centres, Y = j_mid^-1 (floats: any Y is valid, a good one makes K small; none where
+    j_mid (N, M, M) is singular or not finite: not proven). ``f_m`` (2, N, M) encloses F(m, x1),
+    ``rate`` (2, N, M) dF/dsigma = J_x delta at m over the segment, ``j_box`` (2, N, M, M) the
+    unknowns' Jacobian over W and the segment. Proven where K lies in the interior of W: each input
+    of the segment has exactly one root in W, and it lies in K (Krawczyk/Moore)."""
+    n, m = w_lo.shape
+    mid = 0.5 * (w_lo + w_hi)
+    ok = np.isfinite(j_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(j_mid)) > 0)
+    y = np.zeros_like(j_mid)
+    if ok.any():
+        y[ok] = np.linalg.inv(j_mid[ok])
+    ok &= np.isfinite(y).all(axis=(1, 2))
+    y_f = iv.fmatmul(y, f_m[..., None])[..., 0]
+    y_rate = iv.fmatmul(y, rate[..., None])[..., 0]                         # Y dF/dsigma
+    center = iv.sub(iv.sub(iv.point(mid), y_f), iv.mul(y_rate, sigma))
+    slope = iv.sub(iv.point(np.broadcast_to(np.eye(m), (n, m, m))), iv.fmatmul(y, j_box))
+    dev = iv.sub(iv.from_bounds(w_lo, w_hi), iv.point(mid))
     k = iv.add(center, iv.matmul(slope, dev[..., None])[..., 0])
     inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
     return ok & inside, k

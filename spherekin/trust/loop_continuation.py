@@ -62,7 +62,7 @@ from ..core import intervals as iv
 from ..core.angles import in_range_many, into_range, span_in_range_many, wrap
 from .continuation import (AGREE_TOL, BATCH, FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
                            NEWTON_TOL, POINT_RADIUS, SIGMA, STEPS_PER_INPUT, RangeStop, SingularStop,
-                           Track, TrackedPose)
+                           Track, TrackedPose, parametric_krawczyk)
 from .transversal import enclose, plan_of
 
 __all__ = ["LoopEquations", "track_loops"]
@@ -223,20 +223,9 @@ class LoopEquations:
         ja = j[:, n:2 * n, :, self.m:]                                        # J_a(m, X)     (2, N, E, A)
         jp = j[:, 2 * n:, :, :self.m]                                         # J_p(W, X)     (2, N, E, M)
         jp_mid = 0.5 * (j[0, n:2 * n, :, :self.m] + j[1, n:2 * n, :, :self.m])     # J_p at m, mid-segment
-        ok = np.isfinite(jp_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(jp_mid)) > 0)
-        y = np.zeros_like(jp_mid)
-        if ok.any():
-            y[ok] = np.linalg.inv(jp_mid[ok])
-        ok &= np.isfinite(y).all(axis=(1, 2))
         rate = iv.isum(iv.scale(delta[:, None, :], ja), -1)                   # J_a(m, X) delta (2, N, E)
-        y_f = iv.fmatmul(y, f_m[..., None])[..., 0]
-        y_rate = iv.fmatmul(y, rate[..., None])[..., 0]
-        center_k = iv.sub(iv.sub(iv.point(mid), y_f), iv.mul(y_rate, sigma))
-        slope = iv.sub(iv.point(np.broadcast_to(np.eye(self.m), (n, self.m, self.m))), iv.fmatmul(y, jp))
-        dev = iv.sub(iv.from_bounds(w_lo, w_hi), iv.point(mid))
-        k = iv.add(center_k, iv.matmul(slope, dev[..., None])[..., 0])
-        inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
-        return (ok & inside, k[0], k[1]) if image else ok & inside
+        ok, k = parametric_krawczyk(w_lo, w_hi, jp_mid, f_m, rate, jp, sigma)
+        return (ok, k[0], k[1]) if image else ok
 
     def certify_step(self, theta0, theta1, x0, x1) -> tuple[np.ndarray, np.ndarray] | None:
         """The step box (:func:`step_box`) over the segment x0 -> x1, and the point box of radius
