@@ -31,7 +31,6 @@ from __future__ import annotations
 import hashlib
 import math
 import pickle
-import secrets
 import time
 from collections import deque
 from contextlib import contextmanager
@@ -39,7 +38,6 @@ from dataclasses import dataclass
 from typing import Callable, Iterator, Mapping
 
 import numpy as np
-from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..cluster import connect as cluster_connect
 from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
@@ -106,25 +104,11 @@ class RunSummary:
         return self.skipped + self.solved == self.total
 
 
-class CompiledProblem(WorkerPlugin):
-    """A Dask worker plugin holding the job's compiled problem, made when a worker sets it up (the
-    plugin travels as the mechanism and strategy; every worker, also one that joins later, compiles
-    once). Named ``TOKEN-RANDOM@CLIENT_ID``: one run's own (two runs of one job, from one client or
-    two, never share one, so neither unregisters the other's), and that of a client the scheduler
-    knows (``owner``, ``Client.id``), so a plugin whose client is gone is known to be stale."""
-
-    idempotent = True
-
-    def __init__(self, job: Job, owner: str):
-        self.job = job
-        self.name = f"{job.token}-{secrets.token_hex(6)}@{owner}"
-        self.problem = None
-
-    def setup(self, worker=None):
-        self.problem = self.job.compile()
-
-    def teardown(self, worker=None):
-        self.problem = None
+def __getattr__(name):
+    if name == "CompiledProblem":          # distributed is imported only for a job on a cluster (.plugin)
+        from .plugin import CompiledProblem
+        return CompiledProblem
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
@@ -223,6 +207,8 @@ def _run_here(job: Job, inputs, todo, emit) -> None:
 
 
 def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
+    from .plugin import CompiledProblem
+
     address = scheduler_address(client)
     plugin = CompiledProblem(job, client.id)
     _register(client, plugin)
@@ -271,7 +257,7 @@ def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool)
             pass
 
 
-def _register(client, plugin: CompiledProblem) -> None:
+def _register(client, plugin) -> None:
     """Register ``plugin`` on ``client``'s scheduler, after unregistering every CompiledProblem there
     whose client the scheduler no longer knows (left by a client that was killed: module doc)."""
 
