@@ -580,11 +580,11 @@ def _track(args) -> int:
         Path(args.json).write_text(json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.out:
-        from .batch.rows import track_rows
+        from .batch.rows import track_table
         from .batch.sinks import open_sink
 
         with open_sink(args.out, mech, path.values[:len(track.poses)], resume=False) as sink:
-            sink.write(0, len(track.poses), track_rows(mech, track))
+            sink.write(0, len(track.poses), track_table(mech, track))
         print(f"wrote {args.out}")
     if args.plot:
         from .plot import plot_track

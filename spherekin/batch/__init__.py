@@ -42,18 +42,17 @@ class _MemorySink(Sink):
         from pathlib import Path
 
         super().__init__(Path("<memory>"), mechanism, inputs)
-        self.frames: dict[int, object] = {}
+        self.tables: dict[int, object] = {}
 
-    def write(self, first, end, frame):
-        self.frames[first] = frame
+    def write(self, first, end, table):
+        self.tables[first] = table
 
     def frame(self):
-        import pandas as pd
-
+        from ..results import ResultsTable
         from .rows import empty_frame
 
-        parts = [self.frames[k] for k in sorted(self.frames)]
-        return pd.concat(parts, ignore_index=True) if parts else empty_frame(self.mechanism)
+        parts = [self.tables[k] for k in sorted(self.tables)]
+        return ResultsTable.concat(parts).frame() if parts else empty_frame(self.mechanism)
 
 
 def _prepare(mechanism, inputs, strategy):

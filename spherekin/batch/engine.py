@@ -9,7 +9,7 @@ caller's ``client``.
 How: the mechanism and the strategy go to every worker once, as a worker plugin
 (:class:`CompiledProblem`) that compiles the problem when the worker starts it; then every task is
 a chunk of consecutive inputs, solved with ``Problem.solve_many`` and turned into rows of the
-results table on the worker (:func:`spherekin.batch.rows.report_rows`). At most
+results table on the worker (:func:`spherekin.batch.rows.report_table`: columns, no pandas). At most
 TASKS_PER_WORKER chunks per worker are in flight, so the inputs and results held at any time are
 bounded whatever the job's size. Each finished chunk goes to the sink (a file or memory) as it
 arrives, or, for a sink that needs input order (CSV), as soon as every earlier chunk is there. The
@@ -42,7 +42,7 @@ import numpy as np
 from ..cluster import connect as cluster_connect
 from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
 from ..problem import DEFAULT_CHUNK
-from .rows import report_rows
+from .rows import report_table
 
 __all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
            "CompiledProblem", "solve_chunk", "default_chunk_size", "chunks", "connect", "run"]
@@ -116,7 +116,7 @@ def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
     from distributed import get_worker
 
     problem = get_worker().plugins[plugin_name].problem
-    return report_rows(problem.mechanism, problem.solve_many(rows), first, rows)
+    return report_table(problem.mechanism, problem.solve_many(rows), first, rows)
 
 
 def default_chunk_size(n_inputs: int, workers: int) -> int:
@@ -170,10 +170,10 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     todo = chunks(~sink.done, chunk_size)
     state = {"solved": skipped, "rows": 0}
 
-    def emit(first, end, frame):
-        sink.write(first, end, frame)
+    def emit(first, end, table):
+        sink.write(first, end, table)
         state["solved"] += end - first
-        state["rows"] += len(frame)
+        state["rows"] += len(table)
         if progress is not None:
             progress(state["solved"], total)
 
@@ -203,7 +203,7 @@ def _run_here(job: Job, inputs, todo, emit) -> None:
     problem = job.compile()
     for first, end in todo:
         rows = inputs[first:end]
-        emit(first, end, report_rows(problem.mechanism, problem.solve_many(rows), first, rows))
+        emit(first, end, report_table(problem.mechanism, problem.solve_many(rows), first, rows))
 
 
 def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
