@@ -40,7 +40,7 @@ from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .lock import OutputLock, check_unlocked
 from .rows import columns
 
-__all__ = ["SUFFIXES", "Sink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "check_fingerprints",
+__all__ = ["SUFFIXES", "Sink", "MemorySink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "check_fingerprints",
            "read_results", "csv_fields"]
 
 #: The output formats, by the output path's suffix.
@@ -165,6 +165,25 @@ class Sink:
         if list(names) != self.columns:
             raise self._refuse(where, f"its columns are not those of this mechanism's results "
                                       f"({', '.join(self.columns[:6])}, ...)")
+
+
+class MemorySink(Sink):
+    """Chunks kept in memory, concatenated in input order at the end (for :func:`spherekin.batch.solve_many`)."""
+
+    def __init__(self, mechanism, inputs: np.ndarray):
+        super().__init__(Path("<memory>"), mechanism, inputs)
+        self.tables: dict[int, object] = {}
+
+    def write(self, first: int, end: int, table) -> None:
+        self.tables[first] = table
+
+    def frame(self):
+        """The rows written, in input order, as a pandas DataFrame."""
+        from ..results import ResultsTable
+        from .rows import empty_frame
+
+        parts = [self.tables[k] for k in sorted(self.tables)]
+        return ResultsTable.concat(parts).frame() if parts else empty_frame(self.mechanism)
 
 
 class ParquetSink(Sink):
