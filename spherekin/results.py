@@ -6,8 +6,8 @@ turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
 (:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
 :class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost, :class:`EmptyReason`
 why a solve found nothing. The views of them every reader shares live here too: the results table
-(:func:`solution_columns`, a :class:`ResultsTable`: ``SolveReport.frame()`` and every batch table) and the number format of
-printed tables (:func:`format_number`).
+(:func:`solution_columns`, a :class:`ResultsTable`: ``SolveReport.frame()`` and every batch table)
+and the number format of printed tables (:func:`format_number`).
 """
 
 from __future__ import annotations

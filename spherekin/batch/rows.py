@@ -20,8 +20,8 @@ import numpy as np
 
 from ..results import QUATERNION_COLUMNS, ROTATION_COLUMNS, ResultsTable, solution_columns, table_columns
 
-__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows", "empty_frame",
-           "report_table", "track_table", "items_table"]
+__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows",
+           "empty_frame", "report_table", "track_table", "items_table"]
 
 
 def columns(mechanism) -> tuple[str, ...]:

@@ -40,14 +40,15 @@ from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .lock import OutputLock, check_unlocked
 from .rows import columns
 
-__all__ = ["SUFFIXES", "Sink", "MemorySink", "ParquetSink", "CsvSink", "open_sink", "check_output_path", "check_fingerprints",
-           "read_results", "csv_fields"]
+__all__ = ["SUFFIXES", "Sink", "MemorySink", "ParquetSink", "CsvSink", "open_sink", "check_output_path",
+           "check_fingerprints", "read_results", "csv_fields"]
 
 #: The output formats, by the output path's suffix.
 SUFFIXES = (".parquet", ".csv")
 #: Largest difference (radians) between an input as a resumed file holds it and as the job gives it.
-#: Reason: Parquet stores float64 exactly and pandas writes CSV floats in their shortest round-trip
-#: form, so the two are equal; 1e-12 only absorbs a file written by another CSV writer.
+#: Reason: Parquet stores float64 exactly and the CSV sink writes floats in their shortest round-trip
+#: form (as pandas does, :func:`csv_fields`), so the two are equal; 1e-12 only absorbs a file written
+#: by another CSV writer.
 RESUME_MATCH = 1e-12
 #: The name of a Parquet part: the chunk of inputs [first, end) it holds.
 PART_NAME = re.compile(r"part-(\d+)-(\d+)\.parquet")
