@@ -107,6 +107,7 @@ class RunSummary:
 def __getattr__(name):
     if name == "CompiledProblem":          # distributed is imported only for a job on a cluster (.plugin)
         from .plugin import CompiledProblem
+
         return CompiledProblem
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

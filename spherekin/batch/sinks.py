@@ -35,10 +35,10 @@ from typing import Iterator
 
 import numpy as np
 
-from ..results import Status
+from ..results import ResultsTable, Status
 from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .lock import OutputLock, check_unlocked
-from .rows import columns
+from .rows import columns, empty_frame
 
 __all__ = ["SUFFIXES", "Sink", "MemorySink", "ParquetSink", "CsvSink", "open_sink", "check_output_path",
            "check_fingerprints", "read_results", "csv_fields"]
@@ -169,7 +169,7 @@ class Sink:
 
 
 class MemorySink(Sink):
-    """Chunks kept in memory, concatenated in input order at the end (for :func:`spherekin.batch.solve_many`)."""
+    """Chunks kept in memory, concatenated in input order at the end (:func:`spherekin.batch.solve_many`)."""
 
     def __init__(self, mechanism, inputs: np.ndarray):
         super().__init__(Path("<memory>"), mechanism, inputs)
@@ -180,9 +180,6 @@ class MemorySink(Sink):
 
     def frame(self):
         """The rows written, in input order, as a pandas DataFrame."""
-        from ..results import ResultsTable
-        from .rows import empty_frame
-
         parts = [self.tables[k] for k in sorted(self.tables)]
         return ResultsTable.concat(parts).frame() if parts else empty_frame(self.mechanism)
 
