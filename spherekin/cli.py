@@ -495,7 +495,6 @@ def _track(args) -> int:
     import numpy as np
 
     from .batch import read_inputs_csv
-    from .batch.sinks import check_output_path
     from .core.orientation import quaternions_from_rotations, rotation_from_quaternion
     from .mechanism import load_mechanism
     from .mechanism.checks import check_rotation
@@ -516,6 +515,8 @@ def _track(args) -> int:
     else:
         start = None        # --start-solution K (1..MAX_ASSEMBLIES, checked as read): below, after compiling
     if args.out:
+        from .batch.sinks import check_output_path   # its locks and fingerprints: only for a written table
+
         check_output_path(args.out, False, True)
     if args.json:
         _check_output_file("--json", args.json, (".json",))
@@ -580,11 +581,11 @@ def _track(args) -> int:
         Path(args.json).write_text(json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.out:
-        from .batch.rows import track_rows
+        from .batch.rows import track_table
         from .batch.sinks import open_sink
 
         with open_sink(args.out, mech, path.values[:len(track.poses)], resume=False) as sink:
-            sink.write(0, len(track.poses), track_rows(mech, track))
+            sink.write(0, len(track.poses), track_table(mech, track))
         print(f"wrote {args.out}")
     if args.plot:
         from .plot import plot_track

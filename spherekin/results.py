@@ -6,15 +6,15 @@ turns clusters into :class:`Solution` s with a :class:`Status`; the pipeline
 (:mod:`spherekin.problem`) returns a :class:`SolveReport`. :class:`Settings` and
 :class:`SearchLimit` say how the search ran, :class:`SolverStats` what it cost, :class:`EmptyReason`
 why a solve found nothing. The views of them every reader shares live here too: the results table
-(:func:`solution_table`: ``SolveReport.frame()`` and every batch table) and the number format of
-printed tables (:func:`format_number`).
+(:func:`solution_columns`, a :class:`ResultsTable`: ``SolveReport.frame()`` and every batch table)
+and the number format of printed tables (:func:`format_number`).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from .core.columns import table_columns
 __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
-           "solution_table"]
+           "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES"]
 
 
 def format_number(value, spec: str = "+.6f") -> str:
@@ -323,16 +323,58 @@ class EmptyReason:
                 "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
 
 
-def solution_table(actuated, unknowns, items, measures=None):
-    """The results table (a pandas DataFrame; docs/results-format.md) of ``items``: (input index, its
-    inputs (radians, one per name of ``actuated``), the names of its solutions' angles, its
+#: The pandas dtype of each kind of column of a results table (:class:`ResultsTable`): ``int64``
+#: (``input``), ``float64`` (NaN: empty), ``Int64`` (``solution``: whole numbers, None empty) and
+#: ``string`` (``status``, ``singularity``: None empty).
+TABLE_DTYPES = ("int64", "float64", "Int64", "string")
+
+
+@dataclass(frozen=True, eq=False)
+class ResultsTable:
+    """The results table (docs/results-format.md) as columns, built without pandas: what a batch
+    hands from a solve to its output (importing pandas costs a process ~0.3 s; a CSV output is
+    written from these columns, :mod:`spherekin.batch.sinks`). ``columns``: the names; ``data``: one
+    array per column, all of one length (rows): int64, float64 (NaN: empty) or object (Python ints
+    or strs; None: empty); ``dtypes``: each column's kind (:data:`TABLE_DTYPES`, the dtype of its
+    column in :meth:`frame`)."""
+
+    columns: tuple[str, ...]
+    data: tuple[np.ndarray, ...]
+    dtypes: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.data[0]) if self.data else 0
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """The column ``name`` (an array of the table's length)."""
+        return self.data[self.columns.index(name)]
+
+    def frame(self):
+        """The table as a pandas DataFrame (the dtypes of ``dtypes``)."""
+        import pandas as pd
+
+        def column(values, dtype):
+            return pd.array(values.tolist(), dtype=dtype) if dtype in ("Int64", "string") else values
+
+        return pd.DataFrame({n: column(v, d) for n, v, d in zip(self.columns, self.data, self.dtypes)},
+                            columns=list(self.columns))
+
+    @staticmethod
+    def concat(tables: "Sequence[ResultsTable]") -> "ResultsTable":
+        """The rows of ``tables`` (at least one, all with the same columns), in their order."""
+        first = tables[0]
+        return ResultsTable(first.columns, tuple(np.concatenate([t.data[k] for t in tables])
+                                                 for k in range(len(first.columns))), first.dtypes)
+
+
+def solution_columns(actuated, unknowns, items, measures=None) -> ResultsTable:
+    """The results table (:class:`ResultsTable`; docs/results-format.md) of ``items``: (input index,
+    its inputs (radians, one per name of ``actuated``), the names of its solutions' angles, its
     solutions) each; one row per solution, passive angles in the order of ``unknowns``; an input
     without solutions gets one row with empty solution columns. ``measures(joint_angles)``: the
     ``parallel_measure`` of every solution at once (name -> array of radians; returns an array; NaN
     without it or where it raises ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
     (:mod:`spherekin.batch.rows`), so the columns cannot drift apart."""
-    import pandas as pd
-
     names, actuated = list(unknowns), list(actuated)
     idx, sol, status, sing, resid, solved, angles, rots, inp = [], [], [], [], [], [], [], [], []
     nan_rot = np.full((3, 3), np.nan)
@@ -343,7 +385,7 @@ def solution_table(actuated, unknowns, items, measures=None):
             idx.append(index)
             inp.append(row)
             if s is None:
-                sol.append(pd.NA)
+                sol.append(None)
                 status.append(None)
                 sing.append(None)
                 resid.append(np.nan)
@@ -375,18 +417,30 @@ def solution_table(actuated, unknowns, items, measures=None):
     known = np.isfinite(rots).all(axis=(1, 2))
     if known.any():
         quats[known] = quaternions_from_rotations(rots[known])
-    data = {"input": np.array(idx, dtype=np.int64)}
-    data.update({n: inp[:, j] for j, n in enumerate(actuated)})
-    data["solution"] = pd.array(sol, dtype="Int64")
-    data["status"] = pd.array(status, dtype="string")
-    data.update({n: angles[:, j] for j, n in enumerate(names)})
-    data.update({c: quats[:, j] for j, c in enumerate(QUATERNION_COLUMNS)})
+
+    def objects(values):
+        out = np.empty(len(values), dtype=object)
+        out[:] = values
+        return out
+
     flat = rots.reshape(-1, 9)
-    data.update({c: flat[:, j] for j, c in enumerate(ROTATION_COLUMNS)})
-    data["residual"] = np.array(resid, dtype=float)
-    data["singularity"] = pd.array(sing, dtype="string")
-    data["parallel_measure"] = np.array(meas, dtype=float)
-    return pd.DataFrame(data, columns=list(table_columns(actuated, names)))
+    data = {"input": (np.array(idx, dtype=np.int64), "int64")}
+    data.update({n: (inp[:, j], "float64") for j, n in enumerate(actuated)})
+    data["solution"] = (objects(sol), "Int64")
+    data["status"] = (objects(status), "string")
+    data.update({n: (angles[:, j], "float64") for j, n in enumerate(names)})
+    data.update({c: (quats[:, j], "float64") for j, c in enumerate(QUATERNION_COLUMNS)})
+    data.update({c: (flat[:, j], "float64") for j, c in enumerate(ROTATION_COLUMNS)})
+    data["residual"] = (np.array(resid, dtype=float), "float64")
+    data["singularity"] = (objects(sing), "string")
+    data["parallel_measure"] = (np.array(meas, dtype=float), "float64")
+    cols = table_columns(actuated, names)
+    return ResultsTable(tuple(cols), tuple(data[c][0] for c in cols), tuple(data[c][1] for c in cols))
+
+
+def solution_table(actuated, unknowns, items, measures=None):
+    """The results table of :func:`solution_columns` as a pandas DataFrame."""
+    return solution_columns(actuated, unknowns, items, measures).frame()
 
 
 @dataclass(frozen=True)

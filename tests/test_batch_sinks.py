@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from spherekin import compile as compile_problem
-from spherekin.batch.rows import report_rows
+from spherekin.batch.rows import report_table
 from spherekin.batch.sinks import check_output_path, open_sink, read_results, temporary_path
 from spherekin.mechanism import general_3rrr
 
@@ -20,17 +20,23 @@ def mech():
 
 
 @pytest.fixture(scope="module")
-def frames(mech):
-    """The rows of each input, solved one by one (the reference the files must hold)."""
+def tables(mech):
+    """The rows of each input, solved one by one (what a sink is handed: ResultsTable)."""
     problem = compile_problem(mech)
-    return [report_rows(mech, [problem.solve(row)], k, INPUTS[k:k + 1]) for k, row in enumerate(INPUTS)]
+    return [report_table(mech, [problem.solve(row)], k, INPUTS[k:k + 1]) for k, row in enumerate(INPUTS)]
 
 
-def written(path, mech, frames, inputs):
+@pytest.fixture(scope="module")
+def frames(tables):
+    """The same rows as DataFrames (the reference the files must hold)."""
+    return [t.frame() for t in tables]
+
+
+def written(path, mech, tables, inputs):
     """``path`` after a run that wrote the rows of ``inputs`` (one chunk each) and stopped."""
     sink = open_sink(path, mech, INPUTS)
     for k in inputs:
-        sink.write(k, k + 1, frames[k])
+        sink.write(k, k + 1, tables[k])
     sink.close()
     return path
 
@@ -58,19 +64,19 @@ def test_existing_output_needs_resume_or_overwrite(tmp_path):
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
-def test_chunks_in_any_order_read_back_in_input_order(tmp_path, mech, frames, suffix):
+def test_chunks_in_any_order_read_back_in_input_order(tmp_path, mech, tables, frames, suffix):
     path = tmp_path / f"r{suffix}"
     sink = open_sink(path, mech, INPUTS)
     order = [0, 1, 2, 3, 4] if sink.ordered else [3, 0, 4, 2, 1]
     for k in order:
-        sink.write(k, k + 1, frames[k])
+        sink.write(k, k + 1, tables[k])
     sink.close()
     got = read_results(path)
     pd.testing.assert_frame_equal(got, pd.concat(frames, ignore_index=True))
 
 
-def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, mech, frames):
-    path = written(tmp_path / "r.csv", mech, frames, range(3))
+def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, mech, tables, frames):
+    path = written(tmp_path / "r.csv", mech, tables, range(3))
     text = path.read_text()
     lines = text.splitlines(keepends=True)
     n2 = len(frames[2])
@@ -80,16 +86,16 @@ def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, m
     resumed = open_sink(path, mech, INPUTS, resume=True)
     assert list(resumed.done) == [True, True, False, False, False]
     for k in (2, 3, 4):
-        resumed.write(k, k + 1, frames[k])
+        resumed.write(k, k + 1, tables[k])
     resumed.close()
     pd.testing.assert_frame_equal(read_results(path), pd.concat(frames, ignore_index=True))
 
 
-def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tmp_path, mech, frames):
+def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tmp_path, mech, tables, frames):
     path = tmp_path / "r.parquet"
     sink = open_sink(path, mech, INPUTS)
-    sink.write(1, 2, frames[1])
-    sink.write(3, 4, frames[3])
+    sink.write(1, 2, tables[1])
+    sink.write(3, 4, tables[3])
     cut = temporary_path(path / "part-000000004-000000005.parquet", sink.lock.token)
     cut.write_bytes(b"cut")                     # its write of input 4 cut short
     sink.close()
@@ -99,8 +105,8 @@ def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tm
     resumed.close()
 
 
-def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, frames):
-    path = written(tmp_path / "r.csv", mech, frames, range(3))
+def test_resume_refuses_the_output_of_other_inputs(tmp_path, mech, tables):
+    path = written(tmp_path / "r.csv", mech, tables, range(3))
     before = path.read_bytes()
     other = INPUTS.copy()
     other[0, 1] += 1e-6
@@ -143,3 +149,32 @@ def test_a_small_job_in_this_process_is_one_parquet_file_and_resumes(tmp_path, m
 
     assert default_chunk_size(3, 0) == CHUNK_INPUTS
     assert default_chunk_size(16, 2) == 2 and default_chunk_size(3, 2) == 1 and default_chunk_size(10**6, 2) == CHUNK_INPUTS == 256
+
+
+def test_a_csv_output_is_what_pandas_writes_for_the_table_byte_for_byte(tmp_path, mech):
+    """The CSV sink writes its rows without pandas (csv_fields): the file must be the one pandas'
+    DataFrame.to_csv (an independent writer) gives the same table, byte for byte, on the values
+    where float text and quoting differ most: -0.0, 1e-05 and 1e+16 (where the text turns
+    scientific), 1e-300, 0.1 + 0.2, inf, NaN, an entry without residual or rotation, an input
+    without solutions, a singularity text holding a comma and a quote; and read back to the same
+    floats (the text round-trips)."""
+    from spherekin.results import Solution, Status, solution_columns
+
+    names = mech.loop_unknowns
+    tricky = np.array([-0.0, 1e-05, 9.999999999999999e-05, 1e16, 9999999999999998.0, 1e-300, 0.1 + 0.2][:len(names)])
+    rot = np.array([[0.1 + 0.2, -0.0, 1e-05], [1e16, 1.0, -1e-300], [np.inf, 2.5, -7.0]])
+    sols = (Solution(tricky, tricky, tricky, 1, rot, 1e-17, 'serial, "leg 1"', Status.CERTIFIED),
+            Solution(-tricky, tricky, tricky, 1, None, None, "regular", Status.UNVERIFIED))
+    items = [(0, [0.3, -0.0, 1e-05], names, sols), (1, [np.pi, 1e16, -2.5], names, ()),
+             (7, [0.1 + 0.2, 2.0, 3.0], names, sols[1:])]
+    table = solution_columns(mech.actuated, names, items, lambda joints: np.full(len(joints[names[0]]), 0.125))
+    path = tmp_path / "t.csv"
+    with open_sink(path, mech, np.zeros((8, 3))) as sink:
+        sink.write(0, 8, table)
+    frame = table.frame()
+    expected = ",".join(frame.columns) + "\n" + frame.to_csv(header=False, index=False, lineterminator="\n")
+    assert path.read_text() == expected
+    assert '"serial, ""leg 1"""' in expected and ",-0.0," in expected and ",1e-05," in expected
+    back = pd.read_csv(path)
+    for name in ("beta1", "beta2", names[0], names[-1], "r11", "r21", "r23", "residual"):
+        np.testing.assert_array_equal(back[name].to_numpy(dtype=float), frame[name].to_numpy(dtype=float))

@@ -203,25 +203,60 @@ def test_help_is_argparses_own_at_the_terminal_width(monkeypatch, columns):
     assert max(len(line) for line in ours.splitlines()) <= int(columns)
 
 
-def test_the_default_solve_imports_only_what_it_uses():
-    """spherekin solve with the defaults (platform formulation, pp pruner) imports no LP solver, no
-    plotting, no exact arithmetic and no JSON: each import is paid by every process (issue 14:
-    import time counts). Checked in a fresh process, by the modules it holds at the end."""
+def _modules_after(argv, cwd=None) -> set[str]:
+    """The top-level names of the modules a fresh process holds after ``main(argv)`` returned 0
+    (its printed output discarded)."""
     import subprocess
     import sys
 
     root = Path(__file__).resolve().parent.parent
     code = ("import io, sys, contextlib; from spherekin.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n"
-            f"    assert main(['solve', {GOSSELIN!r}, '--inputs', '0.3,-0.2,0.5']) == 0\n"
+            f"    assert main({list(argv)!r}) == 0\n"
             "print(' '.join(sorted(sys.modules)))")
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, timeout=120)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd or root, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    loaded = {name.split(".")[0] for name in proc.stdout.split()}
+    return {name.split(".")[0] for name in proc.stdout.split()}
+
+
+def test_the_default_solve_imports_only_what_it_uses():
+    """spherekin solve with the defaults (platform formulation, pp pruner) imports no LP solver, no
+    plotting, no exact arithmetic and no JSON: each import is paid by every process (issue 14:
+    import time counts). Checked in a fresh process, by the modules it holds at the end."""
+    loaded = _modules_after(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5"])
     assert "spherekin" in loaded and "numpy" in loaded
     unused = {"cvxpy", "highspy", "clarabel", "scipy", "matplotlib", "mpmath", "sympy", "fractions", "json",
               "shutil", "multiprocessing", "concurrent"}
     assert loaded & unused == set()
+
+
+#: Third-party modules no command below uses: tables (pandas, pyarrow: ~0.3 s of a process to import),
+#: Dask (distributed, dask, tornado, cloudpickle: ~0.3-0.5 s; only for a job on a cluster), SciPy,
+#: plotting, symbolic and exact arithmetic, LP solvers.
+HEAVY = {"pandas", "pyarrow", "distributed", "dask", "tornado", "cloudpickle", "scipy", "matplotlib", "sympy",
+         "mpmath", "cvxpy", "highspy", "clarabel"}
+
+
+@pytest.mark.parametrize("command", ["track", "track --out", "batch --out"])
+def test_track_and_a_batch_in_this_process_import_no_tables_and_no_dask(tmp_path, command):
+    """spherekin track (printed, and its results table written as CSV) and spherekin batch --workers 0
+    --out CSV: no pandas (the CSV is written from the table's columns) and no Dask (a job in this
+    process needs no worker plugin), issue 30: a path tracks at ~0.2 ms a row, and these imports
+    cost ~0.3-0.5 s each; a printed track, nothing of the outputs (~15 ms). Checked in a fresh
+    process, by the modules it holds at the end; the file is written."""
+    example = str(Path(GOSSELIN).with_name("general_3rrr.toml"))
+    path = tmp_path / "path.csv"
+    path.write_text("beta1,beta2,beta3\n" + "".join(f"{x!r},2.83,-2.24\n" for x in (0.07, 0.08, 0.09, 0.1)))
+    out = tmp_path / "out.csv"
+    argv = {"track": ["track", example, "--path", str(path), "--start-solution", "1"],
+            "track --out": ["track", example, "--path", str(path), "--start-solution", "1", "--out", str(out)],
+            "batch --out": ["batch", example, "--inputs", str(path), "--workers", "0", "--quiet", "--out", str(out)]}
+    loaded = _modules_after(argv[command])
+    assert "spherekin" in loaded and "numpy" in loaded
+    assert loaded & HEAVY == set()
+    assert out.is_file() == command.endswith("--out")
+    if command == "track":      # nothing written: no output lock or fingerprint (socket, hashlib, json)
+        assert loaded & {"socket", "secrets", "hashlib", "json"} == set()
 
 
 def test_the_console_entry_collects_garbage_while_it_solves():

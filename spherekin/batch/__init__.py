@@ -19,41 +19,24 @@ from __future__ import annotations
 from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
-from .branches import BranchMap, branch_map
-from .maps import MAP_COLUMNS, AssemblyMap, aggregate
-from .sinks import Sink, check_fingerprints, check_output_path, open_sink, read_results
 
 __all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "branch_map", "BranchMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]
 
 
+#: The names this package gives from its other modules, imported when first asked for: reading a
+#: path (``spherekin track``) needs only :mod:`.inputs`, and the sinks' locks and fingerprints
+#: (socket, hashlib, json, ...), the branch maps and the engine cost every such process ~15 ms.
+LAZY = {"BranchMap": "branches", "branch_map": "branches", "AssemblyMap": "maps", "MAP_COLUMNS": "maps",
+        "aggregate": "maps", "read_results": "sinks", "RunSummary": "engine"}
+
+
 def __getattr__(name):
-    if name == "RunSummary":
-        from .engine import RunSummary
+    if name in LAZY:
+        import importlib
 
-        return RunSummary
+        return getattr(importlib.import_module(f"{__name__}.{LAZY[name]}"), name)
     raise AttributeError(f"module 'spherekin.batch' has no attribute {name!r}")
-
-
-class _MemorySink(Sink):
-    """Chunks kept in memory, concatenated in input order at the end (for :func:`solve_many`)."""
-
-    def __init__(self, mechanism, inputs):
-        from pathlib import Path
-
-        super().__init__(Path("<memory>"), mechanism, inputs)
-        self.frames: dict[int, object] = {}
-
-    def write(self, first, end, frame):
-        self.frames[first] = frame
-
-    def frame(self):
-        import pandas as pd
-
-        from .rows import empty_frame
-
-        parts = [self.frames[k] for k in sorted(self.frames)]
-        return pd.concat(parts, ignore_index=True) if parts else empty_frame(self.mechanism)
 
 
 def _prepare(mechanism, inputs, strategy):
@@ -76,9 +59,10 @@ def solve_many(mechanism, inputs, *, client=None, scheduler: str | None = None, 
     (nothing is returned); ``progress(done, total)`` is called after each chunk.
     """
     from .engine import connect, run
+    from .sinks import MemorySink
 
     mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
-    sink = _MemorySink(mechanism, inputs.values)
+    sink = MemorySink(mechanism, inputs.values)
     with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
         summary = run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
     if summary.interrupted:
@@ -99,8 +83,8 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     On Ctrl-C the finished chunks stay written and the summary says ``interrupted``.
     """
     from .engine import connect, run
-
     from .fingerprint import Fingerprint, describe_inputs, strategy_of
+    from .sinks import check_fingerprints, check_output_path, open_sink
 
     mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
     path = check_output_path(out, resume, overwrite)
@@ -121,6 +105,8 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
     actuated joints at ``fixed`` (name -> radians, or "name=value"); with ``out`` the results table
     is also written there (and ``resume`` completes it). Ctrl-C raises KeyboardInterrupt."""
     from ..problem import as_mechanism
+    from .maps import MAP_COLUMNS, aggregate
+    from .sinks import read_results
 
     mechanism = as_mechanism(mechanism)
     inputs = grid_inputs(mechanism, [x, y], fixed)

@@ -9,7 +9,7 @@ caller's ``client``.
 How: the mechanism and the strategy go to every worker once, as a worker plugin
 (:class:`CompiledProblem`) that compiles the problem when the worker starts it; then every task is
 a chunk of consecutive inputs, solved with ``Problem.solve_many`` and turned into rows of the
-results table on the worker (:func:`spherekin.batch.rows.report_rows`). At most
+results table on the worker (:func:`spherekin.batch.rows.report_table`: columns, no pandas). At most
 TASKS_PER_WORKER chunks per worker are in flight, so the inputs and results held at any time are
 bounded whatever the job's size. Each finished chunk goes to the sink (a file or memory) as it
 arrives, or, for a sink that needs input order (CSV), as soon as every earlier chunk is there. The
@@ -31,7 +31,6 @@ from __future__ import annotations
 import hashlib
 import math
 import pickle
-import secrets
 import time
 from collections import deque
 from contextlib import contextmanager
@@ -39,12 +38,11 @@ from dataclasses import dataclass
 from typing import Callable, Iterator, Mapping
 
 import numpy as np
-from distributed.diagnostics.plugin import WorkerPlugin
 
 from ..cluster import connect as cluster_connect
 from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
 from ..problem import DEFAULT_CHUNK
-from .rows import report_rows
+from .rows import report_table
 
 __all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
            "CompiledProblem", "solve_chunk", "default_chunk_size", "chunks", "connect", "run"]
@@ -106,25 +104,12 @@ class RunSummary:
         return self.skipped + self.solved == self.total
 
 
-class CompiledProblem(WorkerPlugin):
-    """A Dask worker plugin holding the job's compiled problem, made when a worker sets it up (the
-    plugin travels as the mechanism and strategy; every worker, also one that joins later, compiles
-    once). Named ``TOKEN-RANDOM@CLIENT_ID``: one run's own (two runs of one job, from one client or
-    two, never share one, so neither unregisters the other's), and that of a client the scheduler
-    knows (``owner``, ``Client.id``), so a plugin whose client is gone is known to be stale."""
+def __getattr__(name):
+    if name == "CompiledProblem":          # distributed is imported only for a job on a cluster (.plugin)
+        from .plugin import CompiledProblem
 
-    idempotent = True
-
-    def __init__(self, job: Job, owner: str):
-        self.job = job
-        self.name = f"{job.token}-{secrets.token_hex(6)}@{owner}"
-        self.problem = None
-
-    def setup(self, worker=None):
-        self.problem = self.job.compile()
-
-    def teardown(self, worker=None):
-        self.problem = None
+        return CompiledProblem
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
@@ -132,7 +117,7 @@ def solve_chunk(plugin_name: str, first: int, rows: np.ndarray):
     from distributed import get_worker
 
     problem = get_worker().plugins[plugin_name].problem
-    return report_rows(problem.mechanism, problem.solve_many(rows), first, rows)
+    return report_table(problem.mechanism, problem.solve_many(rows), first, rows)
 
 
 def default_chunk_size(n_inputs: int, workers: int) -> int:
@@ -186,10 +171,10 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     todo = chunks(~sink.done, chunk_size)
     state = {"solved": skipped, "rows": 0}
 
-    def emit(first, end, frame):
-        sink.write(first, end, frame)
+    def emit(first, end, table):
+        sink.write(first, end, table)
         state["solved"] += end - first
-        state["rows"] += len(frame)
+        state["rows"] += len(table)
         if progress is not None:
             progress(state["solved"], total)
 
@@ -219,10 +204,12 @@ def _run_here(job: Job, inputs, todo, emit) -> None:
     problem = job.compile()
     for first, end in todo:
         rows = inputs[first:end]
-        emit(first, end, report_rows(problem.mechanism, problem.solve_many(rows), first, rows))
+        emit(first, end, report_table(problem.mechanism, problem.solve_many(rows), first, rows))
 
 
 def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
+    from .plugin import CompiledProblem
+
     address = scheduler_address(client)
     plugin = CompiledProblem(job, client.id)
     _register(client, plugin)
@@ -271,7 +258,7 @@ def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool)
             pass
 
 
-def _register(client, plugin: CompiledProblem) -> None:
+def _register(client, plugin) -> None:
     """Register ``plugin`` on ``client``'s scheduler, after unregistering every CompiledProblem there
     whose client the scheduler no longer knows (left by a client that was killed: module doc)."""
 

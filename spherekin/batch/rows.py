@@ -18,9 +18,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..results import QUATERNION_COLUMNS, ROTATION_COLUMNS, solution_table, table_columns
+from ..results import QUATERNION_COLUMNS, ROTATION_COLUMNS, ResultsTable, solution_columns, table_columns
 
-__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows", "empty_frame"]
+__all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows",
+           "empty_frame", "report_table", "track_table", "items_table"]
 
 
 def columns(mechanism) -> tuple[str, ...]:
@@ -28,15 +29,21 @@ def columns(mechanism) -> tuple[str, ...]:
     return table_columns(mechanism.actuated, mechanism.loop_unknowns)
 
 
+def report_table(mechanism, reports: Sequence, first: int, inputs: np.ndarray) -> ResultsTable:
+    """The results table (module doc; a :class:`~spherekin.results.ResultsTable`: no pandas) of
+    ``reports`` (SolveReport of inputs ``first``, ``first + 1``, ...; ``inputs`` their rows, radians)."""
+    return items_table(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
+
+
 def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):
-    """The results table (a pandas DataFrame, module doc) of ``reports`` (SolveReport of inputs
-    ``first``, ``first + 1``, ...; ``inputs`` their rows, radians)."""
-    return solution_rows(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
+    """:func:`report_table` as a pandas DataFrame."""
+    return report_table(mechanism, reports, first, inputs).frame()
 
 
-def track_rows(mechanism, track):
-    """The results table of a tracked path (:class:`spherekin.trust.continuation.Track`): one row per
-    path row reached, its one solution the tracked assembly (status certified: every step proven)."""
+def track_table(mechanism, track) -> ResultsTable:
+    """The results table (a :class:`~spherekin.results.ResultsTable`) of a tracked path
+    (:class:`spherekin.trust.continuation.Track`): one row per path row reached, its one solution
+    the tracked assembly (status certified: every step proven)."""
     from ..results import Solution, Status
 
     poses = list(track.poses)
@@ -50,14 +57,24 @@ def track_rows(mechanism, track):
         angles = np.array(list(p.passive_angles.values()))
         sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual, kind, Status.CERTIFIED)
         items.append((p.row, np.array(list(p.inputs.values())), tuple(p.passive_angles), (sol,)))
-    return solution_rows(mechanism, items)
+    return items_table(mechanism, items)
+
+
+def track_rows(mechanism, track):
+    """:func:`track_table` as a pandas DataFrame."""
+    return track_table(mechanism, track).frame()
+
+
+def items_table(mechanism, items) -> ResultsTable:
+    """The results table of ``items``: (input index, its inputs (radians), the unknowns' names, its
+    solutions) each; an input without solutions gets one row with empty solution columns. Built by
+    :func:`spherekin.results.solution_columns`, as ``SolveReport.frame()`` is."""
+    return solution_columns(mechanism.actuated, mechanism.loop_unknowns, items, mechanism.parallel_measures)
 
 
 def solution_rows(mechanism, items):
-    """The results table of ``items``: (input index, its inputs (radians), the unknowns' names, its
-    solutions) each; an input without solutions gets one row with empty solution columns. Built by
-    :func:`spherekin.results.solution_table`, as ``SolveReport.frame()`` is."""
-    return solution_table(mechanism.actuated, mechanism.loop_unknowns, items, mechanism.parallel_measures)
+    """:func:`items_table` as a pandas DataFrame."""
+    return items_table(mechanism, items).frame()
 
 
 def empty_frame(mechanism):
