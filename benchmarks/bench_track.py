@@ -18,7 +18,9 @@ Both in this process (imports and compilation done before the clock starts), and
 (on by default; ``--no-cli`` skips them): ``spherekin track FILE --path P.csv --start-rotation R0``
 writing its results three ways (the printed table only; ``--json`` too: every pose; ``--out T.csv``
 too: the results table of batch) against ``spherekin batch FILE --inputs P.csv --workers 0 --out
-B.csv`` (every row solved in that process, one core), each timed from the process's start to its
+B.csv`` (every row solved in that process by the engine, one core) and against a script that solves
+every row with ``solve`` (:data:`SOLVE_LOOP_SCRIPT`: the full solves of issue 30's target), each
+timed from the process's start to its
 exit (Python's start, imports, reading the files, writing the results), with spherekin's compiled
 modules cached as after ``pip install`` (in a temporary PYTHONPYCACHEPREFIX, filled by a first
 untimed run); ``spherekin --help`` alone gives the start-up (Python, the imports, no work).
@@ -97,6 +99,17 @@ def _env(pycache: str) -> dict:
     return env
 
 
+#: The whole process of full solves one row at a time (issue 30's baseline: "full solves", a `solve`
+#: per row, what the per-input pipeline was before the engine): a Python script reading the path's
+#: CSV, compiling the mechanism once and solving every row.
+SOLVE_LOOP_SCRIPT = (
+    "import sys, numpy as np, spherekin\n"
+    "from spherekin.mechanism.io import load_mechanism\n"
+    "problem = spherekin.compile(load_mechanism(sys.argv[1]))\n"
+    "for row in np.loadtxt(sys.argv[2], delimiter=',', skiprows=1, ndmin=2):\n"
+    "    problem.solve(row)\n")
+
+
 def _run(cmd, env) -> float:
     """Wall seconds of the process ``cmd`` (its exit status must be 0)."""
     t0 = time.perf_counter()
@@ -151,7 +164,7 @@ def main(argv=None) -> int:
         ok_engine &= max(np.abs(f - r).max() for f, r in zip(followed, rots)) < 1e-9
         print(f"run {run + 1}/{args.runs}: track {t_track[-1]:.3f} s, full solves {t_full[-1]:.2f} s", flush=True)
     outputs = {"printed": [], "--json": [], "--out": []}
-    t_cli_batch, t_help = [], []
+    t_cli_batch, t_help, t_solve_loop = [], [], []
     if args.cli:
         toml = ROOT / "examples" / "general_3rrr.toml"
         with tempfile.TemporaryDirectory() as tmp:
@@ -179,9 +192,11 @@ def main(argv=None) -> int:
                     (Path(tmp) / "t.csv").unlink(missing_ok=True)
                 t_cli_batch.append(_run([*spherekin, "batch", str(toml), "--inputs", str(csv_path), "--workers", "0",
                                          "--quiet", "--out", str(Path(tmp) / f"b{run}.csv")], env))
+                t_solve_loop.append(_run([sys.executable, "-c", SOLVE_LOOP_SCRIPT, str(toml), str(csv_path)], env))
                 print(f"process run {run + 1}/{args.runs}: spherekin --help {t_help[-1]:.2f} s, spherekin track "
                       + ", ".join(f"{t[-1]:.2f} s ({k})" for k, t in outputs.items())
-                      + f"; spherekin batch {t_cli_batch[-1]:.2f} s", flush=True)
+                      + f"; spherekin batch {t_cli_batch[-1]:.2f} s; a solve per row {t_solve_loop[-1]:.2f} s",
+                      flush=True)
     track_s, full_s, engine_s = statistics.median(t_track), statistics.median(t_full), statistics.median(t_engine)
     n = args.steps
     print(f"\ngeneral_3rrr, a smooth path of {n} inputs {gaps.mean():.4g} rad apart (largest input change between "
@@ -209,8 +224,14 @@ def main(argv=None) -> int:
             print(f"{label:44s} {statistics.median(times):8.3f} {1e3 * statistics.median(times) / n:11.3f}"
                   f"   {cli_batch / statistics.median(times):6.1f}x")
         print(f"{'spherekin batch --workers 0 (whole process)':44s} {cli_batch:8.3f} {1e3 * cli_batch / n:11.3f}")
-        result.update(cli_track_s=outputs, cli_batch_s=t_cli_batch, cli_help_s=t_help,
-                      cli_speedup={k: cli_batch / statistics.median(t) for k, t in outputs.items()})
+        loop_s = statistics.median(t_solve_loop)
+        print(f"{'a solve per row (whole process, a script)':44s} {loop_s:8.3f} {1e3 * loop_s / n:11.3f}")
+        print("whole process, spherekin track (printed) is "
+              f"{loop_s / statistics.median(outputs['printed']):.1f}x faster than a solve per row (target >= 20) and "
+              f"{cli_batch / statistics.median(outputs['printed']):.1f}x faster than the engine's batch")
+        result.update(cli_track_s=outputs, cli_batch_s=t_cli_batch, cli_help_s=t_help, cli_solve_loop_s=t_solve_loop,
+                      cli_speedup={k: cli_batch / statistics.median(t) for k, t in outputs.items()},
+                      cli_speedup_solve_loop={k: loop_s / statistics.median(t) for k, t in outputs.items()})
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2))
