@@ -53,7 +53,7 @@ from .continuation import (MARGIN, POINT_RADIUS, LegEquations, cayley, cayley_co
 from .loop_continuation import LoopEquations
 
 __all__ = ["FIRST_RADIUS", "GROWTH", "BISECTIONS", "MAX_RADIUS", "FIRST_CELL", "MIN_CELL", "MAX_CELLS", "W_FACTOR",
-           "START_TOL", "FreeBox", "free_box"]
+           "START_TOL", "FreeBox", "checked_home", "free_box"]
 
 #: The first radius tried (radians of every free input around home). Reason: small enough that a
 #: home pose a few 0.01 rad from a singularity still gets a box from the bisection below it, large
@@ -102,7 +102,7 @@ class FreeBox:
     of positive radius was proven (False: not even FIRST_RADIUS / 2^BISECTIONS); ``radius``: its
     half-width (radians); ``limit``: why it is not larger ("singular": a cell of MIN_CELL next to the
     box failed, near ``limit_at``; "link": a cell could not be tied to the home assembly; "cells":
-    MAX_CELLS; "radius": MAX_RADIUS reached); ``limit_at``: the inputs (by name) of the failed cell's
+    MAX_CELLS; "radius": the largest radius asked for reached); ``limit_at``: the inputs (by name) of the failed cell's
     centre, or None; ``seconds``: the wall time.
     """
 
@@ -260,7 +260,7 @@ class _Cells:
     w_hi: np.ndarray
 
 
-def _cover(sys, home, start, free, lo, hi):
+def _cover(sys, home, start, free, lo, hi, min_cell: float, max_cells: int):
     """(free?, cells, why, where): whether the box [lo, hi] (A,) of inputs is proven free for the
     assembly of ``start`` at ``home`` (module doc); ``free``: indices of the inputs that vary;
     ``why``/``where``: the reason and the failed cell's centre when not."""
@@ -312,12 +312,12 @@ def _cover(sys, home, start, free, lo, hi):
         if not len(bad):
             break
         width = (t_hi[bad][:, free] - t_lo[bad][:, free]).max(axis=1)
-        small = width <= MIN_CELL
+        small = width <= min_cell
         if small.any():
             k = bad[np.flatnonzero(small)[0]]
             return False, total, "singular", 0.5 * (t_lo[k] + t_hi[k])
         total += len(bad) * 2 ** len(free)
-        if total > MAX_CELLS:
+        if total > max_cells:
             return False, total, "cells", 0.5 * (t_lo[bad[0]] + t_hi[bad[0]])
         # halve every failed cell along every free input; each half's root continued from the cell's source
         halves_lo, halves_hi = [], []
@@ -406,7 +406,21 @@ def _neighbours(c: _Cells, free) -> np.ndarray:
 # ---------------------------------------------------------------- the growth
 
 
-def free_box(mechanism, home, start, inputs=None) -> FreeBox:
+def checked_home(mechanism, home) -> np.ndarray:
+    """``home`` as an array (A,) of one input per actuated joint (radians), checked as a solve checks
+    inputs (finite, within a turn of 0, inside the joint ranges); else ValueError naming "home"."""
+    names = tuple(mechanism.actuated)
+    try:
+        arr = np.asarray(home, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (len(names),):
+        raise ValueError(f"home: expected {len(names)} inputs ({', '.join(names)}; radians), got {home!r}")
+    return mechanism.check_input_rows(arr[None], "home")[0]
+
+
+def free_box(mechanism, home, start, inputs=None, *, max_radius: float = MAX_RADIUS, min_cell: float = MIN_CELL,
+             max_cells: int = MAX_CELLS) -> FreeBox:
     """The largest box home +- r of the inputs named in ``inputs`` (the others fixed at home; None: all)
     proven to hold the assembly of ``start`` without a parallel singularity (module doc).
 
@@ -414,14 +428,13 @@ def free_box(mechanism, home, start, inputs=None) -> FreeBox:
     (:func:`~spherekin.trust.continuation.not_tracked` is None: ``start`` is the platform rotation R
     (3, 3) of an assembly at home), else on the loop equations (``start``: the passive angles,
     name -> radians or a sequence in ``mechanism.loop_unknowns`` order). ``home``: one input per
-    actuated joint (radians). ValueError before any proof for a bad home, start or input name, or a
-    start pose that is not a proven isolated root at home."""
+    actuated joint (radians). ``max_radius``: the largest radius tried (radians, at most MAX_RADIUS:
+    "is home +- 0.2 free?"); ``min_cell``, ``max_cells``: the caps of the cells (MIN_CELL, MAX_CELLS).
+    ValueError before any proof for a bad home, start, input name or cap, or a start pose that is not
+    a proven isolated root at home."""
     t0 = time.perf_counter()
     names = tuple(mechanism.actuated)
-    home = np.asarray(home, dtype=float).reshape(-1) if np.ndim(home) else np.array([home], dtype=float)
-    if home.shape != (len(names),) or not np.all(np.isfinite(home)):
-        raise ValueError(f"home: expected {len(names)} finite inputs ({', '.join(names)}; radians), got {home.tolist()}")
-    mechanism.check_input_rows(home[None], "home")
+    home = checked_home(mechanism, home)
     if inputs is None:
         inputs = names
     if isinstance(inputs, str):
@@ -430,6 +443,12 @@ def free_box(mechanism, home, start, inputs=None) -> FreeBox:
     if unknown or not inputs or len(set(inputs)) != len(tuple(inputs)):
         raise ValueError(f"inputs: expected distinct actuated joint names among {list(names)}, got {list(inputs)}")
     free = [names.index(n) for n in inputs]
+    if not 0 < max_radius <= MAX_RADIUS:
+        raise ValueError(f"max_radius: expected 0 < R <= {MAX_RADIUS:g} (radians), got {max_radius!r}")
+    if not 0 < min_cell <= FIRST_CELL:
+        raise ValueError(f"min_cell: expected 0 < W <= {FIRST_CELL:g} (radians), got {min_cell!r}")
+    if int(max_cells) != max_cells or max_cells < 1:
+        raise ValueError(f"max_cells: expected a positive integer, got {max_cells!r}")
     sys = _Platform(mechanism, start) if not_tracked(mechanism) is None else _Loops(mechanism, start, home)
     state = sys.start_state(home)
     state, ok = sys.continued(state[None], home[None], home[None])
@@ -445,19 +464,19 @@ def free_box(mechanism, home, start, inputs=None) -> FreeBox:
         return lo, hi
 
     def attempt(r):
-        return _cover(sys, home, state, free, *box(r))
+        return _cover(sys, home, state, free, *box(r), min_cell, int(max_cells))
 
     good, good_cells = 0.0, 0
-    r, bad, failure = FIRST_RADIUS, None, ("radius", None)
-    while r <= MAX_RADIUS:
+    r, bad, failure = min(FIRST_RADIUS, max_radius), None, ("radius", None)
+    while True:
         ok, cells, why, where = attempt(r)
         if not ok:
             bad, failure = r, (why, where)
             break
         good, good_cells = r, cells
-        if r == MAX_RADIUS:
+        if r == max_radius:
             break
-        r = min(MAX_RADIUS, r * GROWTH)
+        r = min(max_radius, r * GROWTH)
     if bad is not None:
         for _ in range(BISECTIONS):
             r = 0.5 * (good + bad)
