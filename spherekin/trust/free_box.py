@@ -178,7 +178,7 @@ class _Platform:
         return cayley_coordinates(np.swapaxes(charts, -1, -2) @ states)
 
     def pose(self, state):
-        return tuple(map(tuple, state @ self.ref))
+        return tuple(tuple(map(float, row)) for row in state @ self.ref)
 
 
 class _Loops:
