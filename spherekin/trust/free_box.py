@@ -53,7 +53,7 @@ from .continuation import (MARGIN, POINT_RADIUS, LegEquations, cayley, cayley_co
 from .loop_continuation import LoopEquations
 
 __all__ = ["FIRST_RADIUS", "GROWTH", "BISECTIONS", "MAX_RADIUS", "FIRST_CELL", "MIN_CELL", "MAX_CELLS", "W_FACTOR",
-           "START_TOL", "FreeBox", "checked_home", "free_box"]
+           "W_EVEN", "START_TOL", "FreeBox", "checked_home", "free_box"]
 
 #: The first radius tried (radians of every free input around home). Reason: small enough that a
 #: home pose a few 0.01 rad from a singularity still gets a box from the bisection below it, large
@@ -87,6 +87,11 @@ MAX_CELLS = 20_000
 #: tracker's step box, the step's hull plus half of it on each side) passes cells on general_3rrr
 #: where 1.3 fails twice as often.
 W_FACTOR = 2.0
+#: ... plus W_EVEN times the largest of those spreads on every side. Reason: where one unknown is
+#: stationary over the cell (its spread ~0: the four-bar's coupler near A = 0.6) its side of W would
+#: be thinner than the interval enclosure's overestimation, which follows the whole box: the tracker's
+#: step box has the same floor (its margin is relative to the largest coordinate of the step).
+W_EVEN = 0.5
 #: A start pose must close the equations at home to this (largest residual) before it is polished and proven.
 START_TOL = 1e-6
 
@@ -240,7 +245,8 @@ def _spread(jac, rate, half) -> np.ndarray:
     ok = np.isfinite(jac).all(axis=(1, 2)) & (np.abs(np.linalg.det(jac)) > 0)
     if ok.any():
         lin = np.linalg.solve(jac[ok], rate[ok])
-        out[ok] = W_FACTOR * np.einsum("nij,nj->ni", np.abs(lin), half[ok]) + MARGIN
+        reach = np.einsum("nij,nj->ni", np.abs(lin), half[ok])
+        out[ok] = W_FACTOR * reach + W_EVEN * reach.max(axis=1, keepdims=True) + MARGIN
     return out
 
 
