@@ -128,7 +128,8 @@ def test_free_box_of_general_3rrr_in_the_plane_matches_the_references(rrr, k):
     fb = problem.free_box(HOME, start=k, inputs=("beta1", "beta2"))
     assert isinstance(fb, FreeBox) and fb.proven and fb.free == ("beta1", "beta2")
     lo, hi = np.array(fb.lo), np.array(fb.hi)
-    assert lo[2] == hi[2] == 0.5 and np.allclose(hi[:2] - HOME[:2], fb.radius) and np.allclose(HOME[:2] - lo[:2], fb.radius)
+    assert lo[2] == hi[2] == 0.5
+    assert np.allclose(hi[:2] - HOME[:2], fb.radius) and np.allclose(HOME[:2] - lo[:2], fb.radius)
     assert fb.as_dict()["x"] == [lo[0], hi[0]] and fb.as_dict()["y"] == [lo[1], hi[1]]
     box = track_box_min_det(rrr_tracked(), HOME, rot0, lo, hi, 41)
     assert box.lost == 0 and box.sign_changes == 0 and box.min_abs_det > 0
@@ -177,8 +178,8 @@ def test_free_box_of_a_four_bar_ends_before_its_branch_point(tmp_path):
     """A non-Grashof four-bar (80/50/40/60 deg, one input): the free interval about reading 0 holds none of
     its branch inputs (closed form), and 5 % more reaches the nearest one (0.3878 rad). The crank-rocker of
     examples/four_bar.toml has none: its free interval reaches any radius asked (0.7 rad here; the loop
-    equations' J_p is regular all round; a box side of a coordinate that is stationary over a cell must not be thinner than
-    the enclosure's overestimation, W_EVEN: without it the box stopped at 0.60 rad)."""
+    equations' J_p is regular all round; a box side of a coordinate that is stationary over a cell must
+    not be thinner than the enclosure's overestimation, W_EVEN: without it the box stopped at 0.60 rad)."""
     deg = math.pi / 180
     fb = four_bar_from_arcs(80 * deg, 50 * deg, 40 * deg, 60 * deg, theta=math.pi / 2)
     path = tmp_path / "variant.toml"
@@ -186,7 +187,7 @@ def test_free_box_of_a_four_bar_ends_before_its_branch_point(tmp_path):
     mech = sk.load_mechanism(path)
     branch = four_bar_branch_inputs(fb)
     box = free_box(mech, [0.0], sk.solve(mech, [0.0]).solutions[0].passive_angles)
-    assert box.proven and box.limit == "singular"
+    assert box.proven and box.limit == "unproven"
     assert not np.any((box.lo[0] <= branch) & (branch <= box.hi[0]))
     assert np.any(np.abs(branch) <= GROW * box.radius)
     crank = sk.load_mechanism(EXAMPLES / "four_bar.toml")

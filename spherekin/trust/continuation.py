@@ -69,7 +69,8 @@ from ..systems.platform import (leg_constants, not_applicable, passive_names, pa
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
            "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "cayley_coordinates",
-           "krawczyk_step", "krawczyk_steps", "krawczyk_input_boxes", "predict_many", "parametric_krawczyk", "track", "not_tracked"]
+           "krawczyk_step", "krawczyk_steps", "krawczyk_input_boxes", "predict_many", "parametric_krawczyk", "track",
+           "not_tracked"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the

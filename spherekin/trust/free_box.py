@@ -15,7 +15,8 @@ How a candidate box is proven (:func:`_cover`):
   orientation, :meth:`spherekin.trust.loop_continuation.LoopEquations.krawczyk_input_boxes` on the
   loop equations of any mechanism), with the box W of unknowns centred on Newton's root at the
   cell's centre (continued from a neighbour's) and W_FACTOR times as wide as the roots' linear spread
-  over the cell. Proven: every input of B has exactly one root in W and J is regular on W x B.
+  over the cell (plus W_EVEN times the largest spread). Proven: every input of B has exactly one
+  root in W and J is regular on W x B.
 * Cells are tied to the home assembly by a proven overlap: two cells sharing a face are the same
   branch when a point Krawczyk box P (radius POINT_RADIUS) around the root at the centre of their
   shared face lies inside both W's (with the trackers' margin MARGIN): each W holds exactly one root
@@ -105,10 +106,11 @@ class FreeBox:
     input); ``start``: the assembly's pose at home (the platform rotation R (3, 3) as nested tuples,
     or the passive angles by name); ``cells``: cells of the proof of the box returned; ``proven``: a box
     of positive radius was proven (False: not even FIRST_RADIUS / 2^BISECTIONS); ``radius``: its
-    half-width (radians); ``limit``: why it is not larger ("singular": a cell of MIN_CELL next to the
-    box failed, near ``limit_at``; "link": a cell could not be tied to the home assembly; "cells":
-    MAX_CELLS; "radius": the largest radius asked for reached); ``limit_at``: the inputs (by name) of the failed cell's
-    centre, or None; ``seconds``: the wall time.
+    half-width (radians); ``limit``: why it is not larger ("unproven": a cell of ``min_cell`` in the
+    next box out could not be proven, near ``limit_at``: a singularity of the assembly within ~a cell
+    of it, or, on the loop equations, enclosures too loose there; "link": a cell could not be tied to
+    the home assembly; "cells": ``max_cells``; "radius": the largest radius asked for reached);
+    ``limit_at``: the inputs (by name) of the failed cell's centre, or None; ``seconds``: the wall time.
     """
 
     inputs: tuple
@@ -321,7 +323,7 @@ def _cover(sys, home, start, free, lo, hi, min_cell: float, max_cells: int):
         small = width <= min_cell
         if small.any():
             k = bad[np.flatnonzero(small)[0]]
-            return False, total, "singular", 0.5 * (t_lo[k] + t_hi[k])
+            return False, total, "unproven", 0.5 * (t_lo[k] + t_hi[k])
         total += len(bad) * 2 ** len(free)
         if total > max_cells:
             return False, total, "cells", 0.5 * (t_lo[bad[0]] + t_hi[bad[0]])
