@@ -430,41 +430,59 @@ class Problem:
         the full solve at path[0]; or, where the platform tracker applies, the platform
         rotation R (3x3) of an assembly at path[0].
         """
-        from .results import Solution
         from .trust.continuation import not_tracked, track
         from .trust.loop_continuation import track_loops
 
         rows = self._checked_rows("path", path)
         if not len(rows):
             raise ValueError("path: expected at least one row of inputs, got none")
+        start = self._assembly_at(rows[0], start, "the first input of the path")
+        if not_tracked(self.mechanism) is not None:
+            return track_loops(self.mechanism, rows, start)
+        return track(self.mechanism, rows, start)
+
+    def free_box(self, home, *, start, inputs=None, **caps):
+        """The largest box of inputs home +- r proven to hold the assembly ``start`` without a parallel
+        singularity (:func:`spherekin.trust.free_box.free_box`; the inputs not in ``inputs`` fixed at
+        home, None: all vary): a :class:`~spherekin.trust.free_box.FreeBox`. ``home``: one input per
+        actuated joint (radians); ``start`` as :meth:`track`'s (a certified ``Solution`` at home, its
+        index, or a platform rotation R); ``caps``: ``max_radius``, ``min_cell``, ``max_cells``."""
+        from .trust.free_box import checked_home, free_box
+
+        home = checked_home(self.mechanism, home)
+        return free_box(self.mechanism, home, self._assembly_at(home, start, "home"), inputs, **caps)
+
+    def _assembly_at(self, x0, start, where: str):
+        """The assembly ``start`` names at the input x0 (``where`` says which, for messages): the
+        platform rotation R where the platform tracker applies, else the passive angles by name
+        (``start``: a certified Solution at x0, its index in the solve at x0, or a rotation R)."""
+        from .results import Solution
+        from .trust.continuation import not_tracked
+
         why = not_tracked(self.mechanism)          # None: the platform tracker follows it
         if isinstance(start, (int, np.integer)) and not isinstance(start, bool):
-            report = self.solve(rows[0])
+            report = self.solve(x0)
             n = len(report.solutions)
             if not 0 <= int(start) < n:
-                raise ValueError(f"start: expected a solution index 0..{n - 1} of the solve at the first input "
+                raise ValueError(f"start: expected a solution index 0..{n - 1} of the solve at {where} "
                                  f"({n} solution(s)), got {int(start)}")
             start = report.solutions[int(start)]
         if isinstance(start, Solution):
             given = tuple(start.actuated.values())
-            if given and np.abs(np.array(given, dtype=float) - rows[0]).max() > RANGE_TOL:
-                raise ValueError(f"start: expected a solution of the solve at the first input of the path "
-                                 f"{rows[0].tolist()}, got one at {list(given)}")
+            if given and np.abs(np.array(given, dtype=float) - x0).max() > RANGE_TOL:
+                raise ValueError(f"start: expected a solution of the solve at {where} "
+                                 f"{x0.tolist()}, got one at {list(given)}")
             if start.status != "certified" or (why is None and start.platform_rotation is None):
-                raise ValueError(f"start: the solution at the first input is {start.status}, not certified; "
+                raise ValueError(f"start: the solution at {where} is {start.status}, not certified; "
                                  "a track starts from a proven, isolated assembly")
-            if why is not None:
-                return track_loops(self.mechanism, rows, start.passive_angles)
-            start = start.platform_rotation
-        elif why is not None:
+            return start.passive_angles if why is not None else start.platform_rotation
+        if why is not None:
             raise ValueError(f"start: a start rotation needs the platform tracker, which does not apply ({why}); "
-                             "start from a solution of the solve at the first input (--start-solution K; in Python "
+                             f"start from a solution of the solve at {where} (--start-solution K; in Python "
                              "a Solution or its index)")
-        else:
-            from .mechanism.checks import check_rotation
+        from .mechanism.checks import check_rotation
 
-            start = check_rotation("start", start)
-        return track(self.mechanism, rows, start)
+        return check_rotation("start", start)
 
     # ------------------------------------------------------------------ stages
 

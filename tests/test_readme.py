@@ -144,10 +144,31 @@ def check_closure_loop(proc, code, tmp_path):
             assert lo <= want <= hi
 
 
+def check_free_box(proc, code, tmp_path):
+    """The printed box and start pose against the references of tests/singular_refs.py: the pose closes
+    the legs at home, the reference tracks the assembly over the box without loss, sign change or
+    |det| = 0 (41 x 41 grid), and loses it (or |det| < 1e-3) on the box 5 % larger."""
+    from singular_refs import rrr_closure, rrr_geometry, rrr_tracked, track_box_min_det
+
+    first, second = proc.stdout.strip().splitlines()
+    numbers = [float(v) for v in re.findall(r"-?\d+\.\d*(?:e-?\d+)?", first)]
+    assert len(numbers) == 4 and first.split()[-2] in ("unproven", "link", "cells"), proc.stdout
+    rot = np.array(eval(second, {"__builtins__": {}}), dtype=float)          # noqa: S307 (a list of lists)
+    home = np.array([0.0, 0.0, 0.5])
+    assert np.abs(rrr_closure(rrr_geometry(), home, rot)).max() < 1e-9
+    lo, hi = np.array([numbers[0], numbers[2], 0.5]), np.array([numbers[1], numbers[3], 0.5])
+    assert np.all(lo[:2] < 0) and np.all(hi[:2] > 0)
+    box = track_box_min_det(rrr_tracked(), home, rot, lo, hi, 41)
+    assert box.lost == 0 and box.sign_changes == 0 and box.min_abs_det > 0
+    grown = track_box_min_det(rrr_tracked(), home, rot, home - 1.05 * (home - lo), home + 1.05 * (hi - home), 81)
+    assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < 1e-3
+
+
 #: A marker of each python block's code -> its check.
 CHECKS = {"problem.solve_many": check_compiled_solve_many,
           "batch.assembly_map": check_batch,
-          "ClosureLoop": check_closure_loop}
+          "ClosureLoop": check_closure_loop,
+          "free_box": check_free_box}
 
 
 def check_of(code: str):

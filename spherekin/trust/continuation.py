@@ -69,7 +69,8 @@ from ..systems.platform import (leg_constants, not_applicable, passive_names, pa
 
 __all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
            "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "cayley_coordinates",
-           "krawczyk_step", "parametric_krawczyk", "track", "not_tracked"]
+           "krawczyk_step", "krawczyk_steps", "krawczyk_input_boxes", "predict_many", "parametric_krawczyk", "track",
+           "not_tracked"]
 
 #: Radius of the box around each accepted root that a point Krawczyk test proves (in w, ~radians).
 #: Reason: Newton's roots are accurate to ~1e-15; 1e-10 leaves room for the rounding of the
@@ -420,18 +421,54 @@ def _krawczyk_images(eqs: LegEquations, dc, w_lo, w_hi, beta0, beta1) -> tuple[n
     return parametric_krawczyk(w_lo, w_hi, j_mid, h_m, iv.scale(delta, rate), j_box, sigma.reshape(2, 1, 1))
 
 
-def parametric_krawczyk(w_lo, w_hi, j_mid, f_m, rate, j_box, sigma) -> tuple[np.ndarray, np.ndarray]:
-    """(proven (N,), K (2, N, M)): the parametric Krawczyk operator of both trackers (module doc) on
-    N boxes W = [w_lo, w_hi] (N, M) of the unknowns over segments of inputs x(sigma) = x1 + sigma
-    delta, sigma in ``sigma`` (an interval, (2, 1, 1)):
+def krawczyk_input_boxes(eqs: LegEquations, dc, w_lo, w_hi, beta_lo, beta_hi) -> tuple[np.ndarray, np.ndarray]:
+    """(proven (N,), K (2, N, 3)): the parametric Krawczyk operator over N *boxes* of inputs
+    B = [beta_lo, beta_hi] (N, 3 each, radians; a fixed input: lo = hi), the boxes W = [w_lo, w_hi]
+    (N, 3) of Cayley coordinates near the displacements ``dc`` (N, 3, 3):
 
-        K = m - Y F(m, x1) - Y (dF/dsigma)(m, X) sigma + (I - Y J(W, X)) (W - m),
+        K = m - Y h(m, b_c) - (Y dh/dbeta(m, B)) (B - b_c) + (I - Y J(W, B)) (W - m),
+
+    b_c the boxes' centres (:func:`parametric_krawczyk` with P = 3 parameters; dh/dbeta is diagonal,
+    each leg driven by its own input). Proven: every input of B has exactly one root in W (inside K)
+    and every Jacobian of J(W, B) is regular, so that assembly meets no parallel singularity over B
+    (the free boxes of :mod:`spherekin.trust.free_box`)."""
+    w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
+    beta_lo, beta_hi = np.asarray(beta_lo, dtype=float), np.asarray(beta_hi, dtype=float)
+    dc = np.asarray(dc, dtype=float)
+    n = len(w_lo)
+    if n == 0 or not iv.rounding_environment_ok():
+        return np.zeros(n, dtype=bool), iv.from_bounds(w_lo, w_hi)       # a refusal, never a wrong verdict
+    m = 0.5 * (w_lo + w_hi)
+    b_c = np.clip(0.5 * (beta_lo + beta_hi), beta_lo, beta_hi)
+    beta_box = iv.from_bounds(beta_lo, beta_hi)
+    _, j_mid = eqs.values(dc, m, b_c)
+    point_m = iv.point(m)
+    h_m, _ = eqs.enclose(dc, point_m, iv.point(b_c))
+    rate, _ = eqs.enclose(dc, point_m, beta_box, rate=True)                # dh_i/dbeta_i at m over B (2, N, 3)
+    _, j_box = eqs.enclose(dc, iv.from_bounds(w_lo, w_hi), beta_box)
+    diag = rate[..., :, None] * np.eye(3)                                   # dh/dbeta (2, N, 3, 3): exact zeros off it
+    return parametric_krawczyk(w_lo, w_hi, j_mid, h_m, diag, j_box, iv.sub(beta_box, iv.point(b_c)))
+
+
+def parametric_krawczyk(w_lo, w_hi, j_mid, f_m, rate, j_box, sigma) -> tuple[np.ndarray, np.ndarray]:
+    """(proven (N,), K (2, N, M)): the parametric Krawczyk operator of both trackers (module doc) and
+    of the free boxes (:func:`krawczyk_input_boxes`) on N boxes W = [w_lo, w_hi] (N, M) of the
+    unknowns over boxes of P parameters p = p_c + sigma, sigma in ``sigma`` (intervals (2, N, P), or
+    broadcasting to it):
+
+        K = m - Y F(m, p_c) - (Y (dF/dp)(m, P)) sigma + (I - Y J(W, P)) (W - m),
 
     m the boxes' centres, Y = j_mid^-1 (floats: any Y is valid, a good one makes K small; none where
-    j_mid (N, M, M) is singular or not finite: not proven). ``f_m`` (2, N, M) encloses F(m, x1),
-    ``rate`` (2, N, M) dF/dsigma = J_x delta at m over the segment, ``j_box`` (2, N, M, M) the
-    unknowns' Jacobian over W and the segment. Proven where K lies in the interior of W: each input
-    of the segment has exactly one root in W, and it lies in K (Krawczyk/Moore)."""
+    j_mid (N, M, M) is singular or not finite: not proven). ``f_m`` (2, N, M) encloses F(m, p_c),
+    ``rate`` (2, N, M, P) dF/dp at m over the parameter box (mean-value form), ``j_box``
+    (2, N, M, M) the unknowns' Jacobian over W and the parameter box. A tracker's segment of inputs
+    x(sigma) = x1 + sigma delta, sigma in [-1, 0], is one parameter (P = 1: ``rate`` (2, N, M) =
+    J_x delta, one sigma for every row, so that Y keeps their correlation); a box of inputs B is
+    P = the inputs, p_c its centre, sigma = B - p_c. Proven where K lies in the interior of W: each
+    parameter of the box has exactly one root in W, it lies in K, and every J in J(W, P) is regular
+    (Krawczyk/Moore)."""
+    if rate.ndim == 3:                                                        # one parameter (a segment)
+        rate = rate[..., None]
     n, m = w_lo.shape
     mid = 0.5 * (w_lo + w_hi)
     ok = np.isfinite(j_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(j_mid)) > 0)
@@ -440,8 +477,9 @@ def parametric_krawczyk(w_lo, w_hi, j_mid, f_m, rate, j_box, sigma) -> tuple[np.
         y[ok] = np.linalg.inv(j_mid[ok])
     ok &= np.isfinite(y).all(axis=(1, 2))
     y_f = iv.fmatmul(y, f_m[..., None])[..., 0]
-    y_rate = iv.fmatmul(y, rate[..., None])[..., 0]                         # Y dF/dsigma
-    center = iv.sub(iv.sub(iv.point(mid), y_f), iv.mul(y_rate, sigma))
+    y_rate = iv.fmatmul(y, rate)                                            # Y dF/dp (2, N, M, P)
+    spread = iv.isum(iv.mul(y_rate, sigma[..., None, :]), -1)              # (Y dF/dp) sigma (2, N, M)
+    center = iv.sub(iv.sub(iv.point(mid), y_f), spread)
     slope = iv.sub(iv.point(np.broadcast_to(np.eye(m), (n, m, m))), iv.fmatmul(y, j_box))
     dev = iv.sub(iv.from_bounds(w_lo, w_hi), iv.point(mid))
     k = iv.add(center, iv.matmul(slope, dev[..., None])[..., 0])
@@ -535,7 +573,7 @@ def _locate(eqs: LegEquations, dc, beta0, direction, lo: float, hi: float) -> tu
     return lo, hi
 
 
-def _predict_many(eqs: LegEquations, dc, beta0, beta1) -> tuple[np.ndarray, np.ndarray]:
+def predict_many(eqs: LegEquations, dc, beta0, beta1) -> tuple[np.ndarray, np.ndarray]:
     """(w (N, 3), found (N,)): Newton's roots at beta1 (N, 3) from the tangent predictor at w = 0
     (inputs beta0 (N, 3), displacements ``dc`` (N, 3, 3)); not found: no proof of anything."""
     beta0, beta1 = np.asarray(beta0, dtype=float), np.asarray(beta1, dtype=float)
@@ -545,8 +583,8 @@ def _predict_many(eqs: LegEquations, dc, beta0, beta1) -> tuple[np.ndarray, np.n
 
 
 def _predict(eqs: LegEquations, dc, beta0, beta1):
-    """:func:`_predict_many` of one step: w (3,), or None."""
-    w, ok = _predict_many(eqs, np.asarray(dc, dtype=float)[None], np.asarray(beta0, dtype=float)[None],
+    """:func:`predict_many` of one step: w (3,), or None."""
+    w, ok = predict_many(eqs, np.asarray(dc, dtype=float)[None], np.asarray(beta0, dtype=float)[None],
                           np.asarray(beta1, dtype=float)[None])
     return w[0] if ok[0] else None
 
@@ -571,7 +609,7 @@ def _predict_rows(eqs: LegEquations, d0, rows) -> tuple[np.ndarray, np.ndarray]:
     """(poses (m + 1, 3, 3), w (m, 3)): the displacements predicted at rows[0 .. m] (inputs
     (K, 3), radians) from ``d0`` at rows[0], and each step's Cayley coordinates (poses[j] C(w[j]) =
     poses[j + 1]); m < K - 1 where Newton fails first. In blocks: every row within PREDICT_REACH of a
-    block's first row is predicted at once (:func:`_predict_many` from that row's pose), the block's
+    block's first row is predicted at once (:func:`predict_many` from that row's pose), the block's
     last pose starts the next block."""
     poses, steps = [np.asarray(d0, dtype=float)], []
     k = 0
@@ -579,7 +617,7 @@ def _predict_rows(eqs: LegEquations, d0, rows) -> tuple[np.ndarray, np.ndarray]:
         reach = np.abs(rows[k + 1:] - rows[k]).max(axis=1)
         end = k + 1 + max(1, int(np.argmax(reach > PREDICT_REACH)) if (reach > PREDICT_REACH).any() else len(reach))
         block = rows[k + 1:end]
-        w, found = _predict_many(eqs, np.broadcast_to(poses[-1], (len(block), 3, 3)),
+        w, found = predict_many(eqs, np.broadcast_to(poses[-1], (len(block), 3, 3)),
                                  np.broadcast_to(rows[k], block.shape), block)
         good = len(block) if found.all() else int(np.argmin(found))
         if not good:
@@ -1015,7 +1053,7 @@ class _Walk:
 def _walk_segments(eqs: LegEquations, dcs, x0, x1, budget: int) -> list:
     """Walk M segments x0 -> x1 (M, 3 each; in path order) from the displacements ``dcs`` (M, 3, 3)
     in proven steps, halved on failure and grown after success; each round predicts
-    (:func:`_predict_many`) and proves (:func:`_certify_steps`) the next step of every walk still
+    (:func:`predict_many`) and proves (:func:`_certify_steps`) the next step of every walk still
     going in one array call, whatever M: a :class:`_Walk` per segment. A walk ends at x1, or where no
     step of MIN_STEP can be proven (module doc); the walks after one that stopped are abandoned
     (the track ends there). ``budget``: steps (proven and rejected) of all walks before RuntimeError."""
@@ -1038,7 +1076,7 @@ def _walk_segments(eqs: LegEquations, dcs, x0, x1, budget: int) -> list:
         t = np.minimum(1.0, s[idx] + h[idx])
         b0 = x0[idx] + s[idx, None] * direction[idx]
         b1 = np.where((t == 1.0)[:, None], x1[idx], x0[idx] + t[:, None] * direction[idx])
-        w, found = _predict_many(eqs, dc[idx], b0, b1)
+        w, found = predict_many(eqs, dc[idx], b0, b1)
         ok = np.zeros(len(idx), dtype=bool)
         lo, hi = np.zeros((len(idx), 3)), np.zeros((len(idx), 3))
         if found.any():

@@ -207,24 +207,50 @@ class LoopEquations:
         if n == 0 or not iv.rounding_environment_ok():
             refused = np.zeros(n, dtype=bool)       # a refusal, never a wrong verdict
             return (refused, w_lo, w_hi) if image else refused
-        mid = 0.5 * (w_lo + w_hi)
         delta = x1 - x0
         sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0])).reshape(2, 1, 1)
         xs = iv.add(iv.point(x1), iv.mul(iv.point(delta), sigma))               # holds x1 + sigma delta
-        x_mid = np.clip(0.5 * (xs[0] + xs[1]), xs[0], xs[1])
-        lo = np.concatenate((np.concatenate((mid, x1), 1), np.concatenate((mid, xs[0]), 1),
-                             np.concatenate((w_lo, xs[0]), 1)))
-        hi = np.concatenate((np.concatenate((mid, x1), 1), np.concatenate((mid, xs[1]), 1),
-                             np.concatenate((w_hi, xs[1]), 1)))
-        center = np.concatenate((np.concatenate((mid, x1), 1), np.concatenate((mid, x_mid), 1),
-                                 np.concatenate((mid, x_mid), 1)))
-        f, j = enclose(self.plan, lo, hi, center, TRACK_ANGLE_TOLERANCE)
-        f_m = f[:, :n]                                                        # F(m, x1)      (2, N, E)
-        ja = j[:, n:2 * n, :, self.m:]                                        # J_a(m, X)     (2, N, E, A)
-        jp = j[:, 2 * n:, :, :self.m]                                         # J_p(W, X)     (2, N, E, M)
-        jp_mid = 0.5 * (j[0, n:2 * n, :, :self.m] + j[1, n:2 * n, :, :self.m])     # J_p at m, mid-segment
+        f_m, ja, jp, jp_mid = self._enclosures(w_lo, w_hi, x1, xs, np.clip(0.5 * (xs[0] + xs[1]), xs[0], xs[1]))
         rate = iv.isum(iv.scale(delta[:, None, :], ja), -1)                   # J_a(m, X) delta (2, N, E)
         ok, k = parametric_krawczyk(w_lo, w_hi, jp_mid, f_m, rate, jp, sigma)
+        return (ok, k[0], k[1]) if image else ok
+
+    def _enclosures(self, w_lo, w_hi, x_p, xs, x_mid):
+        """(F(m, x_p) (2, N, E), J_a(m, X) (2, N, E, A), J_p(W, X) (2, N, E, M), J_p's middle at m
+        (N, E, M)) for the boxes W = [w_lo, w_hi] (N, M), m their centres, the inputs X = ``xs``
+        (intervals (2, N, A)) with the expansion point ``x_p`` (N, A) and the centre ``x_mid``."""
+        n = len(w_lo)
+        mid = 0.5 * (w_lo + w_hi)
+        lo = np.concatenate((np.concatenate((mid, x_p), 1), np.concatenate((mid, xs[0]), 1),
+                             np.concatenate((w_lo, xs[0]), 1)))
+        hi = np.concatenate((np.concatenate((mid, x_p), 1), np.concatenate((mid, xs[1]), 1),
+                             np.concatenate((w_hi, xs[1]), 1)))
+        center = np.concatenate((np.concatenate((mid, x_p), 1), np.concatenate((mid, x_mid), 1),
+                                 np.concatenate((mid, x_mid), 1)))
+        f, j = enclose(self.plan, lo, hi, center, TRACK_ANGLE_TOLERANCE)
+        jp_mid = 0.5 * (j[0, n:2 * n, :, :self.m] + j[1, n:2 * n, :, :self.m])     # J_p at m, mid-box
+        return f[:, :n], j[:, n:2 * n, :, self.m:], j[:, 2 * n:, :, :self.m], jp_mid
+
+    def krawczyk_input_boxes(self, w_lo, w_hi, x_lo, x_hi, image: bool = False):
+        """The box sibling of :meth:`krawczyk` (:func:`~spherekin.trust.continuation.krawczyk_input_boxes`
+        on the loop equations): whether the parametric Krawczyk operator
+
+            K = m - Y F(m, x_c) - (Y J_a(m, X)) (X - x_c) + (I - Y J_p(W, X)) (W - m)
+
+        maps each box W = [w_lo, w_hi] (N, M passive angles, radians) into its interior for every
+        input of the box X = [x_lo, x_hi] (N, A each; a fixed input: lo = hi), x_c its centre: then
+        every input of X has exactly one root in W and J_p is regular on W x X (no parallel
+        singularity of that assembly over X). A boolean per box; with ``image``, also K (lo, hi)."""
+        w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
+        x_lo, x_hi = np.asarray(x_lo, dtype=float), np.asarray(x_hi, dtype=float)
+        n = len(w_lo)
+        if n == 0 or not iv.rounding_environment_ok():
+            refused = np.zeros(n, dtype=bool)       # a refusal, never a wrong verdict
+            return (refused, w_lo, w_hi) if image else refused
+        xs = iv.from_bounds(x_lo, x_hi)
+        x_c = np.clip(0.5 * (x_lo + x_hi), x_lo, x_hi)
+        f_m, ja, jp, jp_mid = self._enclosures(w_lo, w_hi, x_c, xs, x_c)
+        ok, k = parametric_krawczyk(w_lo, w_hi, jp_mid, f_m, ja, jp, iv.sub(xs, iv.point(x_c)))
         return (ok, k[0], k[1]) if image else ok
 
     def certify_step(self, theta0, theta1, x0, x1) -> tuple[np.ndarray, np.ndarray] | None:
