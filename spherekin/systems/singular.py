@@ -35,11 +35,20 @@ import numpy as np
 
 from ..closure import tan_half_angle, tan_half_unit
 from ..core import bernstein
-from ..search.isolation import SquareSystem, krawczyk_boxes
+from ..search.isolation import SquareSystem, krawczyk_boxes, newton
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "Q_VARIABLES"]
+
+#: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
+#: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
+#: cover's size (~T) is often too loose for K(X) to fit in X, while on a box 1e-4 of it the Jacobian is
+#: nearly a point and a regular root is proven. Any small value works (the root must be at least this far
+#: inside the box, so the proven root is in the cell).
+PROOF_RADIUS = 1e-4
+#: The square slice: the three legs' equations (block 0) and D (block 1).
+_SLICE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
 
 #: The platform's orientation variables on a quaternion chart (the three free components).
 Q_VARIABLES = ("q_a", "q_b", "q_c")
@@ -273,10 +282,20 @@ class PlatformPlane:
             weights = [self._leg_weights(i, axes, values, len(rows)) for i in range(3)]
             f, ft, d, dt = self._blocks(k, weights)
             blo, bhi = lo[rows][:, keep], hi[rows][:, keep]
-            cache: dict = {}
-            fc = bernstein.restrict_batch_last(np.moveaxis(f, 0, -1), blo, bhi, cache)
-            dc = bernstein.restrict_batch_last(np.moveaxis(d, 0, -1), blo, bhi, cache)
-            square = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
-            ok, _, _ = krawczyk_boxes(square, [fc, dc], [ft.T, dt.T])
+            blocks = (np.moveaxis(f, 0, -1), np.moveaxis(d, 0, -1))
+            tols = [ft.T, dt.T]
+            cps = [bernstein.restrict_batch_last(b, blo, bhi, {}) for b in blocks]
+            ok, _, _ = krawczyk_boxes(_SLICE, cps, tols)
+            # where the hull is too wide for the test: Newton's root in it, and the test on a small box there
+            retry = np.flatnonzero(~ok)
+            if len(retry):
+                u, converged, _ = newton(_SLICE, [c[..., retry] for c in cps], [t[:, retry] for t in tols])
+                inner = converged & np.all((u > PROOF_RADIUS) & (u < 1.0 - PROOF_RADIUS), axis=1)
+                retry, u = retry[inner], u[inner]
+                if len(retry):
+                    w = bhi[retry] - blo[retry]
+                    slo, shi = blo[retry] + (u - PROOF_RADIUS) * w, blo[retry] + (u + PROOF_RADIUS) * w
+                    small = [bernstein.restrict_batch_last(b[..., retry], slo, shi, {}) for b in blocks]
+                    ok[retry], _, _ = krawczyk_boxes(_SLICE, small, [t[:, retry] for t in tols])
             out[rows] = ok
         return out

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..closure import tan_half_unit
 
-__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "certify_cover", "SINGULAR", "UNRESOLVED"]
+__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "SINGULAR", "UNRESOLVED"]
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
@@ -94,6 +94,38 @@ def _cells_met(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> dict:
             for j in range(j0, j1 + 1):
                 out.setdefault((i, j), []).append(b)
     return out
+
+
+def cell_pieces(charts, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each accepted box (chart (A,), angle lo, hi (A, N), :class:`spherekin.search.boxloop.Cover`) cut by
+    the cells it meets: (chart (P,), lo (P, N), hi (P, N)) in unit coordinates, one piece per (box, cell),
+    the plane columns clipped to the cell (only the cells in ``cells``, a set of (i, j), when given).
+    Searched again with smaller boxes, the pieces a cell holds no singular point of are discarded: the
+    cover then meets fewer cells that the curve misses, and the hulls the certificates test are tighter."""
+    chart, alo, ahi = accepted
+    if not len(chart):
+        return chart, alo, ahi
+    q = charts.parameterization.n_q
+    out_c, out_lo, out_hi = [], [], []
+    for (i, j), members in _cells_met(grid, alo[:, q:], ahi[:, q:]).items():
+        if cells is not None and (i, j) not in cells:
+            continue
+        members = np.array(members)
+        lo, hi = alo[members].copy(), ahi[members].copy()
+        for a, k in enumerate((i, j)[:lo.shape[1] - q]):
+            e0, e1 = grid.edges(a, k)
+            lo[:, q + a] = np.maximum(lo[:, q + a], e0)
+            hi[:, q + a] = np.minimum(hi[:, q + a], e1)
+        ok = np.all(lo <= hi, axis=1)
+        out_c.append(chart[members][ok])
+        out_lo.append(lo[ok])
+        out_hi.append(hi[ok])
+    if not out_c:
+        return chart[:0], alo[:0], ahi[:0]
+    c = np.concatenate(out_c)
+    unit = charts.parameterization.unit
+    lo, hi = unit(charts, c, np.concatenate(out_lo)), unit(charts, c, np.concatenate(out_hi))
+    return c, np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
 
 
 def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
