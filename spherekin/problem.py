@@ -812,12 +812,13 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     that the cover of the augmented system meets, each ``singular`` (a singular configuration proven at an
     input of the cell) or ``unresolved``; the plane outside them is proven free of parallel singularities
     (:mod:`spherekin.trust.singular`). ``max_boxes`` caps the cover: when reached, ``complete`` is False and
-    the unprocessed part of the plane is in ``unresolved`` cells. Passive joint ranges are not applied (the
-    set may hold singular configurations with passive joints out of range). Only the platform system (three
-    R-R-R legs) is supported yet; other mechanisms raise ValueError.
+    the unprocessed part of the plane is in ``unresolved`` cells. The system is chosen as a solve's: the
+    platform system (three R-R-R legs; passive joint ranges not applied: the set may hold singular
+    configurations with passive joints out of range) where it applies, else the loop equations (one loop:
+    four-bars, five-bars; passive ranges applied; no certificate yet, every cell ``unresolved``).
     """
     from .search.boxloop import pruner_for, search_cover
-    from .systems.singular import PlatformPlane, SingularPlane
+    from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import SingularBox, SingularSet, SingularStats
     from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover
 
@@ -841,12 +842,10 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         raise ValueError(f"tol: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {tol!r}")
     if isinstance(max_boxes, bool) or not isinstance(max_boxes, (int, np.integer)) or max_boxes < 1:
         raise ValueError(f"max_boxes: expected a positive whole number, got {max_boxes!r}")
-    why = Platform.accepts(mech)
-    if why is not None:
-        raise ValueError(f"mechanism: singular sets are computed with the platform system only for now ({why})")
     t0 = time.perf_counter()
     plane = SingularPlane(ax, ay, {k: float(v) for k, v in fixed.items()})
-    system = PlatformPlane(mech, plane)
+    on_platform = Platform.accepts(mech) is None
+    system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane, LOOP_FORMULATION)
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     grid = Grid.over(plane.axes, tol)
     first = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
@@ -855,7 +854,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter)
     again = {k for k, c in cells.items() if c.status != SINGULAR}
     second = search_cover(system.charts, pruner, REFINE_FRACTION * tol, max(1, int(max_boxes) - first.boxes_processed),
-                          start=cell_pieces(system.charts, first.accepted, grid, again))
+                          start=cell_pieces(system, first.accepted, grid, again))
     second = dataclasses.replace(second, pending=tuple(np.concatenate([a, b]) for a, b in zip(first.pending,
                                                                                                second.pending)))
     t1 = time.perf_counter()
@@ -870,4 +869,5 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     stats = SingularStats(first.boxes_processed + second.boxes_processed,
                           len(first.accepted[0]) + len(second.accepted[0]), len(second.pending[0]),
                           t1 - t0, t2 - t1, t2 - t0)
-    return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats, Platform.name)
+    return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
+                       Platform.name if on_platform else Loops.name)

@@ -18,7 +18,9 @@ import pytest
 import spherekin
 from spherekin.cli import main
 from spherekin.results import SINGULAR_SCHEMA
-from singular_refs import EXAMPLES, singular_points_on_line
+from singular_refs import (EXAMPLES, five_bar_curve_points, five_bar_from_file, five_bar_moving, five_bar_tangency,
+                           four_bar_branch_inputs, four_bar_from_arcs, four_bar_from_file, four_bar_toml,
+                           singular_points_on_line)
 
 RRR = EXAMPLES / "general_3rrr.toml"
 #: A sub-square of the plane beta3 = 0.5 that the singular curves cross several times (fast: ~2 s at T = 0.1).
@@ -163,6 +165,56 @@ def test_cli_errors_are_one_line(args, words, capsys):
     assert err.count("\n") == 1 and err.startswith("spherekin: error: ") and words in err
 
 
-def test_loop_mechanism_is_refused_before_work():
-    with pytest.raises(ValueError, match="platform system only"):
-        spherekin.singular(EXAMPLES / "four_bar.toml", x=("A", -math.pi, math.pi), tol=0.1)
+# ---------------------------------------------------------------- the loop equations (item 6)
+
+DEG = math.pi / 180
+#: Non-Grashof four-bar variants (ground, crank, coupler, rocker; degrees), as tests/test_singular_refs.py:
+#: one reaches arc(B, D) = b + c, one |b - c|; each has two branch points of its crank input.
+VARIANTS = [(80, 50, 40, 60), (70, 50, 80, 50)]
+
+
+@pytest.mark.parametrize("arcs", VARIANTS)
+def test_four_bar_branch_points(arcs, tmp_path):
+    """A 1-DOF mechanism on the line of its input: the cover holds each closed-form branch input and every
+    box is within its width of one (the cover is exactly the branch points' cells)."""
+    fb = four_bar_from_arcs(*(a * DEG for a in arcs), theta=math.pi / 2)
+    path = tmp_path / "four_bar.toml"
+    path.write_text(four_bar_toml(fb))
+    ref = four_bar_branch_inputs(fb)
+    assert len(ref) == 2
+    mech = spherekin.load_mechanism(path)
+    sset = spherekin.singular(mech, x=(mech.actuated[0], -math.pi, math.pi), tol=0.05)
+    assert sset.complete and sset.system == "loops" and sset.boxes
+    for r in ref:
+        assert any(b.x[0] - EDGE <= r <= b.x[1] + EDGE for b in sset.boxes), r
+    for b in sset.boxes:
+        w = b.x[1] - b.x[0]
+        assert min(abs(math.remainder(r - 0.5 * (b.x[0] + b.x[1]), 2 * math.pi)) for r in ref) <= w, b
+
+
+def test_crank_four_bar_has_no_singular_input():
+    """examples/four_bar.toml is a crank (the reference has no branch input): the whole turn is proven free."""
+    assert len(four_bar_branch_inputs(four_bar_from_file())) == 0
+    sset = spherekin.singular(EXAMPLES / "four_bar.toml", x=("A", -math.pi, math.pi), tol=0.05)
+    assert sset.complete and sset.boxes == ()
+
+
+def test_five_bar_curve():
+    """examples/five_bar.toml over [-pi, pi]^2: every point of the reference curve (two circles tangent) is
+    covered; every box is within its width of the curve (the tangency function changes sign on the box widened
+    by its width) or of a point where the two circles coincide (B = D: a continuum of C, singular too)."""
+    fb = five_bar_from_file()
+    sset = spherekin.singular(EXAMPLES / "five_bar.toml", x=("A", -math.pi, math.pi), y=("E", -math.pi, math.pi),
+                              tol=0.1)
+    assert sset.complete and sset.boxes
+    points = five_bar_curve_points(fb)
+    assert len(points) >= 8
+    assert _covered(sset, points).all()
+    for b in sset.boxes:
+        w = b.x[1] - b.x[0]
+        g = np.linspace(-w, 2 * w, 13)
+        grid = np.column_stack([a.ravel() for a in np.meshgrid(b.x[0] + g, b.y[0] + g)])
+        f = five_bar_tangency(fb, grid)
+        bb, dd = five_bar_moving(fb, grid)
+        coincide = np.arccos(np.clip(np.einsum("ka,ka->k", bb, dd), -1, 1)).min() <= w
+        assert f.min() <= 0.0 <= f.max() or coincide, b

@@ -39,7 +39,7 @@ from ..search.isolation import SquareSystem, krawczyk_boxes, newton
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
-__all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "Q_VARIABLES"]
+__all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -167,6 +167,11 @@ class PlatformPlane:
         self.plane_charts = [plane_charts(a[1], a[2]) for a in plane.axes]
         self.quad = chart_control_points(self.mats)             # (3 legs, 3 parts, 4 charts, 3, 3, 3)
         self.charts = self._cover_charts()
+        self.plane_columns = tuple(3 + a for a in range(len(plane.axes)))
+
+    def unit(self, chart, v) -> np.ndarray:
+        """Unit coordinates (B, N) of the cover's angle-box coordinates v (B, N) in charts ``chart`` (B,)."""
+        return self.charts.parameterization.unit(self.charts, chart, v)
 
     # ---------------------------------------------------------------- tensors
     def _leg_weights(self, leg: int, axes: list, values: dict, batch: int) -> np.ndarray:
@@ -299,3 +304,136 @@ class PlatformPlane:
                     ok[retry], _, _ = krawczyk_boxes(_SLICE, small, [t[:, retry] for t in tols])
             out[rows] = ok
         return out
+
+
+def _axis_cross(a) -> np.ndarray:
+    """[a]x (3, 3): the cross-product matrix of a."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _add_elevated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a + b for Bernstein tensors over the same variables (all axes), each raised to the larger degree per axis."""
+    for k in range(a.ndim):
+        if a.shape[k] < b.shape[k]:
+            a = bernstein.elevate(a, k, b.shape[k] - a.shape[k])
+        elif b.shape[k] < a.shape[k]:
+            b = bernstein.elevate(b, k, a.shape[k] - b.shape[k])
+    return a + b
+
+
+class LoopPlane:
+    """The loop equations' singular set in a plane of inputs: any mechanism with one loop (K_p 3 x 3).
+
+    Unknowns: the passive joints and the plane's inputs, on the tan-half charts of the loop equations
+    (:meth:`spherekin.mechanism.SphericalMechanism.loop_system` with ``free``: the plane inputs become unknowns);
+    blocks: the closure equations of the formulation (pruned, no square system) and D = det K_p, whose columns
+    are the passive joints' current axes (sign x R_link a, R_link the product of the rotations along the
+    link's tree path; each rotation times 1 + t^2 is degree 2 in its t). D vanishes on the closure set exactly
+    where the passive Jacobian loses rank (not the formulation's own degeneracies). No certificate yet:
+    :meth:`prove` proves nothing, the cells are ``unresolved`` (the cover's claim, the plane outside it free,
+    holds). Passive joint ranges are constraints here (the mechanism's ranges).
+    """
+
+    def __init__(self, mechanism, plane: SingularPlane, formulation: str = "halves"):
+        from ..search.parameterizations import make_charts, stack_chart_sets
+
+        m = mechanism
+        if len(m.loop_geometry) != 1:
+            raise ValueError(f"mechanism: singular sets on the loop equations need one loop (a 3 x 3 passive "
+                             f"Jacobian), got {len(m.loop_geometry)}")
+        self.mechanism = m
+        self.plane = plane
+        names = [a[0] for a in plane.axes]
+        inputs = [plane.fixed.get(n, 0.0) for n in m.actuated]
+
+        def build(chart_ranges):
+            system = m.loop_system(inputs, {n: chart_ranges[n] for n in m.loop_unknowns}, free={
+                n: chart_ranges[n] for n in names})
+            return system.loops, system.unknowns
+
+        # one chart set per combination of the plane's pieces (plane_charts: width <= pi, ends kept), so that
+        # each plane variable has one chart per piece with its centre as shift (an Unknown strictly inside
+        # (-pi, pi) takes shift 0, which a piece ending at pi would make ill-conditioned)
+        passive = {n: m.joint(n).range for n in m.loop_unknowns}
+        pieces = [plane_charts(a[1], a[2]) for a in plane.axes]
+        closure = stack_chart_sets([make_charts("tan-half", build, {**passive, **dict(zip(names, combo))}, formulation)
+                                    for combo in itertools.product(*pieces)])
+        d, d_tol = self._determinant(closure)
+        nb = len(closure.coeffs)
+        self.charts = ChartSet(closure.parameterization, closure.unknowns, closure.variables,
+                               list(closure.coeffs) + [d], list(closure.tols) + [d_tol],
+                               list(closure.labels) + [("det K_p",)], [() for _ in range(nb + 1)],
+                               closure.map_lo, closure.map_hi, closure.shift, closure.accept_width,
+                               list(closure.bilinear or [None] * nb) + [None], list(closure.prune or [True] * nb) + [True])
+        self.plane_columns = tuple(list(closure.variables).index(n) for n in names)
+
+    def _determinant(self, charts: ChartSet):
+        """D = det K_p (C, 1, *dims) on every chart, and its tolerance (C, 1): ROUNDING_SAFETY eps times the
+        largest control point of the same products in absolute value (the terms behind each control point)."""
+        m = self.mechanism
+        variables = list(charts.variables)
+        n = len(variables)
+        terms = m.constraint_terms[0]
+        passive_cols = {m.joint_names.index(p): p for p in m.passive}
+        columns = [[t for t in terms if t[0] == col] for col in sorted(passive_cols, key=lambda c: m.passive.index(
+            passive_cols[c]))]
+        out, mags = [], []
+        for c in range(charts.n_charts):
+            dets = []
+            for absolute in (False, True):
+                cols = [self._column(col_terms, charts, c, variables, n, absolute) for col_terms in columns]
+                det = None
+                for perm in itertools.permutations(range(3)):
+                    sign = 1.0 if absolute else float(np.linalg.det(np.eye(3)[list(perm)]))
+                    term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n),
+                                              cols[2][perm[2]], n)
+                    det = sign * term if det is None else _add_elevated(det, sign * term)
+                dets.append(det)
+            out.append(dets[0])
+            mags.append(float(np.abs(dets[1]).max()))
+        d = np.stack(out)[:, None]
+        tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(np.array(mags), np.abs(d).reshape(len(out), -1).max(
+            axis=1))
+        return d, tol[:, None]
+
+    def _rotation(self, joint: str, sign: int, charts, c, variables, n, absolute) -> np.ndarray:
+        """(1 + t^2) Rot(sign a, reading - ref) (3, 3, *sizes) of ``joint`` on chart c (a variable: degree 2 in
+        its t), or Rot(...) itself (sizes 1) at the plane's fixed reading; in absolute value with ``absolute``."""
+        j = self.mechanism.joint(joint)
+        a = sign * np.asarray(j.axis, dtype=float)
+        parts = np.stack([np.eye(3) - np.outer(a, a), _axis_cross(a), np.outer(a, a)])        # (cos, sin, 1)
+        shape = [3, 3] + [1] * n
+        if joint in variables:
+            k = variables.index(joint)
+            w = _weights(float(charts.shift[c, k]) - j.reference_angle, charts.map_lo[c, k], charts.map_hi[c, k])
+            shape[2 + k] = 3
+        else:
+            d = self.plane.fixed[joint] - j.reference_angle
+            w = np.array([[math.cos(d)], [math.sin(d)], [1.0]])
+        if absolute:
+            parts, w = np.abs(parts), np.abs(w)
+        return np.einsum("pij,pk->ijk", parts, w).reshape(shape)
+
+    def _column(self, col_terms, charts, c, variables, n, absolute) -> list[np.ndarray]:
+        """The 3 entries (each a tensor over the n variables) of a passive joint's column of K_p on chart c."""
+        m = self.mechanism
+        total = None
+        for _, sign, joint, link in col_terms:
+            rot = np.eye(3).reshape([3, 3] + [1] * n)
+            for st in m.link_paths[link]:
+                r = self._rotation(st.joint, st.sign, charts, c, variables, n, absolute)
+                rot = (rot[:, :, None] * r[None, :, :]).sum(axis=1)          # distinct variables: a tensor product
+            axis = np.asarray(m.joint(joint).axis, dtype=float)
+            vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
+            vec = vec * (1.0 if absolute else sign)
+            total = vec if total is None else np.stack([_add_elevated(total[i], vec[i]) for i in range(3)])
+        return [total[i] for i in range(3)]
+
+    def unit(self, chart, v) -> np.ndarray:
+        """Unit coordinates (B, N) of angles v (B, N; radians) in charts ``chart`` (B,)."""
+        cs = self.charts
+        return tan_half_unit(np.asarray(v, dtype=float), cs.shift[chart], cs.map_lo[chart], cs.map_hi[chart])
+
+    def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
+        """No certificate on the loop equations yet: (B,) False (every cell ``unresolved``)."""
+        return np.zeros(len(np.asarray(chart)), dtype=bool)

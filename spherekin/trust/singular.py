@@ -96,7 +96,7 @@ def _cells_met(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> dict:
     return out
 
 
-def cell_pieces(charts, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cell_pieces(system, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each accepted box (chart (A,), angle lo, hi (A, N), :class:`spherekin.search.boxloop.Cover`) cut by
     the cells it meets: (chart (P,), lo (P, N), hi (P, N)) in unit coordinates, one piece per (box, cell),
     the plane columns clipped to the cell (only the cells in ``cells``, a set of (i, j), when given).
@@ -105,17 +105,17 @@ def cell_pieces(charts, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, n
     chart, alo, ahi = accepted
     if not len(chart):
         return chart, alo, ahi
-    q = charts.parameterization.n_q
+    cols = list(system.plane_columns)
     out_c, out_lo, out_hi = [], [], []
-    for (i, j), members in _cells_met(grid, alo[:, q:], ahi[:, q:]).items():
+    for (i, j), members in _cells_met(grid, alo[:, cols], ahi[:, cols]).items():
         if cells is not None and (i, j) not in cells:
             continue
         members = np.array(members)
         lo, hi = alo[members].copy(), ahi[members].copy()
-        for a, k in enumerate((i, j)[:lo.shape[1] - q]):
+        for a, k in enumerate((i, j)[:len(cols)]):
             e0, e1 = grid.edges(a, k)
-            lo[:, q + a] = np.maximum(lo[:, q + a], e0)
-            hi[:, q + a] = np.minimum(hi[:, q + a], e1)
+            lo[:, cols[a]] = np.maximum(lo[:, cols[a]], e0)
+            hi[:, cols[a]] = np.minimum(hi[:, cols[a]], e1)
         ok = np.all(lo <= hi, axis=1)
         out_c.append(chart[members][ok])
         out_lo.append(lo[ok])
@@ -123,31 +123,29 @@ def cell_pieces(charts, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, n
     if not out_c:
         return chart[:0], alo[:0], ahi[:0]
     c = np.concatenate(out_c)
-    unit = charts.parameterization.unit
-    lo, hi = unit(charts, c, np.concatenate(out_lo)), unit(charts, c, np.concatenate(out_hi))
+    lo, hi = system.unit(c, np.concatenate(out_lo)), system.unit(c, np.concatenate(out_hi))
     return c, np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
 
 
 def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
     """The covered cells of ``grid`` and their statuses (module doc).
 
-    ``system``: a compiled plane system (:class:`spherekin.systems.singular.PlatformPlane`: ``charts``, its
-    plane columns after its ``n_q`` own variables, and ``prove``); ``cover``: its
+    ``system``: a compiled plane system (:class:`spherekin.systems.singular.PlatformPlane` or ``LoopPlane``:
+    ``charts``, ``plane_columns``, ``unit`` and ``prove``); ``cover``: its
     :class:`spherekin.search.boxloop.Cover`. Cells met only by pending boxes are ``unresolved``.
     """
     charts = system.charts
-    param = charts.parameterization
-    q = param.n_q
-    n_plane = len(charts.variables) - q
+    cols = list(system.plane_columns)
+    n_plane = len(cols)
     chart, alo, ahi = cover.accepted
-    met = _cells_met(grid, alo[:, q:], ahi[:, q:]) if len(chart) else {}
+    met = _cells_met(grid, alo[:, cols], ahi[:, cols]) if len(chart) else {}
     pchart, plo, phi = cover.pending
     pending_cells = set()
     if len(pchart):
         rlo, rhi = charts.angle_box(pchart, plo, phi)
-        pending_cells = set(_cells_met(grid, rlo[:, q:], rhi[:, q:]))
-    ulo = param.unit(charts, chart, alo) if len(chart) else alo
-    uhi = param.unit(charts, chart, ahi) if len(chart) else ahi
+        pending_cells = set(_cells_met(grid, rlo[:, cols], rhi[:, cols]))
+    ulo = system.unit(chart, alo) if len(chart) else alo
+    uhi = system.unit(chart, ahi) if len(chart) else ahi
     proven = set()
     # attempts: (cell, chart, fixed axis, value, lo (N,), hi (N,)); two rounds (the preferred axis, then the other)
     for round_ in range(2 if n_plane == 2 else 1):
@@ -158,7 +156,7 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
             members = np.array(members)
             for c in np.unique(chart[members]):
                 mine = members[chart[members] == c]
-                tries.extend(_attempt(system, grid, cell, int(c), mine, alo, ahi, ulo, uhi, q, n_plane, round_))
+                tries.extend(_attempt(system, grid, cell, int(c), mine, alo, ahi, ulo, uhi, cols, round_))
         if not tries:
             break
         cells, ch, fix, val, lo, hi = zip(*tries)
@@ -169,24 +167,24 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
     return tuple(out)
 
 
-def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, q, n_plane, round_):
+def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, cols, round_):
     """The slice test of one cell on chart c (its boxes ``mine``), holding the preferred plane axis
     (round 0) or the other (round 1): [] when the boxes do not reach the held value."""
     charts = system.charts
-    n = alo.shape[1]
+    n_plane = len(cols)
     cell_rng = [grid.edges(a, cell[a]) for a in range(n_plane)]
     if n_plane == 1:
         fix = -1
         use = mine
     else:
-        extent = [ahi[mine, q + a].max() - alo[mine, q + a].min() for a in range(2)]
+        extent = [ahi[mine, cols[a]].max() - alo[mine, cols[a]].min() for a in range(2)]
         fix = (0 if extent[0] >= extent[1] else 1) if round_ == 0 else (1 if extent[0] >= extent[1] else 0)
-        a_lo = max(cell_rng[fix][0], alo[mine, q + fix].min())
-        a_hi = min(cell_rng[fix][1], ahi[mine, q + fix].max())
+        a_lo = max(cell_rng[fix][0], alo[mine, cols[fix]].min())
+        a_hi = min(cell_rng[fix][1], ahi[mine, cols[fix]].max())
         if a_lo > a_hi:
             return []
         value = 0.5 * (a_lo + a_hi)
-        use = mine[(alo[mine, q + fix] <= value) & (ahi[mine, q + fix] >= value)]
+        use = mine[(alo[mine, cols[fix]] <= value) & (ahi[mine, cols[fix]] >= value)]
         if not len(use):
             return []
     lo, hi = ulo[use].min(axis=0), uhi[use].max(axis=0)
@@ -195,7 +193,7 @@ def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, q, n_plane, round_
     for a in range(n_plane):                   # the free plane axis: within the cell
         if a == fix:
             continue
-        col = q + a
+        col = cols[a]
         e = tan_half_unit(np.array(cell_rng[a]), charts.shift[c, col], charts.map_lo[c, col], charts.map_hi[c, col])
         lo[col], hi[col] = max(lo[col], e[0]), min(hi[col], e[1])
     if np.any(lo >= hi):
