@@ -845,7 +845,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     t0 = time.perf_counter()
     plane = SingularPlane(ax, ay, {k: float(v) for k, v in fixed.items()})
     on_platform = Platform.accepts(mech) is None
-    system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane, LOOP_FORMULATION)
+    system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane)
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     grid = Grid.over(plane.axes, tol)
     first = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))

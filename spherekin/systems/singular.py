@@ -39,7 +39,8 @@ from ..search.isolation import SquareSystem, krawczyk_boxes, newton
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
-__all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES"]
+__all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
+           "SPURIOUS_BOUND"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -329,12 +330,12 @@ class LoopPlane:
     blocks: the closure equations of the formulation (pruned, no square system) and D = det K_p, whose columns
     are the passive joints' current axes (sign x R_link a, R_link the product of the rotations along the
     link's tree path; each rotation times 1 + t^2 is degree 2 in its t). D vanishes on the closure set exactly
-    where the passive Jacobian loses rank (not the formulation's own degeneracies). No certificate yet:
-    :meth:`prove` proves nothing, the cells are ``unresolved`` (the cover's claim, the plane outside it free,
-    holds). Passive joint ranges are constraints here (the mechanism's ranges).
+    where the passive Jacobian loses rank (not the formulation's own degeneracies). The formulation is
+    "transversal" (block 0: q f21, q f31, q f32 and Eq. (10)), whose square entries :meth:`prove` certifies.
+    Passive joint ranges are constraints here (the mechanism's ranges).
     """
 
-    def __init__(self, mechanism, plane: SingularPlane, formulation: str = "halves"):
+    def __init__(self, mechanism, plane: SingularPlane, formulation: str = "transversal"):
         from ..search.parameterizations import make_charts, stack_chart_sets
 
         m = mechanism
@@ -435,5 +436,62 @@ class LoopPlane:
         return tan_half_unit(np.asarray(v, dtype=float), cs.shift[chart], cs.map_lo[chart], cs.map_hi[chart])
 
     def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
-        """No certificate on the loop equations yet: (B,) False (every cell ``unresolved``)."""
-        return np.zeros(len(np.asarray(chart)), dtype=bool)
+        """The Krawczyk test of the square slices (as :meth:`PlatformPlane.prove`, same arguments and
+        result): the transversal closure entries q f21, q f31, q f32 and D, with plane axis ``fix[b]`` held at
+        ``value[b]``, in the other variables on the box [lo[b], hi[b]] (unit coordinates of chart
+        ``chart[b]``). The transversal entries also vanish at the three half-turns diag(+-1, +-1, +-1) != I
+        (spurious closures), where Eq. (10)'s q (f11 + f22 - 2) is -2 q or -4 q (q >= 1): a proven root
+        counts only where the Bernstein hull of Eq. (10) on the box stays above SPURIOUS_BOUND, so the root
+        is a closure (F = I) and a singular configuration."""
+        chart = np.asarray(chart, dtype=int)
+        fix = np.asarray(fix, dtype=int)
+        value = np.asarray(value, dtype=float)
+        lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
+        out = np.zeros(len(chart), dtype=bool)
+        cs = self.charts
+        for f_axis in np.unique(fix):
+            rows = np.flatnonzero(fix == f_axis)
+            c = chart[rows]
+            blo, bhi = lo[rows], hi[rows]
+            col = None if f_axis < 0 else self.plane_columns[f_axis]
+            if col is not None:
+                u = tan_half_unit(value[rows], cs.shift[c, col], cs.map_lo[c, col], cs.map_hi[c, col])
+                blo[:, col] = bhi[:, col] = np.clip(u, 0.0, 1.0)
+            blocks = [np.moveaxis(cs.coeffs[b][c], 0, -1) for b in (0, 1)]
+            tols = [cs.tols[b][c].T for b in (0, 1)]
+
+            def slices(boxes_lo, boxes_hi, which=slice(None)):
+                cps = [bernstein.restrict_batch_last(bl[..., which], boxes_lo, boxes_hi, {}) for bl in blocks]
+                if col is not None:             # the held axis (restricted to a point): dropped
+                    cps = [np.take(cp, 0, axis=1 + col) for cp in cps]   # (E, d_1..d_N, B): variable k at axis 1 + k
+                return cps
+
+            cps = slices(blo, bhi)
+            ok, _, _ = krawczyk_boxes(_LOOP_SLICE, cps, tols)
+            ok &= cps[0][_SCALAR_ROW].reshape(-1, len(rows)).min(axis=0) > SPURIOUS_BOUND
+            retry = np.flatnonzero(~ok)
+            if len(retry):
+                u, converged, _ = newton(_LOOP_SLICE, [cp[..., retry] for cp in cps], [t[:, retry] for t in tols])
+                inner = converged & np.all((u > PROOF_RADIUS) & (u < 1.0 - PROOF_RADIUS), axis=1)
+                retry, u = retry[inner], u[inner]
+                if len(retry):
+                    keep = [k for k in range(blo.shape[1]) if k != col]
+                    rlo, rhi = blo[retry][:, keep], bhi[retry][:, keep]
+                    w = rhi - rlo
+                    slo, shi = blo[retry].copy(), bhi[retry].copy()
+                    slo[:, keep], shi[:, keep] = rlo + (u - PROOF_RADIUS) * w, rlo + (u + PROOF_RADIUS) * w
+                    small = slices(slo, shi, retry)
+                    good, _, _ = krawczyk_boxes(_LOOP_SLICE, small, [t[:, retry] for t in tols])
+                    good &= small[0][_SCALAR_ROW].reshape(-1, len(retry)).min(axis=0) > SPURIOUS_BOUND
+                    ok[retry] = good
+            out[rows] = ok
+        return out
+
+
+#: The loop slice's square system: the transversal entries q f21, q f31, q f32 (block 0) and D (block 1).
+_LOOP_SLICE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
+#: Row of Eq. (10), q (f11 + f22 - 2), in the transversal block.
+_SCALAR_ROW = 3
+#: A root of the transversal entries is a closure where Eq. (10) exceeds this on its box: at the spurious
+#: half-turns it is -2 q or -4 q with q = prod (1 + t^2) >= 1, at a closure 0; -1 is halfway.
+SPURIOUS_BOUND = -1.0
