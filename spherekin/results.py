@@ -521,7 +521,8 @@ class SingularBox:
 @dataclass(frozen=True)
 class SingularStats:
     """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
-    the augmented system's variables), seconds (cover, certificates, total)."""
+    the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
+    the rest (compiling the system, projecting, the certificates), ``seconds`` the total."""
 
     boxes_processed: int
     accepted: int
