@@ -765,12 +765,12 @@ def inverse_kinematics(mechanism, rotation, *, only_in_range: bool = False, **st
 #: Default cell width (radians) of :func:`singular`: the issue's default; ~1e3 cells for a curve of length 10.
 SINGULAR_TOL = 1e-2
 #: Widest cell accepted (radians). Reason: the certificate of a cell is a Krawczyk test on the hull of the
-#: cover's boxes over it; measured on general_3rrr, cells of 0.1 rad are proven on about half the curve,
-#: and wider ones mostly fail (the interval Jacobian over the hull is too loose), so they would only be
-#: ``unresolved``.
+#: cover's boxes over it (or a small box around Newton's root in it); measured on general_3rrr at beta3 = 0.5,
+#: cells of 0.1 rad are proven for about two thirds of the cover; wider cells meet more branches and folds
+#: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
 SINGULAR_MAX_TOL = 0.5
 #: Default box cap of the singular-set cover (boxes of the augmented system processed). Reason: general_3rrr
-#: over [-pi, pi]^2 at T = 0.05 processes ~3e5 boxes; the cap only stops a runaway (a continuum of singular
+#: over [-pi, pi]^2 processes ~3e5 boxes at T = 0.1 and ~6e5 at T = 0.05; the cap only stops a runaway (a continuum of singular
 #: configurations over a 2-D region of the plane: architecture singularities), whose unprocessed boxes are
 #: reported ``unresolved``.
 SINGULAR_MAX_BOXES = 2_000_000
