@@ -769,11 +769,11 @@ SINGULAR_TOL = 1e-2
 #: cells of 0.1 rad are proven for about two thirds of the cover; wider cells meet more branches and folds
 #: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
 SINGULAR_MAX_TOL = 0.5
-#: Default box cap of the singular-set cover (boxes of the augmented system processed). Reason: general_3rrr
-#: over [-pi, pi]^2 processes ~3e5 boxes at T = 0.1 and ~6e5 at T = 0.05; the cap only stops a runaway (a continuum of singular
-#: configurations over a 2-D region of the plane: architecture singularities), whose unprocessed boxes are
-#: reported ``unresolved``.
-SINGULAR_MAX_BOXES = 2_000_000
+#: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
+#: general_3rrr over [-pi, pi]^2 processes ~5e5 boxes at T = 0.1 and ~1.2e6 at T = 0.05 (measured; ~1/T), so
+#: the default T = 0.01 needs ~6e6; the cap only stops a runaway (a continuum of singular configurations over
+#: a 2-D region of the plane), whose unprocessed boxes are reported ``unresolved``.
+SINGULAR_MAX_BOXES = 10_000_000
 #: The cover accepts a box of the augmented system when every side is at most this fraction of the cell width
 #: T (radians for the plane inputs, chart units for the orientation). Reason: a box then meets at most two
 #: cells per axis, so the covered cells stay close to the curve (a box of side T meets up to 3).
