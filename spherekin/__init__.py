@@ -9,6 +9,8 @@ Entry points (loaded on first use, so that ``import spherekin`` stays cheap; see
   ``problem.solve(inputs)``, ``problem.solve_many(rows)``, ``problem.track(path, start=...)``;
 * ``inverse_kinematics(mechanism, R)`` -- every input set placing the output link at the pose R
   (legs: their closed form; any graph: the loop equations with the knowns swapped);
+* ``singular(mechanism, x=("beta1", lo, hi), y=("beta2", lo, hi), fixed={"beta3": 0.5}, tol=...)`` --
+  the certified parallel-singular set in a plane of inputs: a SingularSet (``.as_dict()``: JSON);
 * ``load_mechanism(path)`` -- read a mechanism file (docs/mechanism-format.md);
 * ``solve_system(build, ranges, ...)`` -- the box loop on a system of closure equations of your own.
 
@@ -21,7 +23,8 @@ __version__ = "0.1.0"
 _LAZY = {"solve": ("spherekin.problem", "solve"), "compile": ("spherekin.problem", "compile"),
          "inverse_kinematics": ("spherekin.problem", "inverse_kinematics"),
          "solve_system": ("spherekin.search.boxloop", "solve_system"),
-         "load_mechanism": ("spherekin.mechanism", "load_mechanism")}
+         "load_mechanism": ("spherekin.mechanism", "load_mechanism"),
+         "singular": ("spherekin.problem", "singular")}
 #: Subpackages reachable as attributes once ``spherekin`` is imported (imported on first use).
 _SUBMODULES = ("batch", "plot", "mechanism")
 

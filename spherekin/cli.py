@@ -375,6 +375,61 @@ def _map(args) -> int:
     return 0
 
 
+def _singular_names(args) -> dict[str, str]:
+    """singular's Python names that are not its options' destinations: ``fixed`` is --fix."""
+    return {"fixed": "--fix"}
+
+
+def _singular(args) -> int:
+    """``spherekin singular``: the certified parallel-singular set in a plane (or line) of inputs."""
+    import json
+    import math
+
+    from .batch.inputs import parse_fix, parse_range
+    from .mechanism import load_mechanism
+    from .problem import singular
+
+    mech = load_mechanism(args.file)
+    scale = math.pi / 180.0 if args.degrees else 1.0
+    x = parse_range(args.x, "--x", degrees=args.degrees)
+    y = parse_range(args.y, "--y", degrees=args.degrees) if args.y else None
+    fixed: dict[str, float] = {}
+    for spec in args.fix or ():
+        name, value = parse_fix(spec, degrees=args.degrees)
+        if name in fixed:
+            raise ValueError(f"--fix {name}: given twice")
+        fixed[name] = value
+    if args.json:
+        _check_output_file("--json", args.json, (".json",))
+    if args.plot:
+        from .plot import check_plot_path
+
+        check_plot_path(args.plot, "--plot")
+    caps = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
+    sset = singular(mech, x, y, fixed, tol=args.tol * scale, **caps)   # every check before any work
+    unit, show = ("deg", 180.0 / math.pi) if args.degrees else ("rad", 1.0)
+    plane = x[0] if y is None else f"{x[0]} x {y[0]}"
+    at = ", ".join(f"{k} = {v * show:.6g}" for k, v in fixed.items())
+    print(f"{mech.name or args.file}: parallel singular set over {plane}" + (f" ({at})" if at else "")
+          + f", cells <= {args.tol:.6g} {unit} ({sset.system} system)")
+    print(f"{'status':<12} {'boxes':>7}")
+    for status, n in sset.counts().items():
+        print(f"{status:<12} {n:>7}")
+    st = sset.stats
+    print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
+          f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
+    if args.json:
+        doc = {**sset.as_dict(), "mechanism": mech.name or str(args.file)}
+        Path(args.json).write_text(json.dumps(doc, indent=2))
+        print(f"wrote {args.json}")
+    if args.plot:
+        from .plot import plot_singular
+
+        plot_singular(sset, args.plot, degrees=args.degrees)
+        print(f"wrote {args.plot}")
+    return 0
+
+
 #: map's options that draw a map of two inputs, not the branches of one (refused there by name).
 _TWO_INPUT_MAP_OPTIONS = (("fix", "--fix"), ("table", "--table"), ("out", "--out"), ("singularity", "--singularity"),
                           ("resume", "--resume"), ("overwrite", "--overwrite"), ("scheduler", "--scheduler"),
@@ -880,6 +935,22 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(mp)
     _add_strategy_options(mp)
     mp.set_defaults(func=_map)
+    sg = sub_add_parser("singular", help="the certified parallel (Type-2) singular set in a plane of two inputs "
+                                         "(or on the line of one): cells proven singular or unresolved")
+    sg.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
+    sg.add_argument("--x", required=True, metavar="NAME=LO:HI", help="the plane's first input and its range, "
+                                                                      "e.g. beta1=-pi:pi")
+    sg.add_argument("--y", metavar="NAME=LO:HI", help="the plane's second input and its range (omit: a line)")
+    sg.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold an actuated joint at VALUE "
+                                                                          "(every joint off the plane)")
+    sg.add_argument("--tol", type=float, default=1e-2, metavar="T",
+                    help="width bound of the cells (radians; degrees with --degrees; default: %(default)s)")
+    sg.add_argument("--max-boxes", type=_whole(1), default=None, metavar="N",
+                    help="cap on the boxes the cover processes (reached: the rest is reported unresolved)")
+    sg.add_argument("--json", help="write the cells as JSON (schema spherekin.singular/1, docs/results-format.md)")
+    sg.add_argument("--plot", help="draw the plane with the cells coloured by status (.png, .pdf or .svg)")
+    sg.add_argument("--degrees", action="store_true", help="input angles, --tol and printed angles in degrees")
+    sg.set_defaults(func=_singular, python_names=_singular_names)
     tk = sub_add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")
     tk.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")
     tk.add_argument("--path", required=True, help="CSV of inputs (a header naming the actuated joints, one row each)")

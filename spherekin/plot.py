@@ -39,6 +39,7 @@ from .mechanism.model import PARALLEL_TOL, SphericalMechanism
 from .results import SolveReport
 
 __all__ = [
+    "plot_singular",
     "ARC_POINTS",
     "PLOT_FORMATS",
     "INPUTS_TOL",
@@ -785,3 +786,49 @@ def plot_report(report: SolveReport, path=None, *, degrees: bool = False):
         raise ValueError(f"report: expected a SolveReport of spherekin.solve (holding its mechanism), "
                          f"got {type(report).__name__ if not isinstance(report, SolveReport) else 'one without it'}")
     return plot_solutions(report.mechanism, report.settings.inputs, report, path, degrees=degrees)
+
+
+#: Colours of the singular-set cells by status (unresolved also hatched, so that print in grey tells them apart).
+SINGULAR_COLOURS = {"singular": "#c0392b", "unresolved": "#f0b27a"}
+#: Figure size (inches) of :func:`plot_singular`.
+SINGULAR_INCHES = (6.4, 6.0)
+
+
+def plot_singular(sset, path=None, *, degrees: bool = False):
+    """Draw a singular set (:class:`spherekin.results.SingularSet`): the plane's cells in the cover, coloured
+    by status (singular: proven; unresolved: hatched); a line of inputs is drawn as a strip. Angles in
+    radians (``degrees``: in degrees). Returns the matplotlib Figure; with ``path`` (.png, .pdf or .svg)
+    it is also written there."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch, Rectangle
+
+    out = fmt = None
+    if path is not None:
+        out, fmt = check_plot_path(path)
+    scale, unit = (180.0 / math.pi, "deg") if degrees else (1.0, "rad")
+    fig = Figure(figsize=SINGULAR_INCHES, dpi=DPI, layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    for b in sset.boxes:
+        y0, y1 = b.y if b.y is not None else (0.0, 1.0 / scale)
+        ax.add_patch(Rectangle((b.x[0] * scale, y0 * scale), (b.x[1] - b.x[0]) * scale, (y1 - y0) * scale,
+                               facecolor=SINGULAR_COLOURS[b.status], edgecolor="none",
+                               hatch="///" if b.status != "singular" else None))
+    ax.set_xlim(sset.x[1] * scale, sset.x[2] * scale)
+    ax.set_xlabel(f"{sset.x[0]} ({unit})")
+    if sset.y is not None:
+        ax.set_ylim(sset.y[1] * scale, sset.y[2] * scale)
+        ax.set_ylabel(f"{sset.y[0]} ({unit})")
+        ax.set_aspect("equal")
+    else:
+        ax.set_ylim(0.0, 1.0)
+        ax.set_yticks([])
+    counts = sset.counts()
+    ax.legend(handles=[Patch(facecolor=SINGULAR_COLOURS[k], hatch="///" if k != "singular" else None,
+                             label=f"{k} ({counts.get(k, 0)})") for k in SINGULAR_COLOURS], loc="upper right", fontsize=8)
+    fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
+    ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
+                 + ("" if sset.complete else ", incomplete"), fontsize=10)
+    ax.grid(alpha=0.3)
+    if out is not None:
+        fig.savefig(out, format=fmt, dpi=DPI)
+    return fig

@@ -778,3 +778,119 @@ def inverse_kinematics(mechanism, rotation, *, only_in_range: bool = False, **st
         out.append(IKSolution(joint_angles=angles, inputs=tuple(angles[n] for n in mech.actuated),
                               working_mode=(), in_range=ok, status=str(sol.status)))
     return tuple(out)
+
+
+#: Default cell width (radians) of :func:`singular`: the issue's default; ~1e3 cells for a curve of length 10.
+SINGULAR_TOL = 1e-2
+#: Widest cell accepted (radians). Reason: the certificate of a cell is a Krawczyk test on the hull of the
+#: cover's boxes over it (or a small box around Newton's root in it); measured on general_3rrr at beta3 = 0.5,
+#: cells of 0.1 rad are proven for about two thirds of the cover; wider cells meet more branches and folds
+#: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
+SINGULAR_MAX_TOL = 0.5
+#: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
+#: general_3rrr over [-pi, pi]^2 processes ~5e5 boxes at T = 0.1 and ~1.2e6 at T = 0.05 (measured; ~1/T), so
+#: the default T = 0.01 needs ~6e6; the cap only stops a runaway (a continuum of singular configurations over
+#: a 2-D region of the plane), whose unprocessed boxes are reported ``unresolved``.
+SINGULAR_MAX_BOXES = 10_000_000
+#: The cover accepts a box of the augmented system when every side is at most this fraction of the cell width
+#: T (radians for the plane inputs, chart units for the orientation). Reason: a box then meets at most two
+#: cells per axis, so the covered cells stay close to the curve (a box of side T meets up to 3).
+COVER_FRACTION = 0.5
+
+#: The pieces of the accepted boxes cut by the unresolved cells are searched again with boxes of these fractions
+#: of T, one round each (the cells still unresolved after a round go to the next). Reason: a piece whose cell
+#: the curve misses by less than a box width is not excluded by one pruning (the hull of a box's control
+#: points overestimates by ~its width squared); measured on general_3rrr at T = 0.1 over [-0.5, 0.5]^2, one
+#: round of T/8 cut the cells the reference curve misses from 15 to 6 (T/4: 14) and proved 4 more cells.
+REFINE_FRACTIONS = (0.125, 0.03125)
+
+
+def _plane_axis(mech, key: str, spec) -> tuple:
+    """(name, lo, hi) of a plane axis given as (name, lo, hi) (radians): ValueError naming ``key``."""
+    try:
+        name, lo, hi = spec
+        lo, hi = float(lo), float(hi)
+    except (TypeError, ValueError):
+        raise ValueError(f"{key}: expected (name, lo, hi) with an actuated joint and radians, got {spec!r}") from None
+    if name not in mech.actuated:
+        raise ValueError(f"{key}: expected an actuated joint ({', '.join(mech.actuated)}), got {name!r}")
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ValueError(f"{key}: expected finite lo < hi (radians), got lo = {lo:.6g}, hi = {hi:.6g}")
+    if hi - lo > 2 * np.pi + 1e-12:
+        raise ValueError(f"{key}: expected hi - lo <= 2 pi (one turn), got {hi - lo:.6g}")
+    return (str(name), lo, hi)
+
+
+def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
+             max_boxes: int = SINGULAR_MAX_BOXES):
+    """The parallel (Type-2) singular set of ``mechanism`` in a plane of inputs, certified (issue 31).
+
+    ``x`` = (name, lo, hi), ``y`` = (name, lo, hi) or None (a line): actuated joints and ranges (radians,
+    at most one turn); ``fixed``: every other actuated joint's reading (radians). ``tol``: the cells' width
+    bound T (radians). Returns a :class:`spherekin.results.SingularSet`: the cells of a grid of width <= T
+    that the cover of the augmented system meets, each ``singular`` (a singular configuration proven at an
+    input of the cell) or ``unresolved``; the plane outside them is proven free of parallel singularities
+    (:mod:`spherekin.trust.singular`). ``max_boxes`` caps the cover: when reached, ``complete`` is False and
+    the unprocessed part of the plane is in ``unresolved`` cells. The system is chosen as a solve's: the
+    platform system (three R-R-R legs; passive joint ranges not applied: the set may hold singular
+    configurations with passive joints out of range) where it applies, else the loop equations (one loop:
+    four-bars, five-bars; passive ranges applied).
+    """
+    from .search.boxloop import pruner_for, search_cover
+    from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
+    from .results import SingularBox, SingularSet, SingularStats
+    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover
+
+    mech = as_mechanism(mechanism)
+    ax = _plane_axis(mech, "x", x)
+    ay = None if y is None else _plane_axis(mech, "y", y)
+    if ay is not None and ay[0] == ax[0]:
+        raise ValueError(f"y: expected another actuated joint than x, got {ay[0]!r} twice")
+    fixed = dict(fixed or {})
+    for name, value in fixed.items():
+        if name not in mech.actuated:
+            raise ValueError(f"fixed: expected actuated joints ({', '.join(mech.actuated)}), got {name!r}")
+        if name in (ax[0], None if ay is None else ay[0]):
+            raise ValueError(f"fixed: {name} is an axis of the plane, it cannot also be fixed")
+        if not np.isfinite(float(value)):
+            raise ValueError(f"fixed: expected a finite reading (radians) for {name}, got {value!r}")
+    missing = [n for n in mech.actuated if n not in fixed and n not in (ax[0], None if ay is None else ay[0])]
+    if missing:
+        raise ValueError(f"fixed: expected a reading for every actuated joint off the plane, missing {', '.join(missing)}")
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < tol <= SINGULAR_MAX_TOL):
+        raise ValueError(f"tol: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {tol!r}")
+    if isinstance(max_boxes, bool) or not isinstance(max_boxes, (int, np.integer)) or max_boxes < 1:
+        raise ValueError(f"max_boxes: expected a positive whole number, got {max_boxes!r}")
+    t0 = time.perf_counter()
+    plane = SingularPlane(ax, ay, {k: float(v) for k, v in fixed.items()})
+    on_platform = Platform.accepts(mech) is None
+    system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane)
+    pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
+    grid = Grid.over(plane.axes, tol)
+    cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
+    used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
+    # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
+    # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
+    # boxes of every round are kept (their cells stay unresolved)
+    for fraction in REFINE_FRACTIONS:
+        again = {k for k, c in cells.items() if c.status != SINGULAR}
+        if not again:
+            break
+        cover = search_cover(system.charts, pruner, fraction * tol, max(1, int(max_boxes) - used),
+                             start=cell_pieces(system, cover.accepted, grid, again))
+        pending = tuple(np.concatenate([a, b]) for a, b in zip(pending, cover.pending))
+        cover = dataclasses.replace(cover, pending=pending)
+        used, t_cover, accepted = used + cover.boxes_processed, t_cover + cover.seconds, accepted + len(cover.accepted[0])
+        for k in again:
+            del cells[k]
+        cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
+    cells = [cells[k] for k in sorted(cells)]
+    complete = len(pending[0]) == 0
+    t2 = time.perf_counter()
+    boxes = tuple(SingularBox(grid.edges(0, c.i), None if ay is None else grid.edges(1, c.j), c.status)
+                  for c in cells)
+    # t_cover: the box loops; the rest: set-up, projection and certificates
+    stats = SingularStats(used, accepted, len(pending[0]), t_cover, t2 - t0 - t_cover, t2 - t0)
+    return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
+                       Platform.name if on_platform else Loops.name)

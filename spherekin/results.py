@@ -25,7 +25,8 @@ from .core.columns import table_columns
 __all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
-           "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES"]
+           "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
+           "SingularStats", "SingularSet"]
 
 
 def format_number(value, spec: str = "+.6f") -> str:
@@ -555,3 +556,74 @@ class SolveReport:
             "statistics": self.stats.as_dict(),
             **({} if self.empty_reason is None else {"empty_reason": self.empty_reason.as_dict()}),
         }
+
+
+#: Schema tag of the singular-set JSON (docs/results-format.md).
+SINGULAR_SCHEMA = "spherekin.singular/1"
+
+
+@dataclass(frozen=True)
+class SingularBox:
+    """A cell of the plane in the cover of the singular set: ``x``, ``y`` = (lo, hi) radians (``y`` None
+    on a line); ``status``: "singular" (a singular configuration is proven at an input of the cell) or
+    "unresolved" (no proof either way)."""
+
+    x: tuple
+    y: tuple | None
+    status: str
+
+
+@dataclass(frozen=True)
+class SingularStats:
+    """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
+    the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
+    the rest (compiling the system, projecting, the certificates), ``seconds`` the total."""
+
+    boxes_processed: int
+    accepted: int
+    pending: int
+    seconds_cover: float
+    seconds_certify: float
+    seconds: float
+
+
+@dataclass(frozen=True)
+class SingularSet:
+    """The parallel (Type-2) singular set of a mechanism in a plane of inputs (issue 31).
+
+    ``x``, ``y``: (name, lo, hi) of the plane's inputs (radians; ``y`` None for a line); ``fixed``: the
+    other actuated joints' readings; ``tol``: the cells' width bound (radians); ``boxes``: the covered
+    cells (:class:`SingularBox`); everything in the plane outside them is proven free of parallel
+    singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
+    boxes). ``cusps``: none computed yet (empty). ``system``: the equations used ("platform" or "loops").
+    """
+
+    x: tuple
+    y: tuple | None
+    fixed: Mapping
+    tol: float
+    boxes: tuple
+    complete: bool
+    stats: SingularStats
+    system: str
+    cusps: tuple = ()
+    free_box: object = None
+
+    def counts(self) -> dict:
+        """Boxes by status: {"singular": n, "unresolved": m}."""
+        out = {"singular": 0, "unresolved": 0}
+        for b in self.boxes:
+            out[b.status] = out.get(b.status, 0) + 1
+        return out
+
+    def as_dict(self) -> dict:
+        """The JSON document (schema SINGULAR_SCHEMA, docs/results-format.md): plain floats, radians."""
+        return {"schema": SINGULAR_SCHEMA, "x": self.x[0], "y": None if self.y is None else self.y[0],
+                "x_range": [float(self.x[1]), float(self.x[2])],
+                "y_range": None if self.y is None else [float(self.y[1]), float(self.y[2])],
+                "fixed": {k: float(v) for k, v in self.fixed.items()}, "tol": float(self.tol),
+                "system": self.system, "complete": bool(self.complete),
+                "boxes": [{"x": [float(b.x[0]), float(b.x[1])],
+                           "y": None if b.y is None else [float(b.y[0]), float(b.y[1])], "status": b.status}
+                          for b in self.boxes],
+                "cusps": list(self.cusps), "free_box": self.free_box, "stats": asdict(self.stats)}

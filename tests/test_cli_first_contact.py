@@ -204,7 +204,7 @@ BAD_COMMAND_LINES = [
     (["gosselin", "--range", "1", "0"], "--range: expected lo < hi"),
     (["gosselin", "--beta", "1", "2", "nan"], "--beta (B3): expected an angle"),
     (["gosselin", "--samples", "0"], "--samples: expected a whole number >= 1"),
-    (["sovle", GOSSELIN], "'sovle' is not a command; expected one of solve, ik, batch, map, track, gosselin, verify"),
+    (["sovle", GOSSELIN], "'sovle' is not a command; expected one of solve, ik, batch, map, singular, track, gosselin, verify"),
     ([], "expected a command, one of solve, ik"),
 ]
 #: What an error line never holds: a constant's name (MAX_TOL), a Python name where the user typed an

@@ -554,3 +554,25 @@ def test_check_input_rows_refuses_exactly_the_rows_check_inputs_refuses():
         else:
             with pytest.raises(ValueError, match=r"^row 1: inputs \(A\)"):
                 mech.check_input_rows([[0.3], [v], [math.nan]])
+
+
+def test_loop_system_free_inputs_become_unknowns():
+    """loop_system(free={name: (lo, hi)}): the actuated joint is an unknown after the passive ones, and the
+    loop's closure matrix at its reading equals the closure with that reading substituted (matrix products of
+    both, at the same passive readings); a passive or unknown name is refused."""
+    from spherekin.mechanism import load_mechanism
+
+    mech = load_mechanism(__file__.rsplit("/tests/", 1)[0] + "/examples/five_bar.toml")
+    ranges = {n: (-1.5, 1.5) for n in mech.loop_unknowns}
+    free = mech.loop_system([0.0, 0.0], ranges, free={"A": (-1.0, 1.0)})
+    assert free.names == (*mech.loop_unknowns, "A")
+    passive = {"B": 0.4, "D": -0.3, "C": 1.1}
+    fixed = mech.loop_system([0.3, 0.2], ranges)
+    x_fixed = fixed.to_unit(passive)
+    x_free = free.to_unit({**passive, "A": 0.3})
+    with_e = mech.loop_system([0.0, 0.2], ranges, free={"A": (-1.0, 1.0)})
+    for lf, lx, idf, idx in zip(with_e.loops, fixed.loops, with_e.loop_indices, fixed.loop_indices):
+        np.testing.assert_allclose(lf.closure_matrix(x_free[list(idf)]), lx.closure_matrix(x_fixed[list(idx)]),
+                                   atol=1e-12)
+    with pytest.raises(ValueError, match="free: 'B' is not an actuated joint"):
+        mech.loop_system([0.0, 0.0], ranges, free={"B": (-1.0, 1.0)})

@@ -400,3 +400,27 @@ def test_residual_text_bounds_rounding_noise():
     assert RESIDUAL_NOISE == 1e-12
     assert residual_text(4.2e-16) == residual_text(5.1e-16) == "< 1e-12"    # two machines, one figure
     assert residual_text(2.4e-8) == "2.4e-08" and residual_text(None) == "-"
+
+
+def test_plot_singular_draws_one_patch_per_cell_coloured_by_status(tmp_path):
+    """plot_singular: one rectangle per cell at its place, singular cells in SINGULAR_COLOURS["singular"],
+    unresolved ones hatched; a line (y None) is drawn as a strip; the file is written."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Rectangle
+
+    from spherekin.plot import SINGULAR_COLOURS, plot_singular
+    from spherekin.results import SingularBox, SingularSet, SingularStats
+
+    stats = SingularStats(10, 2, 0, 0.1, 0.1, 0.2)
+    boxes = (SingularBox((0.0, 0.1), (0.2, 0.3), "singular"), SingularBox((0.1, 0.2), (0.2, 0.3), "unresolved"))
+    sset = SingularSet(("beta1", -1.0, 1.0), ("beta2", -1.0, 1.0), {"beta3": 0.5}, 0.1, boxes, True, stats,
+                       "platform")
+    fig = plot_singular(sset, tmp_path / "s.png")
+    rects = [p for p in fig.axes[0].patches if isinstance(p, Rectangle)]
+    np.testing.assert_allclose([(r.get_x(), r.get_y(), r.get_width()) for r in rects], [(0.0, 0.2, 0.1), (0.1, 0.2, 0.1)])
+    assert rects[0].get_facecolor() == to_rgba(SINGULAR_COLOURS["singular"]) and not rects[0].get_hatch()
+    assert rects[1].get_hatch() == "///"
+    assert (tmp_path / "s.png").stat().st_size > 5_000
+    line = SingularSet(("A", -3.0, 3.0), None, {}, 0.1, (SingularBox((0.3, 0.4), None, "singular"),), True, stats,
+                       "loops")
+    assert len([p for p in plot_singular(line, degrees=True).axes[0].patches if isinstance(p, Rectangle)]) == 1

@@ -7,6 +7,7 @@ A new python block needs a check here (a marker of its code in CHECKS): the test
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -163,9 +164,29 @@ def check_free_box(proc, code, tmp_path):
     grown = track_box_min_det(rrr_tracked(), home, rot, home - 1.05 * (home - lo), home + 1.05 * (hi - home), 81)
     assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < 1e-3
 
+def check_singular(proc, code, tmp_path):
+    """The block's sub-square of the plane beta3 = 0.5: every singular input the reference finds on lines across
+    it (tests/singular_refs.py: count changes of the degree-8 oracle) lies in a cell of the JSON; the printed
+    counts are the JSON's."""
+    from singular_refs import singular_points_on_line
+
+    doc = json.loads((tmp_path / "singular.json").read_text())
+    assert doc["schema"] == "spherekin.singular/1" and doc["complete"]
+    statuses = [b["status"] for b in doc["boxes"]]
+    assert proc.stdout.strip().startswith(str({"singular": statuses.count("singular"),
+                                               "unresolved": statuses.count("unresolved")}))
+    lo = np.array([[b["x"][0], b["y"][0]] for b in doc["boxes"]])
+    hi = np.array([[b["x"][1], b["y"][1]] for b in doc["boxes"]])
+    points = [s.inputs[:2] for p0, p1 in (((0.9, 1.1), (1.4, 1.6)), ((0.9, 1.35), (1.4, 1.35)))
+              for s in singular_points_on_line(p0, p1, n_samples=50)]
+    assert points
+    for p in points:
+        assert np.any(np.all((lo - 1e-9 <= p) & (p <= hi + 1e-9), axis=1)), p
+
 
 #: A marker of each python block's code -> its check.
-CHECKS = {"problem.solve_many": check_compiled_solve_many,
+CHECKS = {"spherekin.singular(": check_singular,
+          "problem.solve_many": check_compiled_solve_many,
           "batch.assembly_map": check_batch,
           "ClosureLoop": check_closure_loop,
           "free_box": check_free_box}

@@ -23,7 +23,7 @@ import numpy as np
 from ..core.angles import beyond_turn, in_range_many, turn_error
 from ..mechanism.checks import check_ascii, parse_angle, shown
 
-__all__ = ["MAX_INPUTS", "GridAxis", "InputSet", "parse_grid", "parse_fix", "grid_inputs", "read_inputs_csv",
+__all__ = ["MAX_INPUTS", "GridAxis", "InputSet", "parse_grid", "parse_range", "parse_fix", "grid_inputs", "read_inputs_csv",
            "array_inputs", "check_inputs"]
 
 #: Largest number of inputs of one job. Reason: the inputs themselves are held in memory (10^7 rows of
@@ -95,6 +95,21 @@ def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
     if not lo < hi:
         raise ValueError(f"--grid {name}: expected lo < hi, got lo = {lo:.6g}, hi = {hi:.6g}")
     return GridAxis(name, np.linspace(lo, hi, n))
+
+
+def parse_range(spec: str, option: str, degrees: bool = False) -> tuple[str, float, float]:
+    """``"name=lo:hi"`` -> (name, lo, hi) radians (degrees with ``degrees`` unless written with pi), as
+    :func:`parse_grid` reads its ends; ``option``: the option named in errors ("--x")."""
+    name, sep, rest = str(spec).partition("=")
+    parts = rest.split(":")
+    if not sep or not name.strip() or len(parts) != 2:
+        raise ValueError(f"{option} {spec!r}: expected NAME=LO:HI, e.g. beta1=-pi:pi")
+    name = name.strip()
+    lo = parse_angle(f"{option} {name} (lo)", parts[0], degrees=degrees)
+    hi = parse_angle(f"{option} {name} (hi)", parts[1], degrees=degrees)
+    if not lo < hi:
+        raise ValueError(f"{option} {name}: expected lo < hi, got lo = {lo:.6g}, hi = {hi:.6g}")
+    return name, lo, hi
 
 
 def parse_fix(spec: str, degrees: bool = False) -> tuple[str, float]:

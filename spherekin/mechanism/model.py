@@ -705,7 +705,8 @@ class SphericalMechanism:
 
     # ---------------------------------------------------------------- loop equations
 
-    def loop_system(self, inputs, passive_ranges: Mapping | None = None, form: str = "auto") -> LoopSystem:
+    def loop_system(self, inputs, passive_ranges: Mapping | None = None, form: str = "auto",
+                    free: Mapping | None = None) -> LoopSystem:
         """The l - 1 closure equations (Eq. 2) with the actuator readings ``inputs`` substituted.
 
         ``inputs``: one angle (radians) per actuated joint, in the order of ``actuated``.
@@ -713,9 +714,15 @@ class SphericalMechanism:
         ranges, e.g. to cover a full-circle joint by charts. A passive joint with an unlimited
         range and no override is a ValueError (tan(theta/2) cannot cover the full circle).
         ``form``: "auto" (compact when every side of a loop is pi/2, else doubled), "compact" or
-        "doubled" (see :meth:`LoopGeometry.factor_specs`).
+        "doubled" (see :meth:`LoopGeometry.factor_specs`). ``free``: actuated joint name -> (lo, hi)
+        (width < 2 pi): those joints become unknowns over that range too (after the passive ones; their
+        entries of ``inputs`` are not used), e.g. for the singular set in a plane of inputs.
         """
         values = self.check_inputs(inputs)
+        free = dict(free or {})
+        for n in free:
+            if n not in self.actuated:
+                raise ValueError(f"free: {n!r} is not an actuated joint; valid names: {self.actuated}")
         if form not in FORMS:
             raise ValueError(f"form: expected one of {FORMS}, got {form!r}")
         overrides = {}
@@ -739,12 +746,15 @@ class SphericalMechanism:
                     "with hi - lo < 2*pi (e.g. two charts)"
                 )
             unknowns[name] = Unknown(name, rng[0], rng[1])
+        for name, rng in free.items():
+            rng = check_range(f"free[{name!r}]", rng)
+            unknowns[name] = Unknown(name, rng[0], rng[1])
         loops, indices = [], []
         order = list(unknowns)
         for li, g in enumerate(self.loop_geometry):
             factors = []
             for i, spec in enumerate(g.factor_specs(form)):
-                if spec.joint is None or spec.joint in self.actuated:
+                if spec.joint is None or (spec.joint in self.actuated and spec.joint not in free):
                     factors.append(float(consts[li, i]))
                 else:
                     factors.append(Term(unknowns[spec.joint], spec.offset, spec.sign))

@@ -51,7 +51,7 @@ from .parameterizations import (CHART_MAX_WIDTH, PARAMETERIZATIONS, ROUNDING_SAF
 from .pruners import check_pruner, excludes_zero, make_pruner
 from ..results import AcceptedBox, Cluster, SearchReport, Settings, SolverStats
 
-__all__ = ["solve_system", "solve_system_many", "search_platform_many", "CHUNK_BATCH", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range", "clusters_in_range_many",
+__all__ = ["solve_system", "search_cover", "Cover", "solve_system_many", "search_platform_many", "CHUNK_BATCH", "pruner_for", "search_platform", "PlatformSearch", "check_strategy", "clusters_in_range", "clusters_in_range_many",
            "partial_report", "charts_for_range", "SolverLimitError", "SearchInterrupted", "DepthLimitError", "BoxLimitError",
            "DEFAULT_FORMULATION", "DEFAULT_PRUNER", "DEFAULT_PARAMETERIZATION", "DEFAULT_TOL", "MAX_TOL", "TRACE_OUTCOMES", "SPLIT_RATIO", "BATCH", "ISOLATION_MAX_WIDTH", "ROUNDING_SAFETY", "CHART_MAX_WIDTH"]
 
@@ -183,20 +183,22 @@ class _LoopResult:
     """What :func:`_loop` hands over: ``accepted`` [(chart, angle lo, angle hi)], ``isolated``
     [(chart, x lo, x hi)] (charts: indices into the chart set), ``counts`` (counter -> (K,) per
     input), ``times`` (restrict, prune, isolate seconds), ``capped`` (K,): inputs that reached a cap
-    (their boxes are left out of the lists)."""
+    (their boxes are left out of the lists); ``pending`` [(chart, x lo, x hi)]: with ``keep_pending``,
+    the boxes not processed when the one input's cap was reached (else empty)."""
 
-    __slots__ = ("accepted", "isolated", "counts", "times", "capped")
+    __slots__ = ("accepted", "isolated", "counts", "times", "capped", "pending")
 
-    def __init__(self, accepted, isolated, counts, times, capped):
+    def __init__(self, accepted, isolated, counts, times, capped, pending=()):
         self.accepted = accepted
         self.isolated = isolated
         self.counts = counts
         self.times = times
         self.capped = capped
+        self.pending = list(pending)
 
 
 def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None,
-          trace=None, owner=None, n_inputs=1, batch=BATCH) -> _LoopResult:
+          trace=None, owner=None, n_inputs=1, batch=BATCH, keep_pending=False) -> _LoopResult:
     """The box loop over the charts of one input (``owner`` None), or of a chunk of inputs.
 
     ``owner`` (C,) int: the input (0..n_inputs-1) each chart of ``charts`` belongs to (the chart sets
@@ -208,6 +210,9 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
     inputs of the chunk nor on ``batch``. With one input a cap raises, with the boxes accepted so
     far; with an owner the input that reaches it is dropped from the loop (``capped``; its boxes
     are no longer processed) and the caller solves it again on its own, where the cap raises.
+    ``keep_pending`` (one input only): reaching a cap stops the loop without raising and hands back
+    the unprocessed boxes (the batch at hand and the stack) as ``pending``, none dropped (a cover:
+    :func:`search_cover`).
     """
     n = len(charts.variables)
     layout = _Layout(charts)
@@ -240,6 +245,7 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
         start = (np.arange(nc), np.zeros((nc, n)), np.ones((nc, n)))
     chart0, lo0, hi0 = start
     stack = [(lo0, hi0, np.zeros(len(lo0), dtype=int), np.asarray(chart0, dtype=int))]
+    pending: list[tuple[int, np.ndarray, np.ndarray]] = []
     try:
         while stack:
             take, size = [], 0
@@ -260,6 +266,11 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
             over = counts["boxes_processed"] > max_boxes
             deep = np.zeros(n_inputs, dtype=bool)
             deep[own[depth > max_depth]] = True
+            if single and keep_pending and (over[0] or deep[0]):
+                pending = [(c, a, b) for c, a, b in zip(chart, lo, hi)]
+                pending += [(c, a, b) for s_lo, s_hi, _, s_chart in stack for c, a, b in zip(s_chart, s_lo, s_hi)]
+                counts["boxes_processed"] -= np.bincount(own, minlength=n_inputs)    # this batch was not
+                break                        # not ``capped``: the accepted boxes stay in the lists
             if single and over[0]:
                 raise BoxLimitError(
                     f"more than max_boxes={max_boxes} boxes processed; the solution set may be a continuum, "
@@ -366,7 +377,7 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
     if capped.any():
         accepted = [a for a in accepted if not capped[owner[a[0]]]]
         isolated = [a for a in isolated if not capped[owner[a[0]]]]
-    return _LoopResult(accepted, isolated, counts, (t_restrict, t_prune, t_isolate), capped)
+    return _LoopResult(accepted, isolated, counts, (t_restrict, t_prune, t_isolate), capped, pending)
 
 
 def _solve_isolated(charts: ChartSet, isolated):
@@ -840,3 +851,49 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Cluster]:
                            members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))
     return out
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Cover:
+    """What :func:`search_cover` hands over: a cover of the solution set of an under-determined system.
+
+    ``accepted``: (chart (A,), lo (A, N), hi (A, N)): the accepted boxes, in the chart set's angle
+    coordinates (:meth:`ChartSet.angle_box`); ``pending``: (chart (P,), lo (P, N), hi (P, N)): the
+    boxes left unprocessed when ``max_boxes`` was reached, in unit-box coordinates (empty when the
+    search finished). Every solution in the charts lies in an accepted or a pending box.
+    ``boxes_processed``, ``seconds``: the work done.
+    """
+
+    accepted: tuple
+    pending: tuple
+    boxes_processed: int
+    seconds: float
+
+    @property
+    def complete(self) -> bool:
+        """True when no box was left unprocessed."""
+        return len(self.pending[0]) == 0
+
+
+def _box_arrays(boxes, n: int) -> tuple:
+    """(chart (B,), lo (B, n), hi (B, n)) of a list of (chart, lo, hi)."""
+    if not boxes:
+        return np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n))
+    return (np.array([int(c) for c, _, _ in boxes]), np.array([a for _, a, _ in boxes], dtype=float),
+            np.array([b for _, _, b in boxes], dtype=float))
+
+
+def search_cover(charts: ChartSet, pruner, tol: float, max_boxes: int, start=None) -> Cover:
+    """A cover of the solutions of ``charts`` (any number of equations in N variables, no isolation):
+    the box loop (:func:`_loop`) accepting boxes whose metric sides are all below ``tol *
+    charts.accept_width``. ``pruner``: built for the pruned blocks (:func:`pruner_for`); ``start``:
+    (chart, lo, hi) initial boxes (default: every chart's unit box). Reaching ``max_boxes`` (or the
+    depth cap, DEPTH_PER_UNKNOWN per variable) stops the loop and the unprocessed boxes come back as
+    ``pending``, never dropped: outside the accepted and pending boxes the charts hold no solution
+    (every other box was discarded because some equation's Bernstein hull, widened by its
+    tolerance, excludes 0)."""
+    t0 = time.perf_counter()
+    n = len(charts.variables)
+    loop = _loop(charts, pruner, tol, max_boxes, DEPTH_PER_UNKNOWN * n, start, False, keep_pending=True)
+    return Cover(_box_arrays(loop.accepted, n), _box_arrays(loop.pending, n),
+                 int(loop.counts["boxes_processed"][0]), time.perf_counter() - t0)

@@ -57,7 +57,7 @@ from ..search.pruners import make_pruner
 from .base import SYSTEMS, Compiled, System
 
 __all__ = ["CHARTS", "CHART_EXTENT", "CHART_CORE", "CORE_ROUNDING", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
-           "PlatformSystem",
+           "PlatformSystem", "leg_matrices",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
            "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform"]
@@ -393,6 +393,18 @@ def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.nda
     return np.stack(cols, axis=1).reshape(n, -1)
 
 
+def leg_matrices(legs) -> np.ndarray:
+    """M (L legs, 3 parts, 4, 4): leg i's Eq. (1) is q^T M(d) q = 0 with M(d) = cos d M[i, 0] + sin d M[i, 1]
+    + M[i, 2] (d: its actuated joint's displacement, radians)."""
+    mats = []
+    for leg in legs:
+        # q^T M q of e(d) against b(d), less c(d): one of them varies, so M is linear in (cos d, sin d, 1)
+        t = leg_terms(leg)
+        mats.append([form_matrix(t.e[p], t.b[2], t.c[p]) + form_matrix(t.e[2], t.b[p], 0.0) for p in (0, 1)]
+                    + [form_matrix(t.e[2], t.b[2], t.c[2])])
+    return np.array(mats)
+
+
 class PlatformSystem:
     """Eq. (1) of every leg compiled on the four charts: control points = cos d1 C_c + sin d1 C_s + C_0.
 
@@ -415,14 +427,8 @@ class PlatformSystem:
     @classmethod
     def from_mechanism(cls, mechanism) -> "PlatformSystem":
         legs = platform_legs(mechanism)
-        mats = []
-        for leg in legs:
-            # q^T M q of e(d) against b(d), less c(d): one of them varies, so M is linear in (cos d, sin d, 1)
-            t = leg_terms(leg)
-            mats.append([form_matrix(t.e[p], t.b[2], t.c[p]) + form_matrix(t.e[2], t.b[p], 0.0) for p in (0, 1)]
-                        + [form_matrix(t.e[2], t.b[2], t.c[2])])
         constants = leg_constants(legs) if all(leg.actuated == 0 for leg in legs) else None
-        return cls(legs, chart_control_points(np.array(mats)), np.array(mechanism.platform_reference_matrix),
+        return cls(legs, chart_control_points(leg_matrices(legs)), np.array(mechanism.platform_reference_matrix),
                    constants)
 
     def control_points(self, inputs) -> np.ndarray:

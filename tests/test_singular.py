@@ -1,0 +1,226 @@
+"""Certified parallel-singular sets in a plane of inputs (issue 31 items 1, 6): spherekin.singular, the CLI.
+
+Checked against the independent references of tests/singular_refs.py: general_3rrr's singular inputs along
+lines of the plane beta3 = 0.5 (where the degree-8 oracle's real-root count changes, located by bisection).
+Invariants: every reference point lies in a box of the cover (everything outside is claimed free), and every
+box claimed ``singular`` has a reference point within its width (a curve through the box crosses the boundary
+of the box widened by half its width, where the reference finds it).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import spherekin
+from spherekin.cli import main
+from spherekin.results import SINGULAR_SCHEMA
+from singular_refs import (EXAMPLES, five_bar_curve_points, five_bar_from_file, five_bar_moving, five_bar_tangency,
+                           four_bar_branch_inputs, four_bar_from_arcs, four_bar_from_file, four_bar_toml,
+                           singular_points_on_line)
+
+RRR = EXAMPLES / "general_3rrr.toml"
+#: A sub-square of the plane beta3 = 0.5 that the singular curves cross several times (fast: ~2 s at T = 0.1).
+SQUARE = ((0.9, 1.9), (1.1, 2.1))
+T = 0.1
+#: Closed boxes: a reference point (bisected to 1e-10) on a box edge counts as inside within this.
+EDGE = 1e-9
+
+
+def _lines(square, n: int = 4):
+    """Segments across the square: horizontal, vertical and the two diagonals (the seeded lines' kind)."""
+    (x0, x1), (y0, y1) = square
+    rng = np.random.default_rng(31)
+    out = [((x0, y0), (x1, y1)), ((x0, y1), (x1, y0))]
+    for k in range(n):
+        a, b = rng.uniform(0.05, 0.95, 2)
+        if k % 2 == 0:
+            out.append(((x0, y0 + a * (y1 - y0)), (x1, y0 + b * (y1 - y0))))
+        else:
+            out.append(((x0 + a * (x1 - x0), y0), (x0 + b * (x1 - x0), y1)))
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference_points():
+    pts = [s.inputs[:2] for p0, p1 in _lines(SQUARE) for s in singular_points_on_line(p0, p1, n_samples=60, seed=0)]
+    assert len(pts) >= 6                 # the square is crossed by the curves
+    return np.array(pts)
+
+
+@pytest.fixture(scope="module")
+def square_set():
+    (x0, x1), (y0, y1) = SQUARE
+    return spherekin.singular(RRR, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": 0.5}, tol=T)
+
+
+def _covered(sset, points) -> np.ndarray:
+    lo = np.array([[b.x[0], b.y[0]] for b in sset.boxes])
+    hi = np.array([[b.x[1], b.y[1]] for b in sset.boxes])
+    return np.array([np.any(np.all((lo - EDGE <= p) & (p <= hi + EDGE), axis=1)) for p in points])
+
+
+def test_every_reference_point_is_covered(square_set, reference_points):
+    assert square_set.complete
+    assert _covered(square_set, reference_points).all()
+    assert all(b.x[1] - b.x[0] <= T + 1e-12 and b.y[1] - b.y[0] <= T + 1e-12 for b in square_set.boxes)
+
+
+@pytest.fixture(scope="module")
+def quarter_set():
+    """A quarter of SQUARE (the check below runs the reference on every singular box's boundary)."""
+    return spherekin.singular(RRR, x=("beta1", 0.9, 1.4), y=("beta2", 1.1, 1.6), fixed={"beta3": 0.5}, tol=T)
+
+
+def test_singular_boxes_hold_a_reference_point(quarter_set):
+    """Each ``singular`` box: the reference finds a singular input on the boundary of the box widened by half
+    its width (a curve through the box leaves that square), so within its width of the box."""
+    sing = [b for b in quarter_set.boxes if b.status == "singular"]
+    assert len(sing) >= 0.4 * len(quarter_set.boxes)       # most cells of the cover are proven
+    for b in sing:
+        w = b.x[1] - b.x[0]
+        x0, x1, y0, y1 = b.x[0] - w / 2, b.x[1] + w / 2, b.y[0] - w / 2, b.y[1] + w / 2
+        edges = [((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))]
+        found = [s for p0, p1 in edges for s in singular_points_on_line(p0, p1, n_samples=12, seed=1)]
+        assert found, f"no reference singular input near the singular box {b}"
+
+
+def test_cover_outside_is_free_on_a_line_far_from_the_curve():
+    """A line (y None) along which the reference finds no singular input: no box at all (and complete)."""
+    p0, p1 = (-0.5, 0.0), (0.5, 0.0)
+    assert singular_points_on_line(p0, p1, n_samples=60) == []
+    sset = spherekin.singular(RRR, x=("beta1", -0.5, 0.5), fixed={"beta2": 0.0, "beta3": 0.5}, tol=T)
+    assert sset.complete and sset.boxes == ()
+
+
+def test_line_singular_points():
+    """One plane input (the other two fixed): the cover holds each reference point of the line, each
+    ``singular`` box is within its width of one."""
+    y = 1.6
+    ref = [s.inputs[0] for s in singular_points_on_line((0.9, y), (1.9, y), n_samples=100, seed=0)]
+    assert len(ref) >= 2
+    sset = spherekin.singular(RRR, x=("beta1", 0.9, 1.9), fixed={"beta2": y, "beta3": 0.5}, tol=0.05)
+    assert all(b.y is None for b in sset.boxes)
+    for r in ref:
+        assert any(b.x[0] - EDGE <= r <= b.x[1] + EDGE for b in sset.boxes)
+    sing = [b for b in sset.boxes if b.status == "singular"]
+    assert sing
+    for b in sing:
+        w = b.x[1] - b.x[0]
+        assert min(abs(r - 0.5 * (b.x[0] + b.x[1])) for r in ref) <= w
+
+
+def test_box_cap_leaves_the_rest_unresolved(reference_points):
+    """A tiny box cap: not complete, the unprocessed part reported ``unresolved`` (never dropped): every
+    reference point is still covered, and no box is claimed singular without its proof."""
+    (x0, x1), (y0, y1) = SQUARE
+    sset = spherekin.singular(RRR, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": 0.5}, tol=T,
+                              max_boxes=300)
+    assert not sset.complete
+    assert sset.stats.pending > 0
+    assert sset.counts()["unresolved"] > 0
+    assert _covered(sset, reference_points).all()
+
+
+def test_json_schema(square_set):
+    doc = square_set.as_dict()
+    assert doc["schema"] == SINGULAR_SCHEMA == "spherekin.singular/1"
+    assert (doc["x"], doc["y"], doc["fixed"], doc["tol"]) == ("beta1", "beta2", {"beta3": 0.5}, T)
+    assert doc["complete"] is True and doc["cusps"] == [] and doc["free_box"] is None
+    assert {"boxes_processed", "seconds"} <= set(doc["stats"])
+    assert doc["boxes"] and all(set(b) == {"x", "y", "status"} and b["status"] in ("singular", "unresolved")
+                                for b in doc["boxes"])
+    json.dumps(doc)
+
+
+def test_cli_json_and_table(tmp_path, capsys):
+    out = tmp_path / "s.json"
+    code = main(["singular", str(RRR), "--x", "beta1=0.9:1.4", "--y", "beta2=1.1:1.6", "--fix", "beta3=0.5",
+                 "--tol", "0.1", "--json", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "singular" in text and "complete: yes" in text
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "spherekin.singular/1" and doc["x"] == "beta1" and doc["y"] == "beta2"
+    assert doc["fixed"] == {"beta3": 0.5} and doc["boxes"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--x", "beta9=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5"], "--x: expected an actuated joint"),
+    (["--x", "beta1=1:0", "--y", "beta2=0:1", "--fix", "beta3=0.5"], "--x beta1: expected lo < hi"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--tol", "0"], "--tol: expected 0 < T"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1"], "--fix: expected a reading for every actuated joint"),
+    (["--x", "beta1=0:1", "--y", "beta1=0:1", "--fix", "beta3=0.5"], "--y: expected another actuated joint"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--fix", "beta3=1"], "--fix beta3: given twice"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta1=0.5", "--fix", "beta3=1"], "--fix: beta1 is an axis"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--json", "out.txt"], "--json out.txt: expected"),
+])
+def test_cli_errors_are_one_line(args, words, capsys):
+    code = main(["singular", str(RRR), *args])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("spherekin: error: ") and words in err
+
+
+# ---------------------------------------------------------------- the loop equations (item 6)
+
+DEG = math.pi / 180
+#: Non-Grashof four-bar variants (ground, crank, coupler, rocker; degrees), as tests/test_singular_refs.py:
+#: one reaches arc(B, D) = b + c, one |b - c|; each has two branch points of its crank input.
+VARIANTS = [(80, 50, 40, 60), (70, 50, 80, 50)]
+
+
+@pytest.mark.parametrize("arcs", VARIANTS)
+def test_four_bar_branch_points(arcs, tmp_path):
+    """A 1-DOF mechanism on the line of its input: the cover holds each closed-form branch input and every
+    box is within its width of one (the cover is exactly the branch points' cells)."""
+    fb = four_bar_from_arcs(*(a * DEG for a in arcs), theta=math.pi / 2)
+    path = tmp_path / "four_bar.toml"
+    path.write_text(four_bar_toml(fb))
+    ref = four_bar_branch_inputs(fb)
+    assert len(ref) == 2
+    mech = spherekin.load_mechanism(path)
+    sset = spherekin.singular(mech, x=(mech.actuated[0], -math.pi, math.pi), tol=0.05)
+    assert sset.complete and sset.system == "loops" and sset.boxes
+    for r in ref:
+        assert any(b.x[0] - EDGE <= r <= b.x[1] + EDGE for b in sset.boxes), r
+    for b in sset.boxes:
+        w = b.x[1] - b.x[0]
+        assert min(abs(math.remainder(r - 0.5 * (b.x[0] + b.x[1]), 2 * math.pi)) for r in ref) <= w, b
+    assert [b.status for b in sset.boxes] == ["singular"] * len(sset.boxes)     # each branch point proven
+
+
+def test_crank_four_bar_has_no_singular_input():
+    """examples/four_bar.toml is a crank (the reference has no branch input): the whole turn is proven free."""
+    assert len(four_bar_branch_inputs(four_bar_from_file())) == 0
+    sset = spherekin.singular(EXAMPLES / "four_bar.toml", x=("A", -math.pi, math.pi), tol=0.05)
+    assert sset.complete and sset.boxes == ()
+
+
+def test_five_bar_curve():
+    """examples/five_bar.toml over [-pi, pi]^2: every point of the reference curve (two circles tangent) is
+    covered; every box is within its width of the curve (the tangency function changes sign on the box widened
+    by its width) or of a point where the two circles coincide (B = D: a continuum of C, singular too), a
+    ``singular`` box within half its width; most boxes are proven."""
+    fb = five_bar_from_file()
+    sset = spherekin.singular(EXAMPLES / "five_bar.toml", x=("A", -math.pi, math.pi), y=("E", -math.pi, math.pi),
+                              tol=0.1)
+    assert sset.complete and sset.boxes
+    points = five_bar_curve_points(fb)
+    assert len(points) >= 8
+    assert _covered(sset, points).all()
+    sing = [b for b in sset.boxes if b.status == "singular"]
+    assert len(sing) >= 0.5 * len(sset.boxes)
+    for b in sset.boxes:
+        w = b.x[1] - b.x[0]
+        # a proven box holds a singular input: the reference's sign change is within half its width
+        for margin in ((w / 2,) if b.status == "singular" else ()) + (w,):
+            g = np.linspace(-margin, w + margin, 13)
+            grid = np.column_stack([a.ravel() for a in np.meshgrid(b.x[0] + g, b.y[0] + g)])
+            f = five_bar_tangency(fb, grid)
+            bb, dd = five_bar_moving(fb, grid)
+            coincide = np.arccos(np.clip(np.einsum("ka,ka->k", bb, dd), -1, 1)).min() <= margin
+            assert f.min() <= 0.0 <= f.max() or coincide, b
