@@ -79,7 +79,7 @@ sphinx_gallery_conf = {
     "gallery_dirs": "gallery",
     "filename_pattern": r"/plot_",          # every script is run at build time
     "abort_on_example_error": True,         # a broken example fails the build
-    "image_scrapers": ("matplotlib", "spherekin_gallery.scrape_figures"),
+    "image_scrapers": ("spherekin_gallery.scrape_figures", "matplotlib"),   # ours first: it skips pyplot's figures while pyplot still holds them
     "within_subsection_order": "FileNameSortKey",
     "download_all_examples": False,
     "remove_config_comments": True,

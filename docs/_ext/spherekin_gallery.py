@@ -3,7 +3,9 @@
 spherekin.plot's functions build a ``matplotlib.figure.Figure`` directly (no pyplot: a script, a
 notebook or a server gets the figure without a GUI backend), so sphinx-gallery's matplotlib scraper,
 which asks pyplot for its open figures, does not see them. This scraper saves every Figure that an
-example's globals hold and pyplot does not manage, once per example, after the block that made it.
+example's globals hold and pyplot does not manage, once per example, after the block that made it. It
+runs before the matplotlib scraper (docs/conf.py), which closes pyplot's figures: run after it, a
+pyplot figure held in a variable would look unmanaged and be saved twice.
 """
 
 from __future__ import annotations
