@@ -6,17 +6,19 @@
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
 #   make bench / bench-peers / sweep / edge -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root
 #     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
+#   make docs -- the documentation site into docs/_build/html (installs the [docs] extra; warnings are errors)
 #   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
 # Scripts of benchmarks/, experiments/, paper_figures/ are modules: run them as python -m benchmarks.bench_solve.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.installed-docs
 
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +29,11 @@ $(STAMP): $(BIN)/python pyproject.toml
 	touch $(STAMP)
 
 install: $(STAMP)
+
+# the [docs] extra on top of the test install (make test never needs it)
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	touch $(DOCS_STAMP)
 
 run: $(STAMP)
 	$(BIN)/spherekin solve examples/gosselin.toml --inputs 0.3,-0.2,0.5
@@ -74,5 +81,8 @@ edge: $(STAMP)
 mutants: $(STAMP)
 	$(BIN)/python mutation/run.py $(if $(ONLY),--only $(ONLY))
 
+docs: $(DOCS_STAMP)
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) .pytest_cache *.egg-info
+	rm -rf $(VENV) .pytest_cache *.egg-info docs/_build docs/generated docs/gallery docs/sg_execution_times.rst

@@ -64,7 +64,7 @@ WIRE_POINTS = 181
 #: File formats written (by the file name's suffix): the ones matplotlib writes without extra
 #: packages; PNG for viewing, PDF/SVG for papers.
 PLOT_FORMATS = ("png", "pdf", "svg")
-#: |input - input the report was solved at| (radians, modulo 2 pi) above which the inputs are
+#: ``|input - input the report was solved at|`` (radians, modulo 2 pi) above which the inputs are
 #: rejected. Reason: the solver records the very floats it was given (a degree -> radian
 #: conversion repeated gives the same float); anything farther apart is another problem, whose
 #: drawing would show legs that do not close.
@@ -127,9 +127,9 @@ def great_circle_arc(p, q, n_points: int = ARC_POINTS) -> np.ndarray:
     """Points of the shorter great-circle arc from the unit vector p to the unit vector q, shape (n_points, 3).
 
     x(t) = cos(t theta) p + sin(t theta) e, t = 0, 1/(n-1), ..., 1, where theta = angle(p, q) in
-    [0, pi] and e = n x p is the unit tangent at p towards q (n = p x q / |p x q|), so the points
+    [0, pi] and e = n x p is the unit tangent at p towards q (n = p x q / ``|p x q|``), so the points
     are equally spaced in angle. Coincident endpoints give n copies of p; for antipodal endpoints
-    (|p x q| < PARALLEL_TOL, p . q < 0) every half great circle qualifies and the one with pole
+    (``|p x q|`` < PARALLEL_TOL, p . q < 0) every half great circle qualifies and the one with pole
     n = perpendicular(p) is returned, the model's choice for a side of twist pi.
     """
     a = np.array(check_unit_vector("p", p))

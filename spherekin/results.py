@@ -121,7 +121,7 @@ class Solution:
     search stored it; ``box_lo``/``box_hi``: the same box moved by whole turns next to ``angles`` (the
     JSON's ``box_lo``/``box_hi``; :func:`box_near`);
     ``n_boxes``: accepted boxes of its cluster; ``platform_rotation``: R with v_i = R v_i^0;
-    ``residual``: the largest entry of |F_n - I| over the loops; ``singularity``: the mechanism's
+    ``residual``: the largest entry of ``|F_n - I|`` over the loops; ``singularity``: the mechanism's
     classification ("regular", "serial", "parallel" or "serial+parallel"); ``status``: a
     :class:`Status`; ``evidence``: what backs it (docs/results-format.md).
     """
