@@ -14,6 +14,7 @@ Commands:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import gc
 import math
 import os
@@ -223,6 +224,10 @@ def _solve(args) -> int:
 #: output link: passive angles, radians) agree to this (largest entry): both are Newton limits accurate
 #: to ~1e-14 (as problem.POSE_MATCH).
 CHECK_MATCH = 1e-8
+#: --home's joints off the plane must equal the plane's --fix readings to this (radians) for a free box
+#: in the plane: the box is drawn and reported in that plane (a home elsewhere is --free all's); not 0:
+#: the two options' degree conversions may differ in the last bit.
+FIX_MATCH = 1e-9
 #: Seconds between progress lines of a batch when stderr is not a terminal (a log): often enough to
 #: see a job move, rarely enough that a run of hours leaves a log of a few hundred lines.
 PROGRESS_INTERVAL = 10.0
@@ -405,8 +410,32 @@ def _singular(args) -> int:
         from .plot import check_plot_path
 
         check_plot_path(args.plot, "--plot")
+    if (args.home is None) != (args.start_solution is None):
+        raise ValueError("--home and --start-solution: expected both (the free box of solution K at home) or neither")
+    home = None
+    if args.home is not None:
+        home = _parse_angles("--home", args.home, mech.actuated, args.degrees, "one per actuated joint")
+        if args.free == "plane":
+            for name, value in fixed.items():
+                if abs(home[mech.actuated.index(name)] - value) > FIX_MATCH:
+                    raise ValueError(f"--home: expected {name} = {value * (180 / math.pi if args.degrees else 1):.6g} "
+                                     f"(the plane's --fix) for a free box in the plane, got "
+                                     f"{home[mech.actuated.index(name)] * (180 / math.pi if args.degrees else 1):.6g} "
+                                     "(or use --free all)")
+        from .problem import compile as compile_problem
+
+        problem = compile_problem(mech)
+        n = len(problem.solve(home).solutions)         # milliseconds: checked before the cover's work
+        if args.start_solution > n:
+            raise ValueError(f"--start-solution: expected a solution number 1..{n} of the solve at --home "
+                             f"({n} solution(s)), got {args.start_solution}")
     caps = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
     sset = singular(mech, x, y, fixed, tol=args.tol * scale, **caps)   # every check before any work
+    if home is not None:
+        plane_inputs = (x[0],) if y is None else (x[0], y[0])
+        box = problem.free_box(home, start=args.start_solution - 1,
+                               inputs=plane_inputs if args.free == "plane" else None)
+        sset = dataclasses.replace(sset, free_box={**box.as_dict(), "start_solution": args.start_solution})
     unit, show = ("deg", 180.0 / math.pi) if args.degrees else ("rad", 1.0)
     plane = x[0] if y is None else f"{x[0]} x {y[0]}"
     at = ", ".join(f"{k} = {v * show:.6g}" for k, v in fixed.items())
@@ -418,6 +447,11 @@ def _singular(args) -> int:
     st = sset.stats
     print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
+    if sset.free_box is not None:
+        fb = sset.free_box
+        sides = ", ".join(f"{k} [{lo * show:.6g}, {hi * show:.6g}]" for k, (lo, hi) in fb["inputs"].items())
+        print(f"free box of solution {args.start_solution} at home: {sides} {unit} "
+              f"({'proven' if fb['proven'] else 'none proven'}; {fb['cells']} cells; limit: {fb['limit']})")
     if args.json:
         doc = {**sset.as_dict(), "mechanism": mech.name or str(args.file)}
         Path(args.json).write_text(json.dumps(doc, indent=2))
@@ -949,6 +983,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cap on the boxes the cover processes (reached: the rest is reported unresolved)")
     sg.add_argument("--json", help="write the cells as JSON (schema spherekin.singular/1, docs/results-format.md)")
     sg.add_argument("--plot", help="draw the plane with the cells coloured by status (.png, .pdf or .svg)")
+    sg.add_argument("--home", metavar="B1,B2,...", help="a home input (one per actuated joint): with "
+                                                         "--start-solution, the largest box around it proven free")
+    sg.add_argument("--start-solution", metavar="K",
+                    type=_whole(1, MAX_ASSEMBLIES, f" (as solve numbers them; at most {MAX_ASSEMBLIES} assemblies)"),
+                    help="the assembly at --home: solution K of the solve there (numbered from 1)")
+    sg.add_argument("--free", choices=("plane", "all"), default="plane",
+                    help="the free box's inputs: the plane's (the others at home; default) or all of them")
     sg.add_argument("--degrees", action="store_true", help="input angles, --tol and printed angles in degrees")
     sg.set_defaults(func=_singular, python_names=_singular_names)
     tk = sub_add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")

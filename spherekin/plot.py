@@ -794,6 +794,10 @@ SINGULAR_COLOURS = {"singular": "#c0392b", "unresolved": "#f0b27a"}
 SINGULAR_INCHES = (6.4, 6.0)
 
 
+#: The outline of a singular set's free box (its proven singularity-free region around home).
+FREE_BOX_COLOUR = "tab:green"
+
+
 def plot_singular(sset, path=None, *, degrees: bool = False):
     """Draw a singular set (:class:`spherekin.results.SingularSet`): the plane's cells in the cover, coloured
     by status (singular: proven; unresolved: hatched); a line of inputs is drawn as a strip. Angles in
@@ -823,8 +827,17 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
         ax.set_ylim(0.0, 1.0)
         ax.set_yticks([])
     counts = sset.counts()
-    ax.legend(handles=[Patch(facecolor=SINGULAR_COLOURS[k], hatch="///" if k != "singular" else None,
-                             label=f"{k} ({counts.get(k, 0)})") for k in SINGULAR_COLOURS], loc="upper right", fontsize=8)
+    handles = [Patch(facecolor=SINGULAR_COLOURS[k], hatch="///" if k != "singular" else None,
+                     label=f"{k} ({counts.get(k, 0)})") for k in SINGULAR_COLOURS]
+    free = sset.free_box
+    if free is not None and free["proven"]:
+        box = free["inputs"]
+        (x0, x1), (y0, y1) = box[sset.x[0]], box[sset.y[0]] if sset.y is not None else (0.0, 1.0 / scale)
+        ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale, facecolor="none",
+                               edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
+        handles.append(Patch(facecolor="none", edgecolor=FREE_BOX_COLOUR,
+                             label=f"free box of solution {free.get('start_solution', '?')}"))
+    ax.legend(handles=handles, loc="upper right", fontsize=8)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
     ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
                  + ("" if sset.complete else ", incomplete"), fontsize=10)

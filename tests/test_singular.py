@@ -157,6 +157,13 @@ def test_cli_json_and_table(tmp_path, capsys):
     (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--fix", "beta3=1"], "--fix beta3: given twice"),
     (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta1=0.5", "--fix", "beta3=1"], "--fix: beta1 is an axis"),
     (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--json", "out.txt"], "--json out.txt: expected"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--home", "0,0,0.5"], "--home and --start-solution"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--home", "0,0,0.7", "--start-solution", "1"],
+     "--home: expected beta3 = 0.5"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--home", "0,0", "--start-solution", "1"],
+     "--home"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--home", "0,0,0.5", "--start-solution", "9"],
+     "--start-solution"),
 ])
 def test_cli_errors_are_one_line(args, words, capsys):
     code = main(["singular", str(RRR), *args])
@@ -224,3 +231,29 @@ def test_five_bar_curve():
             bb, dd = five_bar_moving(fb, grid)
             coincide = np.arccos(np.clip(np.einsum("ka,ka->k", bb, dd), -1, 1)).min() <= margin
             assert f.min() <= 0.0 <= f.max() or coincide, b
+
+
+def test_cli_free_box_of_a_home_pose_against_the_reference_tracking(tmp_path, capsys):
+    """--home --start-solution: the JSON's free box (in the plane, beta3 at home) holds the assembly of
+    solution 2 at home without a singularity by the independent tracking of tests/singular_refs.py (no
+    loss, no sign change of the Type-2 determinant over a 31 x 31 grid), and the plot draws it."""
+    from singular_refs import rrr_closure, rrr_geometry, rrr_tracked, track_box_min_det
+
+    out, fig = tmp_path / "s.json", tmp_path / "s.png"
+    code = main(["singular", str(RRR), "--x", "beta1=-0.4:0.4", "--y", "beta2=-0.4:0.4", "--fix", "beta3=0.5",
+                 "--tol", "0.2", "--home", "0,0,0.5", "--start-solution", "2", "--json", str(out), "--plot", str(fig)])
+    assert code == 0
+    assert "free box of solution 2 at home" in capsys.readouterr().out and fig.stat().st_size > 0
+    doc = json.loads(out.read_text())
+    free = doc["free_box"]
+    assert free["proven"] and free["start_solution"] == 2 and free["inputs"]["beta3"] == [0.5, 0.5]
+    home = np.array([0.0, 0.0, 0.5])
+    sols = spherekin.solve(spherekin.load_mechanism(RRR), tuple(home)).solutions
+    rot = sols[1].platform_rotation
+    assert np.abs(rrr_closure(rrr_geometry(), home, rot)).max() < 1e-9
+    assert np.abs(np.array(free["start"]) - rot).max() < 1e-12            # solution 2's assembly, numbered from 1
+    lo = np.array([free["x"][0], free["y"][0], 0.5])
+    hi = np.array([free["x"][1], free["y"][1], 0.5])
+    assert np.all(hi[:2] - lo[:2] > 0.1)
+    box = track_box_min_det(rrr_tracked(), home, rot, lo, hi, 31)
+    assert box.lost == 0 and box.sign_changes == 0 and box.min_abs_det > 0

@@ -129,13 +129,16 @@ class FreeBox:
     def as_dict(self) -> dict:
         """The JSON key ``"free_box"``: ``"x"``, ``"y"`` (the first two free inputs) and any further free
         input by name, each [lo, hi] (radians); ``"inputs"``: every input's [lo, hi]; ``"home"``,
-        ``"radius"``, ``"cells"``, ``"proven"``, ``"limit"``, ``"limit_at"``."""
+        ``"radius"``, ``"cells"``, ``"proven"``, ``"limit"``, ``"limit_at"``, ``"start"`` (the assembly at
+        home: the platform rotation R as rows, or the passive angles by name)."""
         box = {n: [float(a), float(b)] for n, a, b in zip(self.inputs, self.lo, self.hi)}
         out = {key: box[n] for key, n in zip(("x", "y"), self.free)}
         out.update({n: box[n] for n in self.free[2:]})
         out.update({"inputs": box, "home": [float(v) for v in self.home], "radius": self.radius,
                     "cells": self.cells, "proven": self.proven, "limit": self.limit,
-                    "limit_at": None if self.limit_at is None else dict(self.limit_at)})
+                    "limit_at": None if self.limit_at is None else dict(self.limit_at),
+                    "start": ({n: float(v) for n, v in self.start.items()} if isinstance(self.start, Mapping)
+                              else [[float(v) for v in row] for row in self.start])})
         return out
 
 
