@@ -796,6 +796,12 @@ SINGULAR_MAX_BOXES = 10_000_000
 #: T (radians for the plane inputs, chart units for the orientation). Reason: a box then meets at most two
 #: cells per axis, so the covered cells stay close to the curve (a box of side T meets up to 3).
 COVER_FRACTION = 0.5
+#: The cusp system's boxes are accepted below this fraction of T: small enough that a cluster of them is
+#: one root whose hull Newton and the Krawczyk test handle (a cusp is a regular root of (F, D, C_r)).
+CUSP_FRACTION = 0.25
+#: The fixed vectors r of the tangency C_r = grad D . (adj(G) r) (design31.md section 3): seeded, so that
+#: the spurious factor l . r = 0 meets the curve only at isolated points; the second rules those points out.
+CUSP_VECTORS = ((0.5390, -0.7270, 0.4253), (-0.3120, 0.2240, 0.9233))
 
 #: The pieces of the accepted boxes cut by the unresolved cells are searched again with boxes of these fractions
 #: of T, one round each (the cells still unresolved after a round go to the next). Reason: a piece whose cell
@@ -838,8 +844,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     """
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
-    from .results import SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover
+    from .results import Cusp, SingularBox, SingularSet, SingularStats
+    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -869,6 +875,17 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     grid = Grid.over(plane.axes, tol)
     cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    cusps = ()
+    if on_platform and ay is not None:
+        # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
+        # configuration of the plane lies in them or in the pending ones, whose cells stay unresolved)
+        cusp_sets = system.cusp_charts(CUSP_VECTORS)
+        start = (cover.accepted[0], system.unit(cover.accepted[0], cover.accepted[1]),
+                 system.unit(cover.accepted[0], cover.accepted[2]))
+        found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
+                             max(1, int(max_boxes) - used), start=start)
+        used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+        cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status) for c in certify_cusps(system, cusp_sets, found))
     cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
@@ -893,4 +910,4 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     # t_cover: the box loops; the rest: set-up, projection and certificates
     stats = SingularStats(used, accepted, len(pending[0]), t_cover, t2 - t0 - t_cover, t2 - t0)
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
-                       Platform.name if on_platform else Loops.name)
+                       Platform.name if on_platform else Loops.name, cusps)

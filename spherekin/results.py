@@ -22,7 +22,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
+__all__ = ["Cusp", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -574,6 +574,25 @@ class SingularBox:
 
 
 @dataclass(frozen=True)
+class Cusp:
+    """A cusp of the singular curve in the plane (three assemblies meet): ``x``, ``y`` its inputs (radians;
+    Newton's root of the cusp system), ``box_x``, ``box_y`` = (lo, hi) radians: the plane projection of
+    the box in which the certificate proved a unique root; ``status``: "cusp" (a unique root of the curve
+    system plus its tangency condition, with the spurious factor excluded) or "unresolved"."""
+
+    x: float
+    y: float
+    box_x: tuple
+    box_y: tuple
+    status: str
+
+    def as_dict(self) -> dict:
+        return {"x": float(self.x), "y": float(self.y),
+                "box": {"x": [float(self.box_x[0]), float(self.box_x[1])],
+                        "y": [float(self.box_y[0]), float(self.box_y[1])]}, "status": self.status}
+
+
+@dataclass(frozen=True)
 class SingularStats:
     """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
     the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
@@ -595,7 +614,7 @@ class SingularSet:
     other actuated joints' readings; ``tol``: the cells' width bound (radians); ``boxes``: the covered
     cells (:class:`SingularBox`); everything in the plane outside them is proven free of parallel
     singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
-    boxes). ``cusps``: none computed yet (empty). ``system``: the equations used ("platform" or "loops").
+    boxes). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty). ``system``: the equations used ("platform" or "loops").
     """
 
     x: tuple
@@ -626,4 +645,4 @@ class SingularSet:
                 "boxes": [{"x": [float(b.x[0]), float(b.x[1])],
                            "y": None if b.y is None else [float(b.y[0]), float(b.y[1])], "status": b.status}
                           for b in self.boxes],
-                "cusps": list(self.cusps), "free_box": self.free_box, "stats": asdict(self.stats)}
+                "cusps": [c.as_dict() for c in self.cusps], "free_box": self.free_box, "stats": asdict(self.stats)}
