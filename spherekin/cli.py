@@ -444,6 +444,10 @@ def _singular(args) -> int:
     print(f"{'status':<12} {'boxes':>7}")
     for status, n in sset.counts().items():
         print(f"{status:<12} {n:>7}")
+    if y is not None:
+        kinds = {k: sum(c.status == k for c in sset.cusps) for k in ("cusp", "unresolved")}
+        print(f"cusps: {kinds['cusp']} proven, {kinds['unresolved']} unresolved"
+              + ("" if sset.system == "platform" else " (not searched: the platform system only)"))
     st = sset.stats
     print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
