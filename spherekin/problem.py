@@ -801,6 +801,8 @@ COVER_FRACTION = 0.5
 CUSP_FRACTION = 0.25
 #: The fixed vectors r of the tangency C_r = grad D . (adj(G) r) (design31.md section 3): seeded, so that
 #: the spurious factor l . r = 0 meets the curve only at isolated points; the second rules those points out.
+#: Cusp candidates left without a proof are searched again at these fractions of T (as REFINE_FRACTIONS).
+CUSP_REFINE_FRACTIONS = (0.03125,)
 CUSP_VECTORS = ((0.5390, -0.7270, 0.4253), (-0.3120, 0.2240, 0.9233))
 
 #: The pieces of the accepted boxes cut by the unresolved cells are searched again with boxes of these fractions
@@ -845,7 +847,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps
+    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps, merge_cusps
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -885,7 +887,25 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
                              max(1, int(max_boxes) - used), start=start)
         used, t_cover = used + found.boxes_processed, t_cover + found.seconds
-        cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status) for c in certify_cusps(system, cusp_sets, found))
+        cands = certify_cusps(system, cusp_sets, found)
+        # candidates without a proof: their boxes searched again with smaller boxes (most hold no root and are
+        # discarded; the hulls Newton and the Krawczyk test see get tighter)
+        for fraction in CUSP_REFINE_FRACTIONS:
+            open_ = [c for c in cands if c.status != "cusp"]
+            chart, alo, ahi = found.accepted
+            if not open_ or not len(chart) or len(found.pending[0]):
+                break                   # (a capped search keeps its pending candidates unresolved)
+            cols = list(system.plane_columns)
+            near = np.zeros(len(chart), dtype=bool)
+            for c in open_:
+                near |= ((alo[:, cols[0]] <= c.box_x[1]) & (ahi[:, cols[0]] >= c.box_x[0])
+                         & (alo[:, cols[1]] <= c.box_y[1]) & (ahi[:, cols[1]] >= c.box_y[0]))
+            start = (chart[near], system.unit(chart[near], alo[near]), system.unit(chart[near], ahi[near]))
+            found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), fraction * tol,
+                                 max(1, int(max_boxes) - used), start=start)
+            used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+            cands = tuple(c for c in cands if c.status == "cusp") + certify_cusps(system, cusp_sets, found)
+        cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status) for c in merge_cusps(cands))
     cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending

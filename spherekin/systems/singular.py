@@ -40,7 +40,8 @@ from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSe
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
-           "SPURIOUS_BOUND"]
+           "SPURIOUS_BOUND", "CUSP_SQUARE",
+           "cusp_newton", "cusp_krawczyk"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -395,6 +396,31 @@ class PlatformPlane:
                     ok[retry], _, _ = krawczyk_boxes(_SLICE, small, [t[:, retry] for t in tols])
             out[rows] = ok
         return out
+
+
+#: The cusp system's square rows: the legs' equations (block 0), D (block 1) and the tangency C_r (block 2)
+#: (:meth:`PlatformPlane.cusp_charts`).
+CUSP_SQUARE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0), (2, 0)))
+
+
+def _cusp_square(charts, chart, lo, hi):
+    """The square blocks (F, D, C_r) of a cusp ChartSet restricted to the boxes [lo, hi] (unit, (B, N)) of
+    charts ``chart`` (B,), batch last, and their tolerances."""
+    cps = [bernstein.restrict_batch_last(np.moveaxis(charts.coeffs[b][chart], 0, -1), lo, hi, {}) for b in range(3)]
+    return cps, [charts.tols[b][chart].T for b in range(3)]
+
+
+def cusp_newton(charts, chart, lo, hi):
+    """Newton's method on the cusp system (F, D, C_r) from the centre of each box: (u (B, N) in each box's
+    unit coordinates, converged (B,))."""
+    u, converged, _ = newton(CUSP_SQUARE, *_cusp_square(charts, chart, lo, hi))
+    return u, converged
+
+
+def cusp_krawczyk(charts, chart, lo, hi):
+    """The Krawczyk test of the cusp system on the boxes: (isolated (B,), K lo, K hi (B, N) in each box's
+    unit coordinates), as :func:`spherekin.search.isolation.krawczyk_boxes`."""
+    return krawczyk_boxes(CUSP_SQUARE, *_cusp_square(charts, chart, lo, hi))
 
 
 def _axis_cross(a) -> np.ndarray:

@@ -17,6 +17,12 @@ Each covered cell gets a status:
   first where the boxes spread more along x (the curve crosses x = const transversally), then y;
 * ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve, boxes
   never processed because the box cap was reached).
+
+Cusps (:func:`certify_cusps`, issue 31 item 2): the cover of the cusp system (the curve system plus the
+tangency C_r, :meth:`spherekin.systems.singular.PlatformPlane.cusp_charts`) is clustered per chart; each
+Newton root proven unique by the Krawczyk test whose box also has adj(G) r enclosed away from 0 is a
+``cusp``; clusters without such a proof are ``unresolved`` candidates. A cluster holding a proven root is
+reported by it (its other boxes are not claimed root-free).
 """
 
 from __future__ import annotations
@@ -28,11 +34,10 @@ import numpy as np
 
 from ..closure import tan_half_unit
 from ..core import bernstein
-from ..search.isolation import SquareSystem, krawczyk_boxes, newton
-from ..systems.singular import PROOF_RADIUS
+from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
 __all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "SINGULAR", "UNRESOLVED",
-           "CUSP", "CuspStatus", "certify_cusps"]
+           "CUSP", "CuspStatus", "certify_cusps", "merge_cusps"]
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
@@ -206,8 +211,6 @@ def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, cols, round_):
 
 
 CUSP = "cusp"
-#: The cusp system's square rows: the legs' equations (block 0), D (block 1) and the tangency C_r (block 2).
-CUSP_SQUARE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0), (2, 0)))
 #: The block of the cusp charts holding adj(G) r (three rows; :meth:`PlatformPlane.cusp_charts`).
 ADJ_BLOCK = 3
 #: Accepted boxes of the cusp system within this (unit coordinates) of each other on one chart are one
@@ -266,12 +269,6 @@ def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
     return np.any((flat.min(axis=1) > tol) | (flat.max(axis=1) < -tol), axis=0)
 
 
-def _square_parts(charts, chart, lo, hi):
-    """The square blocks (F, D, C_r) restricted to the boxes, batch last, and their tolerances."""
-    cps = [bernstein.restrict_batch_last(np.moveaxis(charts.coeffs[b][chart], 0, -1), lo, hi, {}) for b in range(3)]
-    return cps, [charts.tols[b][chart].T for b in range(3)]
-
-
 def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tuple[CuspStatus, ...]:
     """The cusps of a plane system from the box loop's cover of its cusp system (design31.md section 3).
 
@@ -299,7 +296,7 @@ def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tu
             lo, hi = ulo[group].min(axis=0)[None], uhi[group].max(axis=0)[None]
             mine = [k for k in range(len(roots)) if owners[k] == c
                     and np.all(roots[k] >= lo[0] - CLUSTER_SLACK) and np.all(roots[k] <= hi[0] + CLUSTER_SLACK)]
-            proven_any = False
+            unproven = not mine
             kept = []
             for k in mine:                                  # distinct roots of the cluster
                 if any(np.max(np.abs(roots[k] - roots[m])) < ROOT_SEPARATION for m in kept):
@@ -308,17 +305,17 @@ def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tu
                 root = roots[k][None]
                 w = np.maximum(hi - lo, PROOF_MIN_WIDTH)
                 slo, shi = np.clip(root - PROOF_RADIUS * w, 0, 1), np.clip(root + PROOF_RADIUS * w, 0, 1)
-                ok, klo, khi = krawczyk_boxes(CUSP_SQUARE, *_square_parts(charts, cid, slo, shi))
+                ok, klo, khi = cusp_krawczyk(charts, cid, slo, shi)
                 if not ok[0]:
+                    unproven = True
                     continue
                 box = (slo + klo * (shi - slo), slo + khi * (shi - slo))
                 if check_adjugate and not _excludes_zero(charts, ADJ_BLOCK, cid, *box)[0]:
                     if not _excludes_zero(charts2, 2, cid, *box)[0]:
                         out.append(_status(charts, cid, cols, root, box, UNRESOLVED))
                     continue                                 # the spurious factor l . r = 0: no cusp in the box
-                proven_any = True
                 out.append(_status(charts, cid, cols, root, box, CUSP))
-            if not proven_any and not kept:
+            if unproven:
                 out.append(_status(charts, cid, cols, None, (lo, hi), UNRESOLVED))
     pchart, plo, phi = found.pending
     if len(pchart):
@@ -327,7 +324,7 @@ def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tu
             out.append(CuspStatus(float(0.5 * (rlo[b, cols[0]] + rhi[b, cols[0]])), float(0.5 * (rlo[b, cols[1]] + rhi[b, cols[1]])),
                                   (float(rlo[b, cols[0]]), float(rhi[b, cols[0]])), (float(rlo[b, cols[1]]), float(rhi[b, cols[1]])),
                                   UNRESOLVED))
-    return _merge_cusps(out)
+    return merge_cusps(out)
 
 
 def _status(charts, cid, cols, root, box, status) -> CuspStatus:
@@ -343,12 +340,12 @@ def _newton_roots(charts, chart, lo, hi):
     NEWTON_WIDEN times about its centre: (roots (R, N) in the chart's unit coordinates, their charts (R,))."""
     mid, half = 0.5 * (lo + hi), 0.5 * NEWTON_WIDEN * (hi - lo)
     wlo, whi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
-    u, converged, _ = newton(CUSP_SQUARE, *_square_parts(charts, chart, wlo, whi))
+    u, converged = cusp_newton(charts, chart, wlo, whi)
     root = wlo + u * (whi - wlo)
     return root[converged], chart[converged]
 
 
-def _merge_cusps(found) -> tuple[CuspStatus, ...]:
+def merge_cusps(found) -> tuple[CuspStatus, ...]:
     """One entry per cusp: a cusp proven on several quaternion charts (they overlap) is listed once (the
     first proof kept; its other proofs' boxes meet its box); unresolved candidates meeting a proven
     cusp's box are that cusp. Sorted by (x, y)."""
