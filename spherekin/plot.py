@@ -797,6 +797,7 @@ SINGULAR_INCHES = (6.4, 6.0)
 #: The outline of a singular set's free box (its proven singularity-free region around home).
 FREE_BOX_COLOUR = "tab:green"
 #: Cusp markers of plot_singular by status: proven cusps filled, unresolved candidates hollow.
+MODE_CHANGE_COLOUR = "tab:blue"
 CUSP_MARKERS = {"cusp": dict(marker="*", s=90, color="black"),
                 "unresolved": dict(marker="o", s=40, facecolors="none", edgecolors="black")}
 
@@ -845,6 +846,13 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
         if pts:
             handles.append(ax.scatter(*zip(*pts), zorder=3, label=f"cusp ({len(pts)})"
                                       if status == "cusp" else f"unresolved cusp candidate ({len(pts)})", **style))
+    mc = sset.mode_change
+    if mc is not None and mc.found:
+        path = np.asarray(mc.path)
+        xs, ys = path[:, mc.columns.index(sset.x[0])], path[:, mc.columns.index(sset.y[0])]
+        line, = ax.plot(xs * scale, ys * scale, color=MODE_CHANGE_COLOUR, linewidth=1.2,
+                        label=f"mode change {mc.start_solution} -> {mc.end_solution}")
+        handles.append(line)
     ax.legend(handles=handles, loc="upper right", fontsize=8)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
     ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")

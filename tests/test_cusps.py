@@ -108,3 +108,26 @@ def test_five_bar_has_no_cusps(tmp_path, capsys):
                  "--tol", "0.2", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["cusps"] == []
     assert "cusps: 0 proven" in capsys.readouterr().out
+
+
+def test_proven_mode_change_around_the_cusp(cusp_set):
+    """Item 5: a closed loop of inputs around the proven cusp, tracked with every step proven, that comes back
+    in another assembly. Checked with the oracle: start and end poses are both real roots of the degree-8
+    solver at the loop's first input (to 1e-9) and different poses; the loop winds once around the cusp."""
+    from spherekin.problem import mode_change
+
+    from singular_refs import rrr_geometry, rrr_poses
+
+    mc = mode_change(RRR, cusp_set)
+    assert mc.found and mc.start_solution != mc.end_solution and mc.proven_steps > 0
+    path = np.asarray(mc.path)
+    assert np.array_equal(path[0], path[-1]) and np.allclose(path[:, 2], 0.5)
+    cusp = next(c for c in cusp_set.cusps if c.status == "cusp")
+    turn = np.unwrap(np.arctan2(path[:, 1] - cusp.y, path[:, 0] - cusp.x))
+    assert round(abs(turn[-1] - turn[0]) / (2 * math.pi)) == 1
+    poses = rrr_poses(rrr_geometry(), path[0])
+    for pose in (mc.start_pose, mc.end_pose):
+        assert min(np.abs(pose - r).max() for r in poses) < 1e-9
+    assert np.abs(mc.start_pose - mc.end_pose).max() > 1e-3
+    doc = json.loads(json.dumps(mc.as_dict()))
+    assert doc["found"] is True and doc["columns"] == ["beta1", "beta2", "beta3"]
