@@ -430,12 +430,18 @@ def _singular(args) -> int:
             raise ValueError(f"--start-solution: expected a solution number 1..{n} of the solve at --home "
                              f"({n} solution(s)), got {args.start_solution}")
     caps = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
+    if args.mode_change and y is None:
+        raise ValueError("--mode-change: expected a plane of two inputs (--y), got a line")
     sset = singular(mech, x, y, fixed, tol=args.tol * scale, **caps)   # every check before any work
     if home is not None:
         plane_inputs = (x[0],) if y is None else (x[0], y[0])
         box = problem.free_box(home, start=args.start_solution - 1,
                                inputs=plane_inputs if args.free == "plane" else None)
         sset = dataclasses.replace(sset, free_box={**box.as_dict(), "start_solution": args.start_solution})
+    if args.mode_change:
+        from .problem import mode_change
+
+        sset = dataclasses.replace(sset, mode_change=mode_change(mech, sset))
     unit, show = ("deg", 180.0 / math.pi) if args.degrees else ("rad", 1.0)
     plane = x[0] if y is None else f"{x[0]} x {y[0]}"
     at = ", ".join(f"{k} = {v * show:.6g}" for k, v in fixed.items())
@@ -444,6 +450,10 @@ def _singular(args) -> int:
     print(f"{'status':<12} {'boxes':>7}")
     for status, n in sset.counts().items():
         print(f"{status:<12} {n:>7}")
+    if y is not None:
+        kinds = {k: sum(c.status == k for c in sset.cusps) for k in ("cusp", "unresolved")}
+        print(f"cusps: {kinds['cusp']} proven, {kinds['unresolved']} unresolved"
+              + ("" if sset.system == "platform" else " (not searched: the platform system only)"))
     st = sset.stats
     print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
@@ -452,6 +462,14 @@ def _singular(args) -> int:
         sides = ", ".join(f"{k} [{lo * show:.6g}, {hi * show:.6g}]" for k, (lo, hi) in fb["inputs"].items())
         print(f"free box of solution {args.start_solution} at home: {sides} {unit} "
               f"({'proven' if fb['proven'] else 'none proven'}; {fb['cells']} cells; limit: {fb['limit']})")
+    if sset.mode_change is not None:
+        mc = sset.mode_change
+        if mc.found:
+            print(f"mode change: solution {mc.start_solution} -> {mc.end_solution} around the cusp at "
+                  f"({mc.cusp[0] * show:.6g}, {mc.cusp[1] * show:.6g}) {unit}, radius {mc.radius * show:.6g} {unit}, "
+                  f"{mc.proven_steps} proven steps")
+        else:
+            print(f"mode change: none found (searched {mc.searched})")
     if args.json:
         doc = {**sset.as_dict(), "mechanism": mech.name or str(args.file)}
         Path(args.json).write_text(json.dumps(doc, indent=2))
@@ -988,6 +1006,9 @@ def build_parser() -> argparse.ArgumentParser:
     sg.add_argument("--start-solution", metavar="K",
                     type=_whole(1, MAX_ASSEMBLIES, f" (as solve numbers them; at most {MAX_ASSEMBLIES} assemblies)"),
                     help="the assembly at --home: solution K of the solve there (numbered from 1)")
+    sg.add_argument("--mode-change", action="store_true",
+                    help="look for a proven assembly-mode change: a closed loop of inputs around a cusp, tracked "
+                         "with every step proven, that returns in another assembly")
     sg.add_argument("--free", choices=("plane", "all"), default="plane",
                     help="the free box's inputs: the plane's (the others at home; default) or all of them")
     sg.add_argument("--degrees", action="store_true", help="input angles, --tol and printed angles in degrees")

@@ -796,11 +796,15 @@ SINGULAR_INCHES = (6.4, 6.0)
 
 #: The outline of a singular set's free box (its proven singularity-free region around home).
 FREE_BOX_COLOUR = "tab:green"
+#: Cusp markers of plot_singular by status: proven cusps filled, unresolved candidates hollow.
+MODE_CHANGE_COLOUR = "tab:blue"
+CUSP_MARKERS = {"cusp": dict(marker="*", s=90, color="black"),
+                "unresolved": dict(marker="o", s=40, facecolors="none", edgecolors="black")}
 
 
 def plot_singular(sset, path=None, *, degrees: bool = False):
     """Draw a singular set (:class:`spherekin.results.SingularSet`): the plane's cells in the cover, coloured
-    by status (singular: proven; unresolved: hatched); a line of inputs is drawn as a strip. Angles in
+    by status (singular: proven; unresolved: hatched), and its cusps (CUSP_MARKERS); a line of inputs is drawn as a strip. Angles in
     radians (``degrees``: in degrees). Returns the matplotlib Figure; with ``path`` (.png, .pdf or .svg)
     it is also written there."""
     from matplotlib.figure import Figure
@@ -837,6 +841,18 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
                                edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
         handles.append(Patch(facecolor="none", edgecolor=FREE_BOX_COLOUR,
                              label=f"free box of solution {free.get('start_solution', '?')}"))
+    for status, style in CUSP_MARKERS.items():
+        pts = [(c.x * scale, c.y * scale) for c in sset.cusps if c.status == status]
+        if pts:
+            handles.append(ax.scatter(*zip(*pts), zorder=3, label=f"cusp ({len(pts)})"
+                                      if status == "cusp" else f"unresolved cusp candidate ({len(pts)})", **style))
+    mc = sset.mode_change
+    if mc is not None and mc.found:
+        path = np.asarray(mc.path)
+        xs, ys = path[:, mc.columns.index(sset.x[0])], path[:, mc.columns.index(sset.y[0])]
+        line, = ax.plot(xs * scale, ys * scale, color=MODE_CHANGE_COLOUR, linewidth=1.2,
+                        label=f"mode change {mc.start_solution} -> {mc.end_solution}")
+        handles.append(line)
     ax.legend(handles=handles, loc="upper right", fontsize=8)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
     ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")

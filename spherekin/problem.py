@@ -796,6 +796,14 @@ SINGULAR_MAX_BOXES = 10_000_000
 #: T (radians for the plane inputs, chart units for the orientation). Reason: a box then meets at most two
 #: cells per axis, so the covered cells stay close to the curve (a box of side T meets up to 3).
 COVER_FRACTION = 0.5
+#: The cusp system's boxes are accepted below this fraction of T: small enough that a cluster of them is
+#: one root whose hull Newton and the Krawczyk test handle (a cusp is a regular root of (F, D, C_r)).
+CUSP_FRACTION = 0.25
+#: The fixed vectors r of the tangency C_r = grad D . (adj(G) r) (design31.md section 3): seeded, so that
+#: the spurious factor l . r = 0 meets the curve only at isolated points; the second rules those points out.
+#: Cusp candidates left without a proof are searched again at these fractions of T (as REFINE_FRACTIONS).
+CUSP_REFINE_FRACTIONS = (0.03125,)
+CUSP_VECTORS = ((0.5390, -0.7270, 0.4253), (-0.3120, 0.2240, 0.9233))
 
 #: The pieces of the accepted boxes cut by the unresolved cells are searched again with boxes of these fractions
 #: of T, one round each (the cells still unresolved after a round go to the next). Reason: a piece whose cell
@@ -838,8 +846,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     """
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
-    from .results import SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover
+    from .results import Cusp, SingularBox, SingularSet, SingularStats
+    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps, merge_cusps
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -869,6 +877,35 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     grid = Grid.over(plane.axes, tol)
     cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    cusps = ()
+    if on_platform and ay is not None:
+        # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
+        # configuration of the plane lies in them or in the pending ones, whose cells stay unresolved)
+        cusp_sets = system.cusp_charts(CUSP_VECTORS)
+        start = (cover.accepted[0], system.unit(cover.accepted[0], cover.accepted[1]),
+                 system.unit(cover.accepted[0], cover.accepted[2]))
+        found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
+                             max(1, int(max_boxes) - used), start=start)
+        used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+        cands = certify_cusps(system, cusp_sets, found)
+        # candidates without a proof: their boxes searched again with smaller boxes (most hold no root and are
+        # discarded; the hulls Newton and the Krawczyk test see get tighter)
+        for fraction in CUSP_REFINE_FRACTIONS:
+            open_ = [c for c in cands if c.status != "cusp"]
+            chart, alo, ahi = found.accepted
+            if not open_ or not len(chart) or len(found.pending[0]):
+                break                   # (a capped search keeps its pending candidates unresolved)
+            cols = list(system.plane_columns)
+            near = np.zeros(len(chart), dtype=bool)
+            for c in open_:
+                near |= ((alo[:, cols[0]] <= c.box_x[1]) & (ahi[:, cols[0]] >= c.box_x[0])
+                         & (alo[:, cols[1]] <= c.box_y[1]) & (ahi[:, cols[1]] >= c.box_y[0]))
+            start = (chart[near], system.unit(chart[near], alo[near]), system.unit(chart[near], ahi[near]))
+            found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), fraction * tol,
+                                 max(1, int(max_boxes) - used), start=start)
+            used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+            cands = tuple(c for c in cands if c.status == "cusp") + certify_cusps(system, cusp_sets, found)
+        cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status) for c in merge_cusps(cands))
     cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
@@ -893,4 +930,68 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     # t_cover: the box loops; the rest: set-up, projection and certificates
     stats = SingularStats(used, accepted, len(pending[0]), t_cover, t2 - t0 - t_cover, t2 - t0)
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
-                       Platform.name if on_platform else Loops.name)
+                       Platform.name if on_platform else Loops.name, cusps)
+
+
+#: Radii (radians of input) of the circles around a proven cusp tried by :func:`mode_change`, in order: small
+#: enough that the circle meets only the cusp's two fold branches (general_3rrr's cusps are >= 0.1 apart
+#: from other curves in the cases measured), large enough that the tracker's steps stay long.
+MODE_RADII = (0.02, 0.05)
+#: Points of the closed polygon on a circle (the tracker subdivides each side as it needs).
+MODE_POINTS = 256
+#: Start inputs tried on each circle: the solve at each; the track starts where the solve has the most
+#: assemblies (the side of the cusp where three local assemblies exist, a wedge narrowing at the cusp).
+MODE_STARTS = 48
+#: A complete track's end pose is solution j of the start solve when their rotations agree to this (largest
+#: entry): the tracker's poses are proven roots polished to ~1e-15; distinct certified solutions differ by
+#: far more (disjoint proven boxes).
+MODE_MATCH = 1e-9
+
+
+def mode_change(mechanism, sset, *, radii=MODE_RADII, points: int = MODE_POINTS, starts: int = MODE_STARTS):
+    """A proven assembly-mode change around a cusp of ``sset`` (a :class:`spherekin.results.SingularSet` of
+    a plane of two inputs), issue 31 item 5: for each proven cusp (then each unresolved candidate) and
+    each radius, the solve at ``starts`` inputs of the circle, the start where it has the most solutions,
+    and every solution there tracked (:meth:`Problem.track`, every step proven) around the closed polygon
+    of ``points`` sides; found when a complete track ends at another solution of the start solve. Returns
+    a :class:`spherekin.results.ModeChange` (``found`` False with what was searched when none)."""
+    from .results import ModeChange
+
+    if sset.y is None:
+        raise ValueError("mode_change: expected a plane of two inputs, got a line")
+    problem = compile(mechanism)
+    names = problem.mechanism.actuated
+    ordered = sorted(sset.cusps, key=lambda c: c.status != "cusp")
+    tried = 0
+    for c in ordered:
+        for rho in radii:
+            tried += 1
+
+            def rows(theta):
+                r = np.empty((len(theta), len(names)))
+                for j, n in enumerate(names):
+                    r[:, j] = (c.x + rho * np.cos(theta) if n == sset.x[0] else
+                               c.y + rho * np.sin(theta) if n == sset.y[0] else sset.fixed[n])
+                return r
+
+            angles = 2 * np.pi * np.arange(starts) / starts
+            counts = [len(problem.solve(row).solutions) for row in rows(angles)]
+            theta0 = angles[int(np.argmax(counts))]
+            path = rows(theta0 + 2 * np.pi * np.arange(points + 1) / points)
+            path[-1] = path[0]
+            sols = problem.solve(path[0]).solutions
+            for k, s in enumerate(sols):
+                if s.platform_rotation is None:
+                    break
+                track = problem.track(path, start=k)
+                if track.stop is not None:
+                    continue
+                end = track.poses[-1].platform_rotation
+                gaps = [np.abs(end - o.platform_rotation).max() for o in sols]
+                j = int(np.argmin(gaps))
+                if j != k and gaps[j] <= MODE_MATCH:
+                    return ModeChange(True, (c.x, c.y), float(rho), path, k + 1, j + 1, int(track.proven_steps),
+                                      {"cusps": len(ordered), "radii": list(radii), "starts": starts},
+                                      np.array(track.poses[0].platform_rotation), np.array(end), tuple(names))
+    return ModeChange(False, None, None, None, None, None, 0,
+                      {"cusps": len(ordered), "radii": list(radii), "starts": starts, "circles": tried})

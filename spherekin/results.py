@@ -22,7 +22,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
+__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -574,6 +574,57 @@ class SingularBox:
 
 
 @dataclass(frozen=True)
+class Cusp:
+    """A cusp of the singular curve in the plane (three assemblies meet): ``x``, ``y`` its inputs (radians;
+    Newton's root of the cusp system), ``box_x``, ``box_y`` = (lo, hi) radians: the plane projection of
+    the box in which the certificate proved a unique root; ``status``: "cusp" (a unique root of the curve
+    system plus its tangency condition, with the spurious factor excluded) or "unresolved"."""
+
+    x: float
+    y: float
+    box_x: tuple
+    box_y: tuple
+    status: str
+
+    def as_dict(self) -> dict:
+        return {"x": float(self.x), "y": float(self.y),
+                "box": {"x": [float(self.box_x[0]), float(self.box_x[1])],
+                        "y": [float(self.box_y[0]), float(self.box_y[1])]}, "status": self.status}
+
+
+@dataclass(frozen=True)
+class ModeChange:
+    """A proven assembly-mode change around a cusp (issue 31 item 5), or the record of a search that found none.
+
+    ``found``; ``cusp`` (x, y) radians (None if not found); ``radius`` of the circle of inputs around it;
+    ``path`` (K, number of actuated joints) radians, closed (last row = first); ``start_solution`` and
+    ``end_solution``: the solutions (numbered from 1) of the solve at path[0] where the track starts and
+    where it comes back (different); ``proven_steps``; ``searched``: what was tried (cusps, radii, starts);
+    ``start_pose``, ``end_pose``: the platform rotations (3, 3) at path[0] where the track starts and ends;
+    ``columns``: the path's columns (the actuated joints' names)."""
+
+    found: bool
+    cusp: tuple | None
+    radius: float | None
+    path: np.ndarray | None = field(repr=False)
+    start_solution: int | None
+    end_solution: int | None
+    proven_steps: int
+    searched: dict
+    start_pose: np.ndarray | None = field(default=None, repr=False)
+    end_pose: np.ndarray | None = field(default=None, repr=False)
+    columns: tuple = ()
+
+    def as_dict(self) -> dict:
+        return {"found": self.found,
+                "start_pose": None if self.start_pose is None else np.asarray(self.start_pose).tolist(),
+                "end_pose": None if self.end_pose is None else np.asarray(self.end_pose).tolist(), "cusp": None if self.cusp is None else [float(v) for v in self.cusp],
+                "radius": self.radius, "path": None if self.path is None else np.asarray(self.path).tolist(),
+                "start_solution": self.start_solution, "end_solution": self.end_solution,
+                "proven_steps": self.proven_steps, "searched": dict(self.searched), "columns": list(self.columns)}
+
+
+@dataclass(frozen=True)
 class SingularStats:
     """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
     the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
@@ -595,7 +646,7 @@ class SingularSet:
     other actuated joints' readings; ``tol``: the cells' width bound (radians); ``boxes``: the covered
     cells (:class:`SingularBox`); everything in the plane outside them is proven free of parallel
     singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
-    boxes). ``cusps``: none computed yet (empty). ``system``: the equations used ("platform" or "loops").
+    boxes). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty). ``system``: the equations used ("platform" or "loops").
     """
 
     x: tuple
@@ -608,6 +659,7 @@ class SingularSet:
     system: str
     cusps: tuple = ()
     free_box: object = None
+    mode_change: object = None
 
     def counts(self) -> dict:
         """Boxes by status: {"singular": n, "unresolved": m}."""
@@ -626,4 +678,6 @@ class SingularSet:
                 "boxes": [{"x": [float(b.x[0]), float(b.x[1])],
                            "y": None if b.y is None else [float(b.y[0]), float(b.y[1])], "status": b.status}
                           for b in self.boxes],
-                "cusps": list(self.cusps), "free_box": self.free_box, "stats": asdict(self.stats)}
+                "cusps": [c.as_dict() for c in self.cusps], "free_box": self.free_box,
+                "mode_change": None if self.mode_change is None else self.mode_change.as_dict(),
+                "stats": asdict(self.stats)}

@@ -673,3 +673,69 @@ def track_box_min_det(tracked: Tracked, home, start_state, lo, hi, n: int = 41) 
     k = int(np.argmin(dets))
     return BoxTrack(float(dets[k]), mesh[good][k] if good.any() else home, int((~good).sum()), sign_changes,
                     len(mesh))
+
+
+# ---------------------------------------------------------------- 5. cusps of general_3rrr (three assemblies meet)
+
+#: At a cusp input three of the oracle's roots coincide (a triple root); rounding spreads a triple root over
+#: ~eps^(1/3) ~ 1e-5 (measured 3e-6..2e-5 at general_3rrr's cusps), a double root (a fold) over ~1e-8, and a
+#: simple one not at all. A triple of roots within this of each other is a triple root: far above the rounding
+#: floor, far below the spread at a fold (the third root is >= ~1e-2 away there) or 1e-3 away from a cusp
+#: (three roots ~(1e-3)^(1/2) apart: >= 3e-2).
+CUSP_SPREAD = 1e-4
+#: Grid points of the scan whose spread is below this are local-minimum candidates refined by Nelder-Mead (the
+#: spread grows fast away from a cusp: ~0.06 at 1e-4, ~0.28 at 1e-2, measured on general_3rrr).
+CUSP_SCAN_SPREAD = 0.35
+
+
+def triple_root_spread(inputs, geometry=None) -> np.ndarray:
+    """(K,): for each input (K, 3) (radians), the smallest diameter of a triple of the degree-8 oracle's eight
+    roots (complex, real or not; the distance of two roots p, q: sqrt(1 - |<p, q>|^2) of the unit vectors, the
+    sine of their angle, so q and -q, and complex multiples, are one root). Near 0 (CUSP_SPREAD) exactly at a
+    triple root, i.e. a cusp input; at a fold only two roots meet and the triple's diameter stays large."""
+    from itertools import combinations
+
+    from benchmarks.peers_closed_form import candidate_points_many, quadrics_many
+
+    geometry = rrr_geometry() if geometry is None else geometry
+    _, _, v0, alpha2 = geometry
+    inputs = np.atleast_2d(np.asarray(inputs, dtype=float))
+    pts, ok = candidate_points_many(quadrics_many(elbow_axes(geometry, inputs), v0, np.cos(alpha2)))
+    if not ok.all():
+        raise ValueError(f"inputs: the degree-8 oracle is degenerate at {inputs[~ok][:3]}")
+    p = pts / np.linalg.norm(pts, axis=2, keepdims=True)
+    gram = np.abs(np.einsum("kia,kja->kij", np.conj(p), p))
+    d = np.sqrt(np.clip(1.0 - gram ** 2, 0.0, None))                                # (K, 8, 8)
+    trip = np.array(list(combinations(range(8), 3)))
+    diam = np.maximum.reduce([d[:, trip[:, 0], trip[:, 1]], d[:, trip[:, 0], trip[:, 2]], d[:, trip[:, 1], trip[:, 2]]])
+    return diam.min(axis=1)
+
+
+def cusps_in_square(square, beta3: float = 0.5, n: int = 41, geometry=None) -> np.ndarray:
+    """The cusp inputs (M, 2) of general_3rrr in the square ((x0, x1), (y0, y1)) of the plane beta3 = const:
+    the spread (:func:`triple_root_spread`) on an n x n grid, each grid local minimum below CUSP_SCAN_SPREAD
+    refined by Nelder-Mead on log(spread) (scipy), kept when the spread there is below CUSP_SPREAD and the
+    point is inside the square; duplicates (within 1e-6) merged. A cusp closer than a grid step to another
+    may be missed: use a square around the cusps of interest."""
+    from scipy.optimize import minimize
+
+    geometry = rrr_geometry() if geometry is None else geometry
+    (x0, x1), (y0, y1) = square
+    xs, ys = np.linspace(x0, x1, n), np.linspace(y0, y1, n)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    grid = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, beta3)])
+    s = triple_root_spread(grid, geometry).reshape(n, n)
+    padded = np.pad(s, 1, constant_values=np.inf)
+    neigh = np.min([padded[1 + a:n + 1 + a, 1 + b:n + 1 + b] for a in (-1, 0, 1) for b in (-1, 0, 1)
+                    if (a, b) != (0, 0)], axis=0)
+    out = []
+    for i, j in zip(*np.nonzero((s <= neigh) & (s < CUSP_SCAN_SPREAD))):
+        f = lambda p: float(np.log(triple_root_spread([[p[0], p[1], beta3]], geometry)[0] + 1e-300))
+        res = minimize(f, [xs[i], ys[j]], method="Nelder-Mead",
+                       options={"xatol": 1e-11, "fatol": 1e-9, "maxiter": 4000, "initial_simplex":
+                                [[xs[i], ys[j]], [xs[i] + 0.5 * (xs[1] - xs[0]), ys[j]], [xs[i], ys[j] + 0.5 * (ys[1] - ys[0])]]})
+        x, y = res.x
+        if math.exp(res.fun) < CUSP_SPREAD and x0 <= x <= x1 and y0 <= y <= y1:
+            if all(math.hypot(x - a, y - b) > 1e-6 for a, b in out):
+                out.append((float(x), float(y)))
+    return np.array(out).reshape(-1, 2)

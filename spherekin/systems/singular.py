@@ -40,7 +40,8 @@ from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSe
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
-           "SPURIOUS_BOUND"]
+           "SPURIOUS_BOUND", "CUSP_SQUARE",
+           "cusp_newton", "cusp_krawczyk"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -189,11 +190,13 @@ class PlatformPlane:
         d = np.broadcast_to(np.asarray(given, dtype=float), (batch,)) - self.refs[leg]
         return np.stack([np.cos(d), np.sin(d), np.ones_like(d)], axis=1).reshape(shape)
 
-    def _blocks(self, k: int, weights: list[np.ndarray]):
+    def _blocks(self, k: int, weights: list[np.ndarray], rs=None):
         """Control points and tolerances on quaternion chart k, batch first: legs' F (B, 3, 3, 3, 3,
         *3...) with tolerances (B, 3), D (B, 1, 4, 4, 4, *3...) with (B, 1); ``weights``: per leg (B, 3,
         *plane sizes) (:meth:`_leg_weights`). Size-1 plane axes (degree 0) are elevated to degree 2
-        (a constant's control points are that constant: exact)."""
+        (a constant's control points are that constant: exact). With ``rs`` (a sequence of (3,) vectors),
+        also, per r: the tangency C_r (B, 1, ...) with (B, 1) and adj(G) r (B, 3, ...) with (B, 3)
+        (:meth:`_cusp_terms`)."""
         eps = np.finfo(float).eps
         n_plane = weights[0].ndim - 2
         batch = weights[0].shape[0]
@@ -230,8 +233,13 @@ class PlatformPlane:
                                     mags[2][perm[2]], nv)
             det = det + sign * term
             mag = mag + tm
-        det = np.broadcast_to(det, det.shape[:4] + big[1:])
         d_tol = ROUNDING_SAFETY * eps * np.maximum(mag, np.abs(det)).reshape(batch, -1).max(axis=1)
+        if rs is not None:
+            extra = [self._cusp_terms(entries, mags, det, mag, np.asarray(r, dtype=float), big) for r in rs]
+        det = np.broadcast_to(det, det.shape[:4] + big[1:])
+        if rs is not None:
+            return (np.ascontiguousarray(np.stack(f, axis=1)), np.stack(f_tol, axis=1),
+                    np.ascontiguousarray(det[:, None]), d_tol[:, None], extra)
         return (np.ascontiguousarray(np.stack(f, axis=1)), np.stack(f_tol, axis=1),
                 np.ascontiguousarray(det[:, None]), d_tol[:, None])
 
@@ -258,6 +266,89 @@ class PlatformPlane:
         legs = tuple(f"leg{i + 1}" for i in range(3))
         return ChartSet(PlaneParameterization(3), names, variables, [f, d], [ft, dt], [legs, ("det",)],
                         [(), ()], map_lo, map_hi, shift, 1.0, [None, None], [True, True])
+
+    @staticmethod
+    def _cusp_terms(entries, mags, det, mag, r, big):
+        """The tangency C_r = grad_q D . (adj(G) r) and A = adj(G) r of :meth:`cusp_charts`, batch first:
+        (C (B, 1, 6, 6, 6, *5...), its tolerance (B, 1), A (B, 3, 3, 3, 3, *5...), its tolerances (B, 3)).
+        ``entries``/``mags``: G's entries and their magnitudes' nets (rows: legs; columns: the chart's
+        variables), ``det``/``mag``: D and its magnitudes' net. Every term is raised to the common degree
+        (exact) before adding; tolerances: ROUNDING_SAFETY * eps * the nets of the magnitudes (as D's)."""
+        eps = np.finfo(float).eps
+        nv = det.ndim - 1
+
+        def total(terms):
+            shape = np.max([t.shape for t in terms], axis=0)
+            out = 0.0
+            for t in terms:
+                for v in range(nv):
+                    if t.shape[1 + v] < shape[1 + v]:
+                        t = bernstein.elevate(t, v, int(shape[1 + v] - t.shape[1 + v]), nv)
+                out = out + t
+            return out
+
+        def to_big(t):                  # plane axes of degree 0 raised to 2 (the shape of F's nets)
+            for v in range(3, nv):
+                if t.shape[1 + v] < big[v - 2]:
+                    t = bernstein.elevate(t, v, big[v - 2] - t.shape[1 + v], nv)
+            return t
+
+        adj, adj_mag = [], []
+        for j in range(3):               # (adj G)_{j i} = (-1)^{i + j} minor(row i, column j)
+            terms, tmag = [], []
+            for i in range(3):
+                if r[i] == 0.0:
+                    continue
+                rows = [a for a in range(3) if a != i]
+                cols = [b for b in range(3) if b != j]
+                sign = (-1.0) ** (i + j) * r[i]
+                m1 = bernstein.multiply(entries[rows[0]][cols[0]], entries[rows[1]][cols[1]], nv)
+                m2 = bernstein.multiply(entries[rows[0]][cols[1]], entries[rows[1]][cols[0]], nv)
+                a1 = bernstein.multiply(mags[rows[0]][cols[0]], mags[rows[1]][cols[1]], nv)
+                a2 = bernstein.multiply(mags[rows[0]][cols[1]], mags[rows[1]][cols[0]], nv)
+                terms += [sign * m1, -sign * m2]
+                tmag += [abs(r[i]) * a1, abs(r[i]) * a2]
+            adj.append(to_big(total(terms)))
+            adj_mag.append(to_big(total(tmag)))
+        a_tol = [ROUNDING_SAFETY * eps * np.maximum(m, np.abs(a)).reshape(len(a), -1).max(axis=1)
+                 for a, m in zip(adj, adj_mag)]
+        c_terms, c_mag = [], []
+        for j in range(3):               # d/dx_j of a Bernstein net of degree n: n (c_{i+1} - c_i)
+            n = det.shape[1 + j] - 1
+            dd = n * np.diff(det, axis=1 + j)
+            dm = n * (np.take(mag, range(1, n + 1), axis=1 + j) + np.take(mag, range(n), axis=1 + j))
+            c_terms.append(bernstein.multiply(dd, adj[j], nv))
+            c_mag.append(bernstein.multiply(dm, adj_mag[j], nv))
+        cr, cm = total(c_terms), total(c_mag)
+        c_tol = ROUNDING_SAFETY * eps * np.maximum(cm, np.abs(cr)).reshape(len(cr), -1).max(axis=1)
+        return cr[:, None], c_tol[:, None], np.stack(adj, axis=1), np.stack(a_tol, axis=1)
+
+    def cusp_charts(self, rs) -> tuple:
+        """The cusp systems on the cover's charts (a plane, not a line; design31.md section 3): for each
+        r in ``rs`` ((3,) vectors), a :class:`ChartSet` over the cover's variables with blocks F (the legs'
+        equations), D, C_r = grad_q D . (adj(G) r) (the curve's tangent projects to 0 in the plane: on the
+        curve adj(G) = k l^T, so C_r = (l . r) (grad_q D . k)) and A = adj(G) r (3 rows, not pruned: the
+        certificate's test that l . r != 0). Square system: (F, D, C_r) in (q_a, q_b, q_c, t_x, t_y)."""
+        if len(self.plane_charts) != 2:
+            raise ValueError("cusps: expected a plane of two inputs, got a line")
+        cs = self.charts
+        combos = list(itertools.product(*(range(len(p)) for p in self.plane_charts)))
+        n_combo = len(combos)
+        axes = [(self.axis_legs[a], cs.map_lo[::CHARTS, 3 + a], cs.map_hi[::CHARTS, 3 + a],
+                 cs.shift[::CHARTS, 3 + a]) for a in range(2)]
+        weights = [self._leg_weights(i, axes, {}, n_combo) for i in range(3)]
+        per_k = [self._blocks(k, weights, rs)[4] for k in range(CHARTS)]
+        order = [(c, k) for c in range(n_combo) for k in range(CHARTS)]
+        out = []
+        for ri in range(len(rs)):
+            blocks = [np.stack([per_k[k][ri][p][c] for c, k in order]) for p in range(4)]
+            out.append(ChartSet(cs.parameterization, cs.unknowns, cs.variables,
+                                [cs.coeffs[0], cs.coeffs[1], blocks[0], blocks[2]],
+                                [cs.tols[0], cs.tols[1], blocks[1], blocks[3]],
+                                [cs.labels[0], cs.labels[1], ("tangency",), ("adj_r1", "adj_r2", "adj_r3")],
+                                [(), (), (), ()], cs.map_lo, cs.map_hi, cs.shift, 1.0,
+                                [None] * 4, [True, True, True, False]))
+        return tuple(out)
 
     # ---------------------------------------------------------------- certificates
     def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
@@ -305,6 +396,31 @@ class PlatformPlane:
                     ok[retry], _, _ = krawczyk_boxes(_SLICE, small, [t[:, retry] for t in tols])
             out[rows] = ok
         return out
+
+
+#: The cusp system's square rows: the legs' equations (block 0), D (block 1) and the tangency C_r (block 2)
+#: (:meth:`PlatformPlane.cusp_charts`).
+CUSP_SQUARE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0), (2, 0)))
+
+
+def _cusp_square(charts, chart, lo, hi):
+    """The square blocks (F, D, C_r) of a cusp ChartSet restricted to the boxes [lo, hi] (unit, (B, N)) of
+    charts ``chart`` (B,), batch last, and their tolerances."""
+    cps = [bernstein.restrict_batch_last(np.moveaxis(charts.coeffs[b][chart], 0, -1), lo, hi, {}) for b in range(3)]
+    return cps, [charts.tols[b][chart].T for b in range(3)]
+
+
+def cusp_newton(charts, chart, lo, hi):
+    """Newton's method on the cusp system (F, D, C_r) from the centre of each box: (u (B, N) in each box's
+    unit coordinates, converged (B,))."""
+    u, converged, _ = newton(CUSP_SQUARE, *_cusp_square(charts, chart, lo, hi))
+    return u, converged
+
+
+def cusp_krawczyk(charts, chart, lo, hi):
+    """The Krawczyk test of the cusp system on the boxes: (isolated (B,), K lo, K hi (B, N) in each box's
+    unit coordinates), as :func:`spherekin.search.isolation.krawczyk_boxes`."""
+    return krawczyk_boxes(CUSP_SQUARE, *_cusp_square(charts, chart, lo, hi))
 
 
 def _axis_cross(a) -> np.ndarray:

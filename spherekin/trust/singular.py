@@ -17,6 +17,12 @@ Each covered cell gets a status:
   first where the boxes spread more along x (the curve crosses x = const transversally), then y;
 * ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve, boxes
   never processed because the box cap was reached).
+
+Cusps (:func:`certify_cusps`, issue 31 item 2): the cover of the cusp system (the curve system plus the
+tangency C_r, :meth:`spherekin.systems.singular.PlatformPlane.cusp_charts`) is clustered per chart; each
+Newton root proven unique by the Krawczyk test whose box also has adj(G) r enclosed away from 0 is a
+``cusp``; clusters without such a proof are ``unresolved`` candidates. A cluster holding a proven root is
+reported by it (its other boxes are not claimed root-free).
 """
 
 from __future__ import annotations
@@ -27,8 +33,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..closure import tan_half_unit
+from ..core import bernstein
+from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
-__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "SINGULAR", "UNRESOLVED"]
+__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "SINGULAR", "UNRESOLVED",
+           "CUSP", "CuspStatus", "certify_cusps", "merge_cusps"]
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
@@ -199,3 +208,156 @@ def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, cols, round_):
     if np.any(lo >= hi):
         return []
     return [(cell, c, fix, 0.0 if fix < 0 else value, lo, hi)]
+
+
+CUSP = "cusp"
+#: The block of the cusp charts holding adj(G) r (three rows; :meth:`PlatformPlane.cusp_charts`).
+ADJ_BLOCK = 3
+#: Accepted boxes of the cusp system within this (unit coordinates) of each other on one chart are one
+#: cluster (one root, tested once): adjacent boxes of the box loop share faces exactly, far above rounding.
+CLUSTER_SLACK = 1e-9
+#: Newton starts from each accepted box of the cusp system on that box widened this many times about its
+#: centre (unit coordinates, clipped to the chart): the boxes are small (CUSP_FRACTION T) and a cusp's
+#: neighbours need not hold it; Newton is only a guess, the Krawczyk test decides.
+NEWTON_WIDEN = 4.0
+#: Newton roots of one cluster closer than this (unit coordinates, largest component) are one root.
+ROOT_SEPARATION = 1e-7
+#: The Krawczyk box about a Newton root is PROOF_RADIUS times the cluster's hull, whose sides are at least
+#: this (unit coordinates): a hull flat along a variable would give a box too thin to contain the root.
+PROOF_MIN_WIDTH = 1e-3
+
+
+@dataclass(frozen=True)
+class CuspStatus:
+    """One cusp candidate: ``x``, ``y`` (radians; Newton's root, or the cluster's centre when unresolved),
+    ``box_x``, ``box_y`` ((lo, hi), radians: the plane projection of the box whose unique root was proven,
+    or of the cluster), ``status``: ``cusp`` or ``unresolved``."""
+
+    x: float
+    y: float
+    box_x: tuple
+    box_y: tuple
+    status: str
+
+
+def _clusters(chart, lo, hi) -> list:
+    """Indices of the boxes (chart (B,), unit lo, hi (B, N)) grouped into connected clusters per chart."""
+    out = []
+    for c in np.unique(chart):
+        idx = list(np.flatnonzero(chart == c))
+        while idx:
+            group, grow = [idx.pop(0)], True
+            while grow:
+                grow = False
+                glo, ghi = lo[group].min(axis=0), hi[group].max(axis=0)
+                near = [b for b in idx if np.all(lo[b] <= ghi + CLUSTER_SLACK) and np.all(hi[b] >= glo - CLUSTER_SLACK)]
+                if near:
+                    group += near
+                    idx = [b for b in idx if b not in near]
+                    grow = True
+            out.append(np.array(group))
+    return out
+
+
+def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
+    """(B,) bool: some equation of ``block`` has a Bernstein hull (widened by its tolerance) excluding 0 on
+    the boxes [lo, hi] (unit coordinates, (B, N)) of charts ``chart`` (B,): an enclosure of its values."""
+    c = np.moveaxis(charts.coeffs[block][chart], 0, -1)                       # (E, d..., B)
+    r = bernstein.restrict_batch_last(c, lo, hi, {})
+    flat = r.reshape(r.shape[0], -1, r.shape[-1])
+    tol = charts.tols[block][chart].T                                          # (E, B)
+    return np.any((flat.min(axis=1) > tol) | (flat.max(axis=1) < -tol), axis=0)
+
+
+def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tuple[CuspStatus, ...]:
+    """The cusps of a plane system from the box loop's cover of its cusp system (design31.md section 3).
+
+    ``system``: the :class:`spherekin.systems.singular.PlatformPlane`; ``cusp_charts``: its
+    :meth:`cusp_charts` for two vectors (r, r2); ``found``: the :class:`spherekin.search.boxloop.Cover` of
+    the first (accepted: angle boxes; pending: unit boxes). Each cluster of accepted boxes on one chart is
+    tested: Newton's root of the square system (F, D, C_r) in the cluster's hull, the Krawczyk test on the
+    hull or on a box PROOF_RADIUS around the root. ``cusp`` when it proves a unique root in a box X AND the
+    enclosure of adj(G(X)) r excludes the zero vector (then rank G = 2 at the root, adj(G) r = (l . r) k with
+    l . r != 0, so C_r = 0 means grad D . k = 0: the curve's tangent projects to 0, a cusp). A proven root
+    whose adjugate test fails is dropped when C_r2 excludes 0 on X (no point of X satisfies the tangency for
+    r2, so X holds no cusp: the spurious factor l . r = 0), else ``unresolved``; so are clusters without a
+    proof and pending boxes. ``check_adjugate`` False skips the adjugate test (a mutant, for the tests)."""
+    charts, charts2 = cusp_charts
+    cols = list(system.plane_columns)
+    chart, alo, ahi = found.accepted
+    out = []
+    if len(chart):
+        ulo, uhi = system.unit(chart, alo), system.unit(chart, ahi)
+        # Newton from every accepted box (on the box widened NEWTON_WIDEN times about its centre): the roots
+        roots, owners = _newton_roots(charts, chart, ulo, uhi)
+        for group in _clusters(chart, ulo, uhi):
+            c = int(chart[group[0]])
+            cid = np.array([c])
+            lo, hi = ulo[group].min(axis=0)[None], uhi[group].max(axis=0)[None]
+            mine = [k for k in range(len(roots)) if owners[k] == c
+                    and np.all(roots[k] >= lo[0] - CLUSTER_SLACK) and np.all(roots[k] <= hi[0] + CLUSTER_SLACK)]
+            unproven = not mine
+            kept = []
+            for k in mine:                                  # distinct roots of the cluster
+                if any(np.max(np.abs(roots[k] - roots[m])) < ROOT_SEPARATION for m in kept):
+                    continue
+                kept.append(k)
+                root = roots[k][None]
+                w = np.maximum(hi - lo, PROOF_MIN_WIDTH)
+                slo, shi = np.clip(root - PROOF_RADIUS * w, 0, 1), np.clip(root + PROOF_RADIUS * w, 0, 1)
+                ok, klo, khi = cusp_krawczyk(charts, cid, slo, shi)
+                if not ok[0]:
+                    unproven = True
+                    continue
+                box = (slo + klo * (shi - slo), slo + khi * (shi - slo))
+                if check_adjugate and not _excludes_zero(charts, ADJ_BLOCK, cid, *box)[0]:
+                    if not _excludes_zero(charts2, 2, cid, *box)[0]:
+                        out.append(_status(charts, cid, cols, root, box, UNRESOLVED))
+                    continue                                 # the spurious factor l . r = 0: no cusp in the box
+                out.append(_status(charts, cid, cols, root, box, CUSP))
+            if unproven:
+                out.append(_status(charts, cid, cols, None, (lo, hi), UNRESOLVED))
+    pchart, plo, phi = found.pending
+    if len(pchart):
+        rlo, rhi = charts.angle_box(pchart, plo, phi)
+        for b in range(len(pchart)):
+            out.append(CuspStatus(float(0.5 * (rlo[b, cols[0]] + rhi[b, cols[0]])), float(0.5 * (rlo[b, cols[1]] + rhi[b, cols[1]])),
+                                  (float(rlo[b, cols[0]]), float(rhi[b, cols[0]])), (float(rlo[b, cols[1]]), float(rhi[b, cols[1]])),
+                                  UNRESOLVED))
+    return merge_cusps(out)
+
+
+def _status(charts, cid, cols, root, box, status) -> CuspStatus:
+    """The plane reading of a candidate: the root's inputs (or the box's centre) and the box's projection."""
+    blo, bhi = charts.angle_box(cid, *box)
+    pt = 0.5 * (blo[0] + bhi[0]) if root is None else charts.angle_box(cid, root, root)[0][0]
+    return CuspStatus(float(pt[cols[0]]), float(pt[cols[1]]), (float(blo[0, cols[0]]), float(bhi[0, cols[0]])),
+                      (float(blo[0, cols[1]]), float(bhi[0, cols[1]])), status)
+
+
+def _newton_roots(charts, chart, lo, hi):
+    """Newton's roots of the square cusp system from the centre of each box [lo, hi] (unit, (B, N)) widened
+    NEWTON_WIDEN times about its centre: (roots (R, N) in the chart's unit coordinates, their charts (R,))."""
+    mid, half = 0.5 * (lo + hi), 0.5 * NEWTON_WIDEN * (hi - lo)
+    wlo, whi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
+    u, converged = cusp_newton(charts, chart, wlo, whi)
+    root = wlo + u * (whi - wlo)
+    return root[converged], chart[converged]
+
+
+def merge_cusps(found) -> tuple[CuspStatus, ...]:
+    """One entry per cusp: a cusp proven on several quaternion charts (they overlap) is listed once (the
+    first proof kept; its other proofs' boxes meet its box); unresolved candidates meeting a proven
+    cusp's box are that cusp. Sorted by (x, y)."""
+    proven, rest = [], []
+    for f in found:
+        meets = [p for p in proven if f.box_x[0] <= p.box_x[1] and p.box_x[0] <= f.box_x[1]
+                 and f.box_y[0] <= p.box_y[1] and p.box_y[0] <= f.box_y[1]]
+        if f.status == CUSP:
+            if not meets:
+                proven.append(f)
+        else:
+            rest.append(f)
+    rest = [f for f in rest if not any(f.box_x[0] <= p.box_x[1] and p.box_x[0] <= f.box_x[1]
+                                       and f.box_y[0] <= p.box_y[1] and p.box_y[0] <= f.box_y[1] for p in proven)]
+    return tuple(sorted(proven + rest, key=lambda f: (f.x, f.y)))
