@@ -190,3 +190,11 @@ def test_cli_map_singular_draws_the_cells(tmp_path, capsys):
                  "--singular", "--singular-tol", "0.1", "--workers", "0", "--quiet", "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "certified singular set (cells <= 0.1 rad):" in out and png.stat().st_size > 0
+
+
+def test_cli_singular_is_refused_for_the_branches_of_one_input(capsys):
+    from spherekin.cli import main
+
+    assert main(["map", str(RRR.parent / "four_bar.toml"), "--singular"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--singular: only for a map of two inputs" in err
