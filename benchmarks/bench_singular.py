@@ -37,10 +37,11 @@ MECHANISMS = ("general_3rrr", "gosselin")
 DEFAULT_TOLS = (0.1, 0.05)
 FULL_TOLS = (1e-2, 1e-3)
 #: Box cap per set, by mechanism (``--max-boxes`` sets one for all). Reason: general_3rrr needs ~5.4e5 boxes at
-#: T = 0.1 and ~1.2e6 at 0.05 (~1/T; ~6e6 at 1e-2): it keeps the library's cap (1e7), which only stops a runaway.
+#: T = 0.1 and ~1.2e6 at 0.05 (~1/T; ~6e6 at 1e-2): it keeps the library's cap (spherekin.problem.SINGULAR_MAX_BOXES,
+#: 1e7; None here), which only stops a runaway.
 #: The agile eye never completes (every cell unresolved at 5e4 boxes, and at 3e5 in ~35 s): 5e4 bounds its run
 #: at ~20 s per T for the same answer.
-MAX_BOXES = {"general_3rrr": 10_000_000, "gosselin": 50_000}
+MAX_BOXES = {"general_3rrr": None, "gosselin": 50_000}
 #: A reference point (bisected to 1e-10) on a cell edge counts as inside within this (radians).
 EDGE = 1e-9
 
@@ -78,7 +79,9 @@ def main(argv=None) -> int:
     plane = dict(x=("beta1", -math.pi, math.pi), y=("beta2", -math.pi, math.pi), fixed={"beta3": 0.5})
     refs = _reference_points(args.ref_lines) if args.ref_lines else np.empty((0, 2))
     rows, sets = [], {}
-    caps = {name: args.max_boxes or MAX_BOXES.get(name, 10_000_000) for name in args.mechanisms.split(",")}
+    from spherekin.problem import SINGULAR_MAX_BOXES
+
+    caps = {name: args.max_boxes or MAX_BOXES.get(name) or SINGULAR_MAX_BOXES for name in args.mechanisms.split(",")}
     print(f"parallel singular set, plane beta3 = 0.5 over [-pi, pi]^2, box caps {caps} "
           f"({platform.machine()}, one process)")
     head = (f"{'mechanism':<13} {'T':>6} {'singular':>9} {'unresolved':>10} {'complete':>8} {'boxes':>10} "
