@@ -358,14 +358,27 @@ def _map(args) -> int:
     if args.table and not Path(args.table).resolve().parent.is_dir():
         raise ValueError(f"--table {args.table}: the directory does not exist")
     _check_strategy(mech, args)
+    for option, value in (("--singular-tol", args.singular_tol), ("--singular-max-boxes", args.singular_max_boxes)):
+        if value is not None and not args.singular:
+            raise ValueError(f"{option}: only with --singular (the certified singular cells)")
+    singular_tol = None
+    if args.singular:
+        from .problem import SINGULAR_TOL
+
+        from .batch.maps import check_singular_tol
+
+        singular_tol = check_singular_tol(SINGULAR_TOL if args.singular_tol is None else
+                                          args.singular_tol * (math.pi / 180.0 if args.degrees else 1.0), "--singular-tol")
     x, y = inputs.axes
     print(f"{mech.name or args.file}: assembly-mode map over {x.name} x {y.name} "
-          f"({len(x.values)} x {len(y.values)} inputs)")
+          f"({len(x.values)} x {len(y.values)} inputs)"
+          + ("" if singular_tol is None else f", with its certified singular set (cells <= {singular_tol:.3g} rad)"))
     progress = _BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         amap = assembly_map(mech, x, y, inputs.fixed, out=args.out, resume=args.resume, overwrite=args.overwrite,
                             scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
-                            progress=progress, **_strategy(args))
+                            progress=progress, singular_tol=singular_tol,
+                            singular_max_boxes=args.singular_max_boxes, **_strategy(args))
     finally:
         progress.close()
     print(amap.table())
@@ -484,6 +497,8 @@ def _singular(args) -> int:
 
 #: map's options that draw a map of two inputs, not the branches of one (refused there by name).
 _TWO_INPUT_MAP_OPTIONS = (("fix", "--fix"), ("table", "--table"), ("out", "--out"), ("singularity", "--singularity"),
+                          ("singular", "--singular"), ("singular_tol", "--singular-tol"),
+                          ("singular_max_boxes", "--singular-max-boxes"),
                           ("resume", "--resume"), ("overwrite", "--overwrite"), ("scheduler", "--scheduler"),
                           ("workers", "--workers"), ("chunk_size", "--chunk-size"))
 
@@ -928,6 +943,7 @@ def _add_strategy_options(so) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     from .paper_gosselin import DEFAULT_PASSIVE_RANGE
+    from .problem import SINGULAR_TOL
     from .systems.platform import MAX_ASSEMBLIES
 
     parser = _Parser(prog="spherekin", description=DESCRIPTION, formatter_class=_HelpFormatter,
@@ -978,7 +994,17 @@ def build_parser() -> argparse.ArgumentParser:
     _add_grid_options(mp)
     mp.add_argument("--plot", help="draw the map (.png, .pdf or .svg)")
     mp.add_argument("--singularity", action="store_true",
-                    help="second panel: the smallest normalized parallel-singularity measure over the solutions")
+                    help="second panel: the smallest normalized parallel-singularity measure over the solutions "
+                         "(numeric, per grid point; for the certified singular cells see --singular)")
+    mp.add_argument("--singular", action="store_true",
+                    help="also compute the certified parallel-singular set of the map's plane (as the singular "
+                         "command does over the grid's ranges) and draw its cells over the colours: singular "
+                         "filled, unresolved hatched (not the numeric --singularity panel)")
+    mp.add_argument("--singular-tol", type=float, default=None, metavar="T",
+                    help="with --singular: width bound of its cells (radians; degrees with --degrees; "
+                         f"default: {SINGULAR_TOL})")
+    mp.add_argument("--singular-max-boxes", type=_whole(1), default=None, metavar="N",
+                    help="with --singular: cap on the boxes its cover processes (reached: the rest is unresolved)")
     mp.add_argument("--table", help="write the map, one row per grid point, as CSV")
     mp.add_argument("--out", help="also write the results table (one row per solution; .parquet or .csv)")
     mp.add_argument("--joint", help="one actuated joint: the passive joint whose angle the branches report and draw "

@@ -606,14 +606,24 @@ NO_ASSEMBLY_LABEL = "no assembly (0 solutions): no measure"
 TRACK_ORIENTATION_LABEL = "platform orientation\n(unit quaternion)"
 TRACK_MEASURE_LABEL = "parallel_measure\nσmin/σmax of K_p"
 TRACK_INCHES = (8.0, 6.0)
+#: How the certified singular cells are drawn over a map's colours (:func:`plot_assembly_map`), by status:
+#: singular cells filled black (no count colour is black) and outlined, unresolved cells hatched and outlined
+#: (no fill: the colours under them stay visible). The gid of each cell's patch is "singular-cell:STATUS".
+MAP_SINGULAR_STYLE = {"singular": dict(facecolor="black", edgecolor="black", linewidth=0.4, alpha=0.85),
+                      "unresolved": dict(facecolor="none", edgecolor="black", linewidth=0.4, hatch="////")}
+#: Outline of the singular set's free box on a map (its proven singularity-free region around home).
+MAP_FREE_BOX_STYLE = dict(facecolor="none", edgecolor="white", linewidth=2.0, linestyle="--")
 
 
 def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool = False):
     """Draw an assembly-mode map (:class:`spherekin.batch.AssemblyMap`): the number of solutions
     at each grid point as a discrete colour (the boundaries are where assembly modes appear or
     vanish: parallel singularities), grid points whose count is not fully certified marked with a
-    black x; with ``measure``, a second panel with the smallest normalized parallel-singularity
-    measure over the solutions (log scale; dark curves are the singularities). Axes in the swept
+    black x; the map's ``singular_set`` if it has one (the certified singular cells, proven: singular
+    cells filled black, unresolved ones hatched, :data:`MAP_SINGULAR_STYLE`; its free box, if any,
+    outlined) drawn over the colours; with ``measure``, a second panel with the smallest normalized
+    parallel-singularity measure over the solutions (numeric, log scale; dark curves are the
+    singularities). Axes in the swept
     joints' names and units (``degrees``). Returns the matplotlib Figure; with ``path`` (.png,
     .pdf or .svg) it is also written there.
     """
@@ -647,10 +657,15 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
         ii, jj = np.nonzero(doubt)
         ax.plot(xs[ii], ys[jj], "x", color="black", markersize=4, linestyle="none",
                 label="count not fully certified")
+    if amap.singular_set is not None:
+        _draw_singular_cells(ax, amap.singular_set, scale, unit)
+    if ax.get_legend_handles_labels()[0]:
         ax.legend(loc="upper right", fontsize=8, framealpha=0.8)
     ax.set_xlabel(f"{amap.x.name} ({unit})")
     ax.set_ylabel(f"{amap.y.name} ({unit})")
-    ax.set_title("number of assembly modes", fontsize=11)
+    sset = amap.singular_set
+    ax.set_title("number of assembly modes" + ("" if sset is None else ", certified singular cells"
+                                               + ("" if sset.complete else " (incomplete: box cap)")), fontsize=11)
     if measure:
         ax2 = fig.add_subplot(1, panels, 2)
         vals = np.clip(amap.measure, MEASURE_FLOOR, 1.0)          # NaN (no solution) stays blank
@@ -672,6 +687,30 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
     if out is not None:
         fig.savefig(out, format=fmt, dpi=DPI)
     return fig
+
+
+def _draw_singular_cells(ax, sset, scale: float, unit: str) -> None:
+    """A map's certified singular set over its colours: one Rectangle per cell (styled by status,
+    gid "singular-cell:STATUS"), the proven free box outlined, one legend entry each."""
+    from matplotlib.patches import Rectangle
+
+    counts = sset.counts()
+    labelled = set()
+    for b in sset.boxes:
+        label = None
+        if b.status not in labelled:
+            labelled.add(b.status)
+            label = (f"{b.status} cell ({counts[b.status]}, <= {sset.tol * scale:.3g} {unit})" if b.status == "singular"
+                     else f"{b.status} cell ({counts[b.status]})")
+        patch = Rectangle((b.x[0] * scale, b.y[0] * scale), (b.x[1] - b.x[0]) * scale, (b.y[1] - b.y[0]) * scale,
+                          label=label, **MAP_SINGULAR_STYLE[b.status])
+        patch.set_gid(f"singular-cell:{b.status}")
+        ax.add_patch(patch)
+    free = sset.free_box
+    if free is not None and free["proven"]:
+        (x0, x1), (y0, y1) = free["inputs"][sset.x[0]], free["inputs"][sset.y[0]]
+        ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale,
+                               label=f"free box of solution {free.get('start_solution', '?')}", **MAP_FREE_BOX_STYLE))
 
 
 def plot_track(mechanism, track, path=None, *, degrees: bool = False):

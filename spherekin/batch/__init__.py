@@ -100,17 +100,41 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
 def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping[str, float] | Sequence[str] = (),
                  *, out=None, resume: bool = False, overwrite: bool = False, client=None,
                  scheduler: str | None = None, workers: int | None = None, chunk_size: int | None = None,
-                 progress: Callable[[int, int], None] | None = None, **strategy) -> AssemblyMap:
+                 progress: Callable[[int, int], None] | None = None, singular_tol: float | None = None,
+                 singular_max_boxes: int | None = None, **strategy) -> AssemblyMap:
     """The assembly-mode map over the grid ``x`` by ``y`` (GridAxis or "name=lo:hi:n"), the other
     actuated joints at ``fixed`` (name -> radians, or "name=value"); with ``out`` the results table
-    is also written there (and ``resume`` completes it). Ctrl-C raises KeyboardInterrupt."""
-    from ..problem import as_mechanism
-    from .maps import MAP_COLUMNS, aggregate
-    from .sinks import read_results
+    is also written there (and ``resume`` completes it). Ctrl-C raises KeyboardInterrupt.
+
+    ``singular_tol`` (radians; None: not computed): also the certified parallel-singular set of the
+    map's plane (:func:`spherekin.singular` over the grid's ranges, cells no wider than singular_tol,
+    ``singular_max_boxes`` its box cap), in :attr:`AssemblyMap.singular_set`. Not to be confused with
+    the map's ``singular`` counts (entries the solver flagged singular) nor its ``measure``."""
+    from ..problem import as_mechanism, singular
+    from .maps import aggregate, check_singular_tol
 
     mechanism = as_mechanism(mechanism)
     inputs = grid_inputs(mechanism, [x, y], fixed)
     x, y = inputs.axes
+    sset = None
+    if singular_tol is not None:     # checked and computed before the map: its errors come before any long work
+        singular_tol = check_singular_tol(singular_tol)
+        _prepare(mechanism, inputs, strategy)          # the map's strategy checked too (milliseconds)
+        caps = {} if singular_max_boxes is None else {"max_boxes": singular_max_boxes}
+        sset = singular(mechanism, (x.name, x.values[0], x.values[-1]), (y.name, y.values[0], y.values[-1]),
+                        inputs.fixed, tol=singular_tol, **caps)
+    elif singular_max_boxes is not None:
+        raise ValueError("singular_max_boxes: only with singular_tol (the singular set's cell width)")
+    frame = _map_frame(mechanism, inputs, out, resume, overwrite, client, scheduler, workers, chunk_size,
+                       progress, strategy)
+    return aggregate(frame, x, y, inputs.fixed, mechanism.name, singular_set=sset)
+
+
+def _map_frame(mechanism, inputs, out, resume, overwrite, client, scheduler, workers, chunk_size, progress, strategy):
+    """The results table of a map's grid (in memory, or written to ``out`` and read back)."""
+    from .maps import MAP_COLUMNS
+    from .sinks import read_results
+
     if out is None:
         frame = solve_many(mechanism, inputs, client=client, scheduler=scheduler, workers=workers,
                            chunk_size=chunk_size, progress=progress, **strategy)
@@ -125,4 +149,4 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
 
             warnings.warn(summary.note, UserWarning, stacklevel=2)
         frame = read_results(out, columns=MAP_COLUMNS)
-    return aggregate(frame, x, y, inputs.fixed, mechanism.name)
+    return frame

@@ -5,7 +5,9 @@ The number of real assemblies changes only where the actuator inputs cross a par
 grid are those singularity curves, sampled at the grid's resolution. Each grid point also carries how
 many of its entries are certified, singular, or flagged (unverified, cluster, continuum: the count
 there is not proven), and the smallest normalized parallel-singularity measure over its solutions
-(:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`: 0 on a singularity).
+(:meth:`spherekin.mechanism.SphericalMechanism.parallel_measure`: 0 on a singularity). A map may also
+carry the certified singular set of its plane (``singular_set``, :func:`spherekin.singular`): the cells
+where the count can change, proven, drawn over the colours by :func:`spherekin.plot.plot_assembly_map`.
 """
 
 from __future__ import annotations
@@ -17,12 +19,25 @@ import numpy as np
 
 from .inputs import GridAxis
 
-__all__ = ["MAP_COLUMNS", "FLAGGED", "AssemblyMap", "aggregate"]
+__all__ = ["MAP_COLUMNS", "FLAGGED", "AssemblyMap", "aggregate", "check_singular_tol"]
 
 #: The columns of a results table a map reads.
 MAP_COLUMNS = ("input", "solution", "status", "parallel_measure")
 #: Statuses whose entries leave the count unproven (docs/results-format.md).
 FLAGGED = ("unverified", "cluster", "continuum")
+#: A singular set belongs to a map when its fixed joints' readings agree within this (radians): both are
+#: the same parsed numbers, so any difference beyond rounding is another plane.
+FIXED_MATCH = 1e-12
+
+
+def check_singular_tol(value, name: str = "singular_tol") -> float:
+    """The cell width (radians) of a map's certified singular set, checked as :func:`spherekin.singular`
+    takes it: ValueError naming ``name`` (the keyword or option as typed) otherwise."""
+    from ..problem import SINGULAR_MAX_TOL
+
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= SINGULAR_MAX_TOL:
+        raise ValueError(f"{name}: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,7 +45,9 @@ class AssemblyMap:
     """Per grid point (arrays of shape (len(x.values), len(y.values)), x first): ``solutions`` (the
     number of entries), ``certified``, ``singular``, ``flagged`` (module doc), ``measure`` (smallest
     parallel measure over the solutions; NaN without solution). ``fixed``: the other actuated joints
-    (radians); ``mechanism``: its name."""
+    (radians); ``mechanism``: its name. ``singular_set``: None, or the certified parallel-singular set
+    (:class:`spherekin.results.SingularSet`) of the map's plane (same x and y joints, same fixed joints):
+    outside its cells the count cannot change (``singular`` above is a count of entries, not this set)."""
 
     x: GridAxis
     y: GridAxis
@@ -41,6 +58,18 @@ class AssemblyMap:
     singular: np.ndarray = field(repr=False)
     flagged: np.ndarray = field(repr=False)
     measure: np.ndarray = field(repr=False)
+    singular_set: object = field(default=None, repr=False)
+
+    def __post_init__(self):
+        s = self.singular_set
+        if s is None:
+            return
+        plane = (s.x[0], None if s.y is None else s.y[0])
+        if plane != (self.x.name, self.y.name):
+            raise ValueError(f"singular_set: expected the map's plane {self.x.name} x {self.y.name}, got "
+                             f"{plane[0]} x {plane[1]}")
+        if set(s.fixed) != set(self.fixed) or any(abs(s.fixed[k] - self.fixed[k]) > FIXED_MATCH for k in s.fixed):
+            raise ValueError(f"singular_set: expected the map's fixed joints {dict(self.fixed)}, got {dict(s.fixed)}")
 
     @property
     def proven(self) -> np.ndarray:
@@ -60,6 +89,11 @@ class AssemblyMap:
             rows.append(f"  {n:9d}  {c:11d}  {proven:30d}")
         rows.append(f"  entries: {int(self.certified.sum())} certified, {int(self.singular.sum())} singular, "
                     f"{int(self.flagged.sum())} flagged (unverified, cluster or continuum)")
+        if self.singular_set is not None:
+            counts = self.singular_set.counts()
+            rows.append(f"  certified singular set (cells <= {self.singular_set.tol:.3g} rad): "
+                        f"{counts.get('singular', 0)} singular, {counts.get('unresolved', 0)} unresolved cell(s)"
+                        + ("" if self.singular_set.complete else " (box cap reached: incomplete)"))
         return "\n".join(rows)
 
     def frame(self):
@@ -72,8 +106,10 @@ class AssemblyMap:
                              "flagged": self.flagged.ravel(), "parallel_measure": self.measure.ravel()})
 
 
-def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mechanism: str) -> AssemblyMap:
-    """The map of a results table (:mod:`spherekin.batch.rows`) of the grid x by y (input k = i * ny + j)."""
+def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mechanism: str, *,
+              singular_set=None) -> AssemblyMap:
+    """The map of a results table (:mod:`spherekin.batch.rows`) of the grid x by y (input k = i * ny + j),
+    with ``singular_set`` (:class:`AssemblyMap`) if given."""
     shape = (len(x.values), len(y.values))
     size = shape[0] * shape[1]
     idx = frame["input"].to_numpy()
@@ -92,4 +128,4 @@ def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mecha
     measure[np.isinf(measure)] = np.nan
     return AssemblyMap(x, y, dict(fixed), mechanism, count(has), count(has & (status == "certified")),
                        count(has & (status == "singular")), count(has & np.isin(status, FLAGGED)),
-                       measure.reshape(shape))
+                       measure.reshape(shape), singular_set)
