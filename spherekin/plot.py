@@ -706,11 +706,36 @@ def _draw_singular_cells(ax, sset, scale: float, unit: str) -> None:
                           label=label, **MAP_SINGULAR_STYLE[b.status])
         patch.set_gid(f"singular-cell:{b.status}")
         ax.add_patch(patch)
+    _draw_singular_extras(ax, sset, scale, MAP_FREE_BOX_STYLE)
+
+
+def _draw_singular_extras(ax, sset, scale: float, free_style: dict) -> list:
+    """A singular set's free box (outlined with ``free_style``), cusps (CUSP_MARKERS) and proven mode
+    change (its closed path of inputs) on ``ax`` (angles times ``scale``); returns their legend handles.
+    One drawing for plot_singular and the maps' overlay."""
+    from matplotlib.patches import Rectangle
+
+    handles = []
     free = sset.free_box
     if free is not None and free["proven"]:
-        (x0, x1), (y0, y1) = free["inputs"][sset.x[0]], free["inputs"][sset.y[0]]
-        ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale,
-                               label=f"free box of solution {free.get('start_solution', '?')}", **MAP_FREE_BOX_STYLE))
+        box = free["inputs"]
+        (x0, x1), (y0, y1) = box[sset.x[0]], box[sset.y[0]] if sset.y is not None else (0.0, 1.0 / scale)
+        handles.append(ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale,
+                                              label=f"free box of solution {free.get('start_solution', '?')}",
+                                              **free_style)))
+    for status, style in CUSP_MARKERS.items():
+        pts = [(c.x * scale, c.y * scale) for c in sset.cusps if c.status == status]
+        if pts:
+            handles.append(ax.scatter(*zip(*pts), zorder=3, label=f"cusp ({len(pts)})"
+                                      if status == "cusp" else f"unresolved cusp candidate ({len(pts)})", **style))
+    mc = sset.mode_change
+    if mc is not None and mc.found:
+        path = np.asarray(mc.path)
+        xs, ys = path[:, mc.columns.index(sset.x[0])], path[:, mc.columns.index(sset.y[0])]
+        line, = ax.plot(xs * scale, ys * scale, color=MODE_CHANGE_COLOUR, linewidth=1.2,
+                        label=f"mode change {mc.start_solution} -> {mc.end_solution}")
+        handles.append(line)
+    return handles
 
 
 def plot_track(mechanism, track, path=None, *, degrees: bool = False):
@@ -835,8 +860,9 @@ SINGULAR_INCHES = (6.4, 6.0)
 
 #: The outline of a singular set's free box (its proven singularity-free region around home).
 FREE_BOX_COLOUR = "tab:green"
-#: Cusp markers of plot_singular by status: proven cusps filled, unresolved candidates hollow.
+#: The path of a proven assembly-mode change (a closed loop of inputs around a cusp).
 MODE_CHANGE_COLOUR = "tab:blue"
+#: Cusp markers of plot_singular and the maps' overlay by status: proven cusps filled, unresolved hollow.
 CUSP_MARKERS = {"cusp": dict(marker="*", s=90, color="black"),
                 "unresolved": dict(marker="o", s=40, facecolors="none", edgecolors="black")}
 
@@ -872,26 +898,7 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
     counts = sset.counts()
     handles = [Patch(facecolor=SINGULAR_COLOURS[k], hatch="///" if k != "singular" else None,
                      label=f"{k} ({counts.get(k, 0)})") for k in SINGULAR_COLOURS]
-    free = sset.free_box
-    if free is not None and free["proven"]:
-        box = free["inputs"]
-        (x0, x1), (y0, y1) = box[sset.x[0]], box[sset.y[0]] if sset.y is not None else (0.0, 1.0 / scale)
-        ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale, facecolor="none",
-                               edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
-        handles.append(Patch(facecolor="none", edgecolor=FREE_BOX_COLOUR,
-                             label=f"free box of solution {free.get('start_solution', '?')}"))
-    for status, style in CUSP_MARKERS.items():
-        pts = [(c.x * scale, c.y * scale) for c in sset.cusps if c.status == status]
-        if pts:
-            handles.append(ax.scatter(*zip(*pts), zorder=3, label=f"cusp ({len(pts)})"
-                                      if status == "cusp" else f"unresolved cusp candidate ({len(pts)})", **style))
-    mc = sset.mode_change
-    if mc is not None and mc.found:
-        path = np.asarray(mc.path)
-        xs, ys = path[:, mc.columns.index(sset.x[0])], path[:, mc.columns.index(sset.y[0])]
-        line, = ax.plot(xs * scale, ys * scale, color=MODE_CHANGE_COLOUR, linewidth=1.2,
-                        label=f"mode change {mc.start_solution} -> {mc.end_solution}")
-        handles.append(line)
+    handles += _draw_singular_extras(ax, sset, scale, dict(facecolor="none", edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
     ax.legend(handles=handles, loc="upper right", fontsize=8)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
     ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
