@@ -269,7 +269,7 @@ def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
     return np.any((flat.min(axis=1) > tol) | (flat.max(axis=1) < -tol), axis=0)
 
 
-def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tuple[CuspStatus, ...]:
+def certify_cusps(system, cusp_charts, found) -> tuple[CuspStatus, ...]:
     """The cusps of a plane system from the box loop's cover of its cusp system (design31.md section 3).
 
     ``system``: the :class:`spherekin.systems.singular.PlatformPlane`; ``cusp_charts``: its
@@ -281,7 +281,7 @@ def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tu
     l . r != 0, so C_r = 0 means grad D . k = 0: the curve's tangent projects to 0, a cusp). A proven root
     whose adjugate test fails is dropped when C_r2 excludes 0 on X (no point of X satisfies the tangency for
     r2, so X holds no cusp: the spurious factor l . r = 0), else ``unresolved``; so are clusters without a
-    proof and pending boxes. ``check_adjugate`` False skips the adjugate test (a mutant, for the tests)."""
+    proof and pending boxes."""
     charts, charts2 = cusp_charts
     cols = list(system.plane_columns)
     chart, alo, ahi = found.accepted
@@ -310,7 +310,7 @@ def certify_cusps(system, cusp_charts, found, check_adjugate: bool = True) -> tu
                     unproven = True
                     continue
                 box = (slo + klo * (shi - slo), slo + khi * (shi - slo))
-                if check_adjugate and not _excludes_zero(charts, ADJ_BLOCK, cid, *box)[0]:
+                if not _excludes_zero(charts, ADJ_BLOCK, cid, *box)[0]:
                     if not _excludes_zero(charts2, 2, cid, *box)[0]:
                         out.append(_status(charts, cid, cols, root, box, UNRESOLVED))
                     continue                                 # the spurious factor l . r = 0: no cusp in the box
