@@ -120,13 +120,15 @@ def main(argv=None) -> int:
 
 
 def _figure(path, sset, n: int, plane) -> None:
-    """The map of general_3rrr at beta3 = 0.5 with its certified cells and the free box of home (0, 0, 0.5),
-    solution 1 (in the plane), written to ``path``."""
+    """The map of general_3rrr at beta3 = 0.5 with its certified cells and cusps, the free box of home
+    (0, 0, 0.5), solution 1 (in the plane), and a proven assembly-mode change around a cusp (if one is
+    found), written to ``path``."""
     import dataclasses
 
     import spherekin
     from spherekin import batch
     from spherekin.plot import plot_assembly_map
+    from spherekin.problem import mode_change
 
     file = ROOT / "examples" / "general_3rrr.toml"
     if sset is None:
@@ -137,6 +139,14 @@ def _figure(path, sset, n: int, plane) -> None:
     print(f"free box of solution 1 at home (0, 0, 0.5): beta1 [{box.lo[0]:.3f}, {box.hi[0]:.3f}], "
           f"beta2 [{box.lo[1]:.3f}, {box.hi[1]:.3f}] ({'proven' if box.proven else 'none proven'}, "
           f"limit {box.limit}; {time.perf_counter() - t0:.1f} s)")
+    t0 = time.perf_counter()
+    change = mode_change(file, sset)
+    sset = dataclasses.replace(sset, mode_change=change)
+    print(f"cusps: {sum(c.status == 'cusp' for c in sset.cusps)} proven, "
+          f"{sum(c.status != 'cusp' for c in sset.cusps)} unresolved; mode change: "
+          + (f"solution {change.start_solution} -> {change.end_solution} around the cusp "
+             f"({change.cusp[0]:.4f}, {change.cusp[1]:.4f})" if change.found else "none found")
+          + f" ({time.perf_counter() - t0:.1f} s)")
     t0 = time.perf_counter()
     amap = batch.assembly_map(file, f"beta1=-pi:pi:{n}", f"beta2=-pi:pi:{n}", {"beta3": 0.5})
     amap = dataclasses.replace(amap, singular_set=sset)
