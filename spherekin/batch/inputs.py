@@ -82,9 +82,7 @@ def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
     parts = rest.split(":")
     if not sep or not name.strip() or len(parts) != 3:
         raise ValueError(f"--grid {spec!r}: expected name=lo:hi:n, e.g. beta1=-pi:pi:64")
-    name = name.strip()
-    lo = parse_angle(f"--grid {name} (lo)", parts[0], degrees=degrees)
-    hi = parse_angle(f"--grid {name} (hi)", parts[1], degrees=degrees)
+    name, lo, hi = parse_range(f"{name}={parts[0]}:{parts[1]}", "--grid", degrees=degrees)
     try:
         n = int(check_ascii(f"--grid {name} (n)", parts[2]))
     except ValueError:
@@ -92,8 +90,6 @@ def parse_grid(spec: str, degrees: bool = False) -> GridAxis:
                          f"got {shown(parts[2])}") from None
     if n < 2:
         raise ValueError(f"--grid {name}: expected n >= 2 points (hold a joint still with --fix {name}=value), got {n}")
-    if not lo < hi:
-        raise ValueError(f"--grid {name}: expected lo < hi, got lo = {lo:.6g}, hi = {hi:.6g}")
     return GridAxis(name, np.linspace(lo, hi, n))
 
 

@@ -100,6 +100,15 @@ def _named(names, values) -> dict:
     return {n: float(v) for n, v in zip(names, values)}
 
 
+def _refusal(w_lo, w_hi, image: bool):
+    """What a Krawczyk test of the boxes [w_lo, w_hi] answers without testing (None: test them): no box,
+    or no IEEE default rounding (a refusal, never a wrong verdict: every box not proven, K the box)."""
+    if len(w_lo) and iv.rounding_environment_ok():
+        return None
+    refused = np.zeros(len(w_lo), dtype=bool)
+    return (refused, w_lo, w_hi) if image else refused
+
+
 class LoopEquations:
     """The transversal closure system F(theta, x) of ``mechanism`` with its inputs as unknowns.
 
@@ -203,10 +212,9 @@ class LoopEquations:
         box of every input of the segment (the Krawczyk theorem), far tighter than the box."""
         w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
         x0, x1 = np.asarray(x0, dtype=float), np.asarray(x1, dtype=float)
-        n = len(w_lo)
-        if n == 0 or not iv.rounding_environment_ok():
-            refused = np.zeros(n, dtype=bool)       # a refusal, never a wrong verdict
-            return (refused, w_lo, w_hi) if image else refused
+        refused = _refusal(w_lo, w_hi, image)
+        if refused is not None:
+            return refused
         delta = x1 - x0
         sigma = iv.from_bounds(np.array([-SIGMA]), np.array([SIGMA - 1.0])).reshape(2, 1, 1)
         xs = iv.add(iv.point(x1), iv.mul(iv.point(delta), sigma))               # holds x1 + sigma delta
@@ -243,10 +251,9 @@ class LoopEquations:
         singularity of that assembly over X). A boolean per box; with ``image``, also K (lo, hi)."""
         w_lo, w_hi = np.asarray(w_lo, dtype=float), np.asarray(w_hi, dtype=float)
         x_lo, x_hi = np.asarray(x_lo, dtype=float), np.asarray(x_hi, dtype=float)
-        n = len(w_lo)
-        if n == 0 or not iv.rounding_environment_ok():
-            refused = np.zeros(n, dtype=bool)       # a refusal, never a wrong verdict
-            return (refused, w_lo, w_hi) if image else refused
+        refused = _refusal(w_lo, w_hi, image)
+        if refused is not None:
+            return refused
         xs = iv.from_bounds(x_lo, x_hi)
         x_c = np.clip(0.5 * (x_lo + x_hi), x_lo, x_hi)
         f_m, ja, jp, jp_mid = self._enclosures(w_lo, w_hi, x_c, xs, x_c)
