@@ -7,6 +7,7 @@
 #   make bench / bench-peers / sweep / edge -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root
 #     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
 #   make docs -- the documentation site into docs/_build/html (installs the [docs] extra; warnings are errors)
+#   make docs-check -- the site built afresh and checked in headless Chromium (Debian: chromium chromium-driver)
 #   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
 # Scripts of benchmarks/, experiments/, paper_figures/ are modules: run them as python -m benchmarks.bench_solve.
 PYTHON ?= python3
@@ -18,7 +19,7 @@ DOCS_STAMP := $(VENV)/.installed-docs
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants docs
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants docs docs-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -83,6 +84,12 @@ mutants: $(STAMP)
 
 docs: $(DOCS_STAMP)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+# tests/test_docs_site.py skips itself where Chromium is missing: here that is an error, not a skip
+docs-check: $(DOCS_STAMP)
+	@command -v chromium >/dev/null && command -v chromedriver >/dev/null || \
+	  { echo "make docs-check: needs Chromium and ChromeDriver (apt-get install chromium chromium-driver)"; exit 2; }
+	$(BIN)/python -m pytest tests/test_docs_site.py -q -rs
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info docs/_build docs/generated docs/gallery docs/sg_execution_times.rst
