@@ -449,7 +449,7 @@ def _singular(args) -> int:
     if home is not None:
         plane_inputs = (x[0],) if y is None else (x[0], y[0])
         box = problem.free_box(home, start=args.start_solution - 1,
-                               inputs=plane_inputs if args.free == "plane" else None)
+                               inputs=plane_inputs if args.free == "plane" else None, shape=args.free_shape)
         sset = dataclasses.replace(sset, free_box={**box.as_dict(), "start_solution": args.start_solution})
     if args.mode_change:
         from .problem import mode_change
@@ -474,7 +474,11 @@ def _singular(args) -> int:
         fb = sset.free_box
         sides = ", ".join(f"{k} [{lo * show:.6g}, {hi * show:.6g}]" for k, (lo, hi) in fb["inputs"].items())
         print(f"free box of solution {args.start_solution} at home: {sides} {unit} "
-              f"({'proven' if fb['proven'] else 'none proven'}; {fb['cells']} cells; limit: {fb['limit']})")
+              f"({'proven' if fb['proven'] else 'none proven'}; {fb['cells']} cells; cube radius "
+              f"{fb['radius'] * show:.6g} {unit}, limit: {fb['limit']})")
+        if fb["shape"] == "box":
+            print("  faces: " + ", ".join(f"{f['input']} {f['side']} {f['extent'] * show:.6g} ({f['limit']})"
+                                          for f in fb["faces"]))
     if sset.mode_change is not None:
         mc = sset.mode_change
         if mc.found:
@@ -1037,6 +1041,11 @@ def build_parser() -> argparse.ArgumentParser:
                          "with every step proven, that returns in another assembly")
     sg.add_argument("--free", choices=("plane", "all"), default="plane",
                     help="the free box's inputs: the plane's (the others at home; default) or all of them")
+    from .trust.free_box import SHAPES as FREE_SHAPES
+
+    sg.add_argument("--free-shape", choices=FREE_SHAPES, default=FREE_SHAPES[0],
+                    help="the free box: 'box' (default: the largest cube about home, then each face pushed out "
+                         "as far as it is proven) or 'cube' (home +- r, one r for every input)")
     sg.add_argument("--degrees", action="store_true", help="input angles, --tol and printed angles in degrees")
     sg.set_defaults(func=_singular, python_names=_singular_names)
     tk = sub_add_parser("track", help="follow one assembly mode along a path of inputs, every step proven")

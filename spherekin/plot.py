@@ -720,9 +720,9 @@ def _draw_singular_extras(ax, sset, scale: float, free_style: dict) -> list:
     if free is not None and free["proven"]:
         box = free["inputs"]
         (x0, x1), (y0, y1) = box[sset.x[0]], box[sset.y[0]] if sset.y is not None else (0.0, 1.0 / scale)
+        label = f"free box of solution {free.get('start_solution', '?')} (its assembly only)"
         handles.append(ax.add_patch(Rectangle((x0 * scale, y0 * scale), (x1 - x0) * scale, (y1 - y0) * scale,
-                                              label=f"free box of solution {free.get('start_solution', '?')}",
-                                              **free_style)))
+                                              label=label, **free_style)))
     for status, style in CUSP_MARKERS.items():
         pts = [(c.x * scale, c.y * scale) for c in sset.cusps if c.status == status]
         if pts:

@@ -88,3 +88,33 @@ def test_into_range_many_is_into_range_entry_by_entry():
         # an angle moved into the range is the same angle modulo 2 pi (independent of the code's rule)
         assert all(abs(math.remainder(g - t, 2 * math.pi)) < 1e-12 for t, g in zip(theta, got))
         assert rng is None or len(inside) > 0
+
+
+from hypothesis import given, strategies as st  # noqa: E402
+
+from spherekin.core.angles import RANGE_TOL, in_range, room_in_range  # noqa: E402
+
+
+@given(lo=st.floats(-math.pi, math.pi), span=st.floats(1e-3, 2 * math.pi - 1e-3), frac=st.floats(0.0, 1.0),
+       turns=st.integers(-1, 1))
+def test_room_in_range_reaches_both_ends_of_the_range_and_no_farther(lo, span, frac, turns):
+    """From an angle in a range (any representative modulo 2 pi), moving down by `below` or up by `above`
+    lands on the range's ends (in the range by in_range, the rule the solver applies), a little farther does
+    not, and below + above is the range's width."""
+    rng = (lo, lo + span)
+    theta = lo + frac * span + 2 * math.pi * turns
+    below, above = room_in_range(theta, rng)
+    assert below >= 0 and above >= 0 and math.isclose(below + above, span, abs_tol=1e-12)
+    assert math.isclose(math.remainder(theta - below - lo, 2 * math.pi), 0.0, abs_tol=1e-9)
+    assert in_range(theta - below, rng) and in_range(theta + above, rng)
+    step = 1e-6
+    if span + 2 * step < 2 * math.pi - 1e-9:
+        assert not in_range(theta - below - step, rng) and not in_range(theta + above + step, rng)
+
+
+def test_room_in_range_of_a_full_circle_and_of_an_angle_at_an_end():
+    assert room_in_range(1.0, None) == (math.inf, math.inf)
+    below, above = room_in_range(-1.0 - RANGE_TOL / 2, (-1.0, 0.5))    # within tol below the start: at it
+    assert below == 0.0 and above == 1.5
+    below, above = room_in_range(0.5 + RANGE_TOL / 2, (-1.0, 0.5))     # within tol above the end: at it
+    assert below == 1.5 and above == 0.0

@@ -25,6 +25,11 @@ GROW = 1.05
 #: A grown box counts as not free per the reference when it loses the assembly, det changes sign, or
 #: |det| gets below this (the dets of general_3rrr's regular assemblies here are 0.02 .. 0.9).
 SINGULAR_DET = 1e-3
+#: How close to a fold a free interval gets on the loop equations (the four-bar): the face stops where a
+#: cell of MIN_CELL fails, which near its branch point depends on where the cells fall (measured: the
+#: cell [0.3629, 0.3639] fails its Krawczyk test 0.024 rad from the fold while the box out to 0.364,
+#: cut differently, is proven): within 10 %, not the 5 % (GROW) of the platform's cubes.
+FOLD_REACH = 1.10
 #: Two poses closer than this (largest entry of R) are one assembly; the merging pair of a reference
 #: singular point is ~1e-4 apart, regular assemblies of general_3rrr at least ~0.1.
 SAME_POSE = 1e-2
@@ -117,29 +122,55 @@ def _edges_and_diagonals(lo, hi) -> list:
     return [(corners[i], corners[(i + 1) % 4]) for i in range(4)] + [((a, b), (c, d)), ((a, d), (c, b))]
 
 
-@pytest.mark.parametrize("k", [1, 7])
-def test_free_box_of_general_3rrr_in_the_plane_matches_the_references(rrr, k):
+@pytest.mark.parametrize("k, shape", [(1, "cube"), (7, "box")])
+def test_free_box_of_general_3rrr_in_the_plane_matches_the_references(rrr, k, shape):
     """general_3rrr, HOME (0, 0, 0.5), the plane (beta1, beta2): the claimed box holds the assembly with no
     lost point, no sign change and |det| > 0 on a 41 x 41 grid (reference tracking); no singular input of the
-    oracle on its edges and diagonals is a merging point of this assembly; the box grown by 5 % is not free per
-    the reference (the assembly is lost, det changes sign or nearly vanishes) or the growth hit a cap."""
+    oracle on its edges and diagonals is a merging point of this assembly. A cube grown by 5 % is not free per
+    the reference (the assembly is lost, det changes sign or nearly vanishes) or the growth hit a cap; a box
+    (faces pushed out one at a time, up to 0.6 rad) holds the cube, and each face that stopped short of its
+    cap, pushed out by 5 % alone, makes the box not free per the reference."""
     mech, problem, report = rrr
     rot0 = report.solutions[k].platform_rotation
-    fb = problem.free_box(HOME, start=k, inputs=("beta1", "beta2"))
-    assert isinstance(fb, FreeBox) and fb.proven and fb.free == ("beta1", "beta2")
+    fb = problem.free_box(HOME, start=k, inputs=("beta1", "beta2"), shape=shape,
+                          **({"max_radius": 0.6} if shape == "box" else {}))
+    assert isinstance(fb, FreeBox) and fb.proven and fb.free == ("beta1", "beta2") and fb.shape == shape
     lo, hi = np.array(fb.lo), np.array(fb.hi)
     assert lo[2] == hi[2] == 0.5
-    assert np.allclose(hi[:2] - HOME[:2], fb.radius) and np.allclose(HOME[:2] - lo[:2], fb.radius)
     assert fb.as_dict()["x"] == [lo[0], hi[0]] and fb.as_dict()["y"] == [lo[1], hi[1]]
+    if shape == "cube":
+        assert np.allclose(hi[:2] - HOME[:2], fb.radius) and np.allclose(HOME[:2] - lo[:2], fb.radius)
+    else:
+        assert np.all(hi[:2] - HOME[:2] >= fb.radius) and np.all(HOME[:2] - lo[:2] >= fb.radius)
+        assert [(f.input, f.side) for f in fb.faces] == [("beta1", "lo"), ("beta1", "hi"), ("beta2", "lo"),
+                                                         ("beta2", "hi")]
+        assert (hi - lo)[:2].prod() > 1.5 * (2 * fb.radius) ** 2        # the faces found room beyond the cube
     box = track_box_min_det(rrr_tracked(), HOME, rot0, lo, hi, 41)
     assert box.lost == 0 and box.sign_changes == 0 and box.min_abs_det > 0
     for p0, p1 in _edges_and_diagonals(lo, hi):
         for point in singular_points_on_line(p0, p1, 60, 0):
             assert np.abs(_tracked_pose(point.inputs, rot0) - point.rot).max() > SAME_POSE
-    if fb.limit in ("cells", "radius"):
+    if shape == "cube":
+        if fb.limit in ("cells", "radius"):
+            return
+        grown = track_box_min_det(rrr_tracked(), HOME, rot0, HOME - GROW * (HOME - lo), HOME + GROW * (hi - HOME),
+                                  81)
+        assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < SINGULAR_DET
         return
-    grown = track_box_min_det(rrr_tracked(), HOME, rot0, HOME - GROW * (HOME - lo), HOME + GROW * (hi - HOME), 81)
-    assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < SINGULAR_DET
+    assert {f.limit for f in fb.faces} <= {"unproven", "radius"} and any(f.limit == "unproven" for f in fb.faces)
+    for face in fb.faces:
+        a = ("beta1", "beta2").index(face.input)
+        assert math.isclose(abs((lo, hi)[face.side == "hi"][a] - HOME[a]), face.extent)
+        if face.limit == "radius":
+            assert math.isclose(face.extent, 0.6)
+            continue
+        g_lo, g_hi = lo.copy(), hi.copy()
+        if face.side == "lo":
+            g_lo[a] = HOME[a] - GROW * face.extent
+        else:
+            g_hi[a] = HOME[a] + GROW * face.extent
+        grown = track_box_min_det(rrr_tracked(), HOME, rot0, g_lo, g_hi, 81)
+        assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < SINGULAR_DET, face
 
 
 def test_free_box_of_general_3rrr_in_all_inputs_matches_the_reference(rrr):
@@ -147,7 +178,7 @@ def test_free_box_of_general_3rrr_in_all_inputs_matches_the_reference(rrr):
     21^3 grid with no lost point and no sign change; the cube grown by 5 % is not free."""
     mech, _, report = rrr
     rot0 = report.solutions[5].platform_rotation
-    fb = free_box(mech, HOME, rot0)
+    fb = free_box(mech, HOME, rot0, shape="cube")
     assert fb.proven and fb.free == ("beta1", "beta2", "beta3") and set(fb.as_dict()) >= {"x", "y", "beta3"}
     lo, hi = np.array(fb.lo), np.array(fb.hi)
     box = track_box_min_det(rrr_tracked(), HOME, rot0, lo, hi, 21)
@@ -167,7 +198,7 @@ def test_free_box_of_the_five_bar_on_the_loop_equations():
     fb5 = five_bar_from_file()
     assert len(report.solutions) == 2
     for sol in report.solutions:
-        fb = free_box(mech, home, sol.passive_angles, max_radius=0.004)
+        fb = free_box(mech, home, sol.passive_angles, shape="cube", max_radius=0.004)
         assert fb.proven and fb.limit == "radius" and math.isclose(fb.radius, 0.004)
         c = rodrigues(fb5.A, home[0]) @ rodrigues(fb5.B, sol.passive_angles["B"]) @ fb5.C
         box = track_box_min_det(five_bar_tracked(), home, c, np.array(fb.lo), np.array(fb.hi), 21)
@@ -176,7 +207,7 @@ def test_free_box_of_the_five_bar_on_the_loop_equations():
 
 def test_free_box_of_a_four_bar_ends_before_its_branch_point(tmp_path):
     """A non-Grashof four-bar (80/50/40/60 deg, one input): the free interval about reading 0 holds none of
-    its branch inputs (closed form), and 5 % more reaches the nearest one (0.3878 rad). The crank-rocker of
+    its branch inputs (closed form), and FOLD_REACH more reaches the nearest one (0.3878 rad). The crank-rocker of
     examples/four_bar.toml has none: its free interval reaches any radius asked (0.7 rad here; the loop
     equations' J_p is regular all round; a box side of a coordinate that is stationary over a cell must
     not be thinner than the enclosure's overestimation, W_EVEN: without it the box stopped at 0.60 rad)."""
@@ -186,10 +217,17 @@ def test_free_box_of_a_four_bar_ends_before_its_branch_point(tmp_path):
     path.write_text(four_bar_toml(fb, "variant"))
     mech = sk.load_mechanism(path)
     branch = four_bar_branch_inputs(fb)
-    box = free_box(mech, [0.0], sk.solve(mech, [0.0]).solutions[0].passive_angles)
-    assert box.proven and box.limit == "unproven"
+    box = free_box(mech, [0.0], sk.solve(mech, [0.0]).solutions[0].passive_angles, max_radius=1.0)
+    assert box.proven and box.limit == "unproven" and box.shape == "box"
     assert not np.any((box.lo[0] <= branch) & (branch <= box.hi[0]))
-    assert np.any(np.abs(branch) <= GROW * box.radius)
+    assert np.any(np.abs(branch) <= FOLD_REACH * box.radius)
+    # the box's faces: the upper stops just before the branch input 0.3878; below 0 the nearest one is
+    # 2.7538 - 2 pi, beyond half a turn, so the lower face reaches the radius cap (1 rad here)
+    assert branch.min() > 0 and branch.max() - 2 * math.pi < -math.pi
+    (lo_face, hi_face) = box.faces
+    assert (lo_face.side, hi_face.side) == ("lo", "hi")
+    assert hi_face.limit == "unproven" and hi_face.extent < branch.min() <= FOLD_REACH * hi_face.extent
+    assert lo_face.limit == "radius" and lo_face.extent == 1.0 and box.lo[0] == -1.0
     crank = sk.load_mechanism(EXAMPLES / "four_bar.toml")
     whole = free_box(crank, [0.0], sk.solve(crank, [0.0]).solutions[0].passive_angles, max_radius=0.7)
     assert whole.limit == "radius" and whole.radius == 0.7
@@ -212,3 +250,25 @@ def test_free_box_refuses_bad_arguments_before_any_proof(rrr):
     five = sk.compile(sk.load_mechanism(EXAMPLES / "five_bar.toml"))
     with pytest.raises(ValueError, match="start: a start rotation needs the platform tracker"):
         five.free_box([0.0, 0.0], start=np.eye(3))
+
+
+def test_free_box_faces_stop_at_the_actuated_joint_ranges(tmp_path):
+    """general_3rrr with beta1 limited to [-0.1, 0.25] rad and beta2 to [-0.15, 2.0]: the free box of solution 2
+    about HOME in the plane ends at beta1's range on both sides and at beta2's below (limit "range", the
+    extents the ranges leave: 0.1, 0.25, 0.15), while beta2's upper face (room 2.0) stops short of it
+    at a singularity or the radius cap."""
+    text = (EXAMPLES / "general_3rrr.toml").read_text()
+    text += '\n[joint_ranges]\nbeta1 = [-0.1, 0.25]\nbeta2 = [-0.15, 2.0]\n'
+    path = tmp_path / "ranged.toml"
+    path.write_text(text)
+    mech = sk.load_mechanism(path)
+    problem = sk.compile(mech)
+    fb = problem.free_box(HOME, start=1, inputs=("beta1", "beta2"), max_radius=0.5)
+    faces = {(f.input, f.side): f for f in fb.faces}
+    for key, room in ((("beta1", "lo"), 0.1), (("beta1", "hi"), 0.25), (("beta2", "lo"), 0.15)):
+        assert faces[key].limit == "range" and math.isclose(faces[key].extent, room, abs_tol=1e-12), faces[key]
+    assert faces[("beta2", "hi")].limit in ("radius", "unproven") and faces[("beta2", "hi")].extent > 0.15
+    assert math.isclose(fb.lo[0], -0.1) and math.isclose(fb.hi[0], 0.25) and math.isclose(fb.lo[1], -0.15)
+    assert fb.radius >= 0.25                       # the cube (each face capped by its room) grew past the ranges
+    rows = np.array([[fb.lo[0], fb.lo[1], 0.5], [fb.hi[0], fb.hi[1], 0.5]])
+    mech.check_input_rows(rows, "corner {k}")                              # both corners inside the ranges

@@ -242,12 +242,16 @@ def test_cli_free_box_of_a_home_pose_against_the_reference_tracking(tmp_path, ca
 
     out, fig = tmp_path / "s.json", tmp_path / "s.png"
     code = main(["singular", str(RRR), "--x", "beta1=-0.4:0.4", "--y", "beta2=-0.4:0.4", "--fix", "beta3=0.5",
-                 "--tol", "0.2", "--home", "0,0,0.5", "--start-solution", "2", "--json", str(out), "--plot", str(fig)])
+                 "--tol", "0.2", "--home", "0,0,0.5", "--start-solution", "2", "--free-shape", "cube",
+                 "--json", str(out), "--plot", str(fig)])
     assert code == 0
     assert "free box of solution 2 at home" in capsys.readouterr().out and fig.stat().st_size > 0
     doc = json.loads(out.read_text())
     free = doc["free_box"]
     assert free["proven"] and free["start_solution"] == 2 and free["inputs"]["beta3"] == [0.5, 0.5]
+    assert free["shape"] == "cube" and [(f["input"], f["side"]) for f in free["faces"]] == [
+        ("beta1", "lo"), ("beta1", "hi"), ("beta2", "lo"), ("beta2", "hi")]
+    assert all(f["extent"] == free["radius"] and f["limit"] == free["limit"] for f in free["faces"])
     home = np.array([0.0, 0.0, 0.5])
     sols = spherekin.solve(spherekin.load_mechanism(RRR), tuple(home)).solutions
     rot = sols[1].platform_rotation

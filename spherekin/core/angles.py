@@ -16,7 +16,7 @@ import numpy as np
 from .groups import connected_groups
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "near", "span_in_range_many",
-           "into_range", "into_range_many", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
+           "into_range", "into_range_many", "room_in_range", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
            "check_geometry_angle", "near_groups", "PAIRWISE_MAX"]
 
 TWO_PI = 2.0 * math.pi
@@ -55,6 +55,20 @@ def in_range(theta: float, rng, tol: float = RANGE_TOL) -> bool:
         return True
     lo, hi = float(rng[0]), float(rng[1])
     return float(np.mod(float(theta) - (lo - tol), TWO_PI)) <= (hi - lo) + 2.0 * tol
+
+
+def room_in_range(theta: float, rng, tol: float = RANGE_TOL) -> tuple[float, float]:
+    """How far ``theta`` (radians, in ``rng`` by :func:`in_range`) can move down and up and stay in the
+    range (lo, hi) modulo 2 pi: (below, above), each >= 0, below + above = hi - lo; (inf, inf) for
+    ``rng`` None (the full circle). An angle within ``tol`` outside an end counts as at that end."""
+    if rng is None:
+        return math.inf, math.inf
+    lo, hi = float(rng[0]), float(rng[1])
+    span = hi - lo
+    below = float(np.mod(float(theta) - lo, TWO_PI))
+    if below > span:                           # outside the range: at its nearer end (within tol)
+        below = span if below - span <= TWO_PI - below else 0.0
+    return below, span - below
 
 
 def in_range_many(theta, rng, tol: float = RANGE_TOL) -> np.ndarray:

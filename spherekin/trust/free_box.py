@@ -48,13 +48,14 @@ from typing import Mapping
 
 import numpy as np
 
+from ..core.angles import room_in_range
 from ..systems.platform import platform_legs
 from .continuation import (MARGIN, POINT_RADIUS, LegEquations, cayley, cayley_coordinates, krawczyk_input_boxes,
                            krawczyk_steps, not_tracked, predict_many)
 from .loop_continuation import LoopEquations
 
-__all__ = ["FIRST_RADIUS", "GROWTH", "BISECTIONS", "MAX_RADIUS", "FIRST_CELL", "MIN_CELL", "MAX_CELLS", "W_FACTOR",
-           "W_EVEN", "START_TOL", "FreeBox", "checked_home", "free_box"]
+__all__ = ["FIRST_RADIUS", "GROWTH", "BISECTIONS", "FACE_BISECTIONS", "SHAPES", "MAX_RADIUS", "FIRST_CELL", "MIN_CELL",
+           "MAX_CELLS", "W_FACTOR", "W_EVEN", "START_TOL", "Face", "FreeBox", "checked_home", "free_box"]
 
 #: The first radius tried (radians of every free input around home). Reason: small enough that a
 #: home pose a few 0.01 rad from a singularity still gets a box from the bisection below it, large
@@ -93,8 +94,30 @@ W_FACTOR = 2.0
 #: be thinner than the interval enclosure's overestimation, which follows the whole box: the tracker's
 #: step box has the same floor (its margin is relative to the largest coordinate of the step).
 W_EVEN = 0.5
+#: Halvings of each face's bracket after the cube (shape "box"). Reason: 4 narrow a face's 50 % bracket
+#: to 3 % of its extent at a third of BISECTIONS' cost (each is a whole box's proof); the cube's radius,
+#: proven first to 1 %, is the floor of every face.
+FACE_BISECTIONS = 4
+#: The shapes of a free box: "cube", home +- r with one r for every free input; "box", that cube, then
+#: its faces pushed out one at a time (each as far as it can be proven with the others held). Reason:
+#: a singularity close on one side of home stops the cube; the box keeps the room on the other sides
+#: (the designer's "how far can each actuator go").
+SHAPES = ("box", "cube")
 #: A start pose must close the equations at home to this (largest residual) before it is polished and proven.
 START_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Face:
+    """One face of a free box: the side ("lo" or "hi") of the free input ``input``, its distance from
+    home (``extent``, radians) and why it stops there (``limit``: as :class:`FreeBox`'s, plus "range":
+    the input's joint range; ``limit_at``: the failed cell's centre by input name, or None)."""
+
+    input: str
+    side: str
+    extent: float
+    limit: str
+    limit_at: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -105,12 +128,16 @@ class FreeBox:
     has lo = hi = its home value); ``free``: the names of the inputs that vary; ``home`` (radians, per
     input); ``start``: the assembly's pose at home (the platform rotation R (3, 3) as nested tuples,
     or the passive angles by name); ``cells``: cells of the proof of the box returned; ``proven``: a box
-    of positive radius was proven (False: not even FIRST_RADIUS / 2^BISECTIONS); ``radius``: its
-    half-width (radians); ``limit``: why it is not larger ("unproven": a cell of ``min_cell`` in the
+    of positive radius was proven (False: not even FIRST_RADIUS / 2^BISECTIONS); ``radius``: the
+    half-width of the largest cube proven (radians; the box's faces are at least that far from home
+    unless a joint range is nearer); ``limit``: why the cube is not larger ("unproven": a cell of ``min_cell`` in the
     next box out could not be proven, near ``limit_at``: a singularity of the assembly within ~a cell
     of it, or, on the loop equations, enclosures too loose there; "link": a cell could not be tied to
-    the home assembly; "cells": ``max_cells``; "radius": the largest radius asked for reached);
-    ``limit_at``: the inputs (by name) of the failed cell's centre, or None; ``seconds``: the wall time.
+    the home assembly; "cells": ``max_cells``; "radius": the largest radius asked for reached; "range":
+    every face at its input's joint range);
+    ``limit_at``: the inputs (by name) of the failed cell's centre, or None; ``faces``: each face of the
+    box (:class:`Face`; shape "box": pushed out one at a time); ``shape``: "box" or "cube" (SHAPES);
+    ``seconds``: the wall time.
     """
 
     inputs: tuple
@@ -124,19 +151,24 @@ class FreeBox:
     radius: float
     limit: str
     limit_at: dict | None
+    faces: tuple = ()
+    shape: str = "cube"
     seconds: float = field(repr=False, default=0.0)
 
     def as_dict(self) -> dict:
         """The JSON key ``"free_box"``: ``"x"``, ``"y"`` (the first two free inputs) and any further free
         input by name, each [lo, hi] (radians); ``"inputs"``: every input's [lo, hi]; ``"home"``,
-        ``"radius"``, ``"cells"``, ``"proven"``, ``"limit"``, ``"limit_at"``, ``"start"`` (the assembly at
+        ``"radius"``, ``"cells"``, ``"proven"``, ``"limit"``, ``"limit_at"``, ``"shape"``, ``"faces"`` (per face:
+        ``"input"``, ``"side"``, ``"extent"``, ``"limit"``, ``"limit_at"``), ``"start"`` (the assembly at
         home: the platform rotation R as rows, or the passive angles by name)."""
         box = {n: [float(a), float(b)] for n, a, b in zip(self.inputs, self.lo, self.hi)}
         out = {key: box[n] for key, n in zip(("x", "y"), self.free)}
         out.update({n: box[n] for n in self.free[2:]})
         out.update({"inputs": box, "home": [float(v) for v in self.home], "radius": self.radius,
                     "cells": self.cells, "proven": self.proven, "limit": self.limit,
-                    "limit_at": None if self.limit_at is None else dict(self.limit_at),
+                    "limit_at": None if self.limit_at is None else dict(self.limit_at), "shape": self.shape,
+                    "faces": [{"input": f.input, "side": f.side, "extent": f.extent, "limit": f.limit,
+                               "limit_at": None if f.limit_at is None else dict(f.limit_at)} for f in self.faces],
                     "start": ({n: float(v) for n, v in self.start.items()} if isinstance(self.start, Mapping)
                               else [[float(v) for v in row] for row in self.start])})
         return out
@@ -271,12 +303,27 @@ class _Cells:
     w_hi: np.ndarray
 
 
+def _edges(lo: float, h: float, hi: float) -> np.ndarray:
+    """The first cells' edges along one input (radians): home ``h`` and its multiples of FIRST_CELL
+    away, out to ``lo`` and ``hi``. Anchored at home, not at the box's ends, so that a box grown at one
+    face has the same cells as before everywhere but next to that face: what was proven stays proven
+    (and a failure of the grown box is where it grew)."""
+    def out(room):
+        n = math.ceil(room / FIRST_CELL - 1e-9) if room > 0 else 0
+        steps = FIRST_CELL * np.arange(max(n, 1 if room > 0 else 0) + 1)
+        steps[-1] = room
+        return steps
+    edges = np.concatenate([(h - out(h - lo))[::-1], (h + out(hi - h))[1:]])
+    edges[0], edges[-1] = lo, hi                  # the box's own floats (h - (h - lo) may round off lo)
+    return edges
+
+
 def _cover(sys, home, start, free, lo, hi, min_cell: float, max_cells: int):
     """(free?, cells, why, where): whether the box [lo, hi] (A,) of inputs is proven free for the
     assembly of ``start`` at ``home`` (module doc); ``free``: indices of the inputs that vary;
     ``why``/``where``: the reason and the failed cell's centre when not."""
-    n_axis = [max(1, math.ceil((hi[a] - lo[a]) / FIRST_CELL - 1e-9)) for a in free]
-    edges = [np.linspace(lo[a], hi[a], n + 1) for a, n in zip(free, n_axis)]
+    edges = [_edges(lo[a], home[a], hi[a]) for a in free]
+    n_axis = [len(e) - 1 for e in edges]
     grid = np.array(list(product(*[range(n) for n in n_axis])), dtype=int).reshape(-1, len(free))
     c_lo = np.tile(lo, (len(grid), 1))
     c_hi = np.tile(hi, (len(grid), 1))
@@ -430,19 +477,26 @@ def checked_home(mechanism, home) -> np.ndarray:
     return mechanism.check_input_rows(arr[None], "home")[0]
 
 
-def free_box(mechanism, home, start, inputs=None, *, max_radius: float = MAX_RADIUS, min_cell: float = MIN_CELL,
-             max_cells: int = MAX_CELLS) -> FreeBox:
-    """The largest box home +- r of the inputs named in ``inputs`` (the others fixed at home; None: all)
-    proven to hold the assembly of ``start`` without a parallel singularity (module doc).
+def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_radius: float = MAX_RADIUS,
+             min_cell: float = MIN_CELL, max_cells: int = MAX_CELLS) -> FreeBox:
+    """The largest box of the inputs named in ``inputs`` (the others fixed at home; None: all) around
+    ``home`` proven to hold the assembly of ``start`` without a parallel singularity (module doc).
+
+    ``shape`` (SHAPES): "cube", home +- r with one r for every free input, r grown and bisected
+    (BISECTIONS); "box" (default), that cube and then its faces pushed out: the free faces grow
+    together until a box fails, the bracket is bisected (FACE_BISECTIONS), and the face nearest the
+    failed cell is held there; the others go on, until every face is held (each face's reason in
+    :attr:`FreeBox.faces`). Every face stays inside its input's joint range ("range") and within
+    ``max_radius`` of home. Every box tried is proven whole, not the added slab alone.
 
     ``mechanism``: any; on the platform's orientation where the platform tracker applies
     (:func:`~spherekin.trust.continuation.not_tracked` is None: ``start`` is the platform rotation R
     (3, 3) of an assembly at home), else on the loop equations (``start``: the passive angles,
     name -> radians or a sequence in ``mechanism.loop_unknowns`` order). ``home``: one input per
-    actuated joint (radians). ``max_radius``: the largest radius tried (radians, at most MAX_RADIUS:
+    actuated joint (radians). ``max_radius``: the farthest a face goes (radians, at most MAX_RADIUS:
     "is home +- 0.2 free?"); ``min_cell``, ``max_cells``: the caps of the cells (MIN_CELL, MAX_CELLS).
-    ValueError before any proof for a bad home, start, input name or cap, or a start pose that is not
-    a proven isolated root at home."""
+    ValueError before any proof for a bad home, start, input name, shape or cap, or a start pose that
+    is not a proven isolated root at home."""
     t0 = time.perf_counter()
     names = tuple(mechanism.actuated)
     home = checked_home(mechanism, home)
@@ -454,6 +508,8 @@ def free_box(mechanism, home, start, inputs=None, *, max_radius: float = MAX_RAD
     if unknown or not inputs or len(set(inputs)) != len(tuple(inputs)):
         raise ValueError(f"inputs: expected distinct actuated joint names among {list(names)}, got {list(inputs)}")
     free = [names.index(n) for n in inputs]
+    if shape not in SHAPES:
+        raise ValueError(f"shape: expected one of {list(SHAPES)}, got {shape!r}")
     if not 0 < max_radius <= MAX_RADIUS:
         raise ValueError(f"max_radius: expected 0 < R <= {MAX_RADIUS:g} (radians), got {max_radius!r}")
     if not 0 < min_cell <= FIRST_CELL:
@@ -467,37 +523,104 @@ def free_box(mechanism, home, start, inputs=None, *, max_radius: float = MAX_RAD
         raise ValueError("start: the start pose could not be proven an isolated assembly at home (it is at or next "
                          "to a parallel singularity)")
     state = state[0]
+    # the room of each face (F, 2: lo side, hi side): the joint range, then max_radius
+    room = np.array([room_in_range(home[a], mechanism.joint(names[a]).range) for a in free], dtype=float)
+    cap = np.minimum(room, max_radius)
+    cap_limit = np.where(room < max_radius, "range", "radius")
 
-    def box(r):
+    def box(ext):
         lo, hi = home.copy(), home.copy()
-        lo[free] -= r
-        hi[free] += r
+        lo[free] -= ext[:, 0]
+        hi[free] += ext[:, 1]
         return lo, hi
 
-    def attempt(r):
-        return _cover(sys, home, state, free, *box(r), min_cell, int(max_cells))
+    def attempt(ext):
+        return _cover(sys, home, state, free, *box(ext), min_cell, int(max_cells))
 
+    def named(where):
+        return None if where is None else dict(zip(names, map(float, where)))
+
+    # the cube: one radius for every face (capped per face by its room)
+    top = float(cap.max())
     good, good_cells = 0.0, 0
-    r, bad, failure = min(FIRST_RADIUS, max_radius), None, ("radius", None)
-    while True:
-        ok, cells, why, where = attempt(r)
+    r, bad, failure = min(FIRST_RADIUS, top), None, None
+    while r > 0:
+        ok, cells, why, where = attempt(np.minimum(r, cap))
         if not ok:
             bad, failure = r, (why, where)
             break
         good, good_cells = r, cells
-        if r == max_radius:
+        if r >= top:
             break
-        r = min(max_radius, r * GROWTH)
+        r = min(top, r * GROWTH)
     if bad is not None:
         for _ in range(BISECTIONS):
             r = 0.5 * (good + bad)
-            ok, cells, why, where = attempt(r)
+            ok, cells, why, where = attempt(np.minimum(r, cap))
             if ok:
                 good, good_cells = r, cells
             else:
                 bad, failure = r, (why, where)
-    lo, hi = box(good)
+    if failure is None:
+        failure = ("range" if (cap_limit == "range").all() else "radius", None)
+    ext = np.minimum(good, cap)
+    # the faces: held where capped; the one nearest the cube's failure held at the cube
+    held = {(k, s): (str(cap_limit[k, s]), None) for k in range(len(free)) for s in (0, 1) if ext[k, s] >= cap[k, s]}
+
+    def nearest(failed_ext, where, open_faces):
+        lo, hi = box(failed_ext)
+        gap = [(where[free[k]] - lo[free[k]]) if s == 0 else (hi[free[k]] - where[free[k]]) for k, s in open_faces]
+        return open_faces[int(np.argmin(gap))]
+
+    open_faces = [(k, s) for k in range(len(free)) for s in (0, 1) if (k, s) not in held]
+    if shape == "cube" or good == 0:
+        for face in open_faces:
+            held[face] = failure
+        open_faces = []
+    elif bad is not None:
+        face = nearest(np.minimum(bad, cap), failure[1], open_faces)
+        held[face] = failure
+        open_faces.remove(face)
+    while open_faces:
+        rows, cols = np.array([k for k, _ in open_faces]), np.array([s for _, s in open_faces])
+
+        def grown(t):
+            out = ext.copy()
+            out[rows, cols] = np.minimum(ext[rows, cols] * t, cap[rows, cols])
+            return out
+
+        lo_t, hi_t, last = 1.0, None, None
+        t = GROWTH
+        while True:
+            ok, cells, why, where = attempt(grown(t))
+            if not ok:
+                hi_t, last = t, (why, where)
+                break
+            lo_t, good_cells = t, cells
+            if np.all(grown(t)[rows, cols] >= cap[rows, cols]):
+                break
+            t *= GROWTH
+        if hi_t is not None:
+            for _ in range(FACE_BISECTIONS):
+                t = 0.5 * (lo_t + hi_t)
+                ok, cells, why, where = attempt(grown(t))
+                if ok:
+                    lo_t, good_cells = t, cells
+                else:
+                    hi_t, last = t, (why, where)
+        ext = grown(lo_t)
+        for face in list(open_faces):
+            if ext[face] >= cap[face]:
+                held[face] = (str(cap_limit[face]), None)
+                open_faces.remove(face)
+        if last is not None and open_faces:
+            face = nearest(grown(hi_t), last[1], open_faces)
+            held[face] = last
+            open_faces.remove(face)
+    lo, hi = box(ext)
+    faces = tuple(Face(names[free[k]], ("lo", "hi")[s], float(ext[k, s]), held[(k, s)][0], named(held[(k, s)][1]))
+                  for k in range(len(free)) for s in (0, 1))
     why, where = failure
     return FreeBox(names, tuple(map(float, lo)), tuple(map(float, hi)), tuple(inputs), tuple(map(float, home)),
-                   sys.pose(state), good_cells, good > 0, float(good), why,
-                   None if where is None else dict(zip(names, map(float, where))), time.perf_counter() - t0)
+                   sys.pose(state), good_cells, good > 0, float(good), why, named(where), faces, shape,
+                   time.perf_counter() - t0)
