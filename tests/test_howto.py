@@ -41,8 +41,8 @@ def check_compiled_solve_many(proc, code, tmp_path):
 
 def check_batch(proc, code, tmp_path):
     """The histogram of assemblies per input and the map's table against the reference; the file
-    of the grid per input against the reference; the map against that file; the plot; one warning
-    (the block is not under a main guard: it runs here and says why, once)."""
+    of the grid per input against the reference; the map against that file; the plot; no warning
+    (the block is not under a main guard, but its jobs are small enough to run in this process)."""
     out = proc.stdout
     printed = dict((int(n), int(k)) for n, k in re.findall(r"^(\d+)\s+(\d+)$", out.split("Name: count")[0], re.M))
     counts, clear = reference_counts(random_inputs(code))
