@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of
-from doc_blocks import blocks, command_lines, doc_pages, page_text, run_command, run_script
+from doc_blocks import ROOT, blocks, command_lines, doc_pages, page_text, run_command, run_script
 from spherekin.cli import build_parser, protect_negative_values
 from spherekin.mechanism import general_3rrr, gosselin
 
@@ -110,7 +110,7 @@ def reference_poses(mech, inputs):
     return direct_kinematics(geometry_of(mech), inputs)
 
 
-def check_solve_json(tmp_path, words):
+def check_solve_json(proc, tmp_path):
     """The JSON's poses are the degree-8 eigenvalue solver's (benchmarks/peers_closed_form.py), all of them."""
     doc = json.loads((tmp_path / "out.json").read_text())
     refs = reference_poses(general_3rrr(), [0.3, -0.2, 0.5])
@@ -120,7 +120,7 @@ def check_solve_json(tmp_path, words):
         assert min(np.abs(pose - ref).max() for ref in refs) < POSE_MATCH
 
 
-def check_ik_json(tmp_path, words):
+def check_ik_json(proc, tmp_path):
     """Every working mode's inputs put the pose Rz(10) Ry(-20) Rx(30) (degrees, intrinsic ZYX: scipy)
     among the degree-8 solver's poses at those inputs."""
     from scipy.spatial.transform import Rotation
@@ -133,9 +133,21 @@ def check_ik_json(tmp_path, words):
         assert min(np.abs(want - ref).max() for ref in refs) < POSE_MATCH
 
 
+def check_four_bar_line(proc, tmp_path):
+    """A crank-rocker has no branch point: its closed form's discriminant (tests/test_branches.py) stays
+    positive over the input's turn, so the cover holds no cell and is complete."""
+    from test_branches import discriminant, read_axes
+
+    geo = read_axes(ROOT / "examples" / "four_bar.toml")
+    assert min(discriminant(geo, t) for t in np.linspace(-np.pi, np.pi, 721)) > 0
+    table = dict(re.findall(r"^(singular|unresolved)\s+(\d+)$", proc.stdout, re.M))
+    assert table == {"singular": "0", "unresolved": "0"} and "complete: yes" in proc.stdout, proc.stdout
+
+
 #: Commands run whose output is also checked against an independent reference (by their first words).
 OUTPUT_CHECKS = {"solve examples/general_3rrr.toml --inputs 0.3,-0.2,0.5": check_solve_json,
-                 "ik examples/general_3rrr.toml": check_ik_json}
+                 "ik examples/general_3rrr.toml": check_ik_json,
+                 "singular examples/four_bar.toml --x A=-pi:pi": check_four_bar_line}
 RUN = [(page, line) for page, line in all_command_lines() if line not in PARSE_ONLY]
 
 
@@ -150,7 +162,7 @@ def test_cheap_command_line_of_the_docs_runs_and_writes_its_files(tmp_path, page
         assert (tmp_path / out).exists(), f"{page}: `spherekin {line}` did not write {out}"
     for prefix, check in OUTPUT_CHECKS.items():
         if line.startswith(prefix):
-            check(tmp_path, words)
+            check(proc, tmp_path)
 
 
 def test_chunk_size_help_states_the_engine_default(capsys):
