@@ -223,3 +223,27 @@ def test_mechanism_format_python_blocks_run_as_scripts_from_the_repository_root(
         inputs = [float(v) for v in re.match(r"^\(([^)]*)\)", line)[1].split(",")]
         poses = reference_poses(general_3rrr(), inputs)
         assert min(np.abs(p - np.eye(3)).max() for p in poses) < 1e-8, line
+
+
+# ------------------------------------------------------------------ links that work on GitHub too
+
+
+def github_anchor(heading: str) -> str:
+    """GitHub's (and MyST's) anchor of a Markdown heading: lower case, punctuation dropped, spaces -> '-'."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_relative_links_of_every_page_resolve_to_files_and_headings():
+    """Every Markdown link of the README and of the pages that is not a URL names a file of the checkout
+    (relative to the page, as GitHub reads it), and its #anchor, if any, a heading of that file."""
+    for page in doc_pages():
+        text = re.sub(r"^```.*?^```", "", page_text(page), flags=re.S | re.M)    # links in code are not links
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target):
+                continue
+            path, _, anchor = target.partition("#")
+            file = (ROOT / page).parent / path if path else ROOT / page
+            assert file.exists(), f"{page}: link to {target}: no such file"
+            if anchor and file.suffix == ".md":
+                headings = re.findall(r"^#+ (.*)$", file.read_text(), re.M)
+                assert anchor in {github_anchor(h) for h in headings}, f"{page}: link to {target}: no such heading"
