@@ -159,11 +159,31 @@ def check_getting_started_output(proc, tmp_path):
         assert any(p.startswith(head) for p in printed), f"shown, not printed: {line!r}\n{proc.stdout}"
 
 
+#: Half-width (radians of beta1) of the bracket around the tracking page's singular input on which the
+#: reference's count is read: its fold is located there to ~1e-10, and on a fold the two merging poses are
+#: ~sqrt(1e-7) = 3e-4 apart at this distance, well within the reference's accuracy.
+FOLD_BRACKET = 1e-7
+
+
+def check_track_stop(proc, tmp_path):
+    """The track stops at a parallel singularity at the input docs/howto/tracking.md states, and there the
+    degree-8 reference's count of poses drops from 6 to 4 (beta2 = 0, beta3 = 0.5 along the path)."""
+    stated = float(re.search(r"meets the singularity at beta1 =\s*(-?\d+\.\d+)",
+                             page_text("docs/howto/tracking.md"))[1])
+    stop = json.loads((tmp_path / "track.json").read_text())["stop"]
+    assert stop["kind"] == "singular"
+    assert abs(stop["singular_inputs"]["beta1"] - stated) < 1e-9
+    assert [len(reference_poses(general_3rrr(), [stated + d, 0.0, 0.5])) for d in (-FOLD_BRACKET, FOLD_BRACKET)] \
+        == [6, 4]
+
+
 #: Commands run whose output is also checked against an independent reference (or the page's text).
 OUTPUT_CHECKS = {"solve examples/general_3rrr.toml --inputs 0.3,-0.2,0.5 --json out.json": check_solve_json,
                  "ik examples/general_3rrr.toml --euler 10,-20,30 --degrees --json ik.json": check_ik_json,
                  "singular examples/four_bar.toml --x A=-pi:pi": check_four_bar_line,
-                 "solve examples/gosselin.toml --inputs 0.3,-0.2,0.5": check_getting_started_output}
+                 "solve examples/gosselin.toml --inputs 0.3,-0.2,0.5": check_getting_started_output,
+                 "track examples/general_3rrr.toml --path examples/path_general_3rrr.csv --start-solution 5 "
+                 "--check 4 --plot track.png --out track.csv --json track.json": check_track_stop}
 RUN = [(page, line) for page, line in all_command_lines() if line not in PARSE_ONLY]
 
 
