@@ -751,7 +751,8 @@ def _add_engine_options(p) -> None:
                                        "embedded local cluster (in this process for a handful of inputs)")
     p.add_argument("--workers", type=_whole(0, why=" (0: in this process)"),
                    help="worker processes of the embedded cluster (default: one per core; 0: in this process)")
-    p.add_argument("--chunk-size", type=_whole(1), help="inputs per Dask task (default: up to 64)")
+    p.add_argument("--chunk-size", type=_whole(1), help="inputs per Dask task (default: up to 256, "
+                   "fewer so that every worker gets several)")
     p.add_argument("--resume", action="store_true", help="complete a partial output without redoing finished inputs")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -951,7 +952,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .systems.platform import MAX_ASSEMBLIES
 
     parser = _Parser(prog="spherekin", description=DESCRIPTION, formatter_class=_HelpFormatter,
-                     epilog="'spherekin COMMAND --help' gives the options of a command; README.md has examples.")
+                     epilog="'spherekin COMMAND --help' gives the options of a command; docs/howto/ has examples.")
     parser.add_argument("--version", action="version", version=f"spherekin {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, title="commands", metavar="COMMAND")
 

@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 GOSSELIN = ROOT / "examples" / "gosselin.toml"
 CHART = ROOT / "examples" / "gosselin_chart.toml"
 INPUTS = (0.3, -0.2, 0.5)
-#: The strategy keywords of compile and solve, and their defaults as the README's option table
+#: The strategy keywords of compile and solve, and their defaults as docs/howto/strategy.md's option table
 #: states them (written out here, not read from the code).
 STRATEGY = {"formulation": "auto", "pruner": "pp", "lp_backend": None, "parameterization": "tan-half",
             "tol": 1e-6, "isolate": True, "jobs": 1}

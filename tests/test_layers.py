@@ -2,7 +2,7 @@
 
 Every ``import`` of a spherekin module is collected with ``ast`` (module level and inside
 functions). No module imports ``verification/``, no private name crosses a module boundary (neither
-imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (README's tour):
+imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (docs/layout.md):
 
 where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> systems (spherekin/systems/) -> trust (spherekin/trust/) -> pipeline (problem) ->
