@@ -24,7 +24,7 @@ problem = spherekin.compile(mechanism)
 print(problem.solve(HOME).count_text())
 
 boxes = {}
-for k in (1, 4):                                             # solutions 2 and 5 (Python counts from 0)
+for k in (1, 5):                                             # solutions 2 and 6 (Python counts from 0)
     box = problem.free_box(HOME, start=k, inputs=("beta1", "beta2"))
     boxes[k] = box
     print(f"solution {k + 1}: r = {box.radius:.4f} rad ({box.cells} cells), stopped: {box.limit} "
@@ -34,7 +34,7 @@ for k in (1, 4):                                             # solutions 2 and 5
 # The boxes over the assembly-mode map of the plane around home (a coarse grid): each box stops
 # where its own assembly meets another one, at a change of colour; other changes may lie inside it.
 
-amap = assembly_map(mechanism, "beta1=-0.8:0.8:21", "beta2=-0.8:0.8:21", {"beta3": 0.5}, workers=0)
+amap = assembly_map(mechanism, "beta1=-0.5:0.5:21", "beta2=-0.5:0.5:21", {"beta3": 0.5}, workers=0)
 fig = plot_assembly_map(amap)
 ax = fig.axes[0]
 for k, box in boxes.items():

@@ -17,7 +17,7 @@ from spherekin.mechanism import general_3rrr
 from spherekin.plot import plot_assembly_map
 
 mechanism = general_3rrr()
-amap = assembly_map(mechanism, "beta1=1.4:1.8:21", "beta2=-0.1:0.3:21", {"beta3": 0.5}, workers=0,
+amap = assembly_map(mechanism, "beta1=1.2:2.0:33", "beta2=-0.3:0.5:33", {"beta3": 0.5}, workers=0,
                     singular_tol=0.1)
 sset = amap.singular_set       # as spherekin.singular(mechanism, x=..., y=..., fixed=..., tol=0.1) gives it
 print(sset.counts(), "complete" if sset.complete else "incomplete")
@@ -25,7 +25,7 @@ for cusp in sset.cusps:
     print(f"{cusp.status} at beta1 = {cusp.x:.6f}, beta2 = {cusp.y:.6f}")
 
 # %%
-# The number of assemblies at each point of a 21 x 21 grid (solved in this process), with the
+# The number of assemblies at each point of a 33 x 33 grid (solved in this process), with the
 # singular cells drawn over it: every change of colour lies in a cell; the star is the proven cusp.
 
 fig = plot_assembly_map(amap)

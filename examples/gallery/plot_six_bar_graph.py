@@ -51,7 +51,7 @@ print(report.table())
 # has up to two assemblies, so the six-bar has up to four; where two of them meet (a branch point)
 # the number of assemblies changes.
 
-bmap = branch_map(mechanism, "A=-pi:pi:60", joint="E")
+bmap = branch_map(mechanism, "A=-pi:pi:36", joint="E")
 for k, circuit in enumerate(bmap.circuits, start=1):
     print(f"circuit {k}: crank={circuit.crank}, branches {circuit.branches}")
 print(len(bmap.branch_points), "branch point(s)")
