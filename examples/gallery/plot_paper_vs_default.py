@@ -44,9 +44,9 @@ for tol in TOLS:
     print(f"tol {tol:g}: max |paper - default| = {np.abs(np.subtract(paper, default)).max():.1e} rad")
 
 # %%
-# Boxes processed and the solver's time (``report.stats.time_total``) against the tolerance: the paper's configuration subdivides each
-# root's neighbourhood down to the tolerance, so its boxes grow as the tolerance shrinks; the
-# default's stop at the first proven box and do not depend on it.
+# Boxes processed and the solver's time (``report.stats.time_total``) against the tolerance: the
+# paper's configuration subdivides each root's neighbourhood down to the tolerance, so its boxes grow
+# as the tolerance shrinks; the default's stop at the first proven box and do not depend on it.
 
 fig, (ax_boxes, ax_time) = plt.subplots(1, 2, figsize=(8, 3.5), layout="constrained")
 for name in CONFIGS:
