@@ -171,23 +171,40 @@ def test_mode_change_around_a_cusp_against_an_independent_newton_tracking():
 
 
 def test_free_boxes_against_a_dense_newton_tracking():
-    """plot_free_box: each claimed box holds its assembly on a 41 x 41 grid of the reference's Newton
-    tracking with no lost point, no sign change of the Type-2 determinant and |det| > 0; the box 5 % larger
-    is not free per the reference (the proof stopped next to a singularity of that assembly)."""
+    """plot_free_box: the cube and the box each hold the assembly on a 41 x 41 grid of the reference's Newton
+    tracking with no lost point, no sign change of the Type-2 determinant and |det| > 0; the cube 5 % larger
+    is not free per the reference, nor the box with any face that stopped at a failed proof pushed out 5 %;
+    the box holds the cube and its other faces are at the 0.6 rad asked for."""
     from singular_refs import rrr_tracked, track_box_min_det
 
     g = ran("plot_free_box")
     home, report = np.array(g["HOME"]), g["problem"].solve(g["HOME"])
-    assert len(g["boxes"]) == 2
-    for k, box in g["boxes"].items():
-        rot0 = report.solutions[k].platform_rotation
-        lo, hi = np.array(box.lo), np.array(box.hi)
-        assert box.proven and box.free == ("beta1", "beta2") and lo[2] == hi[2] == 0.5
+    rot0 = report.solutions[g["K"]].platform_rotation
+    cube, box = g["boxes"]["cube"], g["boxes"]["box"]
+    for fb in (cube, box):
+        lo, hi = np.array(fb.lo), np.array(fb.hi)
+        assert fb.proven and fb.free == ("beta1", "beta2") and lo[2] == hi[2] == 0.5
         inside = track_box_min_det(rrr_tracked(), home, rot0, lo, hi, 41)
         assert inside.lost == 0 and inside.sign_changes == 0 and inside.min_abs_det > 0
-        assert box.limit == "unproven"
-        grown = track_box_min_det(rrr_tracked(), home, rot0, home - 1.05 * (home - lo), home + 1.05 * (hi - home), 41)
-        assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < 1e-3
+    lo, hi = np.array(cube.lo), np.array(cube.hi)
+    assert cube.limit == "unproven"
+    grown = track_box_min_det(rrr_tracked(), home, rot0, home - 1.05 * (home - lo), home + 1.05 * (hi - home), 41)
+    assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < 1e-3
+    assert np.all(np.array(box.lo) <= lo) and np.all(np.array(box.hi) >= hi)
+    assert any(f.limit == "unproven" for f in box.faces) and any(f.limit == "radius" for f in box.faces)
+    for face in box.faces:
+        a = ("beta1", "beta2").index(face.input)
+        if face.limit == "radius":
+            assert math.isclose(face.extent, 0.6)
+            continue
+        assert face.limit == "unproven"
+        g_lo, g_hi = np.array(box.lo), np.array(box.hi)
+        if face.side == "lo":
+            g_lo[a] = home[a] - 1.05 * face.extent
+        else:
+            g_hi[a] = home[a] + 1.05 * face.extent
+        grown = track_box_min_det(rrr_tracked(), home, rot0, g_lo, g_hi, 41)
+        assert grown.lost > 0 or grown.sign_changes > 0 or grown.min_abs_det < 1e-3, face
 
 
 def test_paper_configuration_and_default_find_the_four_bars_closed_form_rocker_angles():
