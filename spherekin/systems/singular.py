@@ -40,6 +40,7 @@ from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSe
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
+           "LoopColumn", "DetPlan", "det_plan", "MAX_LAPLACE_TERMS", "MAX_DET_COEFFS",
            "SPURIOUS_BOUND", "CUSP_SQUARE",
            "cusp_newton", "cusp_krawczyk"]
 
@@ -438,30 +439,160 @@ def _add_elevated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a + b
 
 
+#: Caps on det K_p of a mechanism with several loops (:class:`LoopPlane`), checked before anything is built:
+#: the number of terms of its Laplace expansion over the loops' row blocks (six-bars: 1 or 2; each term is l
+#: 3 x 3 minors multiplied, so thousands would take minutes per chart) ...
+MAX_LAPLACE_TERMS = 200
+#: ... and the Bernstein coefficients of D on one chart (the product of (degree + 1) over the variables):
+#: the box loop restricts D on every box (a 5-loop mechanism written from the ground frame could reach 3^30);
+#: 2e5 coefficients, 1.6 MB per chart, keep a search of ~1e4 boxes within seconds to a minute (six-bars: <= 27).
+MAX_DET_COEFFS = 200_000
+
+
+@dataclass(frozen=True)
+class LoopColumn:
+    """A passive joint's column of one loop's block of K_p, in that loop's frame link: ``column`` (index in
+    ``SphericalMechanism.loop_unknowns``), ``sign`` (+-1: the joint's sign in the loop's velocity constraint,
+    ``SphericalMechanism.constraint_terms``), ``path``: ((joint, sign), ...) the rotations from the frame link
+    to a link carrying the joint (its current axis in the frame is Rot(s_1 a_1, th_1) ... Rot(s_k a_k, th_k) a,
+    angles reading - reference)."""
+
+    column: int
+    sign: float
+    joint: str
+    path: tuple
+
+
+@dataclass(frozen=True)
+class DetPlan:
+    """How :class:`LoopPlane` builds D = det K_p: ``loops``: per loop its :class:`LoopColumn` s; ``terms``:
+    the Laplace expansion over the loops' row blocks, (sign, (S_1, ..., S_l)) with S_i the sorted columns
+    (indices into ``loops[i]``) of loop i's 3 x 3 minor; ``degrees``: D's degree per variable (the chart's
+    ``variables`` order; the largest over the terms)."""
+
+    loops: tuple
+    terms: tuple
+    degrees: tuple
+
+    @property
+    def coefficients(self) -> int:
+        """D's Bernstein coefficients on one chart."""
+        return int(np.prod([d + 1 for d in self.degrees]))
+
+
+def _parity(order) -> float:
+    """+1 or -1: the sign of the permutation ``order`` of 0 .. n - 1."""
+    order, sign = list(order), 1.0
+    for i in range(len(order)):
+        while order[i] != i:
+            j = order[i]
+            order[i], order[j] = order[j], order[i]
+            sign = -sign
+    return sign
+
+
+def det_plan(mechanism, variables) -> DetPlan:
+    """The plan of D = det K_p for ``mechanism`` whose joints ``variables`` (names) are unknowns (the others:
+    actuated joints at fixed readings, constant rotations). ValueError (one line) when the mechanism has not
+    3 passive joints per loop, or D exceeds MAX_LAPLACE_TERMS / MAX_DET_COEFFS.
+
+    Frames: multiplying loop i's three rows of K_p by R_F^T (F any link of the loop) leaves every 3 x 3 minor
+    of the block, hence det K_p, unchanged; in F's frame a joint's current axis is the product of the rotations
+    of the joints between F and the joint going either way round the loop (equal on the closure set, which is
+    solved with D). Each column takes the way with fewer variable joints, each loop the frame link giving the
+    fewest coefficients. A rotation times 1 + t^2 is degree 2 in its t, so D's degree in t_v is 2 x the number of
+    the chosen minors' columns whose path crosses v (the largest over the Laplace terms): four-bar (input A;
+    B, C, D passive, frame the coupler): det[a_B, a_C, Rot(C) a_D], degree 2 in C only (the branch points are
+    where B, C, D are coplanar); Watt six-bar: 2 in C, 2 in F (one term, the two loops' minors); Stephenson
+    six-bar: 2 in C, 2 in E, 4 in G (two terms)."""
+    m = mechanism
+    cols = list(m.loop_unknowns)
+    n_loops = len(m.loop_geometry)
+    if len(cols) != 3 * n_loops:
+        raise ValueError(f"mechanism: singular sets need 3 passive joints per loop (a square passive Jacobian, "
+                         f"3 x {n_loops} = {3 * n_loops}), got {len(cols)} ({', '.join(cols)})")
+    variables = list(variables)
+    loops = []
+    for g, terms in zip(m.loop_geometry, m.constraint_terms):
+        cycle = [(st.joint, st.sign) for st in g.up] + [(st.joint, -st.sign) for st in reversed(g.down)]
+        n = len(cycle)
+        signs = {joint: sgn for _, sgn, joint, _ in terms}
+        best = None
+        for f in range(n):               # frame: the link between cycle[f - 1] and cycle[f]
+            loop = []
+            for k, (joint, _) in enumerate(cycle):
+                if joint not in cols:
+                    continue
+                fwd = tuple(cycle[p % n] for p in range(f, f + (k - f) % n))
+                bwd = tuple((cycle[p % n][0], -cycle[p % n][1]) for p in range(f - 1, f - 1 - (f - k - 1) % n, -1))
+                path = min(fwd, bwd, key=lambda p: (sum(j in variables for j, _ in p), len(p)))
+                loop.append(LoopColumn(cols.index(joint), float(signs[joint]), joint, path))
+            count = [2 * sum(any(j == v for j, _ in c.path) for c in loop) for v in variables]
+            cost = (float(np.prod([d + 1 for d in count])), sum(len(c.path) for c in loop))
+            if best is None or cost < best[0]:
+                best = (cost, tuple(loop))
+        loops.append(best[1])
+    terms = []
+
+    def expand(i, used, chosen):
+        if len(terms) > MAX_LAPLACE_TERMS:
+            return
+        if i == n_loops:
+            order = [loops[k][c].column for k, s in enumerate(chosen) for c in s]
+            terms.append((_parity(order), tuple(chosen)))
+            return
+        free = [c for c, lc in enumerate(loops[i]) if lc.column not in used]
+        for s in itertools.combinations(free, 3):
+            taken = used | {loops[i][c].column for c in s}
+            later = {lc.column for k in range(i + 1, n_loops) for lc in loops[k]}
+            if all(c in taken or c in later for c in range(len(cols))):
+                expand(i + 1, taken, chosen + [s])
+
+    expand(0, frozenset(), [])
+    if len(terms) > MAX_LAPLACE_TERMS:
+        raise ValueError(f"mechanism: det K_p of its {n_loops} loops has more than {MAX_LAPLACE_TERMS} Laplace terms "
+                         "(MAX_LAPLACE_TERMS): too large to build; singular sets are computed for up to a few loops")
+    if not terms:
+        raise ValueError("mechanism: its passive Jacobian is singular everywhere (no choice of 3 passive joints per "
+                         "loop covers every passive joint): no isolated singular set")
+    degrees = [0] * len(variables)
+    for _, chosen in terms:
+        for v, name in enumerate(variables):
+            d = 2 * sum(any(j == name for j, _ in loops[k][c].path) for k, s in enumerate(chosen) for c in s)
+            degrees[v] = max(degrees[v], d)
+    plan = DetPlan(tuple(loops), tuple(terms), tuple(degrees))
+    if plan.coefficients > MAX_DET_COEFFS:
+        raise ValueError(f"mechanism: det K_p of its {n_loops} loops would have {plan.coefficients} Bernstein "
+                         f"coefficients per chart (degrees {dict(zip(variables, degrees))}), more than MAX_DET_COEFFS "
+                         f"= {MAX_DET_COEFFS}: too large to search")
+    return plan
+
+
 class LoopPlane:
-    """The loop equations' singular set in a plane of inputs: any mechanism with one loop (K_p 3 x 3).
+    """The loop equations' singular set in a plane of inputs: any mechanism the loop system accepts whose
+    passive joints are 3 per loop (l loops, K_p 3 l x 3 l): four-bars, five-bars, six-bars, ...
 
     Unknowns: the passive joints and the plane's inputs, on the tan-half charts of the loop equations
     (:meth:`spherekin.mechanism.SphericalMechanism.loop_system` with ``free``: the plane inputs become unknowns);
-    blocks: the closure equations of the formulation (pruned, no square system) and D = det K_p, whose columns
-    are the passive joints' current axes (sign x R_link a, R_link the product of the rotations along the
-    link's tree path; each rotation times 1 + t^2 is degree 2 in its t). D vanishes on the closure set exactly
-    where the passive Jacobian loses rank (not the formulation's own degeneracies). The formulation is
-    "transversal" (block 0: q f21, q f31, q f32 and Eq. (10)), whose square entries :meth:`prove` certifies.
-    Passive joint ranges are constraints here (the mechanism's ranges).
+    blocks: the closure equations of the formulation, one block per loop (pruned, no square system), and
+    D = det K_p (:func:`det_plan`: a Laplace expansion over the loops' row blocks of 3 x 3 minors whose columns
+    are the passive joints' current axes in a frame link of the loop; K_p's column of joint j in loop i is
+    s_ij omega_j, as :meth:`~spherekin.mechanism.SphericalMechanism.jacobians`). D vanishes on the closure set
+    exactly where the passive Jacobian loses rank (not the formulation's own degeneracies). One plane input
+    (a 1-DOF mechanism: the four-bar, six-bars) gives isolated singular inputs on the line; two, curves. The
+    formulation is "transversal" (per loop: q f21, q f31, q f32 and Eq. (10)), whose square entries
+    :meth:`prove` certifies. Passive joint ranges are constraints here (the mechanism's ranges).
     """
 
     def __init__(self, mechanism, plane: SingularPlane, formulation: str = "transversal"):
         from ..search.parameterizations import make_charts, stack_chart_sets
 
         m = mechanism
-        if len(m.loop_geometry) != 1:
-            raise ValueError(f"mechanism: singular sets on the loop equations need one loop (a 3 x 3 passive "
-                             f"Jacobian), got {len(m.loop_geometry)}")
         self.mechanism = m
         self.plane = plane
         names = [a[0] for a in plane.axes]
         inputs = [plane.fixed.get(n, 0.0) for n in m.actuated]
+        self.plan = det_plan(m, list(m.loop_unknowns) + names)   # before any chart is built: refusals first
 
         def build(chart_ranges):
             system = m.loop_system(inputs, {n: chart_ranges[n] for n in m.loop_unknowns}, free={
@@ -475,6 +606,8 @@ class LoopPlane:
         pieces = [plane_charts(a[1], a[2]) for a in plane.axes]
         closure = stack_chart_sets([make_charts("tan-half", build, {**passive, **dict(zip(names, combo))}, formulation)
                                     for combo in itertools.product(*pieces)])
+        if tuple(closure.variables) != tuple(m.loop_unknowns) + tuple(names):
+            raise AssertionError(f"LoopPlane: chart variables {closure.variables} are not the plan's")
         d, d_tol = self._determinant(closure)
         nb = len(closure.coeffs)
         self.charts = ChartSet(closure.parameterization, closure.unknowns, closure.variables,
@@ -483,28 +616,31 @@ class LoopPlane:
                                closure.map_lo, closure.map_hi, closure.shift, closure.accept_width,
                                list(closure.bilinear or [None] * nb) + [None], list(closure.prune or [True] * nb) + [True])
         self.plane_columns = tuple(list(closure.variables).index(n) for n in names)
+        # the square slice: each loop's transversal entries q f21, q f31, q f32 (block b, rows 0-2) and D
+        self.slice = SquareSystem(tuple((b, r) for b in range(nb) for r in range(3)) + ((nb, 0),))
 
     def _determinant(self, charts: ChartSet):
-        """D = det K_p (C, 1, *dims) on every chart, and its tolerance (C, 1): ROUNDING_SAFETY eps times the
-        largest control point of the same products in absolute value (the terms behind each control point)."""
-        m = self.mechanism
+        """D = det K_p (C, 1, *dims) on every chart (:func:`det_plan`), and its tolerance (C, 1):
+        ROUNDING_SAFETY eps times the largest control point of the same products in absolute value (the terms
+        behind each control point)."""
+        plan = self.plan
         variables = list(charts.variables)
         n = len(variables)
-        terms = m.constraint_terms[0]
-        passive_cols = {m.joint_names.index(p): p for p in m.passive}
-        columns = [[t for t in terms if t[0] == col] for col in sorted(passive_cols, key=lambda c: m.passive.index(
-            passive_cols[c]))]
         out, mags = [], []
         for c in range(charts.n_charts):
             dets = []
             for absolute in (False, True):
-                cols = [self._column(col_terms, charts, c, variables, n, absolute) for col_terms in columns]
+                cols = [[self._column(lc, charts, c, variables, n, absolute) for lc in loop] for loop in plan.loops]
+                minors: dict = {}
                 det = None
-                for perm in itertools.permutations(range(3)):
-                    sign = 1.0 if absolute else float(np.linalg.det(np.eye(3)[list(perm)]))
-                    term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n),
-                                              cols[2][perm[2]], n)
-                    det = sign * term if det is None else _add_elevated(det, sign * term)
+                for sign, chosen in plan.terms:
+                    term = None
+                    for i, s in enumerate(chosen):
+                        if (i, s) not in minors:
+                            minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
+                        term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
+                    term = term if absolute else sign * term
+                    det = term if det is None else _add_elevated(det, term)
                 dets.append(det)
             out.append(dets[0])
             mags.append(float(np.abs(dets[1]).max()))
@@ -512,6 +648,17 @@ class LoopPlane:
         tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(np.array(mags), np.abs(d).reshape(len(out), -1).max(
             axis=1))
         return d, tol[:, None]
+
+    @staticmethod
+    def _minor(cols, n, absolute) -> np.ndarray:
+        """det[c_1, c_2, c_3] of three columns (each 3 tensors over the n variables), by its 6 permutations
+        (all with sign +1 and entries' magnitudes with ``absolute``)."""
+        det = None
+        for perm in itertools.permutations(range(3)):
+            sign = 1.0 if absolute else _parity(perm)
+            term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n), cols[2][perm[2]], n)
+            det = sign * term if det is None else _add_elevated(det, sign * term)
+        return det
 
     def _rotation(self, joint: str, sign: int, charts, c, variables, n, absolute) -> np.ndarray:
         """(1 + t^2) Rot(sign a, reading - ref) (3, 3, *sizes) of ``joint`` on chart c (a variable: degree 2 in
@@ -531,20 +678,16 @@ class LoopPlane:
             parts, w = np.abs(parts), np.abs(w)
         return np.einsum("pij,pk->ijk", parts, w).reshape(shape)
 
-    def _column(self, col_terms, charts, c, variables, n, absolute) -> list[np.ndarray]:
-        """The 3 entries (each a tensor over the n variables) of a passive joint's column of K_p on chart c."""
-        m = self.mechanism
-        total = None
-        for _, sign, joint, link in col_terms:
-            rot = np.eye(3).reshape([3, 3] + [1] * n)
-            for st in m.link_paths[link]:
-                r = self._rotation(st.joint, st.sign, charts, c, variables, n, absolute)
-                rot = (rot[:, :, None] * r[None, :, :]).sum(axis=1)          # distinct variables: a tensor product
-            axis = np.asarray(m.joint(joint).axis, dtype=float)
-            vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
-            vec = vec * (1.0 if absolute else sign)
-            total = vec if total is None else np.stack([_add_elevated(total[i], vec[i]) for i in range(3)])
-        return [total[i] for i in range(3)]
+    def _column(self, lc: LoopColumn, charts, c, variables, n, absolute) -> list[np.ndarray]:
+        """The 3 entries (each a tensor over the n variables) of a passive joint's column (:class:`LoopColumn`)
+        of its loop's block of K_p in the loop's frame, on chart c; entries' magnitudes with ``absolute``."""
+        rot = np.eye(3).reshape([3, 3] + [1] * n)
+        for joint, sign in lc.path:
+            r = self._rotation(joint, sign, charts, c, variables, n, absolute)
+            rot = (rot[:, :, None] * r[None, :, :]).sum(axis=1)                # distinct variables: a tensor product
+        axis = np.asarray(self.mechanism.joint(lc.joint).axis, dtype=float)
+        vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
+        return [vec[i] if absolute else lc.sign * vec[i] for i in range(3)]
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of angles v (B, N; radians) in charts ``chart`` (B,)."""
@@ -553,28 +696,40 @@ class LoopPlane:
 
     def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
         """The Krawczyk test of the square slices (as :meth:`PlatformPlane.prove`, same arguments and
-        result): the transversal closure entries q f21, q f31, q f32 and D, with plane axis ``fix[b]`` held at
-        ``value[b]``, in the other variables on the box [lo[b], hi[b]] (unit coordinates of chart
+        result): each loop's transversal closure entries q f21, q f31, q f32 and D, with plane axis ``fix[b]``
+        held at ``value[b]``, in the other variables on the box [lo[b], hi[b]] (unit coordinates of chart
         ``chart[b]``). The transversal entries also vanish at the three half-turns diag(+-1, +-1, +-1) != I
         (spurious closures), where Eq. (10)'s q (f11 + f22 - 2) is -2 q or -4 q (q >= 1): a proven root
-        counts only where the Bernstein hull of Eq. (10) on the box stays above SPURIOUS_BOUND, so the root
-        is a closure (F = I) and a singular configuration."""
+        counts only where the Bernstein hull of every loop's Eq. (10) on the box stays above SPURIOUS_BOUND,
+        so the root closes every loop (F = I) and is a singular configuration."""
         chart = np.asarray(chart, dtype=int)
         fix = np.asarray(fix, dtype=int)
         value = np.asarray(value, dtype=float)
         lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
         out = np.zeros(len(chart), dtype=bool)
         cs = self.charts
+        nb = len(cs.coeffs) - 1                 # the loops' blocks; D last
+
+        def closes(cps, count):                 # every loop's Eq. (10) above SPURIOUS_BOUND on the box
+            return np.all([cps[b][_SCALAR_ROW].reshape(-1, count).min(axis=0) > SPURIOUS_BOUND for b in range(nb)],
+                          axis=0)
+
         for f_axis in np.unique(fix):
             rows = np.flatnonzero(fix == f_axis)
             c = chart[rows]
             blo, bhi = lo[rows], hi[rows]
             col = None if f_axis < 0 else self.plane_columns[f_axis]
+            # a joint's side the pruner shrank to (nearly) a point -- D linear in one joint pins it -- is widened
+            # to SLICE_MIN_WIDTH about its centre: the root must be interior to the box tested (plane axes kept)
+            mid = 0.5 * (blo + bhi)
+            thin = (bhi - blo < SLICE_MIN_WIDTH) & ~np.isin(np.arange(blo.shape[1]), self.plane_columns)
+            blo = np.where(thin, np.clip(mid - SLICE_MIN_WIDTH / 2, 0.0, 1.0), blo)
+            bhi = np.where(thin, np.clip(mid + SLICE_MIN_WIDTH / 2, 0.0, 1.0), bhi)
             if col is not None:
                 u = tan_half_unit(value[rows], cs.shift[c, col], cs.map_lo[c, col], cs.map_hi[c, col])
                 blo[:, col] = bhi[:, col] = np.clip(u, 0.0, 1.0)
-            blocks = [np.moveaxis(cs.coeffs[b][c], 0, -1) for b in (0, 1)]
-            tols = [cs.tols[b][c].T for b in (0, 1)]
+            blocks = [np.moveaxis(cs.coeffs[b][c], 0, -1) for b in range(nb + 1)]
+            tols = [cs.tols[b][c].T for b in range(nb + 1)]
 
             def slices(boxes_lo, boxes_hi, which=slice(None)):
                 cps = [bernstein.restrict_batch_last(bl[..., which], boxes_lo, boxes_hi, {}) for bl in blocks]
@@ -583,11 +738,11 @@ class LoopPlane:
                 return cps
 
             cps = slices(blo, bhi)
-            ok, _, _ = krawczyk_boxes(_LOOP_SLICE, cps, tols)
-            ok &= cps[0][_SCALAR_ROW].reshape(-1, len(rows)).min(axis=0) > SPURIOUS_BOUND
+            ok, _, _ = krawczyk_boxes(self.slice, cps, tols)
+            ok &= closes(cps, len(rows))
             retry = np.flatnonzero(~ok)
             if len(retry):
-                u, converged, _ = newton(_LOOP_SLICE, [cp[..., retry] for cp in cps], [t[:, retry] for t in tols])
+                u, converged, _ = newton(self.slice, [cp[..., retry] for cp in cps], [t[:, retry] for t in tols])
                 inner = converged & np.all((u > PROOF_RADIUS) & (u < 1.0 - PROOF_RADIUS), axis=1)
                 retry, u = retry[inner], u[inner]
                 if len(retry):
@@ -597,16 +752,18 @@ class LoopPlane:
                     slo, shi = blo[retry].copy(), bhi[retry].copy()
                     slo[:, keep], shi[:, keep] = rlo + (u - PROOF_RADIUS) * w, rlo + (u + PROOF_RADIUS) * w
                     small = slices(slo, shi, retry)
-                    good, _, _ = krawczyk_boxes(_LOOP_SLICE, small, [t[:, retry] for t in tols])
-                    good &= small[0][_SCALAR_ROW].reshape(-1, len(retry)).min(axis=0) > SPURIOUS_BOUND
-                    ok[retry] = good
+                    good, _, _ = krawczyk_boxes(self.slice, small, [t[:, retry] for t in tols])
+                    ok[retry] = good & closes(small, len(retry))
             out[rows] = ok
         return out
 
 
-#: The loop slice's square system: the transversal entries q f21, q f31, q f32 (block 0) and D (block 1).
-_LOOP_SLICE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
-#: Row of Eq. (10), q (f11 + f22 - 2), in the transversal block.
+#: Smallest side (unit coordinates of a chart) of a passive joint in a box :meth:`LoopPlane.prove` tests: where D
+#: depends on one joint alone (the four-bar's det[a_B, a_C, Rot(C) a_D]) the pruner narrows that joint to its
+#: root's value (to ~1e-13) and the hull of the cover's boxes has width ~0 there, on which no Krawczyk test can
+#: succeed; 1e-6 is far above that rounding and far below the cells' width.
+SLICE_MIN_WIDTH = 1e-6
+#: Row of Eq. (10), q (f11 + f22 - 2), in each loop's transversal block.
 _SCALAR_ROW = 3
 #: A root of the transversal entries is a closure where Eq. (10) exceeds this on its box: at the spurious
 #: half-turns it is -2 q or -4 q with q = prod (1 + t^2) >= 1, at a closure 0; -1 is halfway.
