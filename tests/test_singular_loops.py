@@ -204,3 +204,52 @@ def test_refuses_a_determinant_too_large(monkeypatch, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
     assert err.startswith("spherekin: error: mechanism: det K_p of its 2 loops would have 27 Bernstein coefficients")
+
+
+# ---------------------------------------------------------------- cusps on the loop equations (item 2 on loops)
+
+def _five_bar_60_45(tmp_path):
+    """examples/five_bar.toml with C moved so that its distal links are 60 and 45 deg (arc(B, C), arc(C, D)):
+    folded, B and D stay 15 deg apart, so the circles of C about B and about D never coincide."""
+    from singular_refs import general_axes
+
+    text = (EXAMPLES / "five_bar.toml").read_text()
+    ax = general_axes(EXAMPLES / "five_bar.toml")
+    c = _circle_intersections(ax["B"], math.radians(60), ax["D"], math.radians(45))
+    c = c[int(np.argmax(c[:, 2]))]
+    old = "axis = [0.0, -0.1492223173516034, 0.9888036711118225]"
+    assert old in text
+    path = tmp_path / "five_bar_60_45.toml"
+    path.write_text(text.replace(old, "axis = [" + ", ".join(repr(float(v)) for v in c) + "]"))
+    return spherekin.load_mechanism(path)
+
+
+def test_one_loop_five_bar_has_no_cusps(tmp_path):
+    """A one-loop mechanism has at most 2 assemblies at an input (its 3 passive joints close a spherical 3R
+    chain: two solutions or a continuum), so no three meet: no cusps. On a five-bar whose circles never
+    coincide, the cusp system (curve + tangency, :meth:`LoopPlane.cusp_charts`) searched from the curve's cover
+    over the whole plane is empty: a certified absence. Not vacuous: with r orthogonal to the left kernel l
+    (the normal of a_C, a_D in the loop's frame link, constant on the curve) the tangency C_r = (l . r)(...)
+    vanishes along the whole curve, the search keeps it, and none of its candidates is called a ``cusp`` (their
+    roots are not isolated and adj(K~) r vanishes there)."""
+    from spherekin.problem import CUSP_VECTORS
+    from spherekin.search.boxloop import pruner_for, search_cover
+    from spherekin.trust.singular import certify_cusps
+
+    m = _five_bar_60_45(tmp_path)
+    lp = LoopPlane(m, SingularPlane(("A", -math.pi, math.pi), ("E", -math.pi, math.pi), {}))
+    assert [(c.joint, c.path) for c in lp.plan.loops[0]] == [("D", ()), ("C", ()), ("B", (("C", 1),))]
+    cover = search_cover(lp.charts, pruner_for(lp.charts, "pp", None), 0.1, 10**6)
+    chart, lo, hi = cover.accepted
+    assert len(chart) and not len(cover.pending[0])
+    start = (chart, lp.unit(chart, lo), lp.unit(chart, hi))
+    sets = lp.cusp_charts(CUSP_VECTORS)
+    found = search_cover(sets[0], pruner_for(sets[0], "pp", None), 0.05, 10**6, start=start)
+    assert len(found.accepted[0]) == 0 and len(found.pending[0]) == 0
+    assert certify_cusps(lp, sets, found, lp.closes) == ()
+    r_bad = np.asarray(m.joint("C").axis, float)               # orthogonal to l = a_C x a_D
+    bad = lp.cusp_charts([r_bad, CUSP_VECTORS[1]])
+    found = search_cover(bad[0], pruner_for(bad[0], "pp", None), 0.1, 10**6, start=start)
+    assert len(found.accepted[0]) > 100
+    cands = certify_cusps(lp, bad, found, lp.closes)
+    assert cands and all(c.status == "unresolved" for c in cands)

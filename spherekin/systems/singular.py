@@ -623,31 +623,36 @@ class LoopPlane:
         """D = det K_p (C, 1, *dims) on every chart (:func:`det_plan`), and its tolerance (C, 1):
         ROUNDING_SAFETY eps times the largest control point of the same products in absolute value (the terms
         behind each control point)."""
-        plan = self.plan
-        variables = list(charts.variables)
-        n = len(variables)
         out, mags = [], []
         for c in range(charts.n_charts):
-            dets = []
-            for absolute in (False, True):
-                cols = [[self._column(lc, charts, c, variables, n, absolute) for lc in loop] for loop in plan.loops]
-                minors: dict = {}
-                det = None
-                for sign, chosen in plan.terms:
-                    term = None
-                    for i, s in enumerate(chosen):
-                        if (i, s) not in minors:
-                            minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
-                        term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
-                    term = term if absolute else sign * term
-                    det = term if det is None else _add_elevated(det, term)
-                dets.append(det)
-            out.append(dets[0])
-            mags.append(float(np.abs(dets[1]).max()))
+            det, mag = self._det_nets(charts, c)
+            out.append(det)
+            mags.append(float(mag.max()))
         d = np.stack(out)[:, None]
         tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(np.array(mags), np.abs(d).reshape(len(out), -1).max(
             axis=1))
         return d, tol[:, None]
+
+    def _det_nets(self, charts: ChartSet, c: int) -> tuple[np.ndarray, np.ndarray]:
+        """(D, the net of its terms' magnitudes) on chart c, tensors over the chart's variables (:func:`det_plan`)."""
+        plan = self.plan
+        variables = list(charts.variables)
+        n = len(variables)
+        dets = []
+        for absolute in (False, True):
+            cols = [[self._column(lc, charts, c, variables, n, absolute) for lc in loop] for loop in plan.loops]
+            minors: dict = {}
+            det = None
+            for sign, chosen in plan.terms:
+                term = None
+                for i, s in enumerate(chosen):
+                    if (i, s) not in minors:
+                        minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
+                    term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
+                term = term if absolute else sign * term
+                det = term if det is None else _add_elevated(det, term)
+            dets.append(det)
+        return dets[0], dets[1]
 
     @staticmethod
     def _minor(cols, n, absolute) -> np.ndarray:
@@ -688,6 +693,119 @@ class LoopPlane:
         axis = np.asarray(self.mechanism.joint(lc.joint).axis, dtype=float)
         vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
         return [vec[i] if absolute else lc.sign * vec[i] for i in range(3)]
+
+    def cusp_charts(self, rs) -> tuple:
+        """The cusp systems of a one-loop mechanism in a plane of two inputs (as
+        :meth:`PlatformPlane.cusp_charts`, same block layout, so :func:`spherekin.trust.singular.certify_cusps`
+        certifies them): per r in ``rs`` ((3,) vectors) a :class:`ChartSet` over the cover's variables with blocks
+        the closure (transversal), D, the tangency C_r and A = adj(K~) r (3 rows, not pruned).
+
+        K~ is the loop-frame K_p whose column j carries the factor Q_j = prod (1 + t_k^2) over the joints of its
+        path, so adj(K~) = diag(prod_i Q_i / Q_j) adj(K) (K the rotations' matrix) and k = adj(K) r has
+        k_j proportional to Q_j (adj(K~) r)_j. On the closure set D = P det K (P > 0, a product of 1 + t^2) and
+        dtheta_j / dt_j = 2 / (1 + t_j^2), so the derivative of det K along the kernel, sum_j d det K / dtheta_j
+        k_j, is a positive multiple of C_r = sum_j dD/dt_j (1 + t_j^2) Q_j (adj(K~) r)_j (passive joints j).
+        On the curve adj(K) = k l^T: C_r = 0 iff (l . r) (grad det K . k) = 0, the tangent projecting to 0 in
+        the plane (three assemblies meet), or the spurious l . r = 0 that the certificate rules out with A."""
+        if len(self.plane_columns) != 2:
+            raise ValueError("cusps: expected a plane of two inputs, got a line")
+        if len(self.plan.loops) != 1:
+            raise ValueError(f"cusps: searched on the loop equations of one-loop mechanisms, got {len(self.plan.loops)} "
+                             "loops")
+        eps = np.finfo(float).eps
+        cs = self.charts
+        variables = list(cs.variables)
+        n = len(variables)
+        loop = self.plan.loops[0]
+        per_r = [([], [], [], []) for _ in rs]
+        for c in range(cs.n_charts):
+            d, dmag = self._det_nets(cs, c)
+            width = cs.map_hi[c] - cs.map_lo[c]
+
+            def one_plus_t2(v):          # (1 + t_v^2) in the chart's unit variable: (1 + lo^2) + 2 lo w x + w^2 x^2
+                lo, w = float(cs.map_lo[c, v]), float(width[v])
+                net = bernstein.from_power(np.array([1.0 + lo * lo, 2.0 * lo * w, w * w]), nvars=1)
+                shape = [1] * n
+                shape[v] = 3
+                return net.reshape(shape)
+
+            weights = []                 # per column j: dD/dt_j (1 + t_j^2) Q_j and its magnitudes' net (None: D free of t_j)
+            for lc in loop:
+                v = lc.column
+                deg = d.shape[v] - 1
+                if deg == 0:
+                    weights.append(None)
+                    continue
+                dd = deg * np.diff(d, axis=v) / width[v]
+                dm = deg * (np.take(dmag, range(1, deg + 1), axis=v) + np.take(dmag, range(deg), axis=v)) / width[v]
+                factor = one_plus_t2(v)
+                for joint, _ in lc.path:
+                    if joint in variables:
+                        factor = bernstein.multiply(factor, one_plus_t2(variables.index(joint)), n)
+                weights.append((bernstein.multiply(dd, factor, n), bernstein.multiply(dm, factor, n)))
+            cols = [self._column(lc, cs, c, variables, n, False) for lc in loop]
+            mcols = [self._column(lc, cs, c, variables, n, True) for lc in loop]
+            for ri, r in enumerate(rs):
+                r = np.asarray(r, dtype=float)
+                adj, adj_mag = [], []
+                for j in range(3):       # (adj M)_{j i} = (-1)^{i + j} minor(row i, column j), M[i][j] = cols[j][i]
+                    total = mtotal = None
+                    for i in range(3):
+                        if r[i] == 0.0:
+                            continue
+                        rows = [a for a in range(3) if a != i]
+                        cc = [b for b in range(3) if b != j]
+                        sign = (-1.0) ** (i + j) * r[i]
+                        m1 = bernstein.multiply(cols[cc[0]][rows[0]], cols[cc[1]][rows[1]], n)
+                        m2 = bernstein.multiply(cols[cc[1]][rows[0]], cols[cc[0]][rows[1]], n)
+                        a1 = bernstein.multiply(mcols[cc[0]][rows[0]], mcols[cc[1]][rows[1]], n)
+                        a2 = bernstein.multiply(mcols[cc[1]][rows[0]], mcols[cc[0]][rows[1]], n)
+                        t, tm = _add_elevated(sign * m1, -sign * m2), abs(r[i]) * _add_elevated(a1, a2)
+                        total = t if total is None else _add_elevated(total, t)
+                        mtotal = tm if mtotal is None else _add_elevated(mtotal, tm)
+                    adj.append(total)
+                    adj_mag.append(mtotal)
+                cr = cm = None
+                for j, w in enumerate(weights):
+                    if w is None:
+                        continue
+                    t, tm = bernstein.multiply(w[0], adj[j], n), bernstein.multiply(w[1], adj_mag[j], n)
+                    cr = t if cr is None else _add_elevated(cr, t)
+                    cm = tm if cm is None else _add_elevated(cm, tm)
+                if cr is None:           # D constant on the chart: no tangency to search (C_r = 0 would keep all)
+                    raise ValueError("cusps: the determinant does not depend on any passive joint")
+                big = adj[0]
+                for a in adj[1:]:
+                    big = _add_elevated(big, 0.0 * a)
+                adj = [_add_elevated(a, 0.0 * big) for a in adj]
+                adj_mag = [_add_elevated(a, 0.0 * big) for a in adj_mag]
+                per_r[ri][0].append(cr)
+                per_r[ri][1].append(ROUNDING_SAFETY * eps * max(float(cm.max()), float(np.abs(cr).max())))
+                per_r[ri][2].append(np.stack(adj))
+                per_r[ri][3].append([ROUNDING_SAFETY * eps * max(float(m.max()), float(np.abs(a).max()))
+                                     for a, m in zip(adj, adj_mag)])
+        out = []
+        bil = list(cs.bilinear or [None, None])
+        for cr, ct, ad, at in per_r:
+            out.append(ChartSet(cs.parameterization, cs.unknowns, cs.variables,
+                                [cs.coeffs[0], cs.coeffs[1], np.stack(cr)[:, None], np.stack(ad)],
+                                [cs.tols[0], cs.tols[1], np.array(ct)[:, None], np.array(at)],
+                                [cs.labels[0], cs.labels[1], ("tangency",), ("adj_r1", "adj_r2", "adj_r3")],
+                                [(), (), (), ()], cs.map_lo, cs.map_hi, cs.shift, cs.accept_width,
+                                bil[:2] + [None, None], [True, True, True, False]))
+        return tuple(out)
+
+    def closes(self, charts, chart, lo, hi) -> np.ndarray:
+        """(B,) bool: every loop's Eq. (10) (row _SCALAR_ROW of its transversal block) has a Bernstein hull above
+        SPURIOUS_BOUND on the boxes [lo, hi] (unit, (B, N)) of charts ``chart`` (B,) of ``charts`` (the cover's or
+        a cusp ChartSet): a root of the transversal entries there closes the loops (not a spurious half-turn)."""
+        chart = np.asarray(chart, dtype=int)
+        out = np.ones(len(chart), dtype=bool)
+        for b in range(len(self.plan.loops)):
+            c = np.moveaxis(charts.coeffs[b][chart][:, _SCALAR_ROW:_SCALAR_ROW + 1], 0, -1)
+            r = bernstein.restrict_batch_last(c, np.asarray(lo, dtype=float), np.asarray(hi, dtype=float), {})
+            out &= r.reshape(-1, len(chart)).min(axis=0) > SPURIOUS_BOUND
+        return out
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of angles v (B, N; radians) in charts ``chart`` (B,)."""
