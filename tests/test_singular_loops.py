@@ -253,3 +253,37 @@ def test_one_loop_five_bar_has_no_cusps(tmp_path):
     assert len(found.accepted[0]) > 100
     cands = certify_cusps(lp, bad, found, lp.closes)
     assert cands and all(c.status == "unresolved" for c in cands)
+
+
+def test_two_loop_plane_matches_the_platform_oracle():
+    """general_3rrr as a graph (two loops sharing gamma1, delta1: det K_p has two Laplace terms) on the loop
+    equations, in a 0.4 x 0.4 square of the plane beta3 = 0.5: every singular input that the degree-8
+    oracle's root count locates along lines across the square (tests/singular_refs.py) lies in a covered cell,
+    and the reference finds a singular input on the boundary of each ``singular`` cell widened by half its
+    width (as tests/test_singular.py checks the platform system)."""
+    from spherekin.search.boxloop import pruner_for, search_cover
+    from spherekin.trust.singular import Grid, certify_cover
+    from singular_refs import singular_points_on_line
+
+    m = spherekin.load_mechanism(EXAMPLES / "general_3rrr_graph.toml")
+    (x0, x1), (y0, y1), t = (0.9, 1.3), (1.1, 1.5), 0.1
+    lp = LoopPlane(m, SingularPlane(("beta1", x0, x1), ("beta2", y0, y1), {"beta3": 0.5}))
+    assert len(lp.plan.terms) == 2
+    grid = Grid.over(lp.plane.axes, t)
+    cover = search_cover(lp.charts, pruner_for(lp.charts, "pp", None), 0.5 * t, 10**6)
+    assert not len(cover.pending[0])
+    cells = certify_cover(lp, cover, grid)
+    boxes = [(grid.edges(0, c.i), grid.edges(1, c.j), c.status) for c in cells]
+    lines = [((x0, y0), (x1, y1)), ((x0, y1), (x1, y0)), ((x0, 1.3), (x1, 1.35)), ((1.1, y0), (1.15, y1))]
+    ref = [s.inputs[:2] for p0, p1 in lines for s in singular_points_on_line(p0, p1, n_samples=40, seed=0)]
+    assert len(ref) >= 3
+    for p in ref:
+        assert any(bx[0] - EDGE <= p[0] <= bx[1] + EDGE and by[0] - EDGE <= p[1] <= by[1] + EDGE
+                   for bx, by, _ in boxes), p
+    sing = [(bx, by) for bx, by, s in boxes if s == "singular"]
+    assert len(sing) >= 3
+    for (a0, a1), (b0, b1) in sing:
+        w = a1 - a0
+        u0, u1, v0, v1 = a0 - w / 2, a1 + w / 2, b0 - w / 2, b1 + w / 2
+        edges = [((u0, v0), (u1, v0)), ((u1, v0), (u1, v1)), ((u1, v1), (u0, v1)), ((u0, v1), (u0, v0))]
+        assert any(singular_points_on_line(p0, p1, n_samples=12, seed=1) for p0, p1 in edges), (a0, b0)

@@ -429,13 +429,17 @@ def _axis_cross(a) -> np.ndarray:
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
-def _add_elevated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a + b for Bernstein tensors over the same variables (all axes), each raised to the larger degree per axis."""
-    for k in range(a.ndim):
-        if a.shape[k] < b.shape[k]:
-            a = bernstein.elevate(a, k, b.shape[k] - a.shape[k])
-        elif b.shape[k] < a.shape[k]:
-            b = bernstein.elevate(b, k, a.shape[k] - b.shape[k])
+def _add_elevated(a: np.ndarray, b: np.ndarray, nvars: int | None = None) -> np.ndarray:
+    """a + b for Bernstein tensors over the same variables (the last ``nvars`` axes, default all; leading batch
+    axes broadcast), each raised to the larger degree per variable."""
+    n = a.ndim if nvars is None else nvars
+    for v in range(n):
+        k = a.ndim - n + v
+        kb = b.ndim - n + v
+        if a.shape[k] < b.shape[kb]:
+            a = bernstein.elevate(a, v, b.shape[kb] - a.shape[k], n)
+        elif b.shape[kb] < a.shape[k]:
+            b = bernstein.elevate(b, v, a.shape[k] - b.shape[kb], n)
     return a + b
 
 
@@ -623,18 +627,16 @@ class LoopPlane:
         """D = det K_p (C, 1, *dims) on every chart (:func:`det_plan`), and its tolerance (C, 1):
         ROUNDING_SAFETY eps times the largest control point of the same products in absolute value (the terms
         behind each control point)."""
-        out, mags = [], []
-        for c in range(charts.n_charts):
-            det, mag = self._det_nets(charts, c)
-            out.append(det)
-            mags.append(float(mag.max()))
-        d = np.stack(out)[:, None]
-        tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(np.array(mags), np.abs(d).reshape(len(out), -1).max(
-            axis=1))
+        count = charts.n_charts
+        det, mag = self._det_nets(charts, np.arange(count))
+        d = np.ascontiguousarray(np.broadcast_to(det, (count,) + det.shape[1:]))[:, None]
+        mags = np.broadcast_to(mag.reshape(mag.shape[0], -1).max(axis=1), (count,))
+        tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(mags, np.abs(d).reshape(count, -1).max(axis=1))
         return d, tol[:, None]
 
-    def _det_nets(self, charts: ChartSet, c: int) -> tuple[np.ndarray, np.ndarray]:
-        """(D, the net of its terms' magnitudes) on chart c, tensors over the chart's variables (:func:`det_plan`)."""
+    def _det_nets(self, charts: ChartSet, c) -> tuple[np.ndarray, np.ndarray]:
+        """(D, the net of its terms' magnitudes) on the charts ``c`` (index array (B,)): tensors (B or 1, *dims)
+        over the chart's variables, batch first (:func:`det_plan`)."""
         plan = self.plan
         variables = list(charts.variables)
         n = len(variables)
@@ -650,49 +652,52 @@ class LoopPlane:
                         minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
                     term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
                 term = term if absolute else sign * term
-                det = term if det is None else _add_elevated(det, term)
+                det = term if det is None else _add_elevated(det, term, n)
             dets.append(det)
         return dets[0], dets[1]
 
     @staticmethod
     def _minor(cols, n, absolute) -> np.ndarray:
-        """det[c_1, c_2, c_3] of three columns (each 3 tensors over the n variables), by its 6 permutations
-        (all with sign +1 and entries' magnitudes with ``absolute``)."""
+        """det[c_1, c_2, c_3] of three columns (each 3 tensors over the n variables, batch first), by its 6
+        permutations (all with sign +1 and entries' magnitudes with ``absolute``)."""
         det = None
         for perm in itertools.permutations(range(3)):
             sign = 1.0 if absolute else _parity(perm)
             term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n), cols[2][perm[2]], n)
-            det = sign * term if det is None else _add_elevated(det, sign * term)
+            det = sign * term if det is None else _add_elevated(det, sign * term, n)
         return det
 
     def _rotation(self, joint: str, sign: int, charts, c, variables, n, absolute) -> np.ndarray:
-        """(1 + t^2) Rot(sign a, reading - ref) (3, 3, *sizes) of ``joint`` on chart c (a variable: degree 2 in
-        its t), or Rot(...) itself (sizes 1) at the plane's fixed reading; in absolute value with ``absolute``."""
+        """(1 + t^2) Rot(sign a, reading - ref) (B, 3, 3, *sizes) of ``joint`` on the charts ``c`` (index array
+        (B,); a variable: degree 2 in its t), or Rot(...) itself (1, 3, 3, sizes 1) at the plane's fixed reading;
+        in absolute value with ``absolute``."""
         j = self.mechanism.joint(joint)
         a = sign * np.asarray(j.axis, dtype=float)
         parts = np.stack([np.eye(3) - np.outer(a, a), _axis_cross(a), np.outer(a, a)])        # (cos, sin, 1)
-        shape = [3, 3] + [1] * n
+        shape = [-1, 3, 3] + [1] * n
         if joint in variables:
             k = variables.index(joint)
-            w = _weights(float(charts.shift[c, k]) - j.reference_angle, charts.map_lo[c, k], charts.map_hi[c, k])
-            shape[2 + k] = 3
+            w = np.stack([_weights(float(charts.shift[ci, k]) - j.reference_angle, charts.map_lo[ci, k],
+                                   charts.map_hi[ci, k]) for ci in c])                    # (B, 3 parts, 3)
+            shape[3 + k] = 3
         else:
             d = self.plane.fixed[joint] - j.reference_angle
-            w = np.array([[math.cos(d)], [math.sin(d)], [1.0]])
+            w = np.array([[[math.cos(d)], [math.sin(d)], [1.0]]])                         # (1, 3 parts, 1)
         if absolute:
             parts, w = np.abs(parts), np.abs(w)
-        return np.einsum("pij,pk->ijk", parts, w).reshape(shape)
+        return np.einsum("pij,bpk->bijk", parts, w).reshape(shape)
 
     def _column(self, lc: LoopColumn, charts, c, variables, n, absolute) -> list[np.ndarray]:
-        """The 3 entries (each a tensor over the n variables) of a passive joint's column (:class:`LoopColumn`)
-        of its loop's block of K_p in the loop's frame, on chart c; entries' magnitudes with ``absolute``."""
-        rot = np.eye(3).reshape([3, 3] + [1] * n)
+        """The 3 entries (each a tensor (B or 1, *sizes) over the n variables) of a passive joint's column
+        (:class:`LoopColumn`) of its loop's block of K_p in the loop's frame, on the charts ``c`` (index array
+        (B,)); entries' magnitudes with ``absolute``."""
+        rot = np.eye(3).reshape([1, 3, 3] + [1] * n)
         for joint, sign in lc.path:
             r = self._rotation(joint, sign, charts, c, variables, n, absolute)
-            rot = (rot[:, :, None] * r[None, :, :]).sum(axis=1)                # distinct variables: a tensor product
+            rot = (rot[:, :, :, None] * r[:, None, :, :]).sum(axis=2)          # distinct variables: a tensor product
         axis = np.asarray(self.mechanism.joint(lc.joint).axis, dtype=float)
-        vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
-        return [vec[i] if absolute else lc.sign * vec[i] for i in range(3)]
+        vec = np.einsum("bij...,j->bi...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
+        return [vec[:, i] if absolute else lc.sign * vec[:, i] for i in range(3)]
 
     def cusp_charts(self, rs) -> tuple:
         """The cusp systems of a one-loop mechanism in a plane of two inputs (as
@@ -719,7 +724,7 @@ class LoopPlane:
         loop = self.plan.loops[0]
         per_r = [([], [], [], []) for _ in rs]
         for c in range(cs.n_charts):
-            d, dmag = self._det_nets(cs, c)
+            d, dmag = (x[0] for x in self._det_nets(cs, np.array([c])))
             width = cs.map_hi[c] - cs.map_lo[c]
 
             def one_plus_t2(v):          # (1 + t_v^2) in the chart's unit variable: (1 + lo^2) + 2 lo w x + w^2 x^2
@@ -743,8 +748,8 @@ class LoopPlane:
                     if joint in variables:
                         factor = bernstein.multiply(factor, one_plus_t2(variables.index(joint)), n)
                 weights.append((bernstein.multiply(dd, factor, n), bernstein.multiply(dm, factor, n)))
-            cols = [self._column(lc, cs, c, variables, n, False) for lc in loop]
-            mcols = [self._column(lc, cs, c, variables, n, True) for lc in loop]
+            cols = [[e[0] for e in self._column(lc, cs, np.array([c]), variables, n, False)] for lc in loop]
+            mcols = [[e[0] for e in self._column(lc, cs, np.array([c]), variables, n, True)] for lc in loop]
             for ri, r in enumerate(rs):
                 r = np.asarray(r, dtype=float)
                 adj, adj_mag = [], []
