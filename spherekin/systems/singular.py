@@ -505,10 +505,10 @@ def det_plan(mechanism, variables) -> DetPlan:
     of the joints between F and the joint going either way round the loop (equal on the closure set, which is
     solved with D). Each column takes the way with fewer variable joints, each loop the frame link giving the
     fewest coefficients. A rotation times 1 + t^2 is degree 2 in its t, so D's degree in t_v is 2 x the number of
-    the chosen minors' columns whose path crosses v (the largest over the Laplace terms): four-bar (input A;
-    B, C, D passive, frame the coupler): det[a_B, a_C, Rot(C) a_D], degree 2 in C only (the branch points are
-    where B, C, D are coplanar); Watt six-bar: 2 in C, 2 in F (one term, the two loops' minors); Stephenson
-    six-bar: 2 in C, 2 in E, 4 in G (two terms)."""
+    the chosen minors' columns whose path crosses v (the largest over the Laplace terms): four-bar and five-bar
+    (passive B, C, D; frame the link carrying C and D): det[Rot(C) a_B, a_C, a_D], degree 2 in C only (singular
+    where the axes B, C, D are coplanar); Watt six-bar: 2 in each of B, C, E (one term: the two loops' minors);
+    Stephenson six-bar: 2 in each of C, E, G (two terms); general_3rrr as a graph: 2 in each delta_i (two terms)."""
     m = mechanism
     cols = list(m.loop_unknowns)
     n_loops = len(m.loop_geometry)
