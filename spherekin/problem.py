@@ -841,8 +841,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     (:mod:`spherekin.trust.singular`). ``max_boxes`` caps the cover: when reached, ``complete`` is False and
     the unprocessed part of the plane is in ``unresolved`` cells. The system is chosen as a solve's: the
     platform system (three R-R-R legs; passive joint ranges not applied: the set may hold singular
-    configurations with passive joints out of range) where it applies, else the loop equations (one loop:
-    four-bars, five-bars; passive ranges applied).
+    configurations with passive joints out of range) where it applies, else the loop equations (3 passive
+    joints per loop: four-bars, five-bars, six-bars; passive ranges applied).
     """
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane

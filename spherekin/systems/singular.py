@@ -40,6 +40,7 @@ from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSe
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
+           "LoopColumn", "DetPlan", "det_plan", "MAX_LAPLACE_TERMS", "MAX_DET_COEFFS",
            "SPURIOUS_BOUND", "CUSP_SQUARE",
            "cusp_newton", "cusp_krawczyk"]
 
@@ -428,40 +429,174 @@ def _axis_cross(a) -> np.ndarray:
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
-def _add_elevated(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a + b for Bernstein tensors over the same variables (all axes), each raised to the larger degree per axis."""
-    for k in range(a.ndim):
-        if a.shape[k] < b.shape[k]:
-            a = bernstein.elevate(a, k, b.shape[k] - a.shape[k])
-        elif b.shape[k] < a.shape[k]:
-            b = bernstein.elevate(b, k, a.shape[k] - b.shape[k])
+def _add_elevated(a: np.ndarray, b: np.ndarray, nvars: int | None = None) -> np.ndarray:
+    """a + b for Bernstein tensors over the same variables (the last ``nvars`` axes, default all; leading batch
+    axes broadcast), each raised to the larger degree per variable."""
+    n = a.ndim if nvars is None else nvars
+    for v in range(n):
+        k = a.ndim - n + v
+        kb = b.ndim - n + v
+        if a.shape[k] < b.shape[kb]:
+            a = bernstein.elevate(a, v, b.shape[kb] - a.shape[k], n)
+        elif b.shape[kb] < a.shape[k]:
+            b = bernstein.elevate(b, v, a.shape[k] - b.shape[kb], n)
     return a + b
 
 
+#: Caps on det K_p of a mechanism with several loops (:class:`LoopPlane`), checked before anything is built:
+#: the number of terms of its Laplace expansion over the loops' row blocks (six-bars: 1 or 2; each term is l
+#: 3 x 3 minors multiplied, so thousands would take minutes per chart) ...
+MAX_LAPLACE_TERMS = 200
+#: ... and the Bernstein coefficients of D on one chart (the product of (degree + 1) over the variables):
+#: the box loop restricts D on every box (a 5-loop mechanism written from the ground frame could reach 3^30);
+#: 2e5 coefficients, 1.6 MB per chart, keep a search of ~1e4 boxes within seconds to a minute (six-bars: <= 27).
+MAX_DET_COEFFS = 200_000
+
+
+@dataclass(frozen=True)
+class LoopColumn:
+    """A passive joint's column of one loop's block of K_p, in that loop's frame link: ``column`` (index in
+    ``SphericalMechanism.loop_unknowns``), ``sign`` (+-1: the joint's sign in the loop's velocity constraint,
+    ``SphericalMechanism.constraint_terms``), ``path``: ((joint, sign), ...) the rotations from the frame link
+    to a link carrying the joint (its current axis in the frame is Rot(s_1 a_1, th_1) ... Rot(s_k a_k, th_k) a,
+    angles reading - reference)."""
+
+    column: int
+    sign: float
+    joint: str
+    path: tuple
+
+
+@dataclass(frozen=True)
+class DetPlan:
+    """How :class:`LoopPlane` builds D = det K_p: ``loops``: per loop its :class:`LoopColumn` s; ``terms``:
+    the Laplace expansion over the loops' row blocks, (sign, (S_1, ..., S_l)) with S_i the sorted columns
+    (indices into ``loops[i]``) of loop i's 3 x 3 minor; ``degrees``: D's degree per variable (the chart's
+    ``variables`` order; the largest over the terms)."""
+
+    loops: tuple
+    terms: tuple
+    degrees: tuple
+
+    @property
+    def coefficients(self) -> int:
+        """D's Bernstein coefficients on one chart."""
+        return int(np.prod([d + 1 for d in self.degrees]))
+
+
+def _parity(order) -> float:
+    """+1 or -1: the sign of the permutation ``order`` of 0 .. n - 1."""
+    order, sign = list(order), 1.0
+    for i in range(len(order)):
+        while order[i] != i:
+            j = order[i]
+            order[i], order[j] = order[j], order[i]
+            sign = -sign
+    return sign
+
+
+def det_plan(mechanism, variables) -> DetPlan:
+    """The plan of D = det K_p for ``mechanism`` whose joints ``variables`` (names) are unknowns (the others:
+    actuated joints at fixed readings, constant rotations). ValueError (one line) when the mechanism has not
+    3 passive joints per loop, or D exceeds MAX_LAPLACE_TERMS / MAX_DET_COEFFS.
+
+    Frames: multiplying loop i's three rows of K_p by R_F^T (F any link of the loop) leaves every 3 x 3 minor
+    of the block, hence det K_p, unchanged; in F's frame a joint's current axis is the product of the rotations
+    of the joints between F and the joint going either way round the loop (equal on the closure set, which is
+    solved with D). Each column takes the way with fewer variable joints, each loop the frame link giving the
+    fewest coefficients. A rotation times 1 + t^2 is degree 2 in its t, so D's degree in t_v is 2 x the number of
+    the chosen minors' columns whose path crosses v (the largest over the Laplace terms): four-bar and five-bar
+    (passive B, C, D; frame the link carrying C and D): det[Rot(C) a_B, a_C, a_D], degree 2 in C only (singular
+    where the axes B, C, D are coplanar); Watt six-bar: 2 in each of B, C, E (one term: the two loops' minors);
+    Stephenson six-bar: 2 in each of C, E, G (two terms); general_3rrr as a graph: 2 in each delta_i (two terms)."""
+    m = mechanism
+    cols = list(m.loop_unknowns)
+    n_loops = len(m.loop_geometry)
+    if len(cols) != 3 * n_loops:
+        raise ValueError(f"mechanism: singular sets need 3 passive joints per loop (a square passive Jacobian, "
+                         f"3 x {n_loops} = {3 * n_loops}), got {len(cols)} ({', '.join(cols)})")
+    variables = list(variables)
+    loops = []
+    for g, terms in zip(m.loop_geometry, m.constraint_terms):
+        cycle = [(st.joint, st.sign) for st in g.up] + [(st.joint, -st.sign) for st in reversed(g.down)]
+        n = len(cycle)
+        signs = {joint: sgn for _, sgn, joint, _ in terms}
+        best = None
+        for f in range(n):               # frame: the link between cycle[f - 1] and cycle[f]
+            loop = []
+            for k, (joint, _) in enumerate(cycle):
+                if joint not in cols:
+                    continue
+                fwd = tuple(cycle[p % n] for p in range(f, f + (k - f) % n))
+                bwd = tuple((cycle[p % n][0], -cycle[p % n][1]) for p in range(f - 1, f - 1 - (f - k - 1) % n, -1))
+                path = min(fwd, bwd, key=lambda p: (sum(j in variables for j, _ in p), len(p)))
+                loop.append(LoopColumn(cols.index(joint), float(signs[joint]), joint, path))
+            count = [2 * sum(any(j == v for j, _ in c.path) for c in loop) for v in variables]
+            cost = (float(np.prod([d + 1 for d in count])), sum(len(c.path) for c in loop))
+            if best is None or cost < best[0]:
+                best = (cost, tuple(loop))
+        loops.append(best[1])
+    terms = []
+
+    def expand(i, used, chosen):
+        if len(terms) > MAX_LAPLACE_TERMS:
+            return
+        if i == n_loops:
+            order = [loops[k][c].column for k, s in enumerate(chosen) for c in s]
+            terms.append((_parity(order), tuple(chosen)))
+            return
+        free = [c for c, lc in enumerate(loops[i]) if lc.column not in used]
+        for s in itertools.combinations(free, 3):
+            taken = used | {loops[i][c].column for c in s}
+            later = {lc.column for k in range(i + 1, n_loops) for lc in loops[k]}
+            if all(c in taken or c in later for c in range(len(cols))):
+                expand(i + 1, taken, chosen + [s])
+
+    expand(0, frozenset(), [])
+    if len(terms) > MAX_LAPLACE_TERMS:
+        raise ValueError(f"mechanism: det K_p of its {n_loops} loops has more than {MAX_LAPLACE_TERMS} Laplace terms "
+                         "(MAX_LAPLACE_TERMS): too large to build; singular sets are computed for up to a few loops")
+    if not terms:
+        raise ValueError("mechanism: its passive Jacobian is singular everywhere (no choice of 3 passive joints per "
+                         "loop covers every passive joint): no isolated singular set")
+    degrees = [0] * len(variables)
+    for _, chosen in terms:
+        for v, name in enumerate(variables):
+            d = 2 * sum(any(j == name for j, _ in loops[k][c].path) for k, s in enumerate(chosen) for c in s)
+            degrees[v] = max(degrees[v], d)
+    plan = DetPlan(tuple(loops), tuple(terms), tuple(degrees))
+    if plan.coefficients > MAX_DET_COEFFS:
+        raise ValueError(f"mechanism: det K_p of its {n_loops} loops would have {plan.coefficients} Bernstein "
+                         f"coefficients per chart (degrees {dict(zip(variables, degrees))}), more than MAX_DET_COEFFS "
+                         f"= {MAX_DET_COEFFS}: too large to search")
+    return plan
+
+
 class LoopPlane:
-    """The loop equations' singular set in a plane of inputs: any mechanism with one loop (K_p 3 x 3).
+    """The loop equations' singular set in a plane of inputs: any mechanism the loop system accepts whose
+    passive joints are 3 per loop (l loops, K_p 3 l x 3 l): four-bars, five-bars, six-bars, ...
 
     Unknowns: the passive joints and the plane's inputs, on the tan-half charts of the loop equations
     (:meth:`spherekin.mechanism.SphericalMechanism.loop_system` with ``free``: the plane inputs become unknowns);
-    blocks: the closure equations of the formulation (pruned, no square system) and D = det K_p, whose columns
-    are the passive joints' current axes (sign x R_link a, R_link the product of the rotations along the
-    link's tree path; each rotation times 1 + t^2 is degree 2 in its t). D vanishes on the closure set exactly
-    where the passive Jacobian loses rank (not the formulation's own degeneracies). The formulation is
-    "transversal" (block 0: q f21, q f31, q f32 and Eq. (10)), whose square entries :meth:`prove` certifies.
-    Passive joint ranges are constraints here (the mechanism's ranges).
+    blocks: the closure equations of the formulation, one block per loop (pruned, no square system), and
+    D = det K_p (:func:`det_plan`: a Laplace expansion over the loops' row blocks of 3 x 3 minors whose columns
+    are the passive joints' current axes in a frame link of the loop; K_p's column of joint j in loop i is
+    s_ij omega_j, as :meth:`~spherekin.mechanism.SphericalMechanism.jacobians`). D vanishes on the closure set
+    exactly where the passive Jacobian loses rank (not the formulation's own degeneracies). One plane input
+    (a 1-DOF mechanism: the four-bar, six-bars) gives isolated singular inputs on the line; two, curves. The
+    formulation is "transversal" (per loop: q f21, q f31, q f32 and Eq. (10)), whose square entries
+    :meth:`prove` certifies. Passive joint ranges are constraints here (the mechanism's ranges).
     """
 
     def __init__(self, mechanism, plane: SingularPlane, formulation: str = "transversal"):
         from ..search.parameterizations import make_charts, stack_chart_sets
 
         m = mechanism
-        if len(m.loop_geometry) != 1:
-            raise ValueError(f"mechanism: singular sets on the loop equations need one loop (a 3 x 3 passive "
-                             f"Jacobian), got {len(m.loop_geometry)}")
         self.mechanism = m
         self.plane = plane
         names = [a[0] for a in plane.axes]
         inputs = [plane.fixed.get(n, 0.0) for n in m.actuated]
+        self.plan = det_plan(m, list(m.loop_unknowns) + names)   # before any chart is built: refusals first
 
         def build(chart_ranges):
             system = m.loop_system(inputs, {n: chart_ranges[n] for n in m.loop_unknowns}, free={
@@ -475,6 +610,8 @@ class LoopPlane:
         pieces = [plane_charts(a[1], a[2]) for a in plane.axes]
         closure = stack_chart_sets([make_charts("tan-half", build, {**passive, **dict(zip(names, combo))}, formulation)
                                     for combo in itertools.product(*pieces)])
+        if tuple(closure.variables) != tuple(m.loop_unknowns) + tuple(names):
+            raise AssertionError(f"LoopPlane: chart variables {closure.variables} are not the plan's")
         d, d_tol = self._determinant(closure)
         nb = len(closure.coeffs)
         self.charts = ChartSet(closure.parameterization, closure.unknowns, closure.variables,
@@ -483,68 +620,197 @@ class LoopPlane:
                                closure.map_lo, closure.map_hi, closure.shift, closure.accept_width,
                                list(closure.bilinear or [None] * nb) + [None], list(closure.prune or [True] * nb) + [True])
         self.plane_columns = tuple(list(closure.variables).index(n) for n in names)
+        # the square slice: each loop's transversal entries q f21, q f31, q f32 (block b, rows 0-2) and D
+        self.slice = SquareSystem(tuple((b, r) for b in range(nb) for r in range(3)) + ((nb, 0),))
 
     def _determinant(self, charts: ChartSet):
-        """D = det K_p (C, 1, *dims) on every chart, and its tolerance (C, 1): ROUNDING_SAFETY eps times the
-        largest control point of the same products in absolute value (the terms behind each control point)."""
-        m = self.mechanism
-        variables = list(charts.variables)
-        n = len(variables)
-        terms = m.constraint_terms[0]
-        passive_cols = {m.joint_names.index(p): p for p in m.passive}
-        columns = [[t for t in terms if t[0] == col] for col in sorted(passive_cols, key=lambda c: m.passive.index(
-            passive_cols[c]))]
-        out, mags = [], []
-        for c in range(charts.n_charts):
-            dets = []
-            for absolute in (False, True):
-                cols = [self._column(col_terms, charts, c, variables, n, absolute) for col_terms in columns]
-                det = None
-                for perm in itertools.permutations(range(3)):
-                    sign = 1.0 if absolute else float(np.linalg.det(np.eye(3)[list(perm)]))
-                    term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n),
-                                              cols[2][perm[2]], n)
-                    det = sign * term if det is None else _add_elevated(det, sign * term)
-                dets.append(det)
-            out.append(dets[0])
-            mags.append(float(np.abs(dets[1]).max()))
-        d = np.stack(out)[:, None]
-        tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(np.array(mags), np.abs(d).reshape(len(out), -1).max(
-            axis=1))
+        """D = det K_p (C, 1, *dims) on every chart (:func:`det_plan`), and its tolerance (C, 1):
+        ROUNDING_SAFETY eps times the largest control point of the same products in absolute value (the terms
+        behind each control point)."""
+        count = charts.n_charts
+        det, mag = self._det_nets(charts, np.arange(count))
+        d = np.ascontiguousarray(np.broadcast_to(det, (count,) + det.shape[1:]))[:, None]
+        mags = np.broadcast_to(mag.reshape(mag.shape[0], -1).max(axis=1), (count,))
+        tol = ROUNDING_SAFETY * np.finfo(float).eps * np.maximum(mags, np.abs(d).reshape(count, -1).max(axis=1))
         return d, tol[:, None]
 
+    def _det_nets(self, charts: ChartSet, c) -> tuple[np.ndarray, np.ndarray]:
+        """(D, the net of its terms' magnitudes) on the charts ``c`` (index array (B,)): tensors (B or 1, *dims)
+        over the chart's variables, batch first (:func:`det_plan`)."""
+        plan = self.plan
+        variables = list(charts.variables)
+        n = len(variables)
+        dets = []
+        for absolute in (False, True):
+            cols = [[self._column(lc, charts, c, variables, n, absolute) for lc in loop] for loop in plan.loops]
+            minors: dict = {}
+            det = None
+            for sign, chosen in plan.terms:
+                term = None
+                for i, s in enumerate(chosen):
+                    if (i, s) not in minors:
+                        minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
+                    term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
+                term = term if absolute else sign * term
+                det = term if det is None else _add_elevated(det, term, n)
+            dets.append(det)
+        return dets[0], dets[1]
+
+    @staticmethod
+    def _minor(cols, n, absolute) -> np.ndarray:
+        """det[c_1, c_2, c_3] of three columns (each 3 tensors over the n variables, batch first), by its 6
+        permutations (all with sign +1 and entries' magnitudes with ``absolute``)."""
+        det = None
+        for perm in itertools.permutations(range(3)):
+            sign = 1.0 if absolute else _parity(perm)
+            term = bernstein.multiply(bernstein.multiply(cols[0][perm[0]], cols[1][perm[1]], n), cols[2][perm[2]], n)
+            det = sign * term if det is None else _add_elevated(det, sign * term, n)
+        return det
+
     def _rotation(self, joint: str, sign: int, charts, c, variables, n, absolute) -> np.ndarray:
-        """(1 + t^2) Rot(sign a, reading - ref) (3, 3, *sizes) of ``joint`` on chart c (a variable: degree 2 in
-        its t), or Rot(...) itself (sizes 1) at the plane's fixed reading; in absolute value with ``absolute``."""
+        """(1 + t^2) Rot(sign a, reading - ref) (B, 3, 3, *sizes) of ``joint`` on the charts ``c`` (index array
+        (B,); a variable: degree 2 in its t), or Rot(...) itself (1, 3, 3, sizes 1) at the plane's fixed reading;
+        in absolute value with ``absolute``."""
         j = self.mechanism.joint(joint)
         a = sign * np.asarray(j.axis, dtype=float)
         parts = np.stack([np.eye(3) - np.outer(a, a), _axis_cross(a), np.outer(a, a)])        # (cos, sin, 1)
-        shape = [3, 3] + [1] * n
+        shape = [-1, 3, 3] + [1] * n
         if joint in variables:
             k = variables.index(joint)
-            w = _weights(float(charts.shift[c, k]) - j.reference_angle, charts.map_lo[c, k], charts.map_hi[c, k])
-            shape[2 + k] = 3
+            w = np.stack([_weights(float(charts.shift[ci, k]) - j.reference_angle, charts.map_lo[ci, k],
+                                   charts.map_hi[ci, k]) for ci in c])                    # (B, 3 parts, 3)
+            shape[3 + k] = 3
         else:
             d = self.plane.fixed[joint] - j.reference_angle
-            w = np.array([[math.cos(d)], [math.sin(d)], [1.0]])
+            w = np.array([[[math.cos(d)], [math.sin(d)], [1.0]]])                         # (1, 3 parts, 1)
         if absolute:
             parts, w = np.abs(parts), np.abs(w)
-        return np.einsum("pij,pk->ijk", parts, w).reshape(shape)
+        return np.einsum("pij,bpk->bijk", parts, w).reshape(shape)
 
-    def _column(self, col_terms, charts, c, variables, n, absolute) -> list[np.ndarray]:
-        """The 3 entries (each a tensor over the n variables) of a passive joint's column of K_p on chart c."""
-        m = self.mechanism
-        total = None
-        for _, sign, joint, link in col_terms:
-            rot = np.eye(3).reshape([3, 3] + [1] * n)
-            for st in m.link_paths[link]:
-                r = self._rotation(st.joint, st.sign, charts, c, variables, n, absolute)
-                rot = (rot[:, :, None] * r[None, :, :]).sum(axis=1)          # distinct variables: a tensor product
-            axis = np.asarray(m.joint(joint).axis, dtype=float)
-            vec = np.einsum("ij...,j->i...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
-            vec = vec * (1.0 if absolute else sign)
-            total = vec if total is None else np.stack([_add_elevated(total[i], vec[i]) for i in range(3)])
-        return [total[i] for i in range(3)]
+    def _column(self, lc: LoopColumn, charts, c, variables, n, absolute) -> list[np.ndarray]:
+        """The 3 entries (each a tensor (B or 1, *sizes) over the n variables) of a passive joint's column
+        (:class:`LoopColumn`) of its loop's block of K_p in the loop's frame, on the charts ``c`` (index array
+        (B,)); entries' magnitudes with ``absolute``."""
+        rot = np.eye(3).reshape([1, 3, 3] + [1] * n)
+        for joint, sign in lc.path:
+            r = self._rotation(joint, sign, charts, c, variables, n, absolute)
+            rot = (rot[:, :, :, None] * r[:, None, :, :]).sum(axis=2)          # distinct variables: a tensor product
+        axis = np.asarray(self.mechanism.joint(lc.joint).axis, dtype=float)
+        vec = np.einsum("bij...,j->bi...", np.abs(rot) if absolute else rot, np.abs(axis) if absolute else axis)
+        return [vec[:, i] if absolute else lc.sign * vec[:, i] for i in range(3)]
+
+    def cusp_charts(self, rs) -> tuple:
+        """The cusp systems of a one-loop mechanism in a plane of two inputs (as
+        :meth:`PlatformPlane.cusp_charts`, same block layout, so :func:`spherekin.trust.singular.certify_cusps`
+        certifies them): per r in ``rs`` ((3,) vectors) a :class:`ChartSet` over the cover's variables with blocks
+        the closure (transversal), D, the tangency C_r and A = adj(K~) r (3 rows, not pruned).
+
+        K~ is the loop-frame K_p whose column j carries the factor Q_j = prod (1 + t_k^2) over the joints of its
+        path, so adj(K~) = diag(prod_i Q_i / Q_j) adj(K) (K the rotations' matrix) and k = adj(K) r has
+        k_j proportional to Q_j (adj(K~) r)_j. On the closure set D = P det K (P > 0, a product of 1 + t^2) and
+        dtheta_j / dt_j = 2 / (1 + t_j^2), so the derivative of det K along the kernel, sum_j d det K / dtheta_j
+        k_j, is a positive multiple of C_r = sum_j dD/dt_j (1 + t_j^2) Q_j (adj(K~) r)_j (passive joints j).
+        On the curve adj(K) = k l^T: C_r = 0 iff (l . r) (grad det K . k) = 0, the tangent projecting to 0 in
+        the plane (three assemblies meet), or the spurious l . r = 0 that the certificate rules out with A."""
+        if len(self.plane_columns) != 2:
+            raise ValueError("cusps: expected a plane of two inputs, got a line")
+        if len(self.plan.loops) != 1:
+            raise ValueError(f"cusps: searched on the loop equations of one-loop mechanisms, got {len(self.plan.loops)} "
+                             "loops")
+        eps = np.finfo(float).eps
+        cs = self.charts
+        variables = list(cs.variables)
+        n = len(variables)
+        loop = self.plan.loops[0]
+        per_r = [([], [], [], []) for _ in rs]
+        for c in range(cs.n_charts):
+            d, dmag = (x[0] for x in self._det_nets(cs, np.array([c])))
+            width = cs.map_hi[c] - cs.map_lo[c]
+
+            def one_plus_t2(v):          # (1 + t_v^2) in the chart's unit variable: (1 + lo^2) + 2 lo w x + w^2 x^2
+                lo, w = float(cs.map_lo[c, v]), float(width[v])
+                net = bernstein.from_power(np.array([1.0 + lo * lo, 2.0 * lo * w, w * w]), nvars=1)
+                shape = [1] * n
+                shape[v] = 3
+                return net.reshape(shape)
+
+            weights = []                 # per column j: dD/dt_j (1 + t_j^2) Q_j and its magnitudes' net (None: D free of t_j)
+            for lc in loop:
+                v = lc.column
+                deg = d.shape[v] - 1
+                if deg == 0:
+                    weights.append(None)
+                    continue
+                dd = deg * np.diff(d, axis=v) / width[v]
+                dm = deg * (np.take(dmag, range(1, deg + 1), axis=v) + np.take(dmag, range(deg), axis=v)) / width[v]
+                factor = one_plus_t2(v)
+                for joint, _ in lc.path:
+                    if joint in variables:
+                        factor = bernstein.multiply(factor, one_plus_t2(variables.index(joint)), n)
+                weights.append((bernstein.multiply(dd, factor, n), bernstein.multiply(dm, factor, n)))
+            cols = [[e[0] for e in self._column(lc, cs, np.array([c]), variables, n, False)] for lc in loop]
+            mcols = [[e[0] for e in self._column(lc, cs, np.array([c]), variables, n, True)] for lc in loop]
+            for ri, r in enumerate(rs):
+                r = np.asarray(r, dtype=float)
+                adj, adj_mag = [], []
+                for j in range(3):       # (adj M)_{j i} = (-1)^{i + j} minor(row i, column j), M[i][j] = cols[j][i]
+                    total = mtotal = None
+                    for i in range(3):
+                        if r[i] == 0.0:
+                            continue
+                        rows = [a for a in range(3) if a != i]
+                        cc = [b for b in range(3) if b != j]
+                        sign = (-1.0) ** (i + j) * r[i]
+                        m1 = bernstein.multiply(cols[cc[0]][rows[0]], cols[cc[1]][rows[1]], n)
+                        m2 = bernstein.multiply(cols[cc[1]][rows[0]], cols[cc[0]][rows[1]], n)
+                        a1 = bernstein.multiply(mcols[cc[0]][rows[0]], mcols[cc[1]][rows[1]], n)
+                        a2 = bernstein.multiply(mcols[cc[1]][rows[0]], mcols[cc[0]][rows[1]], n)
+                        t, tm = _add_elevated(sign * m1, -sign * m2), abs(r[i]) * _add_elevated(a1, a2)
+                        total = t if total is None else _add_elevated(total, t)
+                        mtotal = tm if mtotal is None else _add_elevated(mtotal, tm)
+                    adj.append(total)
+                    adj_mag.append(mtotal)
+                cr = cm = None
+                for j, w in enumerate(weights):
+                    if w is None:
+                        continue
+                    t, tm = bernstein.multiply(w[0], adj[j], n), bernstein.multiply(w[1], adj_mag[j], n)
+                    cr = t if cr is None else _add_elevated(cr, t)
+                    cm = tm if cm is None else _add_elevated(cm, tm)
+                if cr is None:           # D constant on the chart: no tangency to search (C_r = 0 would keep all)
+                    raise ValueError("cusps: the determinant does not depend on any passive joint")
+                big = adj[0]
+                for a in adj[1:]:
+                    big = _add_elevated(big, 0.0 * a)
+                adj = [_add_elevated(a, 0.0 * big) for a in adj]
+                adj_mag = [_add_elevated(a, 0.0 * big) for a in adj_mag]
+                per_r[ri][0].append(cr)
+                per_r[ri][1].append(ROUNDING_SAFETY * eps * max(float(cm.max()), float(np.abs(cr).max())))
+                per_r[ri][2].append(np.stack(adj))
+                per_r[ri][3].append([ROUNDING_SAFETY * eps * max(float(m.max()), float(np.abs(a).max()))
+                                     for a, m in zip(adj, adj_mag)])
+        out = []
+        bil = list(cs.bilinear or [None, None])
+        for cr, ct, ad, at in per_r:
+            out.append(ChartSet(cs.parameterization, cs.unknowns, cs.variables,
+                                [cs.coeffs[0], cs.coeffs[1], np.stack(cr)[:, None], np.stack(ad)],
+                                [cs.tols[0], cs.tols[1], np.array(ct)[:, None], np.array(at)],
+                                [cs.labels[0], cs.labels[1], ("tangency",), ("adj_r1", "adj_r2", "adj_r3")],
+                                [(), (), (), ()], cs.map_lo, cs.map_hi, cs.shift, cs.accept_width,
+                                bil[:2] + [None, None], [True, True, True, False]))
+        return tuple(out)
+
+    def closes(self, charts, chart, lo, hi) -> np.ndarray:
+        """(B,) bool: every loop's Eq. (10) (row _SCALAR_ROW of its transversal block) has a Bernstein hull above
+        SPURIOUS_BOUND on the boxes [lo, hi] (unit, (B, N)) of charts ``chart`` (B,) of ``charts`` (the cover's or
+        a cusp ChartSet): a root of the transversal entries there closes the loops (not a spurious half-turn)."""
+        chart = np.asarray(chart, dtype=int)
+        out = np.ones(len(chart), dtype=bool)
+        for b in range(len(self.plan.loops)):
+            c = np.moveaxis(charts.coeffs[b][chart][:, _SCALAR_ROW:_SCALAR_ROW + 1], 0, -1)
+            r = bernstein.restrict_batch_last(c, np.asarray(lo, dtype=float), np.asarray(hi, dtype=float), {})
+            out &= r.reshape(-1, len(chart)).min(axis=0) > SPURIOUS_BOUND
+        return out
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of angles v (B, N; radians) in charts ``chart`` (B,)."""
@@ -553,28 +819,40 @@ class LoopPlane:
 
     def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
         """The Krawczyk test of the square slices (as :meth:`PlatformPlane.prove`, same arguments and
-        result): the transversal closure entries q f21, q f31, q f32 and D, with plane axis ``fix[b]`` held at
-        ``value[b]``, in the other variables on the box [lo[b], hi[b]] (unit coordinates of chart
+        result): each loop's transversal closure entries q f21, q f31, q f32 and D, with plane axis ``fix[b]``
+        held at ``value[b]``, in the other variables on the box [lo[b], hi[b]] (unit coordinates of chart
         ``chart[b]``). The transversal entries also vanish at the three half-turns diag(+-1, +-1, +-1) != I
         (spurious closures), where Eq. (10)'s q (f11 + f22 - 2) is -2 q or -4 q (q >= 1): a proven root
-        counts only where the Bernstein hull of Eq. (10) on the box stays above SPURIOUS_BOUND, so the root
-        is a closure (F = I) and a singular configuration."""
+        counts only where the Bernstein hull of every loop's Eq. (10) on the box stays above SPURIOUS_BOUND,
+        so the root closes every loop (F = I) and is a singular configuration."""
         chart = np.asarray(chart, dtype=int)
         fix = np.asarray(fix, dtype=int)
         value = np.asarray(value, dtype=float)
         lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
         out = np.zeros(len(chart), dtype=bool)
         cs = self.charts
+        nb = len(cs.coeffs) - 1                 # the loops' blocks; D last
+
+        def closes(cps, count):                 # every loop's Eq. (10) above SPURIOUS_BOUND on the box
+            return np.all([cps[b][_SCALAR_ROW].reshape(-1, count).min(axis=0) > SPURIOUS_BOUND for b in range(nb)],
+                          axis=0)
+
         for f_axis in np.unique(fix):
             rows = np.flatnonzero(fix == f_axis)
             c = chart[rows]
             blo, bhi = lo[rows], hi[rows]
             col = None if f_axis < 0 else self.plane_columns[f_axis]
+            # a joint's side the pruner shrank to (nearly) a point -- D linear in one joint pins it -- is widened
+            # to SLICE_MIN_WIDTH about its centre: the root must be interior to the box tested (plane axes kept)
+            mid = 0.5 * (blo + bhi)
+            thin = (bhi - blo < SLICE_MIN_WIDTH) & ~np.isin(np.arange(blo.shape[1]), self.plane_columns)
+            blo = np.where(thin, np.clip(mid - SLICE_MIN_WIDTH / 2, 0.0, 1.0), blo)
+            bhi = np.where(thin, np.clip(mid + SLICE_MIN_WIDTH / 2, 0.0, 1.0), bhi)
             if col is not None:
                 u = tan_half_unit(value[rows], cs.shift[c, col], cs.map_lo[c, col], cs.map_hi[c, col])
                 blo[:, col] = bhi[:, col] = np.clip(u, 0.0, 1.0)
-            blocks = [np.moveaxis(cs.coeffs[b][c], 0, -1) for b in (0, 1)]
-            tols = [cs.tols[b][c].T for b in (0, 1)]
+            blocks = [np.moveaxis(cs.coeffs[b][c], 0, -1) for b in range(nb + 1)]
+            tols = [cs.tols[b][c].T for b in range(nb + 1)]
 
             def slices(boxes_lo, boxes_hi, which=slice(None)):
                 cps = [bernstein.restrict_batch_last(bl[..., which], boxes_lo, boxes_hi, {}) for bl in blocks]
@@ -583,11 +861,11 @@ class LoopPlane:
                 return cps
 
             cps = slices(blo, bhi)
-            ok, _, _ = krawczyk_boxes(_LOOP_SLICE, cps, tols)
-            ok &= cps[0][_SCALAR_ROW].reshape(-1, len(rows)).min(axis=0) > SPURIOUS_BOUND
+            ok, _, _ = krawczyk_boxes(self.slice, cps, tols)
+            ok &= closes(cps, len(rows))
             retry = np.flatnonzero(~ok)
             if len(retry):
-                u, converged, _ = newton(_LOOP_SLICE, [cp[..., retry] for cp in cps], [t[:, retry] for t in tols])
+                u, converged, _ = newton(self.slice, [cp[..., retry] for cp in cps], [t[:, retry] for t in tols])
                 inner = converged & np.all((u > PROOF_RADIUS) & (u < 1.0 - PROOF_RADIUS), axis=1)
                 retry, u = retry[inner], u[inner]
                 if len(retry):
@@ -597,16 +875,18 @@ class LoopPlane:
                     slo, shi = blo[retry].copy(), bhi[retry].copy()
                     slo[:, keep], shi[:, keep] = rlo + (u - PROOF_RADIUS) * w, rlo + (u + PROOF_RADIUS) * w
                     small = slices(slo, shi, retry)
-                    good, _, _ = krawczyk_boxes(_LOOP_SLICE, small, [t[:, retry] for t in tols])
-                    good &= small[0][_SCALAR_ROW].reshape(-1, len(retry)).min(axis=0) > SPURIOUS_BOUND
-                    ok[retry] = good
+                    good, _, _ = krawczyk_boxes(self.slice, small, [t[:, retry] for t in tols])
+                    ok[retry] = good & closes(small, len(retry))
             out[rows] = ok
         return out
 
 
-#: The loop slice's square system: the transversal entries q f21, q f31, q f32 (block 0) and D (block 1).
-_LOOP_SLICE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
-#: Row of Eq. (10), q (f11 + f22 - 2), in the transversal block.
+#: Smallest side (unit coordinates of a chart) of a passive joint in a box :meth:`LoopPlane.prove` tests: where D
+#: depends on one joint alone (the four-bar's det[a_B, a_C, Rot(C) a_D]) the pruner narrows that joint to its
+#: root's value (to ~1e-13) and the hull of the cover's boxes has width ~0 there, on which no Krawczyk test can
+#: succeed; 1e-6 is far above that rounding and far below the cells' width.
+SLICE_MIN_WIDTH = 1e-6
+#: Row of Eq. (10), q (f11 + f22 - 2), in each loop's transversal block.
 _SCALAR_ROW = 3
 #: A root of the transversal entries is a closure where Eq. (10) exceeds this on its box: at the spurious
 #: half-turns it is -2 q or -4 q with q = prod (1 + t^2) >= 1, at a closure 0; -1 is halfway.

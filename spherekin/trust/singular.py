@@ -269,10 +269,13 @@ def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
     return np.any((flat.min(axis=1) > tol) | (flat.max(axis=1) < -tol), axis=0)
 
 
-def certify_cusps(system, cusp_charts, found) -> tuple[CuspStatus, ...]:
+def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, ...]:
     """The cusps of a plane system from the box loop's cover of its cusp system (design31.md section 3).
 
-    ``system``: the :class:`spherekin.systems.singular.PlatformPlane`; ``cusp_charts``: its
+    ``closes``: None, or (charts, chart (B,), lo, hi (B, N)) -> (B,) bool, True where a root in the box is a
+    closure of the mechanism (the loop equations' transversal entries also vanish at spurious half-turns:
+    :meth:`spherekin.systems.singular.LoopPlane.closes`); a proven root failing it stays ``unresolved``.
+    ``system``: the :class:`spherekin.systems.singular.PlatformPlane` (or a one-loop ``LoopPlane``); ``cusp_charts``: its
     :meth:`cusp_charts` for two vectors (r, r2); ``found``: the :class:`spherekin.search.boxloop.Cover` of
     the first (accepted: angle boxes; pending: unit boxes). Each cluster of accepted boxes on one chart is
     tested: Newton's root of the square system (F, D, C_r) in the cluster's hull, the Krawczyk test on the
@@ -314,6 +317,9 @@ def certify_cusps(system, cusp_charts, found) -> tuple[CuspStatus, ...]:
                     if not _excludes_zero(charts2, 2, cid, *box)[0]:
                         out.append(_status(charts, cid, cols, root, box, UNRESOLVED))
                     continue                                 # the spurious factor l . r = 0: no cusp in the box
+                if closes is not None and not closes(charts, cid, *box)[0]:
+                    out.append(_status(charts, cid, cols, root, box, UNRESOLVED))
+                    continue
                 out.append(_status(charts, cid, cols, root, box, CUSP))
             if unproven:
                 out.append(_status(charts, cid, cols, None, (lo, hi), UNRESOLVED))
