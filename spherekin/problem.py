@@ -847,7 +847,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps, merge_cusps
+    from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, Grid, cell_pieces, certify_cover, certify_cusps,
+                                 merge_cusps, trace_cover)
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -875,8 +876,15 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane)
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     grid = Grid.over(plane.axes, tol)
-    cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
+    traced = None
+    if hasattr(system, "trace") and ay is not None:
+        # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
+        traced = trace_cover(system, pruner, grid, tol, COVER_FRACTION, int(max_boxes))
+        cover = traced.cover
+    else:
+        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    accepted += 0 if traced is None else traced.traced
     cusps = ()
     if on_platform and ay is not None:
         # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
@@ -922,6 +930,13 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         for k in again:
             del cells[k]
         cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
+    if traced is not None:
+        # the traced boxes' cells (in the cover whatever the searched boxes say), singular where proven
+        for k in traced.met | traced.proven:
+            if k in traced.proven or (k in cells and cells[k].status == SINGULAR):
+                cells[k] = CellStatus(k[0], k[1], SINGULAR)
+            elif k not in cells:
+                cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
     cells = [cells[k] for k in sorted(cells)]
     complete = len(pending[0]) == 0
     t2 = time.perf_counter()
