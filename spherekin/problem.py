@@ -879,7 +879,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     traced = None
     if hasattr(system, "trace") and ay is not None:
         # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
-        traced = trace_cover(system, pruner, grid, tol, COVER_FRACTION, int(max_boxes))
+        traced = trace_cover(system, lambda width, cap, start: search_cover(system.charts, pruner, width, cap, start=start),
+                             grid, tol, COVER_FRACTION, int(max_boxes))
         cover = traced.cover
     else:
         cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))

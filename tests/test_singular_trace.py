@@ -57,7 +57,11 @@ def plane_system():
 @pytest.fixture(scope="module")
 def traced(plane_system):
     system, grid = plane_system
-    return ts.trace_cover(system, pruner_for(system.charts, "pp", None), grid, T, COVER_FRACTION, 10**6)
+    from spherekin.search.boxloop import search_cover
+
+    pruner = pruner_for(system.charts, "pp", None)
+    return ts.trace_cover(system, lambda w, cap, start: search_cover(system.charts, pruner, w, cap, start=start),
+                          grid, T, COVER_FRACTION, 10**6)
 
 
 @pytest.fixture(scope="module")
@@ -145,6 +149,9 @@ class _Failing:
 
     def predict(self, *args):
         return self._system.predict(*args)
+
+    def empty(self, *args):
+        return self._system.empty(*args)
 
     def trace(self, chart, lo, hi, param, pieces=None):
         ok, klo, khi = self._system.trace(chart, lo, hi, param, pieces)

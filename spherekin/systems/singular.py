@@ -174,6 +174,7 @@ class PlatformPlane:
         self.quad = chart_control_points(self.mats)             # (3 legs, 3 parts, 4 charts, 3, 3, 3)
         self.charts = self._cover_charts()
         self.plane_columns = tuple(3 + a for a in range(len(plane.axes)))
+        self._batch_last = None
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of the cover's angle-box coordinates v (B, N) in charts ``chart`` (B,)."""
@@ -372,7 +373,7 @@ class PlatformPlane:
         if count == 0 or len(chart) == 0:
             return np.zeros(0, dtype=bool), np.zeros((0, lo.shape[1])), np.zeros((0, lo.shape[1]))
         cs = self.charts
-        cps = [bernstein.restrict_batch_last(np.moveaxis(cs.coeffs[b][chart], 0, -1), lo, hi, {}) for b in (0, 1)]
+        cps = self._restricted(chart, lo, hi)
         tols = [cs.tols[b][chart].T for b in (0, 1)]
         if pieces is not None:
             owner, a, z = (np.asarray(v) for v in pieces)
@@ -392,6 +393,29 @@ class PlatformPlane:
         out_hi[:, keep] = lo[:, keep] + khi * w
         return ok, out_lo, out_hi
 
+    def _restricted(self, chart, lo, hi) -> list:
+        """The legs' and D's control points (batch last) on the boxes [lo, hi] (unit, (B, N)) of charts
+        ``chart`` (B,); the chart tensors are kept batch-last and contiguous (a gather, then the restriction:
+        ~3x faster than restricting a strided view)."""
+        if self._batch_last is None:
+            self._batch_last = [np.ascontiguousarray(np.moveaxis(self.charts.coeffs[b], 0, -1)) for b in (0, 1)]
+        return [bernstein.restrict_batch_last(np.take(c, chart, axis=-1), lo, hi, {}) for c in self._batch_last]
+
+    def empty(self, chart, lo, hi) -> np.ndarray:
+        """(B,) bool: the boxes [lo, hi] (unit, (B, N)) of charts ``chart`` proven to hold no point of the
+        curve: for either plane input as the parameter, the parametric Krawczyk image of the box misses it
+        (K holds every root of the box, :func:`spherekin.search.isolation.krawczyk_parametric`)."""
+        chart = np.asarray(chart, dtype=int)
+        out = np.zeros(len(chart), dtype=bool)
+        if not len(chart):
+            return out
+        cps = self._restricted(chart, lo, hi)
+        tols = [self.charts.tols[b][chart].T for b in (0, 1)]
+        for p in self.plane_columns:
+            _, klo, khi = krawczyk_parametric(_SLICE, cps, tols, p)
+            out |= np.any(klo > khi, axis=1)
+        return out
+
     def predict(self, chart, lo, hi, param) -> tuple:
         """Newton's point of the curve at the middle of each box's range along the plane column ``param``
         and the branch's tangent there, a predictor for :meth:`trace` (a guess: the Krawczyk test
@@ -401,8 +425,7 @@ class PlatformPlane:
         lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
         if len(chart) == 0:
             return np.zeros(0, dtype=bool), lo.copy(), np.zeros_like(lo)
-        cs = self.charts
-        cps = [bernstein.restrict_batch_last(np.moveaxis(cs.coeffs[b][chart], 0, -1), lo, hi, {}) for b in (0, 1)]
+        cps = self._restricted(chart, lo, hi)
         n = lo.shape[1]
         keep = [k for k in range(n) if k != param]
         u = np.full((len(chart), n), 0.5)

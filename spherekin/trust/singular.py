@@ -27,6 +27,7 @@ reported by it (its other boxes are not claimed root-free).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -426,14 +427,18 @@ def trace_levels(tol: float, cover_fraction: float) -> tuple:
     return tuple(out) + (last,)
 
 
-def trace_cover(system, pruner, grid: Grid, tol: float, cover_fraction: float, max_boxes: int) -> TracedCover:
+def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, max_boxes: int) -> TracedCover:
     """The cover of a plane system's singular curves with certified tracing (issue 31 benchmark).
 
-    Level by level (:func:`trace_levels`), the box loop (:func:`spherekin.search.boxloop.search_cover`)
-    accepts boxes of the level's width; each accepted box is then tested for a trace
-    (:func:`_trace_boxes`): the plane input along which the box is longer as a parameter p, the
-    parametric Krawczyk test (:meth:`PlatformPlane.trace`) on the box widened along the other variables V,
-    on each piece of the box's p-range cut at the grid's cell edges. When every piece passes, for every p
+    Level by level (:func:`trace_levels`), the box loop accepts boxes of the level's width (``search(width,
+    max_boxes, start)``: :func:`spherekin.search.boxloop.search_cover` on the system's charts, returning
+    its ``Cover``; passed in, the trust layer does not import the search). An accepted box is dropped when
+    the parametric Krawczyk image of the box itself misses it (no singular configuration in it: K holds
+    every root of the box; most accepted boxes are such near misses of the Bernstein hulls); the others are
+    tested for a trace (:func:`_trace_boxes`): the plane input along which the box is longer (then the
+    other) as a parameter p, the parametric Krawczyk test (:meth:`PlatformPlane.trace`) on the box V
+    around Newton's tangent line (:func:`_trace_box`), then on each piece of the box's p-range cut at the
+    grid's cell edges, on a narrow V' inside V (:func:`_test_pieces`). When they pass, for every p
     of the box one singular configuration lies in V, and it lies in the piece's K: the branch is a graph
     there, and the cells met by the pieces' enclosures cover every singular point of the box (the box is
     not searched further). Cells are proven from the pieces' end points: each point test encloses the
@@ -445,7 +450,6 @@ def trace_cover(system, pruner, grid: Grid, tol: float, cover_fraction: float, m
     Also why the traced boxes hold no cusp: every J_V over the box is regular, so the branch's tangent
     has a nonzero component along p (J_V dv = -J_p dp, dp = 0 gives dv = 0): its projection to the
     plane is never 0. The cusp search may start from the untraced boxes only."""
-    from ..search.boxloop import Cover, search_cover
 
     charts = system.charts
     n = len(charts.variables)
@@ -458,7 +462,7 @@ def trace_cover(system, pruner, grid: Grid, tol: float, cover_fraction: float, m
     levels = trace_levels(tol, cover_fraction)
     rest = (np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n)))
     for k, width in enumerate(levels):
-        cover = search_cover(charts, pruner, width, max(1, int(max_boxes) - used), start=start)
+        cover = search(width, max(1, int(max_boxes) - used), start)
         used += cover.boxes_processed
         seconds += cover.seconds
         pend = [np.concatenate([a, b]) for a, b in zip(pend, cover.pending)]
@@ -476,8 +480,8 @@ def trace_cover(system, pruner, grid: Grid, tol: float, cover_fraction: float, m
         start = (chart[~ok], ulo[~ok], uhi[~ok])
         if not len(start[0]):
             break
-    return TracedCover(Cover(rest, tuple(pend), used, seconds), frozenset(met), frozenset(proven), traced,
-                       used, seconds)
+    rest_cover = dataclasses.replace(cover, accepted=rest, pending=tuple(pend), boxes_processed=used, seconds=seconds)
+    return TracedCover(rest_cover, frozenset(met), frozenset(proven), traced, used, seconds)
 
 
 def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
@@ -491,9 +495,8 @@ def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> 
     traced = np.zeros(len(chart), dtype=bool)
     # boxes proven empty first: K of the box itself (either input the parameter) disjoint from it, so no
     # singular configuration in it (K holds every root of the box): dropped from the cover ("traced", no cell)
-    for p in cols:
-        ok, klo, khi = system.trace(chart, ulo, uhi, p)
-        traced |= np.any(klo > khi, axis=1)
+    for s in range(0, len(chart), TRACE_BATCH):
+        traced[s:s + TRACE_BATCH] = system.empty(chart[s:s + TRACE_BATCH], ulo[s:s + TRACE_BATCH], uhi[s:s + TRACE_BATCH])
     for round_ in range(2):
         axis_of = pref if round_ == 0 else 1 - pref
         for axis in (0, 1):
