@@ -531,15 +531,16 @@ def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven
         fa += cuts[:-1]
         fz += cuts[1:]
     owner, fa, fz = np.array(owner), np.array(fa), np.array(fz)
-    ok, klo, khi, plo, phi = _test_pieces(system, p, chart, vlo, vhi, line, owner, fa, fz)
+    ok, klo, khi, ends = _test_pieces(system, p, chart, vlo, vhi, line, owner, fa, fz)
     good = np.ones(len(idx), dtype=bool)
     good[owner[~ok]] = False                                 # a box is traced when every piece is proven
     out[idx[good]] = True
     keep = good[owner]
-    owner, fa, fz, klo, khi, plo, phi = (v[keep] for v in (owner, fa, fz, klo, khi, plo, phi))
+    owner, fa, fz, klo, khi = (v[keep] for v in (owner, fa, fz, klo, khi))
+    ends = tuple(v[keep] for v in ends)
     for level in range(TRACE_REFINE + 1):
         cells = _piece_cells(system, grid, chart[owner], klo, khi)
-        _prove_pieces(system, grid, axis, chart[owner], plo, phi, proven)
+        _prove_pieces(system, grid, axis, chart[owner], ends, proven)
         open_ = np.array([any(c not in proven for c in cs) for cs in cells], dtype=bool)
         for k in np.flatnonzero(~open_ if level < TRACE_REFINE else np.ones(len(cells), dtype=bool)):
             met.update(cells[k])
@@ -558,7 +559,8 @@ def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven
             met.update(cells[o[k]])
         g = np.repeat(split_ok, TRACE_SPLIT)
         owner, fa, fz = sown[g], sa[g], sz[g]
-        klo, khi, plo, phi = (v[g] for v in sub[1:])
+        klo, khi = sub[1][g], sub[2][g]
+        ends = tuple(v[g] for v in sub[3])
         if not len(owner):
             break
     return out
@@ -567,8 +569,9 @@ def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven
 def _test_pieces(system, p: int, chart, vlo, vhi, line, owner, fa, fz) -> tuple:
     """The trace test of pieces [fa, fz] (fractions of the range along p) of the traced boxes ``owner``
     (chart, [vlo, vhi] (B, N): boxes whose test on V passed; ``line``: their Newton points and slopes),
-    each on its narrow V' inside V (:func:`_trace_axis`), else on V. Returns (proven (P,), K lo, K hi,
-    piece box lo, hi (P, N), unit coordinates of the chart)."""
+    each on its narrow V' inside V (:func:`_trace_axis`), else on V, with the point tests at the pieces'
+    ends moved inward by PROOF_NUDGE (:func:`_prove_pieces`) on the same restriction. Returns (proven
+    (P,), K lo, K hi (P, N), ends): ``ends`` = (proven (P,), K lo, K hi (P, N)) at either end."""
     w = vhi[owner, p] - vlo[owner, p]
     plo, phi = vlo[owner].copy(), vhi[owner].copy()
     plo[:, p] = vlo[owner, p] + fa * w
@@ -577,20 +580,33 @@ def _test_pieces(system, p: int, chart, vlo, vhi, line, owner, fa, fz) -> tuple:
     ok_l, point, slope = line
     glo, ghi = _band(p, plo, phi, point[owner], slope[owner], ok_l[owner], vlo[owner], vhi[owner])
     nlo, nhi = np.maximum(glo, vlo[owner]), np.minimum(ghi, vhi[owner])
-    ok, klo, khi = system.trace(c, nlo, nhi, p)              # V' around the box's tangent line
-    retry = np.flatnonzero(~ok)
+    out = _with_ends(system, p, c, nlo, nhi, np.arange(len(c)), np.zeros(len(c)), np.ones(len(c)))
+    retry = np.flatnonzero(~out[0])                           # V' around the box's tangent line failed:
     if len(retry):                                            # V' around the piece's own (Newton)
         ok_n, point2, slope2 = system.predict(c[retry], glo[retry], ghi[retry], p)
         rlo, rhi = _band(p, plo[retry], phi[retry], point2, slope2, ok_n, glo[retry], ghi[retry])
         rlo, rhi = np.maximum(rlo, vlo[owner[retry]]), np.minimum(rhi, vhi[owner[retry]])
-        r_ok, r_klo, r_khi = system.trace(c[retry], rlo, rhi, p)
-        ok[retry], klo[retry], khi[retry], nlo[retry], nhi[retry] = r_ok, r_klo, r_khi, rlo, rhi
-    retry = np.flatnonzero(~ok)
+        sub = _with_ends(system, p, c[retry], rlo, rhi, np.arange(len(retry)), np.zeros(len(retry)),
+                         np.ones(len(retry)))
+        for a, b in zip(out, sub):
+            a[retry] = b
+    retry = np.flatnonzero(~out[0])
     if len(retry):                                            # on V itself
-        r_ok, r_lo, r_hi = system.trace(chart, vlo, vhi, p, (owner[retry], fa[retry], fz[retry]))
-        ok[retry], klo[retry], khi[retry] = r_ok, r_lo, r_hi
-        nlo[retry], nhi[retry] = plo[retry], phi[retry]
-    return ok, klo, khi, nlo, nhi
+        sub = _with_ends(system, p, chart, vlo, vhi, owner[retry], fa[retry], fz[retry])
+        for a, b in zip(out, sub):
+            a[retry] = b
+    return out[0], out[1], out[2], tuple(out[3:])
+
+
+def _with_ends(system, p: int, chart, lo, hi, owner, fa, fz) -> list:
+    """One restriction of the boxes (chart, [lo, hi]) for the tests of their pieces [fa, fz] along p and
+    of the pieces' end points moved inward by PROOF_NUDGE: [proven, K lo, K hi] of the pieces, then of the
+    first ends, then of the last ends (arrays, (P,) and (P, N))."""
+    n = len(owner)
+    ta, tb = fa + PROOF_NUDGE * (fz - fa), fz - PROOF_NUDGE * (fz - fa)
+    ok, klo, khi = system.trace(chart, lo, hi, p, (np.concatenate([owner, owner, owner]),
+                                                    np.concatenate([fa, ta, tb]), np.concatenate([fz, ta, tb])))
+    return [v[k * n:(k + 1) * n] for k in range(3) for v in (ok, klo, khi)]
 
 
 def _band(p: int, plo, phi, point, slope, ok, flo, fhi) -> tuple:
@@ -655,20 +671,18 @@ def _piece_cells(system, grid: Grid, chart, klo, khi) -> list:
             for k in range(len(chart))]
 
 
-def _prove_pieces(system, grid: Grid, axis: int, chart, plo, phi, proven: set) -> None:
-    """Cells proven by the pieces' end points (:func:`trace_cover`): the point tests on the piece boxes
-    (chart (P,), [plo, phi] (P, N) unit) at their ends along the parameter moved inward by PROOF_NUDGE of
-    the piece; adds (i, j) to ``proven``."""
+def _prove_pieces(system, grid: Grid, axis: int, chart, ends, proven: set) -> None:
+    """Cells proven by the pieces' end points (:func:`trace_cover`): ``ends`` = (proven, K lo, K hi) of the
+    point tests at either end of each piece (charts ``chart`` (P,), :func:`_with_ends`); adds (i, j) to
+    ``proven``."""
     charts = system.charts
     cols = list(system.plane_columns)
     p, q = cols[axis], cols[1 - axis]
-    n = len(chart)
-    every = np.concatenate([np.arange(n), np.arange(n)])
-    f = np.repeat([PROOF_NUDGE, 1.0 - PROOF_NUDGE], n)
-    ok, klo, khi = system.trace(chart, plo, phi, p, (every, f, f))
-    alo, ahi = charts.angle_box(chart[every], klo, khi)
-    (ok_a, xa, ya0, ya1), (ok_b, xb, yb0, yb1) = ((ok[s], alo[s, p], alo[s, q], ahi[s, q])
-                                                  for s in (slice(0, n), slice(n, 2 * n)))
+    ok_a, la, ha, ok_b, lb, hb = ends
+    alo, ahi = charts.angle_box(chart, la, ha)
+    blo, bhi = charts.angle_box(chart, lb, hb)
+    xa, ya0, ya1 = alo[:, p], alo[:, q], ahi[:, q]
+    xb, yb0, yb1 = blo[:, p], blo[:, q], bhi[:, q]
     wp = grid.width(axis)
     ia = np.floor((xa - grid.lo[axis]) / wp).astype(int)
     ib = np.floor((xb - grid.lo[axis]) / wp).astype(int)
