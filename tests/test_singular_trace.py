@@ -210,8 +210,8 @@ def test_a_cell_is_proven_only_by_passed_point_tests(plane_system, small_boxes):
     """The end points' tests failed on purpose: the boxes are still traced (their cells in the cover) but
     no cell is proven."""
     system, grid = plane_system
-    fake = _Failing(system, lambda lo, hi, p, pieces, n: np.full(n, pieces is not None
-                                                               and bool(np.all(pieces[1] == pieces[2]))))
+    fake = _Failing(system, lambda lo, hi, p, pieces, n: (np.zeros(n, dtype=bool) if pieces is None
+                                                         else np.asarray(pieces[1]) == np.asarray(pieces[2])))
     met, proven = set(), set()
     assert ts._trace_boxes(fake, grid, *small_boxes, met, proven).all()
     assert met and not proven
