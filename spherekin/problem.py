@@ -889,7 +889,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     cusps = ()
     if on_platform and ay is not None:
         # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
-        # configuration of the plane lies in them or in the pending ones, whose cells stay unresolved)
+        # configuration of the plane lies in them, in the traced boxes, which hold no cusp (trace_cover), or
+        # in the pending ones, whose cells stay unresolved)
         cusp_sets = system.cusp_charts(CUSP_VECTORS)
         start = (cover.accepted[0], system.unit(cover.accepted[0], cover.accepted[1]),
                  system.unit(cover.accepted[0], cover.accepted[2]))
