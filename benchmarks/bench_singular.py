@@ -36,9 +36,9 @@ MECHANISMS = ("general_3rrr", "gosselin")
 #: Cell widths (radians) of a default run, and those ``--full`` adds (the issue's; long runs).
 DEFAULT_TOLS = (0.1, 0.05)
 FULL_TOLS = (1e-2, 1e-3)
-#: Box cap per set, by mechanism (``--max-boxes`` sets one for all). Reason: general_3rrr needs ~5.4e5 boxes at
-#: T = 0.1 and ~1.2e6 at 0.05 (~1/T; ~6e6 at 1e-2): it keeps the library's cap (spherekin.problem.SINGULAR_MAX_BOXES,
-#: 1e7; None here), which only stops a runaway.
+#: Box cap per set, by mechanism (``--max-boxes`` sets one for all). Reason: general_3rrr needs ~5e5 boxes at
+#: T = 0.1, ~1.5e6 at 1e-2 and ~3e6 at 1e-3 (the traced cover): it keeps the library's cap
+#: (spherekin.problem.SINGULAR_MAX_BOXES, 1e7; None here), which only stops a runaway.
 #: The agile eye never completes (every cell unresolved at 5e4 boxes, and at 3e5 in ~35 s): 5e4 bounds its run
 #: at ~20 s per T for the same answer.
 MAX_BOXES = {"general_3rrr": None, "gosselin": 50_000}

@@ -788,8 +788,8 @@ SINGULAR_TOL = 1e-2
 #: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
 SINGULAR_MAX_TOL = 0.5
 #: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
-#: general_3rrr over [-pi, pi]^2 processes ~5e5 boxes at T = 0.1 and ~1.2e6 at T = 0.05 (measured; ~1/T), so
-#: the default T = 0.01 needs ~6e6; the cap only stops a runaway (a continuum of singular configurations over
+#: general_3rrr over [-pi, pi]^2 with the traced cover processes ~1.5e6 boxes at T = 0.01 and ~3e6 at 1e-3
+#: (measured; 5.7e6 at 0.01 before the tracing); the cap only stops a runaway (a continuum of singular configurations over
 #: a 2-D region of the plane), whose unprocessed boxes are reported ``unresolved``.
 SINGULAR_MAX_BOXES = 10_000_000
 #: The cover accepts a box of the augmented system when every side is at most this fraction of the cell width
