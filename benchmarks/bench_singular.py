@@ -2,9 +2,9 @@
 
 For general_3rrr and the Gosselin platform (the agile eye, examples/gosselin.toml) in the plane beta3 = 0.5
 over [-pi, pi]^2, :func:`spherekin.singular` at each cell width T (default 0.1 and 0.05; ``--full`` adds the
-issue's 1e-2 and 1e-3, which take long: ~5e6 and ~5e7 boxes for general_3rrr by the ~1/T growth, minutes
-to hours on one core). Reported per mechanism and T: cells by status, whether the cover completed (the box cap
-its box cap not reached), boxes processed, seconds (one run: each takes tens of seconds), and the ratio of
+issue's 1e-2 and 1e-3: minutes each for general_3rrr with the traced cover, spherekin.trust.singular.trace_cover).
+Reported per mechanism and T: cells by status, whether the cover completed (its box cap not reached), boxes
+processed, seconds (wall and this process's CPU: the machine is shared; one run each), and the ratio of
 cells between successive T against the ratio of the T (a curve's cover grows as ~1/T). For general_3rrr a
 cross-check: the singular inputs of tests/singular_refs.py's independent reference on ``--ref-lines`` seeded
 lines across the plane, and how many lie in a cell (must be all).
@@ -36,9 +36,9 @@ MECHANISMS = ("general_3rrr", "gosselin")
 #: Cell widths (radians) of a default run, and those ``--full`` adds (the issue's; long runs).
 DEFAULT_TOLS = (0.1, 0.05)
 FULL_TOLS = (1e-2, 1e-3)
-#: Box cap per set, by mechanism (``--max-boxes`` sets one for all). Reason: general_3rrr needs ~5.4e5 boxes at
-#: T = 0.1 and ~1.2e6 at 0.05 (~1/T; ~6e6 at 1e-2): it keeps the library's cap (spherekin.problem.SINGULAR_MAX_BOXES,
-#: 1e7; None here), which only stops a runaway.
+#: Box cap per set, by mechanism (``--max-boxes`` sets one for all). Reason: general_3rrr needs ~5e5 boxes at
+#: T = 0.1, ~1.5e6 at 1e-2 and ~3e6 at 1e-3 (the traced cover): it keeps the library's cap
+#: (spherekin.problem.SINGULAR_MAX_BOXES, 1e7; None here), which only stops a runaway.
 #: The agile eye never completes (every cell unresolved at 5e4 boxes, and at 3e5 in ~35 s): 5e4 bounds its run
 #: at ~20 s per T for the same answer.
 MAX_BOXES = {"general_3rrr": None, "gosselin": 50_000}
@@ -85,14 +85,14 @@ def main(argv=None) -> int:
     print(f"parallel singular set, plane beta3 = 0.5 over [-pi, pi]^2, box caps {caps} "
           f"({platform.machine()}, one process)")
     head = (f"{'mechanism':<13} {'T':>6} {'singular':>9} {'unresolved':>10} {'complete':>8} {'boxes':>10} "
-            f"{'seconds':>8} {'cells/prev':>10} {'1/T ratio':>9} {'refs in cells':>13}")
+            f"{'seconds':>8} {'cpu s':>8} {'cells/prev':>10} {'1/T ratio':>9} {'refs in cells':>13}")
     print(head)
     for name in args.mechanisms.split(","):
         prev = None
         for tol in tols:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             s = spherekin.singular(ROOT / "examples" / f"{name}.toml", tol=tol, max_boxes=caps[name], **plane)
-            seconds = time.perf_counter() - t0
+            seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
             sets[(name, tol)] = s
             c = s.counts()
             cells = len(s.boxes)
@@ -100,11 +100,12 @@ def main(argv=None) -> int:
             expect = None if prev is None else prev[0] / tol
             refs_in = (f"{_covered(s, refs)}/{len(refs)}" if name == "general_3rrr" and len(refs) else "-")
             row = dict(mechanism=name, tol=tol, max_boxes=caps[name], singular=c["singular"], unresolved=c["unresolved"], cells=cells,
-                       complete=s.complete, boxes_processed=s.stats.boxes_processed, seconds=seconds,
+                       complete=s.complete, boxes_processed=s.stats.boxes_processed, seconds=seconds, cpu_seconds=cpu,
+                       cusps=sum(c.status == "cusp" for c in s.cusps), cusp_candidates=len(s.cusps),
                        cells_ratio=growth, tol_ratio=expect, reference_points_covered=refs_in)
             rows.append(row)
             print(f"{name:<13} {tol:>6.3g} {c['singular']:>9} {c['unresolved']:>10} {'yes' if s.complete else 'no':>8} "
-                  f"{s.stats.boxes_processed:>10,} {seconds:>8.1f} "
+                  f"{s.stats.boxes_processed:>10,} {seconds:>8.1f} {cpu:>8.1f} "
                   f"{'-' if growth is None else f'{growth:.2f}':>10} {'-' if expect is None else f'{expect:.2f}':>9} "
                   f"{refs_in:>13}", flush=True)
             prev = (tol, cells)

@@ -788,8 +788,8 @@ SINGULAR_TOL = 1e-2
 #: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
 SINGULAR_MAX_TOL = 0.5
 #: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
-#: general_3rrr over [-pi, pi]^2 processes ~5e5 boxes at T = 0.1 and ~1.2e6 at T = 0.05 (measured; ~1/T), so
-#: the default T = 0.01 needs ~6e6; the cap only stops a runaway (a continuum of singular configurations over
+#: general_3rrr over [-pi, pi]^2 with the traced cover processes ~1.5e6 boxes at T = 0.01 and ~3e6 at 1e-3
+#: (measured; 5.7e6 at 0.01 before the tracing); the cap only stops a runaway (a continuum of singular configurations over
 #: a 2-D region of the plane), whose unprocessed boxes are reported ``unresolved``.
 SINGULAR_MAX_BOXES = 10_000_000
 #: The cover accepts a box of the augmented system when every side is at most this fraction of the cell width
@@ -847,7 +847,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     from .search.boxloop import pruner_for, search_cover
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, cell_pieces, certify_cover, certify_cusps, merge_cusps
+    from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, Grid, cell_pieces, certify_cover, certify_cusps,
+                                 merge_cusps, trace_cover)
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -875,12 +876,21 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane)
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     grid = Grid.over(plane.axes, tol)
-    cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
+    traced = None
+    if hasattr(system, "trace") and ay is not None:
+        # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
+        traced = trace_cover(system, lambda width, cap, start: search_cover(system.charts, pruner, width, cap, start=start),
+                             grid, tol, COVER_FRACTION, int(max_boxes))
+        cover = traced.cover
+    else:
+        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    accepted += 0 if traced is None else traced.traced
     cusps = ()
     if on_platform and ay is not None:
         # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
-        # configuration of the plane lies in them or in the pending ones, whose cells stay unresolved)
+        # configuration of the plane lies in them, in the traced boxes, which hold no cusp (trace_cover), or
+        # in the pending ones, whose cells stay unresolved)
         cusp_sets = system.cusp_charts(CUSP_VECTORS)
         start = (cover.accepted[0], system.unit(cover.accepted[0], cover.accepted[1]),
                  system.unit(cover.accepted[0], cover.accepted[2]))
@@ -922,6 +932,13 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         for k in again:
             del cells[k]
         cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
+    if traced is not None:
+        # the traced boxes' cells (in the cover whatever the searched boxes say), singular where proven
+        for k in traced.met | traced.proven:
+            if k in traced.proven or (k in cells and cells[k].status == SINGULAR):
+                cells[k] = CellStatus(k[0], k[1], SINGULAR)
+            elif k not in cells:
+                cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
     cells = [cells[k] for k in sorted(cells)]
     complete = len(pending[0]) == 0
     t2 = time.perf_counter()

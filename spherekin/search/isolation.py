@@ -43,7 +43,7 @@ from ..core.bernstein import restrict_batch_last
 from .pruners import excludes_zero
 
 __all__ = ["KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "NEWTON_STALL_STEP", "SPURIOUS_FACTOR",
-           "SPURIOUS_PROOF_RADIUS", "SquareSystem", "krawczyk_boxes", "evaluate_at", "jacobian_at", "newton",
+           "SPURIOUS_PROOF_RADIUS", "SquareSystem", "krawczyk_boxes", "krawczyk_parametric", "evaluate_at", "jacobian_at", "newton",
            "spurious_proven"]
 
 #: K(X) is widened by this (unit coordinates of the box) before it is compared with X: its float
@@ -239,6 +239,50 @@ def krawczyk_boxes(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequen
     lo[ok] = np.maximum(klo, 0.0)
     hi[ok] = np.minimum(khi, 1.0)
     return isolated, lo, hi
+
+
+def krawczyk_parametric(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], param: int):
+    """The parametric Krawczyk test on B boxes: N - 1 equations in N variables, variable ``param`` a
+    parameter p over the box's range, the others V (Neumaier 1990, Thm 5.1.7; the tracker's operator
+    in :mod:`spherekin.trust.continuation`). In the box's unit coordinates, m = centre, C =
+    mid(J_V(X))^-1:
+
+        K = m_V - C F(m) - C J_p(X) (P - m_p) + (I - C J_V(X)) (V - m_V).
+
+    If K lies in the interior of V, then for EVERY p in P the system has exactly one root in V (and
+    lies in K): over P the solution set in the box is the graph of one continuous function p -> v(p)
+    (every matrix of J_V(X) is regular). A box of width 0 along ``param`` is the point test.
+    ``cps``/``tols`` as :func:`krawczyk_boxes`. Returns (proven (B,), lo (B, N - 1), hi (B, N - 1)):
+    K n V in unit coordinates of the V columns (in order, ``param`` left out)."""
+    parts = square.select(cps, tols)
+    bsz, n = cps[0].shape[-1], cps[0].ndim - 2
+    f = np.concatenate([evaluate_at(c, np.full((bsz, n), 0.5)) for _, c, _ in parts]).T     # (B, N - 1)
+    ftol = np.concatenate([t for _, _, t in parts]).T
+    jl, jh = zip(*(_derivative_bounds(c, t) for _, c, t in parts))
+    jlo, jhi = np.moveaxis(np.concatenate(jl), -1, 0), np.moveaxis(np.concatenate(jh), -1, 0)  # (B, N - 1, N)
+    if f.shape[1] != n - 1:
+        raise ValueError(f"square: expected {n - 1} equations (one per variable but the parameter), got {f.shape[1]}")
+    keep = [k for k in range(n) if k != param]
+    jmid, jrad = 0.5 * (jlo + jhi), 0.5 * (jhi - jlo)
+    lo, hi = np.zeros((bsz, n - 1)), np.ones((bsz, n - 1))
+    proven = np.zeros(bsz, dtype=bool)
+    ok, c_all = _inverses(jmid[:, :, keep])
+    if not ok.any():
+        return proven, lo, hi
+    c_mat = c_all[ok]
+    ac = np.abs(c_mat)
+    centre = 0.5 - (c_mat @ f[ok][..., None])[..., 0]
+    m_mid = np.eye(n - 1) - c_mat @ jmid[ok][:, :, keep]
+    m_rad = ac @ jrad[ok][:, :, keep]
+    p_mid = (c_mat @ jmid[ok][:, :, param:param + 1])[..., 0]                               # C J_p: mid
+    p_rad = (ac @ jrad[ok][:, :, param:param + 1])[..., 0]                                  # and radius
+    radius = ((ac @ ftol[ok][..., None])[..., 0] + 0.5 * (np.abs(m_mid) + m_rad).sum(axis=2)
+              + 0.5 * (np.abs(p_mid) + p_rad) + KRAWCZYK_MARGIN)
+    klo, khi = centre - radius, centre + radius
+    proven[ok] = np.all((klo > 0.0) & (khi < 1.0), axis=1)
+    lo[ok] = np.maximum(klo, 0.0)
+    hi[ok] = np.minimum(khi, 1.0)
+    return proven, lo, hi
 
 
 def _step(jac: np.ndarray, f: np.ndarray) -> np.ndarray:

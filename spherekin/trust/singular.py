@@ -27,6 +27,7 @@ reported by it (its other boxes are not claimed root-free).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -36,7 +37,7 @@ from ..closure import tan_half_unit
 from ..core import bernstein
 from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
-__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "SINGULAR", "UNRESOLVED",
+__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover", "trace_cover", "trace_levels", "SINGULAR", "UNRESOLVED",
            "CUSP", "CuspStatus", "certify_cusps", "merge_cusps"]
 
 SINGULAR = "singular"
@@ -367,3 +368,341 @@ def merge_cusps(found) -> tuple[CuspStatus, ...]:
     rest = [f for f in rest if not any(f.box_x[0] <= p.box_x[1] and p.box_x[0] <= f.box_x[1]
                                        and f.box_y[0] <= p.box_y[1] and p.box_y[0] <= f.box_y[1] for p in proven)]
     return tuple(sorted(proven + rest, key=lambda f: (f.x, f.y)))
+
+
+# ---------------------------------------------------------------------------------------------- tracing
+#: The traced cover's box widths (metric units, as :func:`spherekin.search.boxloop.search_cover`'s tol):
+#: the search accepts boxes at TRACE_START, tries to trace each, and searches the others again at the width
+#: divided by TRACE_STEP, down to the cell's own (COVER_FRACTION T). Reason: measured on general_3rrr at
+#: beta3 = 0.5 over [-1, 0]^2, 3 % of the boxes of width 0.05, 30 % at 0.03 and 92 % at 0.0125 hold one branch
+#: proven a graph over x or y (parametric Krawczyk), so the 5-D search stops there instead of going down to
+#: T/2 everywhere (the test needs the Jacobian to vary little over the box); the boxes near
+#: cusps, crossings and points where the branch turns go on down level by level.
+TRACE_START = 0.05
+TRACE_STEP = 4.0
+#: The box a trace is tested on: the search's box widened along the non-parameter variables by this
+#: fraction of max(its width there, its width along the parameter) on each side (unit coordinates, clipped
+#: to the chart): the accepted boxes are the pruner's tight reductions, so the branch touches their faces,
+#: and the Krawczyk test needs it inside (K in the interior of V).
+TRACE_WIDEN = 0.25
+#: ... plus this fraction of the box's width along the parameter (unit coordinates): room for the branch's
+#: curvature off the tangent line; small, since the interval Jacobian (and the test's slack) grows with V.
+TRACE_PAD = 0.05
+#: Unit-coordinate pad of the boxes handed between the box loop (angle coordinates) and the trace tests
+#: (unit coordinates): the round trip through tan-half maps errs by ~1e-16; far above it.
+ROUNDTRIP_PAD = 1e-12
+#: A piece of a traced box (its part over one cell along the parameter) whose cells are not all proven is
+#: split into TRACE_SPLIT parts, at most TRACE_REFINE times: the parts' enclosures are tighter (fewer cells
+#: met that the branch misses) and their end points prove more cells. Cheap (no search).
+TRACE_SPLIT = 4
+TRACE_REFINE = 2
+#: A cell is proven from a piece's end points only when the end points are this far (radians) inside the
+#: cell along the parameter and the enclosures clear the cell edges by it: the tan-half maps round by
+#: ~1e-16 rad; far above it, far below any cell.
+PROOF_SLACK = 1e-12
+#: The end points of a piece are moved inward by this fraction of its width (a piece's ends are cell edges).
+PROOF_NUDGE = 1e-4
+#: Boxes per batch of trace tests (memory: ~8 kB of control points per box).
+TRACE_BATCH = 4096
+
+
+@dataclass(frozen=True)
+class TracedCover:
+    """What :func:`trace_cover` hands over. ``cover``: a :class:`spherekin.search.boxloop.Cover` of the
+    boxes not traced (accepted at the cell's width: certified by :func:`certify_cover`) and every pending
+    box of every level; ``met``: the cells (i, j) the traced boxes' pieces meet; ``proven``: those of them
+    holding a proven singular point (a subset of ``met``); ``traced``: how many boxes were traced;
+    ``boxes_processed``, ``seconds``: the searches' work."""
+
+    cover: object
+    met: frozenset
+    proven: frozenset
+    traced: int
+    boxes_processed: int
+    seconds: float
+
+
+def trace_levels(tol: float, cover_fraction: float) -> tuple:
+    """The widths (metric units) of the traced cover's levels for cells of width ``tol``: TRACE_START
+    divided by TRACE_STEP while above cover_fraction * tol, then cover_fraction * tol."""
+    last = cover_fraction * tol
+    out, w = [], TRACE_START
+    while w > last * (1 + 1e-9):
+        out.append(w)
+        w /= TRACE_STEP
+    return tuple(out) + (last,)
+
+
+def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, max_boxes: int) -> TracedCover:
+    """The cover of a plane system's singular curves with certified tracing (issue 31 benchmark).
+
+    Level by level (:func:`trace_levels`), the box loop accepts boxes of the level's width (``search(width,
+    max_boxes, start)``: :func:`spherekin.search.boxloop.search_cover` on the system's charts, returning
+    its ``Cover``; passed in, the trust layer does not import the search). An accepted box is dropped when
+    the parametric Krawczyk image of the box itself misses it (no singular configuration in it: K holds
+    every root of the box; most accepted boxes are such near misses of the Bernstein hulls); the others are
+    tested for a trace (:func:`_trace_boxes`): the plane input along which the box is longer (then the
+    other) as a parameter p, the parametric Krawczyk test (:meth:`PlatformPlane.trace`) on the box V
+    around Newton's tangent line (:func:`_trace_box`), then on each piece of the box's p-range cut at the
+    grid's cell edges, on a narrow V' inside V (:func:`_test_pieces`). When they pass, for every p
+    of the box one singular configuration lies in V, and it lies in the piece's K: the branch is a graph
+    there, and the cells met by the pieces' enclosures cover every singular point of the box (the box is
+    not searched further). Cells are proven from the pieces' end points: each point test encloses the
+    other input y(p) at that p; by continuity of the graph, every y between the two ends' enclosures is
+    reached at a p of the piece, so every cell meeting that gap (or holding an end's enclosure) holds a
+    singular point. Boxes that fail go to the next level; at the cell's width they stay in the returned
+    cover (the old certificate). No box is dropped: a pending box of any level stays pending.
+
+    Also why the traced boxes hold no cusp: every J_V over the box is regular, so the branch's tangent
+    has a nonzero component along p (J_V dv = -J_p dp, dp = 0 gives dv = 0): its projection to the
+    plane is never 0. The cusp search may start from the untraced boxes only."""
+
+    charts = system.charts
+    n = len(charts.variables)
+    met: set = set()
+    proven: set = set()
+    traced = used = 0
+    seconds = 0.0
+    pend = [np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n))]
+    start = None
+    levels = trace_levels(tol, cover_fraction)
+    rest = (np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n)))
+    for k, width in enumerate(levels):
+        cover = search(width, max(1, int(max_boxes) - used), start)
+        used += cover.boxes_processed
+        seconds += cover.seconds
+        pend = [np.concatenate([a, b]) for a, b in zip(pend, cover.pending)]
+        chart, alo, ahi = cover.accepted
+        if not len(chart):
+            rest = cover.accepted
+            break
+        ulo = np.clip(system.unit(chart, alo) - ROUNDTRIP_PAD, 0.0, 1.0)
+        uhi = np.clip(system.unit(chart, ahi) + ROUNDTRIP_PAD, 0.0, 1.0)
+        ok = _trace_boxes(system, grid, chart, ulo, uhi, met, proven)
+        traced += int(ok.sum())
+        if k == len(levels) - 1 or len(cover.pending[0]):
+            rest = (chart[~ok], alo[~ok], ahi[~ok])      # the cell's width, or a capped search: the old path
+            break
+        start = (chart[~ok], ulo[~ok], uhi[~ok])
+        if not len(start[0]):
+            break
+    rest_cover = dataclasses.replace(cover, accepted=rest, pending=tuple(pend), boxes_processed=used, seconds=seconds)
+    return TracedCover(rest_cover, frozenset(met), frozenset(proven), traced, used, seconds)
+
+
+def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
+    """Trace tests of boxes (chart (B,), unit lo, hi (B, N)): (B,) bool, True where traced; adds the
+    traced boxes' cells to ``met`` and the cells proven to ``proven`` (:func:`trace_cover`)."""
+    charts = system.charts
+    cols = list(system.plane_columns)
+    alo, ahi = charts.angle_box(chart, ulo, uhi)
+    ext = ahi[:, cols] - alo[:, cols]
+    pref = np.where(ext[:, 0] >= ext[:, 1], 0, 1)            # plane axis index of the parameter, first try
+    traced = np.zeros(len(chart), dtype=bool)
+    # boxes proven empty first: K of the box itself (either input the parameter) disjoint from it, so no
+    # singular configuration in it (K holds every root of the box): dropped from the cover ("traced", no cell)
+    for s in range(0, len(chart), TRACE_BATCH):
+        traced[s:s + TRACE_BATCH] = system.empty(chart[s:s + TRACE_BATCH], ulo[s:s + TRACE_BATCH], uhi[s:s + TRACE_BATCH])
+    for round_ in range(2):
+        axis_of = pref if round_ == 0 else 1 - pref
+        for axis in (0, 1):
+            idx = np.flatnonzero(~traced & (axis_of == axis))
+            for s in range(0, len(idx), TRACE_BATCH):
+                part = idx[s:s + TRACE_BATCH]
+                traced[part] = _trace_axis(system, grid, axis, chart[part], ulo[part], uhi[part], met, proven)
+    return traced
+
+
+def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
+    """:func:`_trace_boxes` with plane axis ``axis`` (0: x, 1: y) as the parameter for every box.
+
+    The box test (on V, :func:`_trace_box`) proves that for every p of the box one root lies in V; each
+    piece is then tested on its own narrow V' (Newton's band over the piece, inside V): a root in V'
+    is that unique root of V, so K(V') encloses every root of the box over the piece, tightly."""
+    charts = system.charts
+    p = list(system.plane_columns)[axis]
+    vlo, vhi, line = _trace_box(system, p, chart, ulo, uhi)
+    out = np.zeros(len(chart), dtype=bool)
+    whole, _, _ = system.trace(chart, vlo, vhi, p)
+    idx = np.flatnonzero(whole)
+    if not len(idx):
+        return out
+    chart, vlo, vhi, line = chart[idx], vlo[idx], vhi[idx], tuple(v[idx] for v in line)
+    # the pieces: each box's range along p cut at the cell edges (fractions of the range; the ends 0 and 1
+    # exact, each cut shared by the two pieces beside it: the pieces cover the range)
+    owner, fa, fz = [], [], []
+    for b in range(len(idx)):
+        cuts = _cuts(grid, axis, charts, int(chart[b]), p, vlo[b, p], vhi[b, p])
+        owner += [b] * (len(cuts) - 1)
+        fa += cuts[:-1]
+        fz += cuts[1:]
+    owner, fa, fz = np.array(owner), np.array(fa), np.array(fz)
+    ok, klo, khi, ends = _test_pieces(system, p, chart, vlo, vhi, line, owner, fa, fz)
+    good = np.ones(len(idx), dtype=bool)
+    good[owner[~ok]] = False                                 # a box is traced when every piece is proven
+    out[idx[good]] = True
+    keep = good[owner]
+    owner, fa, fz, klo, khi = (v[keep] for v in (owner, fa, fz, klo, khi))
+    ends = tuple(v[keep] for v in ends)
+    for level in range(TRACE_REFINE + 1):
+        cells = _piece_cells(system, grid, chart[owner], klo, khi)
+        _prove_pieces(system, grid, axis, chart[owner], ends, proven)
+        open_ = np.array([any(c not in proven for c in cs) for cs in cells], dtype=bool)
+        for k in np.flatnonzero(~open_ if level < TRACE_REFINE else np.ones(len(cells), dtype=bool)):
+            met.update(cells[k])
+        if level == TRACE_REFINE or not open_.any():
+            break
+        # the open pieces split along p; a piece any part of which fails keeps its own cells
+        o = np.flatnonzero(open_)
+        frac = np.linspace(0.0, 1.0, TRACE_SPLIT + 1)
+        cut = fa[o, None] + frac[None, :] * (fz[o] - fa[o])[:, None]
+        cut[:, 0], cut[:, -1] = fa[o], fz[o]
+        sown = np.repeat(owner[o], TRACE_SPLIT)
+        sa, sz = cut[:, :-1].ravel(), cut[:, 1:].ravel()
+        sub = _test_pieces(system, p, chart, vlo, vhi, line, sown, sa, sz)
+        split_ok = sub[0].reshape(-1, TRACE_SPLIT).all(axis=1)
+        for k in np.flatnonzero(~split_ok):
+            met.update(cells[o[k]])
+        g = np.repeat(split_ok, TRACE_SPLIT)
+        owner, fa, fz = sown[g], sa[g], sz[g]
+        klo, khi = sub[1][g], sub[2][g]
+        ends = tuple(v[g] for v in sub[3])
+        if not len(owner):
+            break
+    return out
+
+
+def _test_pieces(system, p: int, chart, vlo, vhi, line, owner, fa, fz) -> tuple:
+    """The trace test of pieces [fa, fz] (fractions of the range along p) of the traced boxes ``owner``
+    (chart, [vlo, vhi] (B, N): boxes whose test on V passed; ``line``: their Newton points and slopes),
+    each on its narrow V' inside V (:func:`_trace_axis`), else on V, with the point tests at the pieces'
+    ends moved inward by PROOF_NUDGE (:func:`_prove_pieces`) on the same restriction. Returns (proven
+    (P,), K lo, K hi (P, N), ends): ``ends`` = (proven (P,), K lo, K hi (P, N)) at either end."""
+    w = vhi[owner, p] - vlo[owner, p]
+    plo, phi = vlo[owner].copy(), vhi[owner].copy()
+    plo[:, p] = vlo[owner, p] + fa * w
+    phi[:, p] = np.where(fz == 1.0, vhi[owner, p], vlo[owner, p] + fz * w)
+    c = chart[owner]
+    ok_l, point, slope = line
+    glo, ghi = _band(p, plo, phi, point[owner], slope[owner], ok_l[owner], vlo[owner], vhi[owner])
+    nlo, nhi = np.maximum(glo, vlo[owner]), np.minimum(ghi, vhi[owner])
+    out = _with_ends(system, p, c, nlo, nhi, np.arange(len(c)), np.zeros(len(c)), np.ones(len(c)))
+    retry = np.flatnonzero(~out[0])                           # V' around the box's tangent line failed:
+    if len(retry):                                            # V' around the piece's own (Newton)
+        ok_n, point2, slope2 = system.predict(c[retry], glo[retry], ghi[retry], p)
+        rlo, rhi = _band(p, plo[retry], phi[retry], point2, slope2, ok_n, glo[retry], ghi[retry])
+        rlo, rhi = np.maximum(rlo, vlo[owner[retry]]), np.minimum(rhi, vhi[owner[retry]])
+        sub = _with_ends(system, p, c[retry], rlo, rhi, np.arange(len(retry)), np.zeros(len(retry)),
+                         np.ones(len(retry)))
+        for a, b in zip(out, sub):
+            a[retry] = b
+    retry = np.flatnonzero(~out[0])
+    if len(retry):                                            # on V itself
+        sub = _with_ends(system, p, chart, vlo, vhi, owner[retry], fa[retry], fz[retry])
+        for a, b in zip(out, sub):
+            a[retry] = b
+    return out[0], out[1], out[2], tuple(out[3:])
+
+
+def _with_ends(system, p: int, chart, lo, hi, owner, fa, fz) -> list:
+    """One restriction of the boxes (chart, [lo, hi]) for the tests of their pieces [fa, fz] along p and
+    of the pieces' end points moved inward by PROOF_NUDGE: [proven, K lo, K hi] of the pieces, then of the
+    first ends, then of the last ends (arrays, (P,) and (P, N))."""
+    n = len(owner)
+    ta, tb = fa + PROOF_NUDGE * (fz - fa), fz - PROOF_NUDGE * (fz - fa)
+    ok, klo, khi = system.trace(chart, lo, hi, p, (np.concatenate([owner, owner, owner]),
+                                                    np.concatenate([fa, ta, tb]), np.concatenate([fz, ta, tb])))
+    return [v[k * n:(k + 1) * n] for k in range(3) for v in (ok, klo, khi)]
+
+
+def _band(p: int, plo, phi, point, slope, ok, flo, fhi) -> tuple:
+    """Boxes around the tangent lines v = point + slope (u_p - point_p) over [plo, phi] along p, widened
+    by TRACE_WIDEN of max(their extent, the range along p) per variable and clipped to the chart; where
+    ``ok`` is False, the fallback boxes [flo, fhi] with the range along p."""
+    other = [k for k in range(plo.shape[1]) if k != p]
+    a = (plo[:, p] - point[:, p])[:, None]
+    z = (phi[:, p] - point[:, p])[:, None]
+    blo = point[:, other] + np.minimum(slope[:, other] * a, slope[:, other] * z)
+    bhi = point[:, other] + np.maximum(slope[:, other] * a, slope[:, other] * z)
+    pad = TRACE_WIDEN * (bhi - blo) + TRACE_PAD * (phi[:, p] - plo[:, p])[:, None]
+    lo, hi = plo.copy(), phi.copy()
+    lo[:, other] = np.where(ok[:, None], np.clip(blo - pad, 0.0, 1.0), flo[:, other])
+    hi[:, other] = np.where(ok[:, None], np.clip(bhi + pad, 0.0, 1.0), fhi[:, other])
+    return lo, hi
+
+
+def _trace_box(system, p: int, chart, ulo, uhi) -> tuple:
+    """The boxes V of the trace tests (unit, (B, N)): the box's range along the parameter column ``p``; along
+    the others the hull of the box and of the band around Newton's tangent line at the middle of the
+    range (:meth:`PlatformPlane.predict`), widened by TRACE_WIDEN of max(band width, range along p): the
+    branch crosses a search box from face to face (the loop splits boxes anywhere), while the test needs
+    it inside V over the whole range. Boxes whose Newton fails keep their own V widened alike. Returns
+    (lo, hi, (converged, point, slope))."""
+    ok, point, slope = line = system.predict(chart, ulo, uhi, p)
+    other = [k for k in range(ulo.shape[1]) if k != p]
+    a = (ulo[:, p] - point[:, p])[:, None]
+    z = (uhi[:, p] - point[:, p])[:, None]
+    blo = np.where(ok[:, None], point[:, other] + np.minimum(slope[:, other] * a, slope[:, other] * z), ulo[:, other])
+    bhi = np.where(ok[:, None], point[:, other] + np.maximum(slope[:, other] * a, slope[:, other] * z), uhi[:, other])
+    blo, bhi = np.minimum(blo, ulo[:, other]), np.maximum(bhi, uhi[:, other])
+    pad = TRACE_WIDEN * (bhi - blo) + TRACE_PAD * (uhi[:, p] - ulo[:, p])[:, None]
+    vlo, vhi = ulo.copy(), uhi.copy()
+    vlo[:, other] = np.clip(blo - pad, 0.0, 1.0)
+    vhi[:, other] = np.clip(bhi + pad, 0.0, 1.0)
+    return vlo, vhi, line
+
+
+def _cuts(grid: Grid, axis: int, charts, c: int, col: int, u0: float, u1: float) -> list:
+    """The fractions of [u0, u1] (unit coordinates of chart c, column ``col``) at the grid's cell edges
+    along ``axis`` strictly inside it: [0, cuts..., 1]."""
+    lo = np.array([[u0] * charts.map_lo.shape[1]])
+    hi = np.array([[u1] * charts.map_lo.shape[1]])
+    a0, a1 = charts.angle_box(np.array([c]), lo, hi)
+    i0, i1 = grid.span(axis, float(a0[0, col]), float(a1[0, col]))
+    edges = [grid.edges(axis, i)[0] for i in range(int(i0) + 1, int(i1) + 1)]
+    if not edges:
+        return [0.0, 1.0]
+    u = tan_half_unit(np.array(edges), charts.shift[c, col], charts.map_lo[c, col], charts.map_hi[c, col])
+    f = (np.asarray(u) - u0) / (u1 - u0)
+    return [0.0] + [float(v) for v in f if 0.0 < v < 1.0] + [1.0]
+
+
+def _piece_cells(system, grid: Grid, chart, klo, khi) -> list:
+    """The cells (i, j) met by each piece's enclosure [klo, khi] (unit, (P, N)): a list of lists."""
+    cols = list(system.plane_columns)
+    alo, ahi = system.charts.angle_box(chart, klo, khi)
+    s0 = grid.span(0, alo[:, cols[0]], ahi[:, cols[0]])
+    s1 = grid.span(1, alo[:, cols[1]], ahi[:, cols[1]])
+    return [[(i, j) for i in range(s0[0][k], s0[1][k] + 1) for j in range(s1[0][k], s1[1][k] + 1)]
+            for k in range(len(chart))]
+
+
+def _prove_pieces(system, grid: Grid, axis: int, chart, ends, proven: set) -> None:
+    """Cells proven by the pieces' end points (:func:`trace_cover`): ``ends`` = (proven, K lo, K hi) of the
+    point tests at either end of each piece (charts ``chart`` (P,), :func:`_with_ends`); adds (i, j) to
+    ``proven``."""
+    charts = system.charts
+    cols = list(system.plane_columns)
+    p, q = cols[axis], cols[1 - axis]
+    ok_a, la, ha, ok_b, lb, hb = ends
+    alo, ahi = charts.angle_box(chart, la, ha)
+    blo, bhi = charts.angle_box(chart, lb, hb)
+    xa, ya0, ya1 = alo[:, p], alo[:, q], ahi[:, q]
+    xb, yb0, yb1 = blo[:, p], blo[:, q], bhi[:, q]
+    wp = grid.width(axis)
+    ia = np.floor((xa - grid.lo[axis]) / wp).astype(int)
+    ib = np.floor((xb - grid.lo[axis]) / wp).astype(int)
+    for k in np.flatnonzero(ok_a & ok_b & (ia == ib) & (ia >= 0) & (ia < grid.n[axis])):
+        e0, e1 = grid.edges(axis, int(ia[k]))
+        if min(xa[k], xb[k]) - e0 < PROOF_SLACK or e1 - max(xa[k], xb[k]) < PROOF_SLACK:
+            continue                                  # an end too close to the cell's edge along p
+        j0, j1 = grid.span(1 - axis, min(ya0[k], yb0[k]), max(ya1[k], yb1[k]))
+        g_lo = min(ya1[k], yb1[k]) + PROOF_SLACK          # the gap between the ends' enclosures: reached
+        g_hi = max(ya0[k], yb0[k]) - PROOF_SLACK
+        for j in range(int(j0), int(j1) + 1):
+            f0, f1 = grid.edges(1 - axis, j)
+            inside = any(f0 + PROOF_SLACK <= y0 and y1 <= f1 - PROOF_SLACK
+                         for y0, y1 in ((ya0[k], ya1[k]), (yb0[k], yb1[k])))
+            gap = g_lo <= g_hi and max(f0, g_lo) <= min(f1, g_hi)
+            if inside or gap:
+                proven.add((int(ia[k]), j) if axis == 0 else (j, int(ia[k])))
