@@ -140,3 +140,16 @@ def test_singular_cells_hold_a_point_of_the_curve(square_set):
         rots, real = rrr_poses_all_frames(geometry, x)
         dets = [abs(type2_det(geometry, x, r)[0]) for r in rots[0, 0][real[0, 0]]]
         assert min(dets) < 1e-6
+
+
+def test_a_line_crossing_the_curve():
+    """On the line beta2 = -0.7 (beta3 = 0.5) the curve is crossed once in [0.8, 1.2], at tan b1 =
+    -cos b2 cos b3 / (sin b2 sin b3) (closed form): its cell is `singular`, and no other cell is."""
+    b2 = -0.7
+    root = math.atan(-math.cos(b2) * math.cos(BETA3) / (math.sin(b2) * math.sin(BETA3)))
+    assert 0.8 < root < 1.2 and abs(_t(root, b2)) < 1e-12
+    s = spherekin.singular(EYE, x=("beta1", 0.8, 1.2), fixed={"beta2": b2, "beta3": BETA3}, tol=0.05,
+                           max_boxes=CAP)
+    assert s.complete
+    singular = [b for b in s.boxes if b.status == "singular"]
+    assert len(singular) == 1 and singular[0].x[0] <= root <= singular[0].x[1]
