@@ -208,7 +208,7 @@ def stationary_sign_changes(system, grid: Grid, cells) -> set:
     cells = list(cells)
     lo = np.array([[grid.edges(a, c[a])[0] for a in range(n_plane)] for c in cells])
     hi = np.array([[grid.edges(a, c[a])[1] for a in range(n_plane)] for c in cells])
-    points = lo[:, None] + offsets[None] * (hi - lo)[:, None]                        # (C, S, n_plane)
+    points = np.clip(lo[:, None] + offsets[None] * (hi - lo)[:, None], lo[:, None], hi[:, None])   # (C, S, n_plane)
     out = set()
     for q in stationary:
         det = system.stationary_det(q, points.reshape(-1, n_plane)).reshape(2, len(cells), len(offsets))
