@@ -261,6 +261,11 @@ CLUSTER_SLACK = 1e-9
 #: centre (unit coordinates, clipped to the chart): the boxes are small (CUSP_FRACTION T) and a cusp's
 #: neighbours need not hold it; Newton is only a guess, the Krawczyk test decides.
 NEWTON_WIDEN = 4.0
+#: Boxes per batch of Newton's method on the cusp system (:func:`_newton_roots`): each box holds its restricted
+#: nets (~6,500 coefficients, the tangency's 5,400) and Newton's derivative nets, ~0.3 MB per box; 2,000 boxes
+#: keep a batch near 0.6 GB. Reason: the agile eye's crossings leave ~1e5 candidate boxes over the whole plane,
+#: which in one batch took the process past 23 GB (killed by the kernel).
+NEWTON_CHUNK = 2_000
 #: Newton roots of one cluster closer than this (unit coordinates, largest component) are one root.
 ROOT_SEPARATION = 1e-7
 #: The Krawczyk box about a Newton root is PROOF_RADIUS times the cluster's hull, whose sides are at least
@@ -381,9 +386,15 @@ def _newton_roots(charts, chart, lo, hi):
     NEWTON_WIDEN times about its centre: (roots (R, N) in the chart's unit coordinates, their charts (R,))."""
     mid, half = 0.5 * (lo + hi), 0.5 * NEWTON_WIDEN * (hi - lo)
     wlo, whi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
-    u, converged = cusp_newton(charts, chart, wlo, whi)
-    root = wlo + u * (whi - wlo)
-    return root[converged], chart[converged]
+    roots, owners = [], []
+    for a in range(0, len(chart), NEWTON_CHUNK):          # bounded memory: see NEWTON_CHUNK
+        b = slice(a, a + NEWTON_CHUNK)
+        u, converged = cusp_newton(charts, chart[b], wlo[b], whi[b])
+        roots.append((wlo[b] + u * (whi[b] - wlo[b]))[converged])
+        owners.append(chart[b][converged])
+    if not roots:
+        return wlo[:0], chart[:0]
+    return np.concatenate(roots), np.concatenate(owners)
 
 
 def merge_cusps(found) -> tuple[CuspStatus, ...]:
