@@ -29,12 +29,14 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from fractions import Fraction
 from types import SimpleNamespace
 
 import numpy as np
 
 from ..closure import tan_half_angle, tan_half_unit
-from ..core import bernstein
+from ..core import bernstein, intervals
+from ..core.orientation import quaternions_from_rotations
 from ..search.isolation import SquareSystem, evaluate_at, jacobian_at, krawczyk_boxes, krawczyk_parametric, newton
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
@@ -42,7 +44,7 @@ from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, le
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
            "LoopColumn", "DetPlan", "det_plan", "MAX_LAPLACE_TERMS", "MAX_DET_COEFFS",
            "SPURIOUS_BOUND", "CUSP_SQUARE",
-           "cusp_newton", "cusp_krawczyk"]
+           "cusp_newton", "cusp_krawczyk", "stationary_quaternions"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -154,6 +156,45 @@ def _linear_basis(k: int) -> np.ndarray:
     return out
 
 
+#: Candidate stationary quaternions (:func:`stationary_quaternions`), scaled so that their largest component is
+#: 1, are rounded to multiples of this before the exact test: the rotation fitted by the SVD is exact only to
+#: rounding (1e-16), while the exact test needs the exact point (for the agile eye (1, +-1, +-1, +-1)). A
+#: candidate is only a guess: the test in rational arithmetic decides, so a stationary pose whose
+#: quaternion is not on this grid is missed (no certificate), never claimed.
+STATIONARY_GRID = 2.0 ** -20
+
+
+def stationary_quaternions(legs, mats) -> tuple[np.ndarray, ...]:
+    """The platform orientations at which every leg's equation holds whatever its input: quaternions (4,)
+    (floats, largest component 1) with q^T M[i, part] q == 0 *exactly* (rational arithmetic on the float
+    matrices ``mats`` (3 legs, 3 parts, 4, 4), :func:`spherekin.systems.platform.leg_matrices`) for every
+    leg i and part (cos d, sin d, 1): then q^T M_i(d) q = 0 for every d, so q is a closure of the system
+    at every input (a stationary assembly: each leg in a serial singularity, its input turning the elbow
+    about the platform joint's axis). Candidates (base-actuated legs only; else none): for each sign
+    pattern s in {+-1}^3 the rotation R fitted (SVD) to R a3_i = s_i a1_i (leg i's equation
+    e(d) . (R a3) = c is independent of d iff R a3 is along a1), rounded (STATIONARY_GRID). The agile eye
+    (examples/gosselin.toml) has four: (1, 1, 1, 1), (1, 1, -1, -1), (1, -1, 1, -1), (1, -1, -1, 1)."""
+    if any(leg.actuated != 0 for leg in legs):
+        return ()
+    a1 = np.array([leg.a1 for leg in legs], dtype=float)
+    a3 = np.array([leg.a3 for leg in legs], dtype=float)
+    exact = [[[[Fraction(float(v)) for v in row] for row in mats[i, p]] for p in range(3)] for i in range(len(legs))]
+    out = []
+    for signs in itertools.product((1.0, -1.0), repeat=3):
+        target = np.asarray(signs)[:, None] * a1
+        u, _, vt = np.linalg.svd(target.T @ a3)                      # R = argmin sum |R a3_i - s_i a1_i|^2
+        rot = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+        if np.abs(rot @ a3.T - target.T).max() > 1e-6:
+            continue                                                  # no rotation fits this pattern
+        q = quaternions_from_rotations(rot)
+        q = np.round(q / np.abs(q).max() / STATIONARY_GRID) * STATIONARY_GRID
+        qf = [Fraction(float(v)) for v in q]
+        if all(sum(qf[a] * m[a][b] * qf[b] for a in range(4) for b in range(4)) == 0 for leg in exact for m in leg):
+            if not any(np.array_equal(q, o) or np.array_equal(q, -o) for o in out):
+                out.append(q)
+    return tuple(out)
+
+
 class PlatformPlane:
     """The platform system's singular set in a plane of inputs (module doc), compiled once.
 
@@ -176,6 +217,7 @@ class PlatformPlane:
         self.charts = self._cover_charts()
         self.plane_columns = tuple(3 + a for a in range(len(plane.axes)))
         self._batch_last = None
+        self.stationary = stationary_quaternions(legs, self.mats)
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of the cover's angle-box coordinates v (B, N) in charts ``chart`` (B,)."""
@@ -449,6 +491,34 @@ class PlatformPlane:
         ok = (np.all(np.isfinite(u), axis=1) & np.all(np.isfinite(slope), axis=1)
               & (np.abs(step).max(axis=1) < PREDICT_CONVERGED))
         return ok, lo + u * w, slope
+    def stationary_det(self, q, points) -> np.ndarray:
+        """An enclosure (interval array (2, P)) of D at the stationary quaternion ``q`` (4,) (one of
+        :attr:`stationary`) for plane inputs ``points`` (P, n_plane; radians, x first): det of the 3 x 3
+        matrix [(M_i(d_i) q)_j] (rows: legs; columns j != k, k the component of q of largest size),
+        outward-rounded interval arithmetic (:mod:`spherekin.core.intervals`: cos and sin of d_i = beta_i -
+        ref_i enclosed). As :class:`PlatformPlane`'s D (the module doc): the rows are the closure's
+        gradients in q, orthogonal to q (Euler), so with q_k != 0 this minor is 0 iff they are dependent.
+        Since q closes every input, an interval excluding 0 proves the sign of D(q, p)."""
+        q = np.asarray(q, dtype=float)
+        points = np.atleast_2d(np.asarray(points, dtype=float))
+        n = len(points)
+        cols = [j for j in range(4) if j != int(np.argmax(np.abs(q)))]
+        rows = []
+        for i in range(3):
+            beta = (points[:, self.axis_legs.index(i)] if i in self.axis_legs
+                    else np.full(n, self.fixed_values[i]))
+            d = intervals.sub(intervals.point(beta), intervals.point(np.full(n, self.refs[i])))
+            cos, sin = intervals.cos_sin(d)
+            parts = intervals.fmatmul(self.mats[i][:, cols, :], intervals.point(q[:, None]))[..., 0]   # (2, 3, 3)
+            rows.append(intervals.add(intervals.add(intervals.mul(cos[:, :, None], parts[:, None, 0]),
+                                                    intervals.mul(sin[:, :, None], parts[:, None, 1])),
+                                      parts[:, None, 2]))                    # (2, P, 3)
+        det = intervals.point(np.zeros(n))
+        for perm in itertools.permutations(range(3)):
+            sign = float(np.linalg.det(np.eye(3)[list(perm)]))
+            term = intervals.mul(intervals.mul(rows[0][:, :, perm[0]], rows[1][:, :, perm[1]]), rows[2][:, :, perm[2]])
+            det = intervals.add(det, intervals.scale(sign, term))
+        return det
 
     def prove(self, chart, fix, value, lo, hi) -> np.ndarray:
         """The Krawczyk test (:func:`spherekin.search.isolation.krawczyk_boxes`) of the square slices:

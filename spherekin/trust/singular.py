@@ -15,6 +15,13 @@ Each covered cell gets a status:
   the hull of the cover's boxes of one chart that meet the slice: a singular configuration at an input
   of the cell (:meth:`spherekin.systems.singular.PlatformPlane.prove`). The slice holding x is tried
   first where the boxes spread more along x (the curve crosses x = const transversally), then y;
+  Or, for a mechanism with stationary assemblies (orientations closing every input, e.g. the agile eye's
+  four: :func:`spherekin.systems.singular.stationary_quaternions`, proven in rational arithmetic), where
+  the Krawczyk test cannot apply: the interval enclosures of D at such an orientation q* have opposite
+  signs at two sample points of the cell (:meth:`PlatformPlane.stationary_det`). D(q*, .) is continuous
+  and (q*, p) closes at every input p, so D(q*, p) = 0 at some p of the segment between them, inside the
+  (convex) cell: a singular configuration there. This is where the other assemblies cross q*
+  (transversally: no fold, no Krawczyk proof, see :func:`stationary_sign_changes`);
 * ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve, boxes
   never processed because the box cap was reached).
 
@@ -28,6 +35,7 @@ reported by it (its other boxes are not claimed root-free).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -37,8 +45,9 @@ from ..closure import tan_half_unit
 from ..core import bernstein
 from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
-__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover", "trace_cover", "trace_levels", "SINGULAR", "UNRESOLVED",
-           "CUSP", "CuspStatus", "certify_cusps", "merge_cusps"]
+__all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover",
+           "trace_cover", "trace_levels", "SINGULAR", "UNRESOLVED", "CUSP", "CuspStatus", "certify_cusps",
+           "merge_cusps", "STATIONARY_SAMPLES", "stationary_sign_changes"]
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
@@ -49,6 +58,11 @@ CELL_SLACK = 1e-9
 #: before the Krawczyk test: the root must lie in the interior of the box tested, and the boxes' hull can
 #: touch it at a face (accepted boxes are the pruner's tight reductions).
 HULL_WIDEN = 0.1
+#: Sample points per plane axis of a cell (its edges included) at which D at a stationary orientation is
+#: enclosed (:func:`stationary_sign_changes`): 3 x 3 = the corners, the edges' midpoints and the centre, so
+#: a curve through the cell that leaves its corners on one side (entering and leaving by one edge) is
+#: still seen when it passes a midpoint. More points find more such cells, at 9 interval determinants each.
+STATIONARY_SAMPLES = 3
 
 
 @dataclass(frozen=True)
@@ -172,9 +186,37 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
         cells, ch, fix, val, lo, hi = zip(*tries)
         ok = system.prove(np.array(ch), np.array(fix), np.array(val), np.array(lo), np.array(hi))
         proven |= {cells[k] for k in np.flatnonzero(ok)}
+    proven |= stationary_sign_changes(system, grid, sorted((set(met) | pending_cells) - proven))
     out = [CellStatus(i, j, SINGULAR if (i, j) in proven else UNRESOLVED)
            for i, j in sorted(set(met) | pending_cells)]
     return tuple(out)
+
+
+def stationary_sign_changes(system, grid: Grid, cells) -> set:
+    """The cells (of ``cells``, (i, j) pairs) holding a proven singular configuration at a stationary
+    orientation q* of ``system`` (its ``stationary``: none for the loop system or a mechanism without them):
+    the enclosures of D(q*, p) (``system.stationary_det``) at two of the cell's STATIONARY_SAMPLES^2 sample
+    points p (a line: STATIONARY_SAMPLES) exclude 0 with opposite signs (module doc). Why this and not the
+    Krawczyk test there: on the stationary sheet the closure does not depend on the inputs (dF/dt = 0) and
+    its Jacobian in q has rank 2 where D = 0, so the square slice's Jacobian is singular at every such point
+    (the other assemblies cross q* there transversally; an O(eps) change of the mechanism could turn the
+    crossing into two folds or into none, so no test on the floating-point curve system can prove it)."""
+    stationary = getattr(system, "stationary", ())
+    if not stationary or not len(cells):
+        return set()
+    n_plane = len(system.plane_columns)
+    frac = np.linspace(0.0, 1.0, STATIONARY_SAMPLES)
+    offsets = np.array(list(itertools.product(frac, repeat=n_plane)))             # (S, n_plane)
+    cells = list(cells)
+    lo = np.array([[grid.edges(a, c[a])[0] for a in range(n_plane)] for c in cells])
+    hi = np.array([[grid.edges(a, c[a])[1] for a in range(n_plane)] for c in cells])
+    points = np.clip(lo[:, None] + offsets[None] * (hi - lo)[:, None], lo[:, None], hi[:, None])   # (C, S, n_plane)
+    out = set()
+    for q in stationary:
+        det = system.stationary_det(q, points.reshape(-1, n_plane)).reshape(2, len(cells), len(offsets))
+        change = (det[0] > 0).any(axis=1) & (det[1] < 0).any(axis=1)
+        out |= {cells[k] for k in np.flatnonzero(change)}
+    return out
 
 
 def _attempt(system, grid, cell, c, mine, alo, ahi, ulo, uhi, cols, round_):
@@ -221,6 +263,11 @@ CLUSTER_SLACK = 1e-9
 #: centre (unit coordinates, clipped to the chart): the boxes are small (CUSP_FRACTION T) and a cusp's
 #: neighbours need not hold it; Newton is only a guess, the Krawczyk test decides.
 NEWTON_WIDEN = 4.0
+#: Boxes per batch of Newton's method on the cusp system (:func:`_newton_roots`): each box holds its restricted
+#: nets (~6,500 coefficients, the tangency's 5,400) and Newton's derivative nets, ~0.3 MB per box; 2,000 boxes
+#: keep a batch near 0.6 GB. Reason: the agile eye's crossings leave ~1e5 candidate boxes over the whole plane,
+#: which in one batch took the process past 23 GB (killed by the kernel).
+NEWTON_CHUNK = 2_000
 #: Newton roots of one cluster closer than this (unit coordinates, largest component) are one root.
 ROOT_SEPARATION = 1e-7
 #: The Krawczyk box about a Newton root is PROOF_RADIUS times the cluster's hull, whose sides are at least
@@ -347,9 +394,15 @@ def _newton_roots(charts, chart, lo, hi):
     NEWTON_WIDEN times about its centre: (roots (R, N) in the chart's unit coordinates, their charts (R,))."""
     mid, half = 0.5 * (lo + hi), 0.5 * NEWTON_WIDEN * (hi - lo)
     wlo, whi = np.clip(mid - half, 0.0, 1.0), np.clip(mid + half, 0.0, 1.0)
-    u, converged = cusp_newton(charts, chart, wlo, whi)
-    root = wlo + u * (whi - wlo)
-    return root[converged], chart[converged]
+    roots, owners = [], []
+    for a in range(0, len(chart), NEWTON_CHUNK):          # bounded memory: see NEWTON_CHUNK
+        b = slice(a, a + NEWTON_CHUNK)
+        u, converged = cusp_newton(charts, chart[b], wlo[b], whi[b])
+        roots.append((wlo[b] + u * (whi[b] - wlo[b]))[converged])
+        owners.append(chart[b][converged])
+    if not roots:
+        return wlo[:0], chart[:0]
+    return np.concatenate(roots), np.concatenate(owners)
 
 
 def merge_cusps(found) -> tuple[CuspStatus, ...]:
