@@ -446,6 +446,21 @@ def singular_points_on_line(p0, p1, n_samples: int = 400, seed: int = 0, beta3: 
     return out
 
 
+def lines_across(square, n: int, seed: int) -> list:
+    """Segments across the square ((x0, x1), (y0, y1)) (radians): its two diagonals, then n seeded
+    segments from edge to opposite edge, alternately left-right and bottom-top; each ((x, y), (x, y))."""
+    (x0, x1), (y0, y1) = square
+    rng = np.random.default_rng(seed)
+    out = [((x0, y0), (x1, y1)), ((x0, y1), (x1, y0))]
+    for k in range(n):
+        a, b = rng.uniform(0.05, 0.95, 2)
+        if k % 2 == 0:
+            out.append(((x0, y0 + a * (y1 - y0)), (x1, y0 + b * (y1 - y0))))
+        else:
+            out.append(((x0 + a * (x1 - x0), y0), (x0 + b * (x1 - x0), y1)))
+    return out
+
+
 def seeded_lines(n: int, seed: int, half_width: float = math.pi) -> np.ndarray:
     """n random segments of the square [-half_width, half_width]^2, each from one side to the opposite one
     (so every segment crosses the whole square): shape (n, 2, 2) = (line, end, (beta1, beta2))."""

@@ -20,7 +20,7 @@ from spherekin.cli import main
 from spherekin.results import SINGULAR_SCHEMA
 from singular_refs import (EXAMPLES, five_bar_curve_points, five_bar_from_file, five_bar_moving, five_bar_tangency,
                            four_bar_branch_inputs, four_bar_from_arcs, four_bar_from_file, four_bar_toml,
-                           singular_points_on_line)
+                           lines_across, singular_points_on_line)
 
 RRR = EXAMPLES / "general_3rrr.toml"
 #: A sub-square of the plane beta3 = 0.5 that the singular curves cross several times (fast: ~2 s at T = 0.1).
@@ -30,23 +30,10 @@ T = 0.1
 EDGE = 1e-9
 
 
-def _lines(square, n: int = 4):
-    """Segments across the square: horizontal, vertical and the two diagonals (the seeded lines' kind)."""
-    (x0, x1), (y0, y1) = square
-    rng = np.random.default_rng(31)
-    out = [((x0, y0), (x1, y1)), ((x0, y1), (x1, y0))]
-    for k in range(n):
-        a, b = rng.uniform(0.05, 0.95, 2)
-        if k % 2 == 0:
-            out.append(((x0, y0 + a * (y1 - y0)), (x1, y0 + b * (y1 - y0))))
-        else:
-            out.append(((x0 + a * (x1 - x0), y0), (x0 + b * (x1 - x0), y1)))
-    return out
-
-
 @pytest.fixture(scope="module")
 def reference_points():
-    pts = [s.inputs[:2] for p0, p1 in _lines(SQUARE) for s in singular_points_on_line(p0, p1, n_samples=60, seed=0)]
+    pts = [s.inputs[:2] for p0, p1 in lines_across(SQUARE, 4, 31)
+           for s in singular_points_on_line(p0, p1, n_samples=60, seed=0)]
     assert len(pts) >= 6                 # the square is crossed by the curves
     return np.array(pts)
 

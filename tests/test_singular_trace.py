@@ -22,7 +22,7 @@ from spherekin.problem import COVER_FRACTION, as_mechanism
 from spherekin.search.boxloop import pruner_for
 from spherekin.systems.singular import PlatformPlane, SingularPlane
 from spherekin.trust import singular as ts
-from singular_refs import EXAMPLES, singular_points_on_line
+from singular_refs import EXAMPLES, lines_across, singular_points_on_line
 
 RRR = EXAMPLES / "general_3rrr.toml"
 #: A square the curves cross several times (the one of tests/test_singular.py's quarter set).
@@ -31,19 +31,6 @@ SQUARE = ((0.9, 1.4), (1.1, 1.6))
 T = 0.02
 #: Closed cells: a reference point (bisected to 1e-10) on a cell edge counts as inside within this.
 EDGE = 1e-9
-
-
-def _lines(square, n: int):
-    (x0, x1), (y0, y1) = square
-    rng = np.random.default_rng(7)
-    out = [((x0, y0), (x1, y1)), ((x0, y1), (x1, y0))]
-    for k in range(n):
-        a, b = rng.uniform(0.05, 0.95, 2)
-        if k % 2 == 0:
-            out.append(((x0, y0 + a * (y1 - y0)), (x1, y0 + b * (y1 - y0))))
-        else:
-            out.append(((x0 + a * (x1 - x0), y0), (x0 + b * (x1 - x0), y1)))
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +53,8 @@ def traced(plane_system):
 
 @pytest.fixture(scope="module")
 def reference_points():
-    pts = [s.inputs[:2] for p0, p1 in _lines(SQUARE, 4) for s in singular_points_on_line(p0, p1, n_samples=50)]
+    pts = [s.inputs[:2] for p0, p1 in lines_across(SQUARE, 4, 7)
+           for s in singular_points_on_line(p0, p1, n_samples=50)]
     assert len(pts) >= 8
     return np.array(pts)
 
