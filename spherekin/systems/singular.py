@@ -162,6 +162,10 @@ def _linear_basis(k: int) -> np.ndarray:
 #: candidate is only a guess: the test in rational arithmetic decides, so a stationary pose whose
 #: quaternion is not on this grid is missed (no certificate), never claimed.
 STATIONARY_GRID = 2.0 ** -20
+#: A sign pattern's fitted rotation is a candidate when it maps every a3_i within this of s_i a1_i (unit
+#: vectors). Reason: only a filter before the exact test, which decides: a pattern no rotation fits misses
+#: by O(1) (unit vectors at wrong angles); a fitting one by the SVD's rounding, ~1e-15.
+STATIONARY_FIT = 1e-6
 
 
 def stationary_quaternions(legs, mats) -> tuple[np.ndarray, ...]:
@@ -184,7 +188,7 @@ def stationary_quaternions(legs, mats) -> tuple[np.ndarray, ...]:
         target = np.asarray(signs)[:, None] * a1
         u, _, vt = np.linalg.svd(target.T @ a3)                      # R = argmin sum |R a3_i - s_i a1_i|^2
         rot = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
-        if np.abs(rot @ a3.T - target.T).max() > 1e-6:
+        if np.abs(rot @ a3.T - target.T).max() > STATIONARY_FIT:
             continue                                                  # no rotation fits this pattern
         q = quaternions_from_rotations(rot)
         q = np.round(q / np.abs(q).max() / STATIONARY_GRID) * STATIONARY_GRID
