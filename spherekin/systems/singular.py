@@ -26,6 +26,7 @@ so the box loop prunes it as it prunes the closure equations (:func:`spherekin.s
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -346,20 +347,7 @@ class PlatformPlane:
             return t
 
         adj, adj_mag = [], []
-        for j in range(3):               # (adj G)_{j i} = (-1)^{i + j} minor(row i, column j)
-            terms, tmag = [], []
-            for i in range(3):
-                if r[i] == 0.0:
-                    continue
-                rows = [a for a in range(3) if a != i]
-                cols = [b for b in range(3) if b != j]
-                sign = (-1.0) ** (i + j) * r[i]
-                m1 = bernstein.multiply(entries[rows[0]][cols[0]], entries[rows[1]][cols[1]], nv)
-                m2 = bernstein.multiply(entries[rows[0]][cols[1]], entries[rows[1]][cols[0]], nv)
-                a1 = bernstein.multiply(mags[rows[0]][cols[0]], mags[rows[1]][cols[1]], nv)
-                a2 = bernstein.multiply(mags[rows[0]][cols[1]], mags[rows[1]][cols[0]], nv)
-                terms += [sign * m1, -sign * m2]
-                tmag += [abs(r[i]) * a1, abs(r[i]) * a2]
+        for terms, tmag in _adjugate_terms(lambda a, b: entries[a][b], lambda a, b: mags[a][b], r, nv):
             adj.append(to_big(total(terms)))
             adj_mag.append(to_big(total(tmag)))
         a_tol = [ROUNDING_SAFETY * eps * np.maximum(m, np.abs(a)).reshape(len(a), -1).max(axis=1)
@@ -599,6 +587,29 @@ def cusp_krawczyk(charts, chart, lo, hi):
 def _axis_cross(a) -> np.ndarray:
     """[a]x (3, 3): the cross-product matrix of a."""
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _adjugate_terms(entry, magnitude, r, nvars: int) -> list[tuple[list, list]]:
+    """The terms of adj(M) r in Bernstein form, per component j (3): (signed products, their magnitudes'
+    products times |r_i|), summed by the caller. (adj M)_{j i} = (-1)^{i + j} minor(row i, column j);
+    ``entry(a, b)`` / ``magnitude(a, b)``: the net of M[a][b] and of its magnitudes (Bernstein tensors
+    over ``nvars`` variables); ``r`` (3,) floats (components 0 skipped). Used by the cusps' tangency of
+    both systems (the platform's G_k, the loops' K~)."""
+    out = []
+    for j in range(3):
+        terms, mags = [], []
+        for i in range(3):
+            if r[i] == 0.0:
+                continue
+            rows = [a for a in range(3) if a != i]
+            cols = [b for b in range(3) if b != j]
+            sign = (-1.0) ** (i + j) * r[i]
+            terms += [sign * bernstein.multiply(entry(rows[0], cols[0]), entry(rows[1], cols[1]), nvars),
+                      -sign * bernstein.multiply(entry(rows[0], cols[1]), entry(rows[1], cols[0]), nvars)]
+            mags += [abs(r[i]) * bernstein.multiply(magnitude(rows[0], cols[0]), magnitude(rows[1], cols[1]), nvars),
+                     abs(r[i]) * bernstein.multiply(magnitude(rows[0], cols[1]), magnitude(rows[1], cols[0]), nvars)]
+        out.append((terms, mags))
+    return out
 
 
 def _add_elevated(a: np.ndarray, b: np.ndarray, nvars: int | None = None) -> np.ndarray:
@@ -925,23 +936,10 @@ class LoopPlane:
             for ri, r in enumerate(rs):
                 r = np.asarray(r, dtype=float)
                 adj, adj_mag = [], []
-                for j in range(3):       # (adj M)_{j i} = (-1)^{i + j} minor(row i, column j), M[i][j] = cols[j][i]
-                    total = mtotal = None
-                    for i in range(3):
-                        if r[i] == 0.0:
-                            continue
-                        rows = [a for a in range(3) if a != i]
-                        cc = [b for b in range(3) if b != j]
-                        sign = (-1.0) ** (i + j) * r[i]
-                        m1 = bernstein.multiply(cols[cc[0]][rows[0]], cols[cc[1]][rows[1]], n)
-                        m2 = bernstein.multiply(cols[cc[1]][rows[0]], cols[cc[0]][rows[1]], n)
-                        a1 = bernstein.multiply(mcols[cc[0]][rows[0]], mcols[cc[1]][rows[1]], n)
-                        a2 = bernstein.multiply(mcols[cc[1]][rows[0]], mcols[cc[0]][rows[1]], n)
-                        t, tm = _add_elevated(sign * m1, -sign * m2), abs(r[i]) * _add_elevated(a1, a2)
-                        total = t if total is None else _add_elevated(total, t)
-                        mtotal = tm if mtotal is None else _add_elevated(mtotal, tm)
-                    adj.append(total)
-                    adj_mag.append(mtotal)
+                # M[i][j] = cols[j][i]: the columns are the passive joints' axes
+                for terms, tmag in _adjugate_terms(lambda a, b: cols[b][a], lambda a, b: mcols[b][a], r, n):
+                    adj.append(functools.reduce(_add_elevated, terms))
+                    adj_mag.append(functools.reduce(_add_elevated, tmag))
                 cr = cm = None
                 for j, w in enumerate(weights):
                     if w is None:
