@@ -38,11 +38,12 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core import intervals
 from ..core.arrays import namespace_of
 from ..core.bernstein import restrict_batch_last
 from .pruners import excludes_zero
 
-__all__ = ["KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "NEWTON_STALL_STEP", "SPURIOUS_FACTOR",
+__all__ = ["full_rank_proven", "KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "NEWTON_STALL_STEP", "SPURIOUS_FACTOR",
            "SPURIOUS_PROOF_RADIUS", "SquareSystem", "krawczyk_boxes", "krawczyk_parametric", "evaluate_at", "jacobian_at", "newton",
            "spurious_proven"]
 
@@ -283,6 +284,32 @@ def krawczyk_parametric(square: SquareSystem, cps: Sequence[np.ndarray], tols: S
     lo[ok] = np.maximum(klo, 0.0)
     hi[ok] = np.minimum(khi, 1.0)
     return proven, lo, hi
+
+
+def full_rank_proven(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray], columns) -> np.ndarray:
+    """(B,) bool: True where every matrix of the square system's interval Jacobian over the box, restricted to
+    the variables ``columns`` (E equations x m columns, m <= E), has full column rank m. The enclosure J of
+    the Jacobian is the derivative control points' hull (as the Krawczyk tests'); with C (m x E) the
+    pseudo-inverse of mid(J), C J is enclosed in outward-rounded interval arithmetic and ||I - C J||_inf < 1
+    proves every C A (A in J) regular, so every A has rank m. Used for: no cusp of a plane curve in the box
+    (the curve's tangent cannot project to 0 in the plane when the Jacobian in the non-plane variables has
+    full column rank). ``cps``/``tols`` as :func:`krawczyk_boxes`."""
+    parts = square.select(cps, tols)
+    bsz = cps[0].shape[-1]
+    if bsz == 0:
+        return np.zeros(0, dtype=bool)
+    jl, jh = zip(*(_derivative_bounds(c, t) for _, c, t in parts))
+    cols = list(columns)
+    jlo = np.moveaxis(np.concatenate(jl), -1, 0)[:, :, cols]                  # (B, E, m)
+    jhi = np.moveaxis(np.concatenate(jh), -1, 0)[:, :, cols]
+    with np.errstate(all="ignore"):
+        finite = np.all(np.isfinite(jlo) & np.isfinite(jhi), axis=(1, 2))
+        mid = np.where(finite[:, None, None], 0.5 * (jlo + jhi), 0.0)
+        c_mat = np.linalg.pinv(mid)                                           # (B, m, E)
+        jac = intervals.from_bounds(np.where(finite[:, None, None], jlo, 0.0), np.where(finite[:, None, None], jhi, 0.0))
+        gap = intervals.sub(intervals.point(np.eye(len(cols))), intervals.fmatmul(c_mat, jac))
+        norm = intervals.magnitude(gap).sum(axis=-1).max(axis=-1)
+    return finite & np.all(np.isfinite(c_mat), axis=(1, 2)) & (norm < 1.0)
 
 
 def _step(jac: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -38,7 +38,8 @@ import numpy as np
 from ..closure import tan_half_angle, tan_half_unit
 from ..core import bernstein, intervals
 from ..core.orientation import quaternions_from_rotations
-from ..search.isolation import SquareSystem, evaluate_at, jacobian_at, krawczyk_boxes, krawczyk_parametric, newton
+from ..search.isolation import (SquareSystem, evaluate_at, full_rank_proven, jacobian_at, krawczyk_boxes,
+                                krawczyk_parametric, newton)
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
 from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
@@ -57,6 +58,8 @@ PROOF_RADIUS = 1e-4
 #: a box of the cover's size) and the last step (unit coordinates of the box) below which it counts as converged.
 PREDICT_STEPS = 6
 PREDICT_CONVERGED = 1e-6
+#: Boxes per batch of :meth:`PlatformPlane.cusp_free` (memory: ~8 kB of control points per box).
+CUSP_FREE_BATCH = 4096
 #: The square slice: the three legs' equations (block 0) and D (block 1).
 _SLICE = SquareSystem(((0, 0), (0, 1), (0, 2), (1, 0)))
 
@@ -92,16 +95,18 @@ def plane_charts(lo: float, hi: float) -> list[tuple[float, float]]:
 
 class PlaneParameterization(Parameterization):
     """The variables of a plane system: ``n_q`` of the mechanism's own (quaternion chart components,
-    metric u = CHART_EXTENT (2x - 1)), then the plane inputs' tan-half variables (metric: the input,
-    radians). ``angle_box`` gives (u..., beta_x, beta_y) bounds; :meth:`unit` inverts it. Its
-    contraction is the quaternion charts' (:meth:`spherekin.systems.platform.Quaternion.contract`:
-    a chart searches its core, not the cores of the charts before it), charts numbered plane-combination
-    major with the quaternion chart last (chart % CHARTS)."""
+    metric u = CHART_EXTENT (2x - 1); or any affine metric), then the plane inputs' tan-half variables
+    (metric: the input, radians). ``angle_box`` gives (u..., beta_x, beta_y) bounds; :meth:`unit` inverts
+    it. With ``quaternion`` (the default) its contraction is the quaternion charts'
+    (:meth:`spherekin.systems.platform.Quaternion.contract`: a chart searches its core, not the cores of
+    the charts before it), charts numbered plane-combination major with the quaternion chart last
+    (chart % CHARTS); without, none (the blow-up patches of :class:`StationaryPlane`)."""
 
     name = "plane"
 
-    def __init__(self, n_q: int):
+    def __init__(self, n_q: int, quaternion: bool = True):
         self.n_q = n_q
+        self.quaternion = quaternion
 
     def metric(self, charts, chart, x):
         x = np.asarray(x, dtype=float)
@@ -119,6 +124,8 @@ class PlaneParameterization(Parameterization):
                                tan_half_unit(v[:, q:], shift[:, q:], lo[:, q:], hi[:, q:])], axis=1)
 
     def contract(self, charts, chart, lo, hi, rlo, rhi):
+        if not self.quaternion:
+            return
         q = self.n_q
         view = SimpleNamespace(map_lo=charts.map_lo[:, :q], map_hi=charts.map_hi[:, :q])
         sub_lo, sub_hi = rlo[:, :q].copy(), rhi[:, :q].copy()
@@ -200,6 +207,23 @@ def stationary_quaternions(legs, mats) -> tuple[np.ndarray, ...]:
     return tuple(out)
 
 
+@dataclass(frozen=True, eq=False)
+class OrientationPatch:
+    """A box of platform orientations a :class:`PlatformPlane` is written on, in three variables on the unit
+    box (metric: ``lo`` + (``hi`` - ``lo``) x): ``quad`` (3 legs, 3 parts (cos d, sin d, 1), 3, 3, 3) the
+    legs' closure forms in Bernstein form (q^T M q on a quaternion chart; (q^T M q) / rho on a blow-up patch,
+    :func:`blowup_patches`) and ``quad_mag`` the nets of their terms' magnitudes (tolerances); ``lin`` (4,
+    2, 2, 2) the quaternion's components (degree 1 per variable; q_k fixed, k the component not in
+    ``others``); ``others``: the three columns j != k of D's minor [(M_i q)_j] (q_k != 0 on the patch)."""
+
+    quad: np.ndarray
+    quad_mag: np.ndarray
+    lin: np.ndarray
+    others: tuple
+    lo: tuple
+    hi: tuple
+
+
 class PlatformPlane:
     """The platform system's singular set in a plane of inputs (module doc), compiled once.
 
@@ -208,6 +232,9 @@ class PlatformPlane:
     reference readings (d = beta - ref). ``charts``: the :class:`ChartSet` of the cover (variables q_a,
     q_b, q_c, t_x (, t_y)); blocks: the legs' equations (3) and D (1).
     """
+
+    #: The patches are the quaternion charts (their contraction applies).
+    QUATERNION_CHARTS = True
 
     def __init__(self, mechanism, plane: SingularPlane):
         legs = platform_legs(mechanism)
@@ -218,11 +245,18 @@ class PlatformPlane:
         self.axis_legs = tuple(names.index(a[0]) for a in plane.axes)
         self.fixed_values = {names.index(n): float(v) for n, v in plane.fixed.items()}
         self.plane_charts = [plane_charts(a[1], a[2]) for a in plane.axes]
-        self.quad = chart_control_points(self.mats)             # (3 legs, 3 parts, 4 charts, 3, 3, 3)
+        self.patches = self._patches()
         self.charts = self._cover_charts()
         self.plane_columns = tuple(3 + a for a in range(len(plane.axes)))
         self._batch_last = None
         self.stationary = stationary_quaternions(legs, self.mats)
+
+    def _patches(self) -> tuple:
+        """The orientation patches the system is written on: the four quaternion charts."""
+        quad = chart_control_points(self.mats)                  # (3 legs, 3 parts, 4 charts, 3, 3, 3)
+        ext = (-CHART_EXTENT,) * 3, (CHART_EXTENT,) * 3
+        return tuple(OrientationPatch(quad[:, :, k], np.abs(quad[:, :, k]), _linear_basis(k),
+                                      tuple(j for j in range(4) if j != k), *ext) for k in range(CHARTS))
 
     def unit(self, chart, v) -> np.ndarray:
         """Unit coordinates (B, N) of the cover's angle-box coordinates v (B, N) in charts ``chart`` (B,)."""
@@ -253,8 +287,8 @@ class PlatformPlane:
         eps = np.finfo(float).eps
         n_plane = weights[0].ndim - 2
         batch = weights[0].shape[0]
-        lin = _linear_basis(k)
-        others = [j for j in range(4) if j != k]
+        patch = self.patches[k]
+        lin, others = patch.lin, patch.others
         big = (batch,) + (3,) * n_plane
 
         def combine(parts, w):          # parts (3, *q dims), w (B, 3, *plane): sum_p w_p parts_p
@@ -264,9 +298,8 @@ class PlatformPlane:
 
         f, f_tol, entries, mags = [], [], [], []
         for i, w in enumerate(weights):
-            qf = self.quad[i, :, k]                                                # (3 parts, 3, 3, 3)
-            fi = combine(qf, w)
-            fm = combine(np.abs(qf), np.abs(w))
+            fi = combine(patch.quad[i], w)                                       # (3 parts, 3, 3, 3)
+            fm = combine(patch.quad_mag[i], np.abs(w))
             f.append(np.broadcast_to(fi, fi.shape[:4] + big[1:]))
             f_tol.append(ROUNDING_SAFETY * eps * np.maximum(fm, np.abs(fi)).reshape(batch, -1).max(axis=1))
             row, mrow = [], []
@@ -304,20 +337,22 @@ class PlatformPlane:
         shifts = [np.array([(lo + hi) / 2 for lo, hi in s]) for s in spans]
         axes = [(self.axis_legs[a], -t_half[a], t_half[a], shifts[a]) for a in range(n_plane)]
         weights = [self._leg_weights(i, axes, {}, len(combos)) for i in range(3)]
-        per_k = [self._blocks(k, weights) for k in range(CHARTS)]
-        order = [(c, k) for c in range(len(combos)) for k in range(CHARTS)]   # chart = combo * CHARTS + k
+        n_patch = len(self.patches)
+        per_k = [self._blocks(k, weights) for k in range(n_patch)]
+        order = [(c, k) for c in range(len(combos)) for k in range(n_patch)]   # chart = combo * n_patch + k
         f = np.stack([per_k[k][0][c] for c, k in order])
         ft = np.stack([per_k[k][1][c] for c, k in order])
         d = np.stack([per_k[k][2][c] for c, k in order])
         dt = np.stack([per_k[k][3][c] for c, k in order])
-        ext = np.full(3, CHART_EXTENT)
-        map_lo = np.array([np.concatenate([-ext, [-t_half[a][c] for a in range(n_plane)]]) for c, _ in order])
-        map_hi = np.array([np.concatenate([ext, [t_half[a][c] for a in range(n_plane)]]) for c, _ in order])
+        map_lo = np.array([np.concatenate([self.patches[k].lo, [-t_half[a][c] for a in range(n_plane)]])
+                           for c, k in order])
+        map_hi = np.array([np.concatenate([self.patches[k].hi, [t_half[a][c] for a in range(n_plane)]])
+                           for c, k in order])
         shift = np.array([np.concatenate([np.zeros(3), [shifts[a][c] for a in range(n_plane)]]) for c, _ in order])
         names = tuple(a[0] for a in self.plane.axes)
         variables = Q_VARIABLES + tuple(f"t({n})" for n in names)
         legs = tuple(f"leg{i + 1}" for i in range(3))
-        return ChartSet(PlaneParameterization(3), names, variables, [f, d], [ft, dt], [legs, ("det",)],
+        return ChartSet(PlaneParameterization(3, self.QUATERNION_CHARTS), names, variables, [f, d], [ft, dt], [legs, ("det",)],
                         [(), ()], map_lo, map_hi, shift, 1.0, [None, None], [True, True])
 
     @staticmethod
@@ -374,11 +409,12 @@ class PlatformPlane:
         cs = self.charts
         combos = list(itertools.product(*(range(len(p)) for p in self.plane_charts)))
         n_combo = len(combos)
-        axes = [(self.axis_legs[a], cs.map_lo[::CHARTS, 3 + a], cs.map_hi[::CHARTS, 3 + a],
-                 cs.shift[::CHARTS, 3 + a]) for a in range(2)]
+        n_patch = len(self.patches)
+        axes = [(self.axis_legs[a], cs.map_lo[::n_patch, 3 + a], cs.map_hi[::n_patch, 3 + a],
+                 cs.shift[::n_patch, 3 + a]) for a in range(2)]
         weights = [self._leg_weights(i, axes, {}, n_combo) for i in range(3)]
-        per_k = [self._blocks(k, weights, rs)[4] for k in range(CHARTS)]
-        order = [(c, k) for c in range(n_combo) for k in range(CHARTS)]
+        per_k = [self._blocks(k, weights, rs)[4] for k in range(n_patch)]
+        order = [(c, k) for c in range(n_combo) for k in range(n_patch)]
         out = []
         for ri in range(len(rs)):
             blocks = [np.stack([per_k[k][ri][p][c] for c, k in order]) for p in range(4)]
@@ -449,6 +485,22 @@ class PlatformPlane:
         for p in self.plane_columns:
             _, klo, khi = krawczyk_parametric(_SLICE, cps, tols, p)
             out |= np.any(klo > khi, axis=1)
+        return out
+
+    def cusp_free(self, chart, lo, hi) -> np.ndarray:
+        """(B,) bool: the boxes [lo, hi] (unit, (B, N)) of charts ``chart`` (B,) proven to hold no cusp: the
+        interval Jacobian of (legs, D) in the three orientation variables has full column rank over the box
+        (:func:`spherekin.search.isolation.full_rank_proven`), so at a point of the curve in the box its
+        tangent has a nonzero plane component (J_v dv = 0 forces dv = 0). For the blow-up patches, whose
+        variables are not the orientation's, the tangency system of :meth:`cusp_charts` does not apply; this
+        test does (the blow-up maps (rho, a, b) to q smoothly and keeps the inputs)."""
+        chart = np.asarray(chart, dtype=int)
+        out = np.zeros(len(chart), dtype=bool)
+        for s in range(0, len(chart), CUSP_FREE_BATCH):
+            b = slice(s, s + CUSP_FREE_BATCH)
+            cps = self._restricted(chart[b], np.asarray(lo)[b], np.asarray(hi)[b])
+            tols = [self.charts.tols[k][chart[b]].T for k in (0, 1)]
+            out[b] = full_rank_proven(_SLICE, cps, tols, (0, 1, 2))
         return out
 
     def predict(self, chart, lo, hi, param) -> tuple:
@@ -526,8 +578,9 @@ class PlatformPlane:
         out = np.zeros(len(chart), dtype=bool)
         n_plane = len(self.plane_charts)
         cs = self.charts
-        for k, f_axis in {(int(c) % CHARTS, int(a)) for c, a in zip(chart, fix)}:
-            rows = np.flatnonzero((chart % CHARTS == k) & (fix == f_axis))
+        n_patch = len(self.patches)
+        for k, f_axis in {(int(c) % n_patch, int(a)) for c, a in zip(chart, fix)}:
+            rows = np.flatnonzero((chart % n_patch == k) & (fix == f_axis))
             keep = [0, 1, 2] + [3 + a for a in range(n_plane) if a != f_axis]
             axes, values = [], {}
             c = chart[rows]
