@@ -829,6 +829,111 @@ def _plane_axis(mech, key: str, spec) -> tuple:
     return (str(name), lo, hi)
 
 
+@dataclass(frozen=True)
+class _PlaneRun:
+    """What one cover of a plane system hands to :func:`singular`: ``cells`` ((i, j) -> CellStatus), the
+    cusp candidates (trust.singular.CuspStatus), and the work: boxes processed (``used``), box-loop seconds,
+    boxes accepted and pending (pending > 0: the cap was reached, their cells are unresolved)."""
+
+    cells: dict
+    cusps: tuple
+    used: int
+    seconds: float
+    accepted: int
+    pending: int
+
+
+def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _PlaneRun:
+    """The certified cover of one plane system (:func:`singular`): the traced cover (a plane; a line: the
+    plain cover) from the boxes ``start`` (None: every chart), the cusp search (``cusps``: "tangency", the
+    cusp system of :meth:`PlatformPlane.cusp_charts`; "rank", the candidates of
+    :func:`spherekin.trust.singular.rank_candidates`; None: none), the cells' certificates, the unresolved
+    cells' pieces searched again (REFINE_FRACTIONS), the traced cells added."""
+    from .search.boxloop import pruner_for, search_cover
+    from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, cell_pieces, certify_cover, certify_cusps,
+                                 rank_candidates, trace_cover)
+
+    pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
+    traced = None
+    if hasattr(system, "trace") and len(system.plane_columns) == 2:
+        # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
+        def search(width, cap, begin):
+            return search_cover(system.charts, pruner, width, cap, start=start if begin is None else begin)
+
+        traced = trace_cover(system, search, grid, tol, COVER_FRACTION, max_boxes)
+        cover = traced.cover
+    else:
+        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, max_boxes, start=start)
+    used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
+    accepted += 0 if traced is None else traced.traced
+    cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
+    # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
+    # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
+    # boxes of every round are kept (their cells stay unresolved). ``final``: the pieces of every round over
+    # the cells it leaves (unit boxes), where the cusp search starts
+    final = []
+    for fraction in REFINE_FRACTIONS:
+        again = {k for k, c in cells.items() if c.status != SINGULAR}
+        if not again:
+            break
+        final.append(cell_pieces(system, cover.accepted, grid, set(cells) - again))
+        cover = search_cover(system.charts, pruner, fraction * tol, max(1, max_boxes - used),
+                             start=cell_pieces(system, cover.accepted, grid, again))
+        pending = tuple(np.concatenate([a, b]) for a, b in zip(pending, cover.pending))
+        cover = dataclasses.replace(cover, pending=pending)
+        used, t_cover, accepted = used + cover.boxes_processed, t_cover + cover.seconds, accepted + len(cover.accepted[0])
+        for k in again:
+            del cells[k]
+        cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
+    chart, alo, ahi = cover.accepted
+    final.append((chart, system.unit(chart, alo), system.unit(chart, ahi)) if len(chart) else
+                 (chart, alo, ahi))
+    chart, ulo, uhi = (np.concatenate(parts) for parts in zip(*final))
+    cands = ()
+    if cusps == "rank" and len(system.plane_columns) == 2:
+        # no tangency system on these variables: the untraced and pending boxes not proven cusp-free
+        pchart, plo, phi = pending
+        cands = rank_candidates(system, np.concatenate([chart, pchart]), np.concatenate([ulo, plo]),
+                                np.concatenate([uhi, phi]), grid)
+    elif cusps == "tangency" and len(system.plane_columns) == 2:
+        # the cusp system (curve + tangency) searched again from the curve's last accepted boxes (every
+        # singular configuration of the plane lies in them, in the traced boxes, which hold no cusp
+        # (trace_cover), or in the pending ones, whose cells stay unresolved); the boxes proven cusp-free (the
+        # Jacobian in the orientation has full rank: PlatformPlane.cusp_free) are left out
+        cusp_sets = system.cusp_charts(CUSP_VECTORS)
+        open_ = ~system.cusp_free(chart, ulo, uhi)
+        begin = (chart[open_], ulo[open_], uhi[open_])
+        found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
+                             max(1, max_boxes - used), start=begin)
+        used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+        cands = certify_cusps(system, cusp_sets, found)
+        # candidates without a proof: their boxes searched again with smaller boxes (most hold no root and are
+        # discarded; the hulls Newton and the Krawczyk test see get tighter)
+        for fraction in CUSP_REFINE_FRACTIONS:
+            open_ = [c for c in cands if c.status != "cusp"]
+            chart, alo, ahi = found.accepted
+            if not open_ or not len(chart) or len(found.pending[0]):
+                break                   # (a capped search keeps its pending candidates unresolved)
+            cols = list(system.plane_columns)
+            near = np.zeros(len(chart), dtype=bool)
+            for c in open_:
+                near |= ((alo[:, cols[0]] <= c.box_x[1]) & (ahi[:, cols[0]] >= c.box_x[0])
+                         & (alo[:, cols[1]] <= c.box_y[1]) & (ahi[:, cols[1]] >= c.box_y[0]))
+            begin = (chart[near], system.unit(chart[near], alo[near]), system.unit(chart[near], ahi[near]))
+            found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), fraction * tol,
+                                 max(1, max_boxes - used), start=begin)
+            used, t_cover = used + found.boxes_processed, t_cover + found.seconds
+            cands = tuple(c for c in cands if c.status == "cusp") + certify_cusps(system, cusp_sets, found)
+    if traced is not None:
+        # the traced boxes' cells (in the cover whatever the searched boxes say), singular where proven
+        for k in traced.met | traced.proven:
+            if k in traced.proven or (k in cells and cells[k].status == SINGULAR):
+                cells[k] = CellStatus(k[0], k[1], SINGULAR)
+            elif k not in cells:
+                cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
+    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]))
+
+
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
              max_boxes: int = SINGULAR_MAX_BOXES):
     """The parallel (Type-2) singular set of ``mechanism`` in a plane of inputs, certified (issue 31).
@@ -842,13 +947,16 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     the unprocessed part of the plane is in ``unresolved`` cells. The system is chosen as a solve's: the
     platform system (three R-R-R legs; passive joint ranges not applied: the set may hold singular
     configurations with passive joints out of range) where it applies, else the loop equations (3 passive
-    joints per loop: four-bars, five-bars, six-bars; passive ranges applied).
+    joints per loop: four-bars, five-bars, six-bars; passive ranges applied). A platform with stationary
+    assemblies (orientations closing every input: the agile eye's four) is covered as two systems: the plane
+    system without a box U about each, and U blown up (:mod:`spherekin.systems.blowup`), where the other
+    assemblies' crossings with them become regular roots that the Krawczyk slices prove; the cusp
+    candidates of both are then the boxes not proven cusp-free (no tangency system there).
     """
-    from .search.boxloop import pruner_for, search_cover
+    from .systems.blowup import StationaryPlane, outside
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, SingularBox, SingularSet, SingularStats
-    from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, Grid, cell_pieces, certify_cover, certify_cusps,
-                                 merge_cusps, trace_cover)
+    from .trust.singular import SINGULAR, Grid, merge_cusps
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -874,78 +982,38 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     plane = SingularPlane(ax, ay, {k: float(v) for k, v in fixed.items()})
     on_platform = Platform.accepts(mech) is None
     system = PlatformPlane(mech, plane) if on_platform else LoopPlane(mech, plane)
-    pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     grid = Grid.over(plane.axes, tol)
-    traced = None
-    if hasattr(system, "trace") and ay is not None:
-        # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
-        traced = trace_cover(system, lambda width, cap, start: search_cover(system.charts, pruner, width, cap, start=start),
-                             grid, tol, COVER_FRACTION, int(max_boxes))
-        cover = traced.cover
+    runs = []
+    stationary = getattr(system, "stationary", ())
+    if stationary:
+        # the stationary assemblies' neighbourhoods blown up (systems/blowup.py): the plane system searches
+        # the rest of the orientations, the blow-up patches the boxes U about them. Cusps by the rank test in
+        # both: outside U the agile eye still has its self-motion inputs (beta = (+-pi/2, 0), (+-pi/2, pi) at
+        # beta3 = 0.5: `solve` reports a continuum), around which the tangency system degenerates (measured,
+        # whole plane at T = 0.1: 9,173 cusp boxes accepted, 72 candidates, none proven, ~300 s)
+        runs.append(_plane_run(system, grid, tol, int(max_boxes), outside(system, stationary), "rank"))
+        blown = StationaryPlane(mech, plane, stationary)
+        runs.append(_plane_run(blown, grid, tol, max(1, int(max_boxes) - runs[0].used), None, "rank"))
     else:
-        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, int(max_boxes))
-    used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
-    accepted += 0 if traced is None else traced.traced
-    cusps = ()
-    if on_platform and ay is not None:
-        # the cusp system (curve + tangency) searched again from the curve's accepted boxes (every singular
-        # configuration of the plane lies in them, in the traced boxes, which hold no cusp (trace_cover), or
-        # in the pending ones, whose cells stay unresolved)
-        cusp_sets = system.cusp_charts(CUSP_VECTORS)
-        start = (cover.accepted[0], system.unit(cover.accepted[0], cover.accepted[1]),
-                 system.unit(cover.accepted[0], cover.accepted[2]))
-        found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
-                             max(1, int(max_boxes) - used), start=start)
-        used, t_cover = used + found.boxes_processed, t_cover + found.seconds
-        cands = certify_cusps(system, cusp_sets, found)
-        # candidates without a proof: their boxes searched again with smaller boxes (most hold no root and are
-        # discarded; the hulls Newton and the Krawczyk test see get tighter)
-        for fraction in CUSP_REFINE_FRACTIONS:
-            open_ = [c for c in cands if c.status != "cusp"]
-            chart, alo, ahi = found.accepted
-            if not open_ or not len(chart) or len(found.pending[0]):
-                break                   # (a capped search keeps its pending candidates unresolved)
-            cols = list(system.plane_columns)
-            near = np.zeros(len(chart), dtype=bool)
-            for c in open_:
-                near |= ((alo[:, cols[0]] <= c.box_x[1]) & (ahi[:, cols[0]] >= c.box_x[0])
-                         & (alo[:, cols[1]] <= c.box_y[1]) & (ahi[:, cols[1]] >= c.box_y[0]))
-            start = (chart[near], system.unit(chart[near], alo[near]), system.unit(chart[near], ahi[near]))
-            found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), fraction * tol,
-                                 max(1, int(max_boxes) - used), start=start)
-            used, t_cover = used + found.boxes_processed, t_cover + found.seconds
-            cands = tuple(c for c in cands if c.status == "cusp") + certify_cusps(system, cusp_sets, found)
-        cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status) for c in merge_cusps(cands))
-    cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
-    # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
-    # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
-    # boxes of every round are kept (their cells stay unresolved)
-    for fraction in REFINE_FRACTIONS:
-        again = {k for k, c in cells.items() if c.status != SINGULAR}
-        if not again:
-            break
-        cover = search_cover(system.charts, pruner, fraction * tol, max(1, int(max_boxes) - used),
-                             start=cell_pieces(system, cover.accepted, grid, again))
-        pending = tuple(np.concatenate([a, b]) for a, b in zip(pending, cover.pending))
-        cover = dataclasses.replace(cover, pending=pending)
-        used, t_cover, accepted = used + cover.boxes_processed, t_cover + cover.seconds, accepted + len(cover.accepted[0])
-        for k in again:
-            del cells[k]
-        cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
-    if traced is not None:
-        # the traced boxes' cells (in the cover whatever the searched boxes say), singular where proven
-        for k in traced.met | traced.proven:
-            if k in traced.proven or (k in cells and cells[k].status == SINGULAR):
-                cells[k] = CellStatus(k[0], k[1], SINGULAR)
-            elif k not in cells:
-                cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
+        runs.append(_plane_run(system, grid, tol, int(max_boxes), None, "tangency" if on_platform else None))
+    cells: dict = {}
+    for run in runs:
+        for k, c in run.cells.items():
+            if k not in cells or c.status == SINGULAR:
+                cells[k] = c
+    used = sum(r.used for r in runs)
+    t_cover = sum(r.seconds for r in runs)
+    accepted = sum(r.accepted for r in runs)
+    n_pending = sum(r.pending for r in runs)
+    cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status)
+                  for c in merge_cusps([c for r in runs for c in r.cusps])) if on_platform and ay is not None else ()
     cells = [cells[k] for k in sorted(cells)]
-    complete = len(pending[0]) == 0
+    complete = n_pending == 0
     t2 = time.perf_counter()
     boxes = tuple(SingularBox(grid.edges(0, c.i), None if ay is None else grid.edges(1, c.j), c.status)
                   for c in cells)
     # t_cover: the box loops; the rest: set-up, projection and certificates
-    stats = SingularStats(used, accepted, len(pending[0]), t_cover, t2 - t0 - t_cover, t2 - t0)
+    stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0)
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
                        Platform.name if on_platform else Loops.name, cusps)
 

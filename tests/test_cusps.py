@@ -131,3 +131,41 @@ def test_proven_mode_change_around_the_cusp(cusp_set):
     assert np.abs(mc.start_pose - mc.end_pose).max() > 1e-3
     doc = json.loads(json.dumps(mc.as_dict()))
     assert doc["found"] is True and doc["columns"] == ["beta1", "beta2", "beta3"]
+
+
+def _clusters_by_hand(chart, lo, hi):
+    """The clusters' definition, all pairs: per chart, merge two groups while their hulls meet (closed boxes)."""
+    out = []
+    for c in sorted(set(chart.tolist())):
+        groups = [[i] for i in range(len(chart)) if chart[i] == c]
+        merged = True
+        while merged:
+            merged = False
+            for a in range(len(groups)):
+                for b in range(a + 1, len(groups)):
+                    alo, ahi = lo[groups[a]].min(axis=0), hi[groups[a]].max(axis=0)
+                    blo, bhi = lo[groups[b]].min(axis=0), hi[groups[b]].max(axis=0)
+                    if np.all(alo <= bhi) and np.all(blo <= ahi):
+                        groups[a] += groups.pop(b)
+                        merged = True
+                        break
+                if merged:
+                    break
+        out.extend(sorted(g) for g in groups)
+    return sorted(out)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_clusters_are_the_hull_closure_of_meeting_boxes(seed):
+    """Random boxes on two charts (some touching at a face, some overlapping, some chains whose hulls meet
+    though no two of their boxes do): the k-d tree clusters equal the all-pairs hull closure."""
+    from spherekin.trust.singular import _clusters
+
+    rng = np.random.default_rng(seed)
+    n = 60
+    lo = np.round(rng.random((n, 3)) * 8) / 8
+    hi = lo + np.round(rng.random((n, 3)) * 2 + 1) / 16
+    chart = rng.integers(0, 2, n)
+    got = sorted(sorted(g.tolist()) for g in _clusters(chart, lo, hi))
+    assert got == _clusters_by_hand(chart, lo, hi)
+    assert 1 < len(got) < n

@@ -25,6 +25,12 @@ Each covered cell gets a status:
 * ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve, boxes
   never processed because the box cap was reached).
 
+A mechanism with stationary assemblies is covered twice (:func:`spherekin.problem.singular`): the plane
+system without the boxes U about them (:func:`spherekin.systems.blowup.outside`) and the blow-up patches of
+U (:class:`spherekin.systems.blowup.StationaryPlane`), where the crossings are regular roots and the
+Krawczyk slices above prove their cells; a cell is ``singular`` when either cover proves it. The patches have
+no tangency system: their cusp candidates are the boxes :func:`rank_candidates` cannot prove cusp-free.
+
 Cusps (:func:`certify_cusps`, issue 31 item 2): the cover of the cusp system (the curve system plus the
 tangency C_r, :meth:`spherekin.systems.singular.PlatformPlane.cusp_charts`) is clustered per chart; each
 Newton root proven unique by the Krawczyk test whose box also has adj(G) r enclosed away from 0 is a
@@ -40,6 +46,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from ..closure import tan_half_unit
 from ..core import bernstein
@@ -47,7 +56,7 @@ from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
 __all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover",
            "trace_cover", "trace_levels", "SINGULAR", "UNRESOLVED", "CUSP", "CuspStatus", "certify_cusps",
-           "merge_cusps", "STATIONARY_SAMPLES", "stationary_sign_changes"]
+           "merge_cusps", "rank_candidates", "STATIONARY_SAMPLES", "stationary_sign_changes"]
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
@@ -288,22 +297,46 @@ class CuspStatus:
     status: str
 
 
+def _overlaps(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Component labels (B,) of the graph whose edges join boxes [lo, hi] (B, N) that meet (within
+    CLUSTER_SLACK): candidate pairs from a k-d tree of the centres (max-norm distance at most the sum of the
+    two largest half-widths), then the exact test."""
+    n = len(lo)
+    if n < 2:
+        return np.zeros(n, dtype=int)
+    centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    reach = 2.0 * float(half.max()) + CLUSTER_SLACK
+    pairs = cKDTree(centre).query_pairs(reach, p=np.inf, output_type="ndarray")
+    if len(pairs):
+        a, b = pairs[:, 0], pairs[:, 1]
+        meet = np.all((lo[a] <= hi[b] + CLUSTER_SLACK) & (hi[a] >= lo[b] - CLUSTER_SLACK), axis=1)
+        a, b = a[meet], b[meet]
+    else:
+        a = b = np.zeros(0, dtype=int)
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
 def _clusters(chart, lo, hi) -> list:
-    """Indices of the boxes (chart (B,), unit lo, hi (B, N)) grouped into connected clusters per chart."""
+    """Indices of the boxes (chart (B,), unit lo, hi (B, N)) grouped into clusters per chart: boxes that
+    meet are one cluster, and clusters whose hulls meet are merged until no two hulls meet (the hull is
+    what Newton and the Krawczyk test see). k-d tree pairs, not all pairs: ~1e4 boxes in a second."""
     out = []
     for c in np.unique(chart):
-        idx = list(np.flatnonzero(chart == c))
-        while idx:
-            group, grow = [idx.pop(0)], True
-            while grow:
-                grow = False
-                glo, ghi = lo[group].min(axis=0), hi[group].max(axis=0)
-                near = [b for b in idx if np.all(lo[b] <= ghi + CLUSTER_SLACK) and np.all(hi[b] >= glo - CLUSTER_SLACK)]
-                if near:
-                    group += near
-                    idx = [b for b in idx if b not in near]
-                    grow = True
-            out.append(np.array(group))
+        members = [[int(i)] for i in np.flatnonzero(chart == c)]
+        glo, ghi = lo[chart == c], hi[chart == c]
+        while True:
+            labels = _overlaps(glo, ghi)
+            count = int(labels.max()) + 1 if len(labels) else 0
+            if count == len(members):
+                break
+            merged = [[] for _ in range(count)]
+            for m, lab in zip(members, labels):
+                merged[lab].extend(m)
+            members = merged
+            glo = np.array([lo[m].min(axis=0) for m in members])
+            ghi = np.array([hi[m].max(axis=0) for m in members])
+        out.extend(np.array(sorted(m)) for m in members)
     return out
 
 
@@ -379,6 +412,34 @@ def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, 
                                   (float(rlo[b, cols[0]]), float(rhi[b, cols[0]])), (float(rlo[b, cols[1]]), float(rhi[b, cols[1]])),
                                   UNRESOLVED))
     return merge_cusps(out)
+
+
+def rank_candidates(system, chart, lo, hi, grid: Grid) -> tuple[CuspStatus, ...]:
+    """Cusp candidates of a plane system without a tangency system (the blow-up patches,
+    :class:`spherekin.systems.blowup.StationaryPlane`): the boxes (chart (B,), unit lo, hi (B, N)) that
+    ``system.cusp_free`` does not prove cusp-free, one ``unresolved`` candidate per cell of ``grid`` holding
+    such a box's plane centre (at the cell's centre; its box: the hull of their plane projections). Every
+    other box of the cover holds no cusp (traced boxes never do, :func:`trace_cover`)."""
+    chart = np.asarray(chart, dtype=int)
+    if not len(chart):
+        return ()
+    cols = list(system.plane_columns)
+    open_ = ~system.cusp_free(chart, lo, hi)
+    if not open_.any():
+        return ()
+    alo, ahi = system.charts.angle_box(chart[open_], lo[open_], hi[open_])
+    mid = 0.5 * (alo[:, cols] + ahi[:, cols])
+    cells: dict = {}
+    for b in range(len(mid)):
+        key = tuple(int(grid.span(a, mid[b, a], mid[b, a])[0]) for a in range(len(cols)))
+        cells.setdefault(key, []).append(b)
+    out = []
+    for key, members in sorted(cells.items()):
+        centre = [0.5 * sum(grid.edges(a, key[a])) for a in range(2)]
+        out.append(CuspStatus(float(centre[0]), float(centre[1]),
+                              (float(alo[members, cols[0]].min()), float(ahi[members, cols[0]].max())),
+                              (float(alo[members, cols[1]].min()), float(ahi[members, cols[1]].max())), UNRESOLVED))
+    return tuple(out)
 
 
 def _status(charts, cid, cols, root, box, status) -> CuspStatus:
