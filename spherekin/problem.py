@@ -866,6 +866,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
         cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, max_boxes, start=start)
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
     accepted += 0 if traced is None else traced.traced
+    first = cover
     cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
@@ -896,13 +897,14 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
         cands = rank_candidates(system, np.concatenate([chart, pchart]), np.concatenate([ulo, plo]),
                                 np.concatenate([uhi, phi]), grid)
     elif cusps == "tangency" and len(system.plane_columns) == 2:
-        # the cusp system (curve + tangency) searched again from the curve's last accepted boxes (every
+        # the cusp system (curve + tangency) searched again from the traced cover's accepted boxes (every
         # singular configuration of the plane lies in them, in the traced boxes, which hold no cusp
-        # (trace_cover), or in the pending ones, whose cells stay unresolved); the boxes proven cusp-free (the
-        # Jacobian in the orientation has full rank: PlatformPlane.cusp_free) are left out
+        # (trace_cover), or in the pending ones, whose cells stay unresolved). Not from the refined pieces
+        # nor without the boxes proven cusp-free (faster): measured on general_3rrr at T = 1e-2, Newton then
+        # missed the cusp near (1.5923, 0.1041) (proven from a neighbouring box's wider start)
         cusp_sets = system.cusp_charts(CUSP_VECTORS)
-        open_ = ~system.cusp_free(chart, ulo, uhi)
-        begin = (chart[open_], ulo[open_], uhi[open_])
+        chart = first.accepted[0]
+        begin = (chart, system.unit(chart, first.accepted[1]), system.unit(chart, first.accepted[2]))
         found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
                              max(1, max_boxes - used), start=begin)
         used, t_cover = used + found.boxes_processed, t_cover + found.seconds

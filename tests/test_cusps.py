@@ -169,3 +169,23 @@ def test_clusters_are_the_hull_closure_of_meeting_boxes(seed):
     got = sorted(sorted(g.tolist()) for g in _clusters(chart, lo, hi))
     assert got == _clusters_by_hand(chart, lo, hi)
     assert 1 < len(got) < n
+
+
+def test_rank_candidates_keep_the_reference_cusp():
+    """The cusp candidates without a tangency system (the blow-up's route: boxes not proven cusp-free by the rank
+    of the orientation Jacobian, trust.singular.rank_candidates) on general_3rrr's cusp square: the reference
+    cusp lies in a candidate's box (a box holding a cusp can never be proven cusp-free)."""
+    from spherekin.mechanism import load_mechanism
+    from spherekin.problem import _plane_run
+    from spherekin.systems.singular import PlatformPlane, SingularPlane
+    from spherekin.trust.singular import Grid
+
+    (x0, x1), (y0, y1) = CUSP_SQUARE
+    plane = SingularPlane(("beta1", x0, x1), ("beta2", y0, y1), {"beta3": 0.5})
+    system = PlatformPlane(load_mechanism(RRR), plane)
+    run = _plane_run(system, Grid.over(plane.axes, T), T, 10**6, None, "rank")
+    reference = cusps_in_square(CUSP_SQUARE, n=21)
+    assert len(reference) == 1 and run.cusps
+    for x, y in reference:
+        assert any(c.box_x[0] <= x <= c.box_x[1] and c.box_y[0] <= y <= c.box_y[1] for c in run.cusps)
+    assert all(c.status == "unresolved" for c in run.cusps)
