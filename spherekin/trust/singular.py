@@ -67,6 +67,10 @@ CELL_SLACK = 1e-9
 #: before the Krawczyk test: the root must lie in the interior of the box tested, and the boxes' hull can
 #: touch it at a face (accepted boxes are the pruner's tight reductions).
 HULL_WIDEN = 0.1
+#: Slice tests per batch of ``system.prove`` in :func:`certify_cover`. Reason: each test builds its slice's
+#: nets and their products (~10-50 kB); the agile eye's blow-up at T = 1e-3 sent all its cells' tests in one
+#: batch and the process was killed by the kernel at 23.7 GB.
+PROVE_BATCH = 8192
 #: Sample points per plane axis of a cell (its edges included) at which D at a stationary orientation is
 #: enclosed (:func:`stationary_sign_changes`): 3 x 3 = the corners, the edges' midpoints and the centre, so
 #: a curve through the cell that leaves its corners on one side (entering and leaving by one edge) is
@@ -192,8 +196,11 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
                 tries.extend(_attempt(system, grid, cell, int(c), mine, alo, ahi, ulo, uhi, cols, round_))
         if not tries:
             break
-        cells, ch, fix, val, lo, hi = zip(*tries)
-        ok = system.prove(np.array(ch), np.array(fix), np.array(val), np.array(lo), np.array(hi))
+        cells, ch, fix, val, lo, hi = (np.array(v) for v in zip(*tries))
+        ok = np.concatenate([system.prove(ch[s:s + PROVE_BATCH], fix[s:s + PROVE_BATCH], val[s:s + PROVE_BATCH],
+                                          lo[s:s + PROVE_BATCH], hi[s:s + PROVE_BATCH])
+                             for s in range(0, len(ch), PROVE_BATCH)])
+        cells = [tuple(int(v) for v in c) for c in cells]
         proven |= {cells[k] for k in np.flatnonzero(ok)}
     proven |= stationary_sign_changes(system, grid, sorted((set(met) | pending_cells) - proven))
     out = [CellStatus(i, j, SINGULAR if (i, j) in proven else UNRESOLVED)
@@ -222,9 +229,11 @@ def stationary_sign_changes(system, grid: Grid, cells) -> set:
     points = np.clip(lo[:, None] + offsets[None] * (hi - lo)[:, None], lo[:, None], hi[:, None])   # (C, S, n_plane)
     out = set()
     for q in stationary:
-        det = system.stationary_det(q, points.reshape(-1, n_plane)).reshape(2, len(cells), len(offsets))
-        change = (det[0] > 0).any(axis=1) & (det[1] < 0).any(axis=1)
-        out |= {cells[k] for k in np.flatnonzero(change)}
+        for s in range(0, len(cells), PROVE_BATCH):          # bounded memory, as certify_cover's slices
+            pts = points[s:s + PROVE_BATCH]
+            det = system.stationary_det(q, pts.reshape(-1, n_plane)).reshape(2, len(pts), len(offsets))
+            change = (det[0] > 0).any(axis=1) & (det[1] < 0).any(axis=1)
+            out |= {cells[s + k] for k in np.flatnonzero(change)}
     return out
 
 
