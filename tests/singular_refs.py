@@ -754,3 +754,21 @@ def cusps_in_square(square, beta3: float = 0.5, n: int = 41, geometry=None) -> n
             if all(math.hypot(x - a, y - b) > 1e-6 for a, b in out):
                 out.append((float(x), float(y)))
     return np.array(out).reshape(-1, 2)
+
+
+# ---------------------------------------------------------------- the agile eye's singular curve
+def agile_t(b1, b2, b3):
+    """T(beta) = cos b1 cos b2 cos b3 + sin b1 sin b2 sin b3: the agile eye's (examples/gosselin.toml) Type-2
+    determinant at a stationary orientation, shared in absolute value by all its assemblies (derived with
+    sympy in tests/test_singular_agile.py); its singular set in a plane of inputs is T = 0."""
+    return np.cos(b1) * np.cos(b2) * np.cos(b3) + np.sin(b1) * np.sin(b2) * np.sin(b3)
+
+
+def agile_curve_points(square, b3: float, n: int = 400) -> np.ndarray:
+    """Points (M, 2) of T = 0 in the square ((x0, x1), (y0, y1)) of the plane beta3 = b3: for b1 on a grid of n,
+    tan b2 = -cos b1 cos b3 / (sin b1 sin b3), every branch (b2 + k pi) inside the square."""
+    (x0, x1), (y0, y1) = square
+    b1 = np.linspace(x0, x1, n)
+    b2 = np.arctan2(-np.cos(b1) * math.cos(b3), np.sin(b1) * math.sin(b3))
+    pts = np.array([(a, c + k * math.pi) for a, c in zip(b1, b2) for k in (-2, -1, 0, 1, 2)])
+    return pts[(pts[:, 1] >= y0) & (pts[:, 1] <= y1)]

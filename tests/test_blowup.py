@@ -8,7 +8,6 @@ in tests/test_singular_agile.py; every one of its eight assemblies has |det| = |
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -21,7 +20,7 @@ from spherekin.search.isolation import SquareSystem, full_rank_proven
 from spherekin.systems.blowup import BLOWUP_RADIUS, StationaryPlane, blowup_patches, outside
 from spherekin.systems.platform import CHART_EXTENT
 from spherekin.systems.singular import PlatformPlane, SingularPlane
-from singular_refs import EXAMPLES
+from singular_refs import EXAMPLES, agile_curve_points, agile_t
 
 EYE = EXAMPLES / "gosselin.toml"
 BETA3 = 0.5
@@ -32,7 +31,8 @@ TOL = 0.1
 
 
 def _t(b1, b2, b3=BETA3):
-    return np.cos(b1) * np.cos(b2) * np.cos(b3) + np.sin(b1) * np.sin(b2) * np.sin(b3)
+    """T(beta) in the plane beta3 = BETA3 (tests/singular_refs.agile_t)."""
+    return agile_t(b1, b2, b3)
 
 
 @pytest.fixture(scope="module")
@@ -115,20 +115,12 @@ def region_set():
     return spherekin.singular(EYE, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": BETA3}, tol=TOL)
 
 
-def _curve_points(region, n: int = 2000) -> np.ndarray:
-    (x0, x1), (y0, y1) = region
-    b1 = np.linspace(x0, x1, n)
-    b2 = np.arctan2(-np.cos(b1) * math.cos(BETA3), np.sin(b1) * math.sin(BETA3))
-    pts = np.array([(a, c + k * math.pi) for a, c in zip(b1, b2) for k in (-2, -1, 0, 1, 2)])
-    return pts[(pts[:, 1] >= y0) & (pts[:, 1] <= y1)]
-
-
 def test_the_region_completes_and_its_cover_hugs_the_curve(region_set):
     """With the blow-up the cover of a region crossed by the curve completes (before: the box cap), holds
     every point of the curve, and no cell is farther than its width from the curve."""
     s = region_set
     assert s.complete
-    pts = _curve_points(REGION)
+    pts = agile_curve_points(REGION, BETA3, 2000)
     assert len(pts) > 1000 and np.abs(_t(pts[:, 0], pts[:, 1])).max() < 1e-12
     lo = np.array([[b.x[0], b.y[0]] for b in s.boxes])
     hi = np.array([[b.x[1], b.y[1]] for b in s.boxes])

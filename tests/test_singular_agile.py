@@ -24,7 +24,7 @@ import spherekin
 from spherekin.mechanism import load_mechanism
 from spherekin.systems.platform import leg_matrices, platform_legs
 from spherekin.systems.singular import stationary_quaternions
-from singular_refs import EXAMPLES, _quaternion_rotations, rrr_geometry, rrr_poses_all_frames, type2_det
+from singular_refs import EXAMPLES, _quaternion_rotations, agile_curve_points, agile_t, rrr_geometry, rrr_poses_all_frames, type2_det
 
 EYE = EXAMPLES / "gosselin.toml"
 BETA3 = 0.5
@@ -36,8 +36,8 @@ CAP = 60_000
 
 
 def _t(b1, b2, b3=BETA3):
-    """The closed form T(beta) (sympy-derived below): the Type-2 determinant at a stationary orientation."""
-    return np.cos(b1) * np.cos(b2) * np.cos(b3) + np.sin(b1) * np.sin(b2) * np.sin(b3)
+    """T(beta) in the plane beta3 = BETA3 (tests/singular_refs.agile_t)."""
+    return agile_t(b1, b2, b3)
 
 
 def _sympy_stationary():
@@ -105,18 +105,9 @@ def square_set():
                               max_boxes=CAP)
 
 
-def _curve_points(square, n: int = 400) -> np.ndarray:
-    """Points of T = 0 in the square: for b1 on a grid, tan b2 = -cos b1 cos b3 / (sin b1 sin b3)."""
-    (x0, x1), (y0, y1) = square
-    b1 = np.linspace(x0, x1, n)
-    b2 = np.arctan2(-np.cos(b1) * math.cos(BETA3), np.sin(b1) * math.sin(BETA3))
-    pts = np.array([(a, c + k * math.pi) for a, c in zip(b1, b2) for k in (-2, -1, 0, 1, 2)])
-    return pts[(pts[:, 1] >= y0) & (pts[:, 1] <= y1)]
-
-
 def test_the_run_completes_and_covers_the_curve(square_set):
     assert square_set.complete
-    pts = _curve_points(SQUARE)
+    pts = agile_curve_points(SQUARE, BETA3)
     assert len(pts) > 100
     assert np.abs(_t(pts[:, 0], pts[:, 1])).max() < 1e-12
     lo = np.array([[b.x[0], b.y[0]] for b in square_set.boxes])
@@ -133,7 +124,7 @@ def test_singular_cells_hold_a_point_of_the_curve(square_set):
         vals = _t(g1, g2)
         assert vals.min() < 0 < vals.max(), b    # T changes sign in the (closed) cell: a zero inside
         # and the degree-8 reference has a (near-)singular assembly at the cell's curve point nearest its centre
-        pts = _curve_points((b.x, b.y), 81)
+        pts = agile_curve_points((b.x, b.y), BETA3, 81)
         c = pts[np.argmin(np.linalg.norm(pts - [np.mean(b.x), np.mean(b.y)], axis=1))]
         geometry = rrr_geometry(EYE)
         x = np.array([c[0], c[1], BETA3])
