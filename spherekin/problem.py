@@ -870,14 +870,16 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
     cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
-    # boxes of every round are kept (their cells stay unresolved). ``final``: the pieces of every round over
-    # the cells it leaves (unit boxes), where the cusp search starts
+    # boxes of every round are kept (their cells stay unresolved). ``final`` (the rank route only): the pieces
+    # of every round over the cells it leaves (unit boxes), where the rank candidates are taken
+    rank = cusps == "rank" and len(system.plane_columns) == 2
     final = []
     for fraction in REFINE_FRACTIONS:
         again = {k for k, c in cells.items() if c.status != SINGULAR}
         if not again:
             break
-        final.append(cell_pieces(system, cover.accepted, grid, set(cells) - again))
+        if rank:
+            final.append(cell_pieces(system, cover.accepted, grid, set(cells) - again))
         cover = search_cover(system.charts, pruner, fraction * tol, max(1, max_boxes - used),
                              start=cell_pieces(system, cover.accepted, grid, again))
         pending = tuple(np.concatenate([a, b]) for a, b in zip(pending, cover.pending))
@@ -886,13 +888,13 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
         for k in again:
             del cells[k]
         cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
-    chart, alo, ahi = cover.accepted
-    final.append((chart, system.unit(chart, alo), system.unit(chart, ahi)) if len(chart) else
-                 (chart, alo, ahi))
-    chart, ulo, uhi = (np.concatenate(parts) for parts in zip(*final))
     cands = ()
-    if cusps == "rank" and len(system.plane_columns) == 2:
+    if rank:
         # no tangency system on these variables: the untraced and pending boxes not proven cusp-free
+        chart, alo, ahi = cover.accepted
+        final.append((chart, system.unit(chart, alo), system.unit(chart, ahi)) if len(chart) else
+                     (chart, alo, ahi))
+        chart, ulo, uhi = (np.concatenate(parts) for parts in zip(*final))
         pchart, plo, phi = pending
         cands = rank_candidates(system, np.concatenate([chart, pchart]), np.concatenate([ulo, plo]),
                                 np.concatenate([uhi, phi]), grid)
