@@ -91,6 +91,43 @@ def test_csv_resume_drops_the_last_input_it_holds_and_a_partial_line(tmp_path, m
     pd.testing.assert_frame_equal(read_results(path), pd.concat(frames, ignore_index=True))
 
 
+class ShortWrites:
+    """A file whose writes take at most 64 bytes each and which raises KeyboardInterrupt (Ctrl-C as
+    Python raises it: between two calls) once ``armed`` and ``after`` more calls have written."""
+
+    def __init__(self, f):
+        self.f, self.armed, self.after, self.cut = f, False, 3, 0
+
+    def write(self, data):
+        if self.armed:
+            if self.after == 0:
+                raise KeyboardInterrupt
+            self.after -= 1
+        n = self.f.write(bytes(data[:64]))
+        self.cut += n if self.armed else 0
+        return n
+
+    def __getattr__(self, name):
+        return getattr(self.f, name)
+
+
+def test_an_interrupt_while_a_csv_block_is_written_leaves_only_whole_inputs(tmp_path, mech, tables, frames,
+                                                                               monkeypatch):
+    files = []
+    monkeypatch.setattr("spherekin.batch.sinks.open",
+                        lambda *a, **k: files.append(ShortWrites(open(*a, **k))) or files[-1], raising=False)
+    path = tmp_path / "r.csv"
+    sink = open_sink(path, mech, INPUTS)
+    for k in (0, 1):
+        sink.write(k, k + 1, tables[k])
+    files[-1].armed = True
+    with pytest.raises(KeyboardInterrupt):
+        sink.write(2, 3, tables[2])
+    sink.close()
+    assert files[-1].cut == 3 * 64                  # part of input 2's rows had reached the file
+    pd.testing.assert_frame_equal(read_results(path), pd.concat(frames[:2], ignore_index=True))
+
+
 def test_parquet_resume_keeps_the_finished_parts_and_ignores_a_temporary_file(tmp_path, mech, tables, frames):
     path = tmp_path / "r.parquet"
     sink = open_sink(path, mech, INPUTS)

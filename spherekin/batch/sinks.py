@@ -4,8 +4,10 @@ Neither holds the table in memory. A **Parquet dataset** is a directory (``resul
 files ``part-<first>-<end>.parquet``, one per chunk of inputs [first, end), each written to a
 temporary name and renamed, so a file that exists is complete; chunks are written in the order they
 finish. A **CSV file** gets one block of lines per chunk, appended in input order (the engine holds
-back a chunk that finishes before an earlier one); a run stopped mid-write leaves at most the last
-input's rows incomplete, and maybe a line cut short. One run writes an output at a time:
+back a chunk that finishes before an earlier one), each block whole or not at all: an interrupt
+(Ctrl-C, SIGTERM) raised while a block is written truncates the file back to where the block began,
+so a stopped run leaves only whole inputs, as many as it says; a crash (SIGKILL, power) can still cut
+the last input's rows, and a line short, which a resume repairs (below). One run writes an output at a time:
 :func:`open_sink` takes its lock (``<out>.lock``, :mod:`spherekin.batch.lock`) before writing
 anything, the sink's close releases it.
 
@@ -28,6 +30,7 @@ are dropped.
 from __future__ import annotations
 
 import csv
+import io
 import os
 import re
 from pathlib import Path
@@ -305,17 +308,35 @@ class CsvSink(Sink):
             if note:
                 self.note = f"--resume {path}: {note}"
             self.done[:n_done] = True
-            self._file = open(path, "a", newline="")
+            self._file = open(path, "ab", buffering=0)
             if not path.stat().st_size:
-                self._file.write(",".join(self.columns) + "\n")
+                self._append(self._header())
         else:
             side.unlink(missing_ok=True)           # never an old fingerprint beside new rows
-            self._file = open(path, "w", newline="")
+            self._file = open(path, "wb", buffering=0)
             tmp = side.with_name(f"{side.name}.{os.getpid()}.tmp")
             tmp.write_text(fingerprint.to_json())
             os.replace(tmp, side)                  # the fingerprint is there before the first row
-            self._file.write(",".join(self.columns) + "\n")
-        self._file.flush()
+            self._append(self._header())
+
+    def _header(self) -> bytes:
+        return (",".join(self.columns) + "\n").encode()
+
+    def _append(self, block: bytes) -> None:
+        """Append ``block`` to the file, whole or not at all: unbuffered writes (no rows left in a
+        buffer for close to flush after an interrupt), and on any exception while writing (an
+        interrupt that Python raised between two partial writes, or in the fsync after them) the file
+        truncated back to its length before, then the exception raised again."""
+        fd = self._file.fileno()
+        start = os.fstat(fd).st_size
+        try:
+            view = memoryview(block)
+            while view:
+                view = view[self._file.write(view):]
+            os.fsync(fd)
+        except BaseException:
+            os.ftruncate(fd, start)
+            raise
 
     def _verified_prefix(self) -> tuple[int, int, str]:
         """(byte length to keep, inputs it holds, what was dropped beyond whole rows: '' if nothing).
@@ -403,9 +424,9 @@ class CsvSink(Sink):
         return (k, sol), None
 
     def write(self, first: int, end: int, table) -> None:
-        csv.writer(self._file, lineterminator="\n").writerows(csv_fields(table))
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        text = io.StringIO()                       # the block formatted first: an interrupt here writes nothing
+        csv.writer(text, lineterminator="\n").writerows(csv_fields(table))
+        self._append(text.getvalue().encode())
 
     def close(self) -> None:
         if not self._file.closed:
@@ -456,8 +477,6 @@ def open_sink(path, mechanism, inputs: np.ndarray, resume: bool = False,
 
 def _read_csv(source, usecols=None):
     """A results CSV (a path, or its bytes) as a DataFrame with the table's column types."""
-    import io
-
     import pandas as pd
 
     if isinstance(source, bytes):
