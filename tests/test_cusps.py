@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -189,3 +190,34 @@ def test_rank_candidates_keep_the_reference_cusp():
     for x, y in reference:
         assert any(c.box_x[0] <= x <= c.box_x[1] and c.box_y[0] <= y <= c.box_y[1] for c in run.cusps)
     assert all(c.status == "unresolved" for c in run.cusps)
+
+
+def test_a_cusp_on_the_whole_planes_charts_is_proven():
+    """The cusp near (-1.9253, 0.7221) on the charts of the whole plane [-pi, pi]^2 at T = 0.05 (the cusp
+    search started from that square only, ~2 s): there the Krawczyk box PROOF_RADIUS times the cluster's hull
+    is too small for the nets' rounding, and the cusp is proven only on a wider box of the ladder
+    (trust.singular.PROOF_LADDER; before, `spherekin singular` over the whole plane listed it unresolved).
+    The proven cusp is the reference's."""
+    from spherekin.mechanism import load_mechanism
+    from spherekin.problem import CUSP_FRACTION, CUSP_VECTORS, DEFAULT_PRUNER
+    from spherekin.search.boxloop import pruner_for, search_cover
+    from spherekin.systems.singular import PlatformPlane, SingularPlane
+    from spherekin.trust.singular import certify_cusps
+
+    square = ((-1.95, -1.90), (0.70, 0.75))
+    plane = SingularPlane(("beta1", -math.pi, math.pi), ("beta2", -math.pi, math.pi), {"beta3": 0.5})
+    system = PlatformPlane(load_mechanism(RRR), plane)
+    n = len(system.charts.map_lo)
+    ulo, uhi = np.zeros((n, 5)), np.ones((n, 5))
+    for col, ends in zip(system.plane_columns, square):
+        u = [system.unit(np.arange(n), np.where(np.arange(5) == col, e, 0.0)[None].repeat(n, 0))[:, col] for e in ends]
+        ulo[:, col], uhi[:, col] = np.clip(np.minimum(*u), 0, 1), np.clip(np.maximum(*u), 0, 1)
+    keep = np.all(uhi > ulo, axis=1)
+    sets = system.cusp_charts(CUSP_VECTORS)
+    found = search_cover(sets[0], pruner_for(sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * 0.05, 10**6,
+                         start=(np.flatnonzero(keep), ulo[keep], uhi[keep]))
+    got = SimpleNamespace(cusps=certify_cusps(system, sets, found))     # what _check_proven reads of a SingularSet
+    reference = cusps_in_square(square, n=21)
+    assert len(reference) == 1
+    assert sum(c.status == "cusp" for c in got.cusps) == 1
+    _check_proven(got, reference)

@@ -291,6 +291,13 @@ ROOT_SEPARATION = 1e-7
 #: The Krawczyk box about a Newton root is PROOF_RADIUS times the cluster's hull, whose sides are at least
 #: this (unit coordinates): a hull flat along a variable would give a box too thin to contain the root.
 PROOF_MIN_WIDTH = 1e-3
+#: The multiples of that box tried in turn until the Krawczyk test proves the root. Reason: the box must be
+#: wide enough that the coefficients' rounding (the nets' tolerances) does not swamp the contraction, and
+#: narrow enough that the interval Jacobian is nearly a point and no second root is inside; where that
+#: window lies depends on the chart's scale. Measured on general_3rrr at beta3 = 0.5: the cusp near
+#: (-1.9253, 0.7221) is proven at 0.1-1 times on the square [-2.2, -1.7] x [0.5, 1.0], but over the whole
+#: plane at T = 0.05 only at 3-100 times (its hull there is wider, its unit coordinates 12.6 times coarser).
+PROOF_LADDER = (1.0, 10.0, 100.0, 0.1)
 
 
 @dataclass(frozen=True)
@@ -368,13 +375,13 @@ def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, 
     ``system``: the :class:`spherekin.systems.singular.PlatformPlane` (or a one-loop ``LoopPlane``); ``cusp_charts``: its
     :meth:`cusp_charts` for two vectors (r, r2); ``found``: the :class:`spherekin.search.boxloop.Cover` of
     the first (accepted: angle boxes; pending: unit boxes). Each cluster of accepted boxes on one chart is
-    tested: Newton's root of the square system (F, D, C_r) in the cluster's hull, the Krawczyk test on the
-    hull or on a box PROOF_RADIUS around the root. ``cusp`` when it proves a unique root in a box X AND the
-    enclosure of adj(G(X)) r excludes the zero vector (then rank G = 2 at the root, adj(G) r = (l . r) k with
-    l . r != 0, so C_r = 0 means grad D . k = 0: the curve's tangent projects to 0, a cusp). A proven root
-    whose adjugate test fails is dropped when C_r2 excludes 0 on X (no point of X satisfies the tangency for
-    r2, so X holds no cusp: the spurious factor l . r = 0), else ``unresolved``; so are clusters without a
-    proof and pending boxes."""
+    tested: Newton's root of the square system (F, D, C_r) in the cluster's hull, the Krawczyk test on a box
+    PROOF_RADIUS times the hull around the root (or the multiples PROOF_LADDER of it). ``cusp`` when it
+    proves a unique root in a box X AND the enclosure of adj(G(X)) r excludes the zero vector (then rank
+    G = 2 at the root, adj(G) r = (l . r) k with l . r != 0, so C_r = 0 means grad D . k = 0: the curve's
+    tangent projects to 0, a cusp). A proven root whose adjugate test fails is dropped when C_r2 excludes 0
+    on X (no point of X satisfies the tangency for r2, so X holds no cusp: the spurious factor l . r = 0),
+    else ``unresolved``; so are clusters without a proof and pending boxes."""
     charts, charts2 = cusp_charts
     cols = list(system.plane_columns)
     chart, alo, ahi = found.accepted
@@ -397,8 +404,12 @@ def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, 
                 kept.append(k)
                 root = roots[k][None]
                 w = np.maximum(hi - lo, PROOF_MIN_WIDTH)
-                slo, shi = np.clip(root - PROOF_RADIUS * w, 0, 1), np.clip(root + PROOF_RADIUS * w, 0, 1)
-                ok, klo, khi = cusp_krawczyk(charts, cid, slo, shi)
+                for factor in PROOF_LADDER:
+                    r = factor * PROOF_RADIUS * w
+                    slo, shi = np.clip(root - r, 0, 1), np.clip(root + r, 0, 1)
+                    ok, klo, khi = cusp_krawczyk(charts, cid, slo, shi)
+                    if ok[0]:
+                        break
                 if not ok[0]:
                     unproven = True
                     continue
