@@ -361,3 +361,24 @@ def test_ik_json_numbers_its_solutions_as_printed(tmp_path, capsys):
     assert [s["number"] for s in data["solutions"]] == sorted(printed) == list(range(1, 9))
     for s in data["solutions"]:
         np.testing.assert_allclose(printed[s["number"]], [s["joint_angles"][n] for n in names], atol=1e-6)
+
+
+def test_an_interrupt_while_the_json_is_written_leaves_the_earlier_file_and_no_temporary(tmp_path, capsys,
+                                                                                         monkeypatch):
+    """Ctrl-C arriving while `--json` is written (half the text in the file): exit 130, the earlier output
+    untouched (not a cut JSON), no temporary left beside it."""
+    import pathlib
+
+    js = tmp_path / "ik.json"
+    js.write_text('{"earlier": true}')
+    real = pathlib.Path.write_text
+
+    def cut(self, text, *a, **k):
+        real(self, text[:len(text) // 2], *a, **k)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pathlib.Path, "write_text", cut)
+    assert main(["ik", EXAMPLE, "--euler", "0.4,-0.3,1.1", "--json", str(js)]) == 130
+    monkeypatch.undo()
+    assert json.loads(js.read_text()) == {"earlier": True}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ik.json"]
