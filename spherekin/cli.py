@@ -24,9 +24,11 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from . import atomic
+
 # numpy and the package's modules are imported by the functions that use them (build_parser imports
-# every strategy module): importing this module stays light, so that run() can pause the garbage
-# collector before the heavy imports.
+# every strategy module; spherekin.atomic imports nothing heavy): importing this module stays light, so
+# that run() can pause the garbage collector before the heavy imports.
 
 #: Default actuator angles (radians) of the example: arbitrary, generic values (no symmetry).
 DEFAULT_BETAS = (0.3, -0.2, 0.5)
@@ -208,7 +210,7 @@ def _solve(args) -> int:
 
         data = report.as_dict()
         data["mechanism_toml"] = dumps_mechanism(mech)
-        write_whole(args.json, json.dumps(data, indent=2))
+        atomic.write_text(args.json, json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.plot:
         from .plot import plot_solutions  # matplotlib: imported only when a plot is asked for
@@ -383,7 +385,7 @@ def _map(args) -> int:
         progress.close()
     print(amap.table())
     if args.table:
-        write_whole(args.table, amap.frame().to_csv(index=False))
+        atomic.write_text(args.table, amap.frame().to_csv(index=False))
         print(f"wrote {args.table}")
     if args.plot:
         from .plot import plot_assembly_map
@@ -489,7 +491,7 @@ def _singular(args) -> int:
             print(f"mode change: none found (searched {mc.searched})")
     if args.json:
         doc = {**sset.as_dict(), "mechanism": mech.name or str(args.file)}
-        write_whole(args.json, json.dumps(doc, indent=2))
+        atomic.write_text(args.json, json.dumps(doc, indent=2))
         print(f"wrote {args.json}")
     if args.plot:
         from .plot import plot_singular
@@ -542,7 +544,7 @@ def _branches(mech, args) -> int:
     print(f"{mech.name or args.file}: branches and circuits over {name}")
     print(bmap.report(degrees=args.degrees))
     if args.json:
-        write_whole(args.json, json.dumps(bmap.as_dict(), indent=2))
+        atomic.write_text(args.json, json.dumps(bmap.as_dict(), indent=2))
         print(f"wrote {args.json}")
     if args.plot:
         from .plot import plot_branches
@@ -612,7 +614,7 @@ def _ik(args) -> int:
                "solutions": [{"number": k, "working_mode": list(s.working_mode),       # numbered as printed
                               "inputs": dict(zip(mech.actuated, s.inputs)), "joint_angles": dict(s.joint_angles),
                               "in_range": s.in_range, "status": s.status} for k, s in enumerate(sols, start=1)]}
-        write_whole(args.json, json.dumps(out, indent=2))
+        atomic.write_text(args.json, json.dumps(out, indent=2))
         print(f"wrote {args.json}")
     return 0
 
@@ -704,7 +706,7 @@ def _track(args) -> int:
     if args.json:
         import json
 
-        write_whole(args.json, json.dumps(data, indent=2))
+        atomic.write_text(args.json, json.dumps(data, indent=2))
         print(f"wrote {args.json}")
     if args.out:
         from .batch.rows import track_table
@@ -1124,20 +1126,6 @@ def as_options(message: str, options: dict[str, str] = _OPTION_OF) -> str:
 
     message = re.sub(rf"\b(?P<key>{names})=(?P<value>None|'[^']*'|[^\s,;)]+)", value, message)
     return re.sub(rf"^(?P<key>{names})(?=[:\s(\[])", lambda m: options[m["key"]], message)
-
-
-def write_whole(path, text: str) -> None:
-    """Write ``text`` to the file ``path`` whole or not at all: to a hidden temporary beside it, then renamed
-    over it (an interrupt while writing, Ctrl-C or SIGTERM, leaves the earlier file or none, never a cut
-    JSON or CSV a later script would read; the temporary is removed)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def error_line(message: str, options: dict[str, str] = _OPTION_OF) -> str:

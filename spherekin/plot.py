@@ -33,6 +33,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from . import atomic
 from .mechanism.chains import perpendicular
 from .mechanism.checks import check_unit_vector, parse_angle
 from .mechanism.model import PARALLEL_TOL, SphericalMechanism
@@ -201,6 +202,12 @@ def check_plot_path(path, key: str = "path") -> tuple[Path, str]:
         raise ValueError(f"{key}: expected a file name ending in one of "
                          f"{', '.join('.' + f for f in PLOT_FORMATS)}, got {out.name!r}")
     return out, fmt
+
+
+def _save(fig, out: Path, fmt: str) -> None:
+    """``fig`` saved to ``out`` (format ``fmt``, DPI dots per inch) whole or not at all (:mod:`spherekin.atomic`)."""
+    with atomic.replacing(out) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=DPI)
 
 
 def _check_report(mechanism: SphericalMechanism, values: tuple, report) -> list[np.ndarray]:
@@ -551,7 +558,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
         fig.suptitle(title, fontsize=11)
         fig.text(0.5, 0.45, "no solution in range", ha="center", va="center", fontsize=16, color="0.25")
         if out is not None:
-            fig.savefig(out, format=fmt, dpi=DPI)
+            _save(fig, out, fmt)
         return fig
 
     n = len(configs)
@@ -587,7 +594,7 @@ def plot_solutions(mechanism: SphericalMechanism, inputs, report: SolveReport, p
                bbox_to_anchor=(0.5, 0.5 * LEGEND_MARGIN_INCHES / height))
     _label_joints(fig, panels)
     if out is not None:
-        fig.savefig(out, format=fmt, dpi=DPI)
+        _save(fig, out, fmt)
     return fig
 
 
@@ -685,7 +692,7 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
     fig.suptitle(f"{amap.mechanism}" + (f" ({fixed})" if fixed else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     if out is not None:
-        fig.savefig(out, format=fmt, dpi=DPI)
+        _save(fig, out, fmt)
     return fig
 
 
@@ -789,7 +796,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     fig.suptitle(title, fontsize=11)
     fig.align_ylabels((ax, ax2))
     if out is not None:
-        fig.savefig(out, format=fmt, dpi=DPI)
+        _save(fig, out, fmt)
     return fig
 
 
@@ -837,7 +844,7 @@ def plot_branches(bmap, path=None, *, degrees: bool = False):
     ax.set_title(f"{bmap.mechanism}: {len(bmap.circuits)} circuit(s), {len(bmap.branch_points)} branch point(s)",
                  fontsize=11)
     if out is not None:
-        fig.savefig(out, format=fmt, dpi=DPI)
+        _save(fig, out, fmt)
     return fig
 
 
@@ -905,5 +912,5 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
                  + ("" if sset.complete else ", incomplete"), fontsize=10)
     ax.grid(alpha=0.3)
     if out is not None:
-        fig.savefig(out, format=fmt, dpi=DPI)
+        _save(fig, out, fmt)
     return fig

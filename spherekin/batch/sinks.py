@@ -38,6 +38,7 @@ from typing import Iterator
 
 import numpy as np
 
+from .. import atomic
 from ..results import ResultsTable, Status
 from .fingerprint import METADATA_KEY, Fingerprint, sidecar_path
 from .lock import OutputLock, check_unlocked
@@ -314,9 +315,7 @@ class CsvSink(Sink):
         else:
             side.unlink(missing_ok=True)           # never an old fingerprint beside new rows
             self._file = open(path, "wb", buffering=0)
-            tmp = side.with_name(f"{side.name}.{os.getpid()}.tmp")
-            tmp.write_text(fingerprint.to_json())
-            os.replace(tmp, side)                  # the fingerprint is there before the first row
+            atomic.write_text(side, fingerprint.to_json())    # the fingerprint is there before the first row
             self._append(self._header())
 
     def _header(self) -> bytes:
