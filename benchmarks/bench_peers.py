@@ -45,6 +45,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 from benchmarks import peers_closed_form as pcf
 from benchmarks import peers_phc as pphc
+from benchmarks.random_designs import random_rotation, unit
 
 from spherekin.mechanism import general_3rrr, gosselin, three_rrr  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
@@ -80,20 +81,10 @@ PARAMETERIZATIONS = ("tan-half", "sin-cos")
 # --------------------------------------------------------------------------------------------
 
 
-def _unit(rng) -> np.ndarray:
-    v = rng.normal(size=3)
-    return v / np.linalg.norm(v)
-
-
-def random_rotation(rng) -> np.ndarray:
-    q = rng.normal(size=4)
-    return pcf.quaternion_rotation(q / np.linalg.norm(q))
-
-
 def _random_geometry(rng) -> dict:
     """A random 3-RRR assembled at beta = 0, R = I (distal angles measured there), away from degeneracy."""
     while True:
-        u, w0, v0 = ([_unit(rng) for _ in range(3)] for _ in range(3))
+        u, w0, v0 = ([unit(rng) for _ in range(3)] for _ in range(3))
         a2 = [float(np.arccos(np.clip(w @ v, -1, 1))) for w, v in zip(w0, v0)]
         a1 = [float(np.arccos(np.clip(a @ b, -1, 1))) for a, b in zip(u, w0)]
         if min(a1 + a2) < 0.3 or max(a1 + a2) > math.pi - 0.3:

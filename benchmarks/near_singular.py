@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from benchmarks.random_designs import random_3rrr
 from benchmarks.reference_roots import reference_roots, singular_input
 from spherekin import solve
 from spherekin.trust.solutions import is_proven
@@ -74,8 +75,6 @@ def judge(mech, geometry, inputs, distance) -> dict:
 
 def random_segment(seed, max_tries: int = 200):
     """(mechanism, geometry, singular input, direction) for a seeded random general 3-RRR."""
-    from benchmarks.sweep_roots import random_3rrr
-
     rng = np.random.default_rng(seed)
     for _ in range(max_tries):
         mech, data = random_3rrr(rng)

@@ -35,44 +35,17 @@ from pathlib import Path
 import numpy as np
 
 from spherekin.cluster import connect, map_in_order
-from spherekin.mechanism import gosselin, three_rrr
+from spherekin.mechanism import gosselin
 from spherekin.search.boxloop import DEFAULT_PARAMETERIZATION, SolverLimitError
 from spherekin.problem import solve
+
+from benchmarks.random_designs import random_3rrr, random_rotation
 
 #: A solution matches the pose when every entry of its rotation is this close to R0's: polished
 #: solutions agree with the truth to ~1e-14; 1e-8 leaves room for ill-conditioned poses.
 MATCH_TOL = 1e-8
 #: A solution is spurious when a leg constraint is violated by more than this.
 SPURIOUS_TOL = 1e-9
-
-
-def random_rotation(rng) -> np.ndarray:
-    q = rng.normal(size=4)
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def unit(rng) -> np.ndarray:
-    v = rng.normal(size=3)
-    return v / np.linalg.norm(v)
-
-
-def random_3rrr(rng):
-    """A random general 3-RRR assembled at beta = 0, R = I (distal angles measured there), and
-    its geometry (u, w0, v0, alpha2) for the independent leg-constraint check."""
-    while True:
-        u = [unit(rng) for _ in range(3)]
-        w0 = [unit(rng) for _ in range(3)]
-        v0 = [unit(rng) for _ in range(3)]
-        a2 = [float(np.arccos(np.clip(w @ v, -1, 1))) for w, v in zip(w0, v0)]
-        if min(a2) < 0.2 or max(a2) > math.pi - 0.2:
-            continue
-        try:
-            return three_rrr(u, w0, v0, a2, name="random 3-RRR"), (u, w0, v0, a2)
-        except ValueError:
-            continue
 
 
 def leg_residual(mech_data, inputs, rot) -> float:

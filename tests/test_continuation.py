@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of, leg_residuals
 from tests.conftest import singular_beta1
-from benchmarks.sweep_roots import random_3rrr
+from benchmarks.random_designs import random_3rrr
 from spherekin import compile as compile_problem
 from spherekin.core import intervals as iv
 from spherekin.mechanism import five_bar, general_3rrr

@@ -16,7 +16,7 @@ import pytest
 import sympy as sp
 
 from benchmarks.reference_roots import reference_roots
-from benchmarks.sweep_roots import random_3rrr, random_rotation
+from benchmarks.random_designs import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
 from spherekin.search.boxloop import search_platform
