@@ -465,10 +465,13 @@ def _singular(args) -> int:
     print(f"{'status':<12} {'boxes':>7}")
     for status, n in sset.counts().items():
         print(f"{status:<12} {n:>7}")
-    if y is not None:
+    if sset.cusp_search == "searched":
         kinds = {k: sum(c.status == k for c in sset.cusps) for k in ("cusp", "unresolved")}
-        print(f"cusps: {kinds['cusp']} proven, {kinds['unresolved']} unresolved"
-              + ("" if sset.system == "platform" else " (not searched: the platform system only)"))
+        print(f"cusps: {kinds['cusp']} proven, {kinds['unresolved']} unresolved")
+    elif sset.cusp_search == "none_possible":
+        print("cusps: none possible (one loop: its 3 passive joints have at most 2 assemblies, or a continuum)")
+    elif sset.cusp_search == "not_searched":
+        print("cusps: not searched (the loop equations of several loops: only the platform system searches them)")
     st = sset.stats
     print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")

@@ -959,7 +959,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     """
     from .systems.blowup import StationaryPlane, outside
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
-    from .results import Cusp, SingularBox, SingularSet, SingularStats
+    from .results import Cusp, CuspSearch, SingularBox, SingularSet, SingularStats
     from .trust.singular import SINGULAR, Grid, merge_cusps
 
     mech = as_mechanism(mechanism)
@@ -1018,8 +1018,14 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
                   for c in cells)
     # t_cover: the box loops; the rest: set-up, projection and certificates
     stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0)
+    if ay is None:
+        search = CuspSearch.NOT_APPLICABLE
+    elif on_platform:
+        search = CuspSearch.SEARCHED
+    else:
+        search = CuspSearch.NONE_POSSIBLE if len(mech.link_graph.loops) == 1 else CuspSearch.NOT_SEARCHED
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
-                       Platform.name if on_platform else Loops.name, cusps)
+                       Platform.name if on_platform else Loops.name, cusps, search)
 
 
 #: Radii (radians of input) of the circles around a proven cusp tried by :func:`mode_change`, in order: small

@@ -562,6 +562,24 @@ class SolveReport:
 SINGULAR_SCHEMA = "spherekin.singular/1"
 
 
+class CuspSearch(StrEnum):
+    """What the cusp list of a :class:`SingularSet` covers (JSON ``cusp_search``).
+
+    * ``searched``: the platform system in a plane of two inputs: every cusp of the plane is in the list,
+      proven (``cusp``) or as an ``unresolved`` candidate;
+    * ``none_possible``: one loop in a plane of two inputs: no cusp exists (its 3 passive joints close a
+      spherical 3R chain, at most 2 assemblies or a continuum, so three never meet), the list is empty;
+    * ``not_searched``: the loop equations of several loops in a plane: cusps may exist and are not searched
+      (the list is empty, which proves nothing);
+    * ``not_applicable``: a line of one input (its singular set is points; cusps are points of a curve).
+    """
+
+    SEARCHED = "searched"
+    NONE_POSSIBLE = "none_possible"
+    NOT_SEARCHED = "not_searched"
+    NOT_APPLICABLE = "not_applicable"
+
+
 @dataclass(frozen=True)
 class SingularBox:
     """A cell of the plane in the cover of the singular set: ``x``, ``y`` = (lo, hi) radians (``y`` None
@@ -646,7 +664,9 @@ class SingularSet:
     other actuated joints' readings; ``tol``: the cells' width bound (radians); ``boxes``: the covered
     cells (:class:`SingularBox`); everything in the plane outside them is proven free of parallel
     singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
-    boxes). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty). ``system``: the equations used ("platform" or "loops").
+    boxes). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty), and
+    ``cusp_search`` what that list covers (:class:`CuspSearch`). ``system``: the equations used ("platform"
+    or "loops").
     """
 
     x: tuple
@@ -658,6 +678,7 @@ class SingularSet:
     stats: SingularStats
     system: str
     cusps: tuple = ()
+    cusp_search: CuspSearch = CuspSearch.NOT_SEARCHED
     free_box: object = None
     mode_change: object = None
 
@@ -678,6 +699,7 @@ class SingularSet:
                 "boxes": [{"x": [float(b.x[0]), float(b.x[1])],
                            "y": None if b.y is None else [float(b.y[0]), float(b.y[1])], "status": b.status}
                           for b in self.boxes],
-                "cusps": [c.as_dict() for c in self.cusps], "free_box": self.free_box,
+                "cusps": [c.as_dict() for c in self.cusps], "cusp_search": str(self.cusp_search),
+                "free_box": self.free_box,
                 "mode_change": None if self.mode_change is None else self.mode_change.as_dict(),
                 "stats": asdict(self.stats)}

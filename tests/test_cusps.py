@@ -107,8 +107,27 @@ def test_five_bar_has_no_cusps(tmp_path, capsys):
     out = tmp_path / "f.json"
     assert main(["singular", str(EXAMPLES / "five_bar.toml"), "--x", "A=-0.5:0.5", "--y", "E=-0.5:0.5",
                  "--tol", "0.2", "--json", str(out)]) == 0
-    assert json.loads(out.read_text())["cusps"] == []
-    assert "cusps: 0 proven" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    assert doc["cusps"] == [] and doc["cusp_search"] == "none_possible"
+    assert "cusps: none possible (one loop" in capsys.readouterr().out
+
+
+def test_a_plane_of_several_loops_says_its_cusps_are_not_searched(monkeypatch, capsys):
+    """general_3rrr as a graph on the loop equations (the platform system declined: two loops): its cusps
+    exist (tests above) and are not searched there, so the JSON and the table say so rather than list none;
+    a line of one input has no cusps to search."""
+    from spherekin.systems.platform import Platform
+
+    graph = EXAMPLES / "general_3rrr_graph.toml"
+    monkeypatch.setattr(Platform, "accepts", classmethod(lambda cls, mech, strategy=None: "declined for this test"))
+    sset = spherekin.singular(graph, x=("beta1", 1.5, 1.6), y=("beta2", 0.0, 0.1), fixed={"beta3": 0.5}, tol=0.2,
+                              max_boxes=50)
+    assert sset.system == "loops" and sset.cusps == () and sset.as_dict()["cusp_search"] == "not_searched"
+    assert main(["singular", str(graph), "--x", "beta1=1.5:1.6", "--y", "beta2=0:0.1", "--fix", "beta3=0.5",
+                 "--tol", "0.2", "--max-boxes", "50"]) == 0
+    assert "cusps: not searched" in capsys.readouterr().out
+    line = spherekin.singular(EXAMPLES / "four_bar.toml", x=("A", -1.0, 1.0), tol=0.2)
+    assert line.as_dict()["cusp_search"] == "not_applicable"
 
 
 def test_proven_mode_change_around_the_cusp(cusp_set):

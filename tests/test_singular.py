@@ -116,7 +116,7 @@ def test_json_schema(square_set):
     doc = square_set.as_dict()
     assert doc["schema"] == SINGULAR_SCHEMA == "spherekin.singular/1"
     assert (doc["x"], doc["y"], doc["fixed"], doc["tol"]) == ("beta1", "beta2", {"beta3": 0.5}, T)
-    assert doc["complete"] is True and doc["free_box"] is None
+    assert doc["complete"] is True and doc["free_box"] is None and doc["cusp_search"] == "searched"
     assert all(set(c) == {"x", "y", "box", "status"} and c["status"] in ("cusp", "unresolved") for c in doc["cusps"])
     assert {"boxes_processed", "seconds"} <= set(doc["stats"])
     assert doc["boxes"] and all(set(b) == {"x", "y", "status"} and b["status"] in ("singular", "unresolved")
