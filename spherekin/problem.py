@@ -833,7 +833,8 @@ def _plane_axis(mech, key: str, spec) -> tuple:
 class _PlaneRun:
     """What one cover of a plane system hands to :func:`singular`: ``cells`` ((i, j) -> CellStatus), the
     cusp candidates (trust.singular.CuspStatus), and the work: boxes processed (``used``), box-loop seconds,
-    boxes accepted and pending (pending > 0: the cap was reached, their cells are unresolved)."""
+    boxes accepted and pending (pending > 0: the cap was reached), and the unresolved ``regions`` of the
+    pending boxes (grid index ranges, :func:`spherekin.trust.singular.pending_regions`)."""
 
     cells: dict
     cusps: tuple
@@ -841,6 +842,7 @@ class _PlaneRun:
     seconds: float
     accepted: int
     pending: int
+    regions: tuple = ()
 
 
 def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _PlaneRun:
@@ -851,7 +853,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
     cells' pieces searched again (REFINE_FRACTIONS), the traced cells added."""
     from .search.boxloop import pruner_for, search_cover
     from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, cell_pieces, certify_cover, certify_cusps,
-                                 rank_candidates, trace_cover)
+                                 pending_regions, rank_candidates, trace_cover)
 
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     traced = None
@@ -935,7 +937,8 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
                 cells[k] = CellStatus(k[0], k[1], SINGULAR)
             elif k not in cells:
                 cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
-    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]))
+    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]),
+                     pending_regions(system, grid, pending))
 
 
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
@@ -948,7 +951,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     that the cover of the augmented system meets, each ``singular`` (a singular configuration proven at an
     input of the cell) or ``unresolved``; the plane outside them is proven free of parallel singularities
     (:mod:`spherekin.trust.singular`). ``max_boxes`` caps the cover: when reached, ``complete`` is False and
-    the unprocessed part of the plane is in ``unresolved`` cells. The system is chosen as a solve's: the
+    the unprocessed part of the plane is in ``unresolved`` regions (boxes wider than a cell, each a cusp
+    candidate too: :func:`spherekin.trust.singular.pending_regions`). The system is chosen as a solve's: the
     platform system (three R-R-R legs; passive joint ranges not applied: the set may hold singular
     configurations with passive joints out of range) where it applies, else the loop equations (3 passive
     joints per loop: four-bars, five-bars, six-bars; passive ranges applied). A platform with stationary
@@ -960,7 +964,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     from .systems.blowup import StationaryPlane, outside
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, CuspSearch, SingularBox, SingularSet, SingularStats
-    from .trust.singular import SINGULAR, Grid, merge_cusps
+    from .trust.singular import SINGULAR, Grid, merge_cusps, outside_regions, region_candidates
 
     mech = as_mechanism(mechanism)
     ax = _plane_axis(mech, "x", x)
@@ -1009,13 +1013,21 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     t_cover = sum(r.seconds for r in runs)
     accepted = sum(r.accepted for r in runs)
     n_pending = sum(r.pending for r in runs)
+    # the pending boxes' regions (a capped run): unresolved, and the cells inside them listed only when proven;
+    # never searched for cusps, each is a cusp candidate too (not merged into a proven cusp it may meet)
+    regions = sorted({g for r in runs for g in r.regions})
     cusps = tuple(Cusp(c.x, c.y, c.box_x, c.box_y, c.status)
-                  for c in merge_cusps([c for r in runs for c in r.cusps])) if on_platform and ay is not None else ()
-    cells = [cells[k] for k in sorted(cells)]
+                  for c in merge_cusps([c for r in runs for c in r.cusps]) + region_candidates(grid, regions)
+                  ) if on_platform and ay is not None else ()
+    listed = set(outside_regions(cells, regions)) | {k for k, c in cells.items() if c.status == SINGULAR}
+    cells = [cells[k] for k in sorted(listed)]
     complete = n_pending == 0
     t2 = time.perf_counter()
     boxes = tuple(SingularBox(grid.edges(0, c.i), None if ay is None else grid.edges(1, c.j), c.status)
                   for c in cells)
+    boxes += tuple(SingularBox((grid.edges(0, i0)[0], grid.edges(0, i1)[1]),
+                               None if ay is None else (grid.edges(1, j0)[0], grid.edges(1, j1)[1]), "unresolved")
+                   for i0, i1, j0, j1 in regions)
     # t_cover: the box loops; the rest: set-up, projection and certificates
     stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0)
     if ay is None:

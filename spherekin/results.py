@@ -664,7 +664,7 @@ class SingularSet:
     other actuated joints' readings; ``tol``: the cells' width bound (radians); ``boxes``: the covered
     cells (:class:`SingularBox`); everything in the plane outside them is proven free of parallel
     singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
-    boxes). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty), and
+    regions: boxes wider than a cell, the plane projections of the boxes left pending at the cap). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty), and
     ``cusp_search`` what that list covers (:class:`CuspSearch`). ``system``: the equations used ("platform"
     or "loops").
     """

@@ -112,6 +112,25 @@ def test_box_cap_leaves_the_rest_unresolved(reference_points):
     assert _covered(sset, reference_points).all()
 
 
+def test_a_capped_run_at_a_fine_tolerance_reports_its_unprocessed_part_as_regions(reference_points):
+    """At T = 1e-3 the square is 1e6 cells: a run capped at 300 boxes leaves most of it pending. The pending
+    boxes come back as unresolved regions (their plane projections on the grid, wider than T: before, every
+    cell they met was listed, and over the whole plane that ran out of memory), every reference singular
+    input is still in a box, no region is claimed singular, and every region is a cusp candidate (never
+    searched for cusps)."""
+    (x0, x1), (y0, y1) = SQUARE
+    fine = 1e-3
+    sset = spherekin.singular(RRR, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": 0.5}, tol=fine,
+                              max_boxes=300)
+    assert not sset.complete and sset.stats.pending > 0
+    assert _covered(sset, reference_points).all()
+    wide = [b for b in sset.boxes if max(b.x[1] - b.x[0], b.y[1] - b.y[0]) > fine + 1e-12]
+    assert wide and all(b.status == "unresolved" for b in wide)
+    assert len(sset.boxes) <= sset.stats.pending + sum(b.status == "singular" for b in sset.boxes)
+    for b in wide:
+        assert any(c.status == "unresolved" and (c.box_x, c.box_y) == (b.x, b.y) for c in sset.cusps)
+
+
 def test_json_schema(square_set):
     doc = square_set.as_dict()
     assert doc["schema"] == SINGULAR_SCHEMA == "spherekin.singular/1"

@@ -22,8 +22,12 @@ Each covered cell gets a status:
   and (q*, p) closes at every input p, so D(q*, p) = 0 at some p of the segment between them, inside the
   (convex) cell: a singular configuration there. This is where the other assemblies cross q*
   (transversally: no fold, no Krawczyk proof, see :func:`stationary_sign_changes`);
-* ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve, boxes
-  never processed because the box cap was reached).
+* ``unresolved``: no such proof (cusps, crossings of two branches, a slice tangent to the curve).
+
+Boxes never processed because the box cap was reached (pending) are not cut into cells: a pending box can
+span most of the plane (the whole plane at T = 1e-3 is ~4e7 cells, which took a capped run past its memory),
+so its plane projection, snapped outward to the grid, is one unresolved *region* (:func:`pending_regions`),
+and the cells inside a region are not listed unless proven singular (:func:`outside_regions`).
 
 A mechanism with stationary assemblies is covered twice (:func:`spherekin.problem.singular`): the plane
 system without the boxes U about them (:func:`spherekin.systems.blowup.outside`) and the blow-up patches of
@@ -40,6 +44,7 @@ reported by it (its other boxes are not claimed root-free).
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import itertools
 import math
@@ -169,18 +174,13 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
 
     ``system``: a compiled plane system (:class:`spherekin.systems.singular.PlatformPlane` or ``LoopPlane``:
     ``charts``, ``plane_columns``, ``unit`` and ``prove``); ``cover``: its
-    :class:`spherekin.search.boxloop.Cover`. Cells met only by pending boxes are ``unresolved``.
+    :class:`spherekin.search.boxloop.Cover`. The cells met by accepted boxes only: the pending boxes are
+    the caller's unresolved regions (:func:`pending_regions`).
     """
-    charts = system.charts
     cols = list(system.plane_columns)
     n_plane = len(cols)
     chart, alo, ahi = cover.accepted
     met = _cells_met(grid, alo[:, cols], ahi[:, cols]) if len(chart) else {}
-    pchart, plo, phi = cover.pending
-    pending_cells = set()
-    if len(pchart):
-        rlo, rhi = charts.angle_box(pchart, plo, phi)
-        pending_cells = set(_cells_met(grid, rlo[:, cols], rhi[:, cols]))
     ulo = system.unit(chart, alo) if len(chart) else alo
     uhi = system.unit(chart, ahi) if len(chart) else ahi
     proven = set()
@@ -202,10 +202,56 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
                              for s in range(0, len(ch), PROVE_BATCH)])
         cells = [tuple(int(v) for v in c) for c in cells]
         proven |= {cells[k] for k in np.flatnonzero(ok)}
-    proven |= stationary_sign_changes(system, grid, sorted((set(met) | pending_cells) - proven))
-    out = [CellStatus(i, j, SINGULAR if (i, j) in proven else UNRESOLVED)
-           for i, j in sorted(set(met) | pending_cells)]
+    proven |= stationary_sign_changes(system, grid, sorted(set(met) - proven))
+    out = [CellStatus(i, j, SINGULAR if (i, j) in proven else UNRESOLVED) for i, j in sorted(met)]
     return tuple(out)
+
+
+def pending_regions(system, grid: Grid, pending) -> tuple:
+    """The unresolved regions of the pending boxes ``pending`` = (chart (B,), unit lo, hi (B, N)) of
+    ``system``'s charts: each box's plane projection snapped outward to the grid, as cell index ranges
+    (i0, i1, j0, j1) (inclusive; j0 = j1 = 0 on a line), once each, sorted: at most one per pending box, so
+    as many as the box cap allows (not merged: a hull merge over rectangles of very different sizes is
+    quadratic in the k-d tree's pairs; measured, the agile eye capped at 3,000 boxes: 11 GB)."""
+    chart, lo, hi = pending
+    if not len(chart):
+        return ()
+    cols = list(system.plane_columns)
+    rlo, rhi = system.charts.angle_box(chart, lo, hi)
+    spans = [grid.span(a, rlo[:, cols[a]], rhi[:, cols[a]]) for a in range(len(cols))]
+    zero = np.zeros(len(chart), dtype=int)
+    i0, i1 = spans[0]
+    j0, j1 = spans[1] if len(spans) > 1 else (zero, zero)
+    return tuple(sorted({(int(a), int(b), int(c), int(d)) for a, b, c, d in zip(i0, i1, j0, j1)}))
+
+
+def outside_regions(cells, regions) -> list:
+    """The cells (an iterable of (i, j)) inside none of the index ranges ``regions`` ((i0, i1, j0, j1),
+    :func:`pending_regions`), in their order. Per row of the grid the regions' column ranges, merged and
+    searched by bisection, so the cost is the regions' rows, not the plane's cells."""
+    rows: dict = {}
+    for i0, i1, j0, j1 in regions:
+        for i in range(i0, i1 + 1):
+            rows.setdefault(i, []).append((j0, j1))
+    merged = {}
+    for i, spans in rows.items():
+        starts, ends = [], []
+        for a, b in sorted(spans):
+            if ends and a <= ends[-1] + 1:
+                ends[-1] = max(ends[-1], b)
+            else:
+                starts.append(a)
+                ends.append(b)
+        merged[i] = (starts, ends)
+
+    def inside(i, j):
+        if i not in merged:
+            return False
+        starts, ends = merged[i]
+        k = bisect.bisect_right(starts, j) - 1
+        return k >= 0 and j <= ends[k]
+
+    return [(i, j) for i, j in cells if not inside(i, j)]
 
 
 def stationary_sign_changes(system, grid: Grid, cells) -> set:
@@ -459,6 +505,17 @@ def rank_candidates(system, chart, lo, hi, grid: Grid) -> tuple[CuspStatus, ...]
         out.append(CuspStatus(float(centre[0]), float(centre[1]),
                               (float(alo[members, cols[0]].min()), float(ahi[members, cols[0]].max())),
                               (float(alo[members, cols[1]].min()), float(ahi[members, cols[1]].max())), UNRESOLVED))
+    return tuple(out)
+
+
+def region_candidates(grid: Grid, regions) -> tuple[CuspStatus, ...]:
+    """One ``unresolved`` cusp candidate per unresolved region ((i0, i1, j0, j1), :func:`pending_regions`) of
+    a plane: the boxes left pending at the cap were never searched for cusps, so the list says where one
+    may be (at the region's centre; its box: the region)."""
+    out = []
+    for i0, i1, j0, j1 in regions:
+        bx, by = (grid.edges(0, i0)[0], grid.edges(0, i1)[1]), (grid.edges(1, j0)[0], grid.edges(1, j1)[1])
+        out.append(CuspStatus(0.5 * (bx[0] + bx[1]), 0.5 * (by[0] + by[1]), bx, by, UNRESOLVED))
     return tuple(out)
 
 
