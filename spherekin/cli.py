@@ -475,6 +475,9 @@ def _singular(args) -> int:
     st = sset.stats
     print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
+    if st.crowded:
+        print(f"crowded: {st.crowded} boxes set aside where the cover crowds (e.g. a continuum of singular "
+              "configurations over one input): unresolved regions, not refined")
     if sset.free_box is not None:
         fb = sset.free_box
         sides = ", ".join(f"{k} [{lo * show:.6g}, {hi * show:.6g}]" for k, (lo, hi) in fb["inputs"].items())

@@ -833,8 +833,9 @@ def _plane_axis(mech, key: str, spec) -> tuple:
 class _PlaneRun:
     """What one cover of a plane system hands to :func:`singular`: ``cells`` ((i, j) -> CellStatus), the
     cusp candidates (trust.singular.CuspStatus), and the work: boxes processed (``used``), box-loop seconds,
-    boxes accepted and pending (pending > 0: the cap was reached), and the unresolved ``regions`` of the
-    pending boxes (grid index ranges, :func:`spherekin.trust.singular.pending_regions`)."""
+    boxes accepted and pending (pending > 0: the cap was reached), the boxes set aside in crowded cells
+    (``crowded``, :data:`spherekin.trust.singular.CROWDED_CELL`), and the unresolved ``regions`` of the
+    pending and crowded boxes (grid index ranges, :func:`spherekin.trust.singular.pending_regions`)."""
 
     cells: dict
     cusps: tuple
@@ -843,6 +844,7 @@ class _PlaneRun:
     accepted: int
     pending: int
     regions: tuple = ()
+    crowded: int = 0
 
 
 def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _PlaneRun:
@@ -937,8 +939,12 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
                 cells[k] = CellStatus(k[0], k[1], SINGULAR)
             elif k not in cells:
                 cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
-    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]),
-                     pending_regions(system, grid, pending))
+    crowded = traced.crowded if traced is not None and traced.crowded else None
+    regions = pending_regions(system, grid, pending)
+    if crowded is not None:
+        regions = tuple(sorted(set(regions) | set(pending_regions(system, grid, crowded))))
+    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions,
+                     0 if crowded is None else len(crowded[0]))
 
 
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
@@ -1029,7 +1035,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
                                None if ay is None else (grid.edges(1, j0)[0], grid.edges(1, j1)[1]), "unresolved")
                    for i0, i1, j0, j1 in regions)
     # t_cover: the box loops; the rest: set-up, projection and certificates
-    stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0)
+    stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0,
+                          sum(r.crowded for r in runs))
     if ay is None:
         search = CuspSearch.NOT_APPLICABLE
     elif on_platform:

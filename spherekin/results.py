@@ -646,7 +646,8 @@ class ModeChange:
 class SingularStats:
     """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
     the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
-    the rest (compiling the system, projecting, the certificates), ``seconds`` the total."""
+    the rest (compiling the system, projecting, the certificates), ``seconds`` the total; ``crowded``: boxes
+    set aside in crowded cells (unresolved regions; :data:`spherekin.trust.singular.CROWDED_CELL`)."""
 
     boxes_processed: int
     accepted: int
@@ -654,6 +655,7 @@ class SingularStats:
     seconds_cover: float
     seconds_certify: float
     seconds: float
+    crowded: int = 0
 
 
 @dataclass(frozen=True)

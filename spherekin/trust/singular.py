@@ -595,6 +595,15 @@ PROOF_SLACK = 1e-12
 PROOF_NUDGE = 1e-4
 #: Boxes per batch of trace tests (memory: ~8 kB of control points per box).
 TRACE_BATCH = 4096
+#: A cell met by more untraced boxes of one level than this is crowded: those boxes are set aside (an
+#: unresolved region, :func:`pending_regions`), not searched at the next, finer level. Reason: above a
+#: continuum of singular configurations over one input (the agile eye's self-motion inputs, beta =
+#: (+-pi/2, 0), (+-pi/2, +-pi) at beta3 = 0.5) the boxes multiply ~4x per level without end: measured
+#: at T = 1e-3, the most crowded cell held 729, 2,693, 9,782 boxes at the levels 0.05, 0.0125, 0.003, and
+#: the whole-plane cover ran past 10^7 boxes (12 GB); general_3rrr's most crowded cell at the same levels
+#: (and 0.0008) held 29, 39, 61, 151 (cusps and crossings included). Never at the last level (the cell's
+#: width): its boxes go to the certificates.
+CROWDED_CELL = 1000
 
 
 @dataclass(frozen=True)
@@ -603,7 +612,8 @@ class TracedCover:
     boxes not traced (accepted at the cell's width: certified by :func:`certify_cover`) and every pending
     box of every level; ``met``: the cells (i, j) the traced boxes' pieces meet; ``proven``: those of them
     holding a proven singular point (a subset of ``met``); ``traced``: how many boxes were traced;
-    ``boxes_processed``, ``seconds``: the searches' work."""
+    ``boxes_processed``, ``seconds``: the searches' work; ``crowded``: the boxes set aside in crowded
+    cells (chart (C,), unit lo, hi (C, N); :data:`CROWDED_CELL`), not searched further."""
 
     cover: object
     met: frozenset
@@ -611,6 +621,7 @@ class TracedCover:
     traced: int
     boxes_processed: int
     seconds: float
+    crowded: tuple = ()
 
 
 def trace_levels(tol: float, cover_fraction: float) -> tuple:
@@ -655,6 +666,8 @@ def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, m
     traced = used = 0
     seconds = 0.0
     pend = [np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n))]
+    crowd = [np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n))]
+    cols = list(system.plane_columns)
     start = None
     levels = trace_levels(tol, cover_fraction)
     rest = (np.zeros(0, dtype=int), np.zeros((0, n)), np.zeros((0, n)))
@@ -674,11 +687,25 @@ def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, m
         if k == len(levels) - 1 or len(cover.pending[0]):
             rest = (chart[~ok], alo[~ok], ahi[~ok])      # the cell's width, or a capped search: the old path
             break
-        start = (chart[~ok], ulo[~ok], uhi[~ok])
+        aside = np.zeros(len(chart), dtype=bool)
+        aside[~ok] = _in_crowded_cells(grid, alo[~ok][:, cols], ahi[~ok][:, cols])
+        crowd = [np.concatenate([a, b[aside]]) for a, b in zip(crowd, (chart, ulo, uhi))]
+        keep = ~ok & ~aside
+        start = (chart[keep], ulo[keep], uhi[keep])
         if not len(start[0]):
             break
     rest_cover = dataclasses.replace(cover, accepted=rest, pending=tuple(pend), boxes_processed=used, seconds=seconds)
-    return TracedCover(rest_cover, frozenset(met), frozenset(proven), traced, used, seconds)
+    return TracedCover(rest_cover, frozenset(met), frozenset(proven), traced, used, seconds, tuple(crowd))
+
+
+def _in_crowded_cells(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(B,) bool: the rectangles [lo, hi] (B, n_plane; radians) meeting a cell that more than CROWDED_CELL of
+    them meet."""
+    out = np.zeros(len(lo), dtype=bool)
+    for members in _cells_met(grid, lo, hi).values():
+        if len(members) > CROWDED_CELL:
+            out[members] = True
+    return out
 
 
 def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
