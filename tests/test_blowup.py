@@ -150,3 +150,39 @@ def test_the_stationary_plane_refuses_the_tangency_system(eye_plane):
     assert len(blown.patches) == 3 * len(eye_plane.stationary)
     with pytest.raises(ValueError, match="blow-up"):
         blown.cusp_charts(((1.0, 0.0, 0.0),))
+
+
+#: A square around the self-motion input (pi/2, 0) (a continuum of singular assemblies over that one input).
+SELF_MOTION = (math.pi / 2, 0.0)
+SELF_SQUARE = ((1.45, 1.7), (-0.125, 0.125))
+
+
+@pytest.fixture(scope="module")
+def self_motion_set():
+    (x0, x1), (y0, y1) = SELF_SQUARE
+    return spherekin.singular(EYE, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": BETA3}, tol=0.01)
+
+
+def test_a_self_motion_input_is_an_unresolved_region_and_the_curve_is_still_covered(self_motion_set):
+    """Around (pi/2, 0) the cover crowds (trust.singular.CROWDED_CELL): its boxes are set aside as unresolved
+    regions wider than a cell, all close to the self-motion input, each a cusp candidate; the run completes,
+    every closed-form point of T = 0 in the square is in a box, and every `singular` cell holds a sign change
+    of T (~13 s)."""
+    s = self_motion_set
+    assert s.complete and s.stats.crowded > 0
+    pts = agile_curve_points(SELF_SQUARE, BETA3, 2000)
+    lo = np.array([[b.x[0], b.y[0]] for b in s.boxes])
+    hi = np.array([[b.x[1], b.y[1]] for b in s.boxes])
+    inside = ((pts[:, None] >= lo[None] - 1e-9) & (pts[:, None] <= hi[None] + 1e-9)).all(axis=2).any(axis=1)
+    assert len(pts) > 1000 and inside.all()
+    wide = [b for b in s.boxes if max(b.x[1] - b.x[0], b.y[1] - b.y[0]) > 0.01 + 1e-12]
+    assert wide
+    for b in wide:
+        assert b.status == "unresolved"
+        assert math.hypot(0.5 * sum(b.x) - SELF_MOTION[0], 0.5 * sum(b.y) - SELF_MOTION[1]) < 0.05, b
+        assert any((c.box_x, c.box_y) == (b.x, b.y) for c in s.cusps)
+    for b in s.boxes:
+        if b.status == "singular":
+            g1, g2 = np.meshgrid(np.linspace(*b.x, 41), np.linspace(*b.y, 41))
+            v = _t(g1, g2)
+            assert v.min() < 0.0 < v.max(), b

@@ -27,7 +27,9 @@ Each covered cell gets a status:
 Boxes never processed because the box cap was reached (pending) are not cut into cells: a pending box can
 span most of the plane (the whole plane at T = 1e-3 is ~4e7 cells, which took a capped run past its memory),
 so its plane projection, snapped outward to the grid, is one unresolved *region* (:func:`pending_regions`),
-and the cells inside a region are not listed unless proven singular (:func:`outside_regions`).
+and the cells inside a region are not listed unless proven singular (:func:`outside_regions`). So are the
+boxes :func:`trace_cover` sets aside in *crowded* cells (CROWDED_CELL): above a continuum of singular
+configurations over one input (a self-motion input) the cover would multiply without end.
 
 A mechanism with stationary assemblies is covered twice (:func:`spherekin.problem.singular`): the plane
 system without the boxes U about them (:func:`spherekin.systems.blowup.outside`) and the blow-up patches of
@@ -653,7 +655,9 @@ def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, m
     other input y(p) at that p; by continuity of the graph, every y between the two ends' enclosures is
     reached at a p of the piece, so every cell meeting that gap (or holding an end's enclosure) holds a
     singular point. Boxes that fail go to the next level; at the cell's width they stay in the returned
-    cover (the old certificate). No box is dropped: a pending box of any level stays pending.
+    cover (the old certificate). No box is dropped: a pending box of any level stays pending, and a box of
+    a level before the last in a crowded cell (:data:`CROWDED_CELL`) is set aside (``crowded``: the caller's
+    unresolved regions).
 
     Also why the traced boxes hold no cusp: every J_V over the box is regular, so the branch's tangent
     has a nonzero component along p (J_V dv = -J_p dp, dp = 0 gives dv = 0): its projection to the
