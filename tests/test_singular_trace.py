@@ -246,3 +246,46 @@ def test_trace_levels():
     levels = ts.trace_levels(1e-3, 0.5)
     assert levels[0] == ts.TRACE_START and levels[-1] == 5e-4
     assert all(a > b for a, b in zip(levels, levels[1:]))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_crowded_cells_are_those_a_count_over_every_cell_finds(seed, monkeypatch):
+    """trust.singular._in_crowded_cells (a coarse grid first, to skip counting the fine cells when no cell can
+    be crowded) against counting every cell of the grid: the same rectangles flagged, for clusters of
+    rectangles dense enough or not, wide or narrow beside the cells (the threshold made 12 for the test)."""
+    import spherekin.trust.singular as ts
+
+    monkeypatch.setattr(ts, "CROWDED_CELL", 12)
+    rng = np.random.default_rng(seed)
+    grid = ts.Grid.over([("x", -1.0, 1.0), ("y", -1.0, 1.0)], 0.05)
+    width = (0.02, 0.1, 0.3)[seed % 3]
+    lo = np.concatenate([rng.uniform(-1, 1 - width, (20, 2)),
+                         rng.uniform(0.2, 0.2 + 0.1 * seed, (rng.integers(5, 30), 2))])
+    hi = lo + width
+    counts = {}
+    for b in range(len(lo)):
+        for i in range(int(grid.span(0, lo[b, 0], hi[b, 0])[0]), int(grid.span(0, lo[b, 0], hi[b, 0])[1]) + 1):
+            for j in range(int(grid.span(1, lo[b, 1], hi[b, 1])[0]), int(grid.span(1, lo[b, 1], hi[b, 1])[1]) + 1):
+                counts.setdefault((i, j), []).append(b)
+    want = np.zeros(len(lo), dtype=bool)
+    for members in counts.values():
+        if len(members) > 12:
+            want[members] = True
+    assert np.array_equal(ts._in_crowded_cells(grid, lo, hi), want)
+
+
+def test_a_crowd_split_over_four_coarse_cells_is_still_found(monkeypatch):
+    """16 small rectangles around a corner of the coarse grid, 4 in each coarse cell, all in one cell of the
+    grid (its edges are not the coarse grid's): that cell is crowded (threshold 12) though no coarse cell is
+    met by more than 4 (plus one wide rectangle far away, which sets the coarse width)."""
+    import spherekin.trust.singular as ts
+
+    monkeypatch.setattr(ts, "CROWDED_CELL", 12)
+    grid = ts.Grid.over([("x", -1.0, 1.03), ("y", -1.0, 1.03)], 0.05)
+    coarse_w = (1.03 + 1.0) / math.ceil((1.03 + 1.0) / 0.4)
+    p = np.array([-1.0 + 2 * coarse_w, -1.0 + 3 * coarse_w])          # a corner of the coarse cells
+    offsets = [(sx * d, sy * d) for sx in (-1, 1) for sy in (-1, 1) for d in (1e-3, 2e-3, 3e-3, 4e-3)]
+    lo = np.array([p + o for o in offsets] + [[0.55, -0.95]])
+    hi = lo + np.array([[1e-4, 1e-4]] * 16 + [[0.4, 0.4]])
+    got = ts._in_crowded_cells(grid, lo, hi)
+    assert got[:16].all() and not got[16]
