@@ -939,12 +939,9 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
                 cells[k] = CellStatus(k[0], k[1], SINGULAR)
             elif k not in cells:
                 cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
-    crowded = traced.crowded if traced is not None and traced.crowded else None
-    regions = pending_regions(system, grid, pending)
-    if crowded is not None:
-        regions = tuple(sorted(set(regions) | set(pending_regions(system, grid, crowded))))
-    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions,
-                     0 if crowded is None else len(crowded[0]))
+    aside = traced.crowded if traced is not None else tuple(a[:0] for a in pending)     # crowded cells' boxes
+    regions = pending_regions(system, grid, tuple(np.concatenate(ab) for ab in zip(pending, aside)))
+    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions, len(aside[0]))
 
 
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
