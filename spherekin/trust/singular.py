@@ -712,7 +712,7 @@ def _in_crowded_cells(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     if len(lo) <= CROWDED_CELL:
         return out
     n_plane = lo.shape[1]
-    width = float(np.max(hi - lo))
+    width = max(float(np.max(hi - lo)), *(grid.width(a) for a in range(n_plane)))     # > 0: a cell at least
     n = tuple(max(1, min(grid.n[a], math.ceil((grid.hi[a] - grid.lo[a]) / width))) if a < n_plane else 1
               for a in range(len(grid.n)))
     if any(n[a] < grid.n[a] for a in range(n_plane)):
