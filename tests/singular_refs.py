@@ -772,3 +772,157 @@ def agile_curve_points(square, b3: float, n: int = 400) -> np.ndarray:
     b2 = np.arctan2(-np.cos(b1) * math.cos(b3), np.sin(b1) * math.sin(b3))
     pts = np.array([(a, c + k * math.pi) for a, c in zip(b1, b2) for k in (-2, -1, 0, 1, 2)])
     return pts[(pts[:, 1] >= y0) & (pts[:, 1] <= y1)]
+
+
+# ---------------------------------------------------------------- 6. six-bars with a ternary ground and plate (issue 40)
+#
+# Three chains join the ground to the plate: C1 = J1 (ground-link1), J2 (link1-plate); C2 = J3 (ground-link2),
+# J4 (link2-plate); C3 = J5 (ground-crank), J6 (crank-conn), J7 (conn-plate). A link's rotation is the product of
+# Rot(axis, reading) along its chain from the ground (the file's convention), so a joint [a, b]'s current axis
+# is R_a axis = R_b axis, and a binary link keeps the arc between its two joints' current axes.
+#
+# With the input on C3 the plate turns as Rot(a1, th1) Rot(a2, th2) (C1 free) and each of C2 and C3 is one
+# equation u . R v = k in (th1, th2): :func:`dyad_pair_eliminant` gives a degree-8 polynomial in tan(th1 / 2)
+# whose real roots are the assemblies. With the input on C1 (or C2) that chain and the other 2R chain are a
+# four-bar (A + B cos th + C sin th = 0: 0 or 2 solutions) and C3's crank-conn dyad reaches the plate's J7
+# where two circles meet (0 or 2): the count is the sum.
+
+#: The issue's six-bar: joint -> (polar, azimuth) in degrees, and its links; J5 is the input of the report.
+ISSUE40_AXES_DEG = {"J1": (20, 0), "J2": (55, 30), "J3": (35, 140), "J4": (70, 110), "J5": (40, 260),
+                    "J6": (75, 230), "J7": (85, 170)}
+TERNARY_SIX_BAR_LINKS = {"J1": ("ground", "link1"), "J2": ("link1", "plate"), "J3": ("ground", "link2"),
+                         "J4": ("link2", "plate"), "J5": ("ground", "crank"), "J6": ("crank", "conn"),
+                         "J7": ("conn", "plate")}
+
+
+def polar_axes(degrees: dict) -> dict[str, np.ndarray]:
+    """name -> unit axis from (polar, azimuth) in degrees."""
+    out = {}
+    for name, (p, a) in degrees.items():
+        p, a = math.radians(p), math.radians(a)
+        out[name] = np.array([math.sin(p) * math.cos(a), math.sin(p) * math.sin(a), math.cos(p)])
+    return out
+
+
+def ternary_six_bar_toml(ax: dict, actuated: str, name: str = "six-bar") -> str:
+    """A kind "graph" file of the six-bar of this section with axes ``ax`` (name -> (3,)) and ``actuated`` driven."""
+    text = f'kind = "graph"\nname = "{name}"\nground = "ground"\noutput = "plate"\n'
+    for joint, (a, b) in TERNARY_SIX_BAR_LINKS.items():
+        v = ", ".join(repr(float(x)) for x in ax[joint])
+        text += f'\n[[joints]]\nname = "{joint}"\nlinks = ["{a}", "{b}"]\naxis = [{v}]\n'
+        text += "actuated = true\n" if joint == actuated else ""
+    return text
+
+
+def dyad_pair_eliminant(f, g, constraints, phi0: float) -> np.ndarray:
+    """Coefficients (highest first, numpy.roots order) of h(t), t = tan((phi - phi0) / 2), whose real roots
+    are the phi of the solutions (phi, psi) of u_i . Rot(f, phi) Rot(g, psi) v_i = k_i, i = 1, 2
+    (``constraints`` = ((u1, v1, k1), (u2, v2, k2))). Each equation is a_i + b_i cos psi + c_i sin psi = 0 with
+    a_i, b_i, c_i of degree 2 in t once multiplied by 1 + t^2; eliminating psi (Cramer, cos^2 + sin^2 = 1):
+    h = (a2 c1 - a1 c2)^2 + (a1 b2 - a2 b1)^2 - (b1 c2 - b2 c1)^2, degree 8."""
+    f, g = np.asarray(f, float), np.asarray(g, float)
+
+    def circle(axis, v):                 # Rot(axis, x) v = v0 + cos x v1 + sin x v2
+        v0 = (axis @ v) * axis
+        return v0, v - v0, np.cross(axis, v)
+
+    def poly(w0, w1, w2):                # (1 + t^2) (w0 + cos phi w1 + sin phi w2), phi = phi0 + 2 atan t
+        c, s = math.cos(phi0), math.sin(phi0)
+        p1 = c * w1 + s * w2             # times cos u; (1 + t^2) cos u = 1 - t^2, (1 + t^2) sin u = 2t
+        p2 = -s * w1 + c * w2            # times sin u
+        return [w0 + p1, 2 * p2, w0 - p1]   # coefficients of 1, t, t^2
+
+    out = []
+    for u_, v_, k in constraints:
+        # u . Rot(f, phi) Rot(g, psi) v - k = (Rot(f, -phi) u) . (v0 + cos psi v1 + sin psi v2) - k
+        parts = circle(g, np.asarray(v_, float))
+        w0, w1, w2 = circle(f, np.asarray(u_, float))   # Rot(f, -phi) u = w0 + cos phi w1 - sin phi w2
+        wp = poly(w0, w1, -w2)
+        coef = []
+        for j, pj in enumerate(parts):
+            cj = [float(wk @ pj) for wk in wp]
+            if j == 0:
+                cj = [cj[0] - k, cj[1], cj[2] - k]      # - k (1 + t^2)
+            coef.append(np.polynomial.Polynomial(cj))
+        out.append(coef)
+    (a1, b1, c1), (a2, b2, c2) = out
+    h = (a2 * c1 - a1 * c2) ** 2 + (a1 * b2 - a2 * b1) ** 2 - (b1 * c2 - b2 * c1) ** 2
+    return h.coef[::-1]
+
+
+#: A root of an eliminant (companion eigenvalue) is real when its imaginary part is below this (relative to
+#: 1 + |t|): near a merging pair the parts grow like sqrt(distance to the fold), so a count is wrong only
+#: within ~1e-14 rad of a fold; rounding of well separated roots stays ~1e-12.
+REAL_ROOT_TOL = 1e-7
+
+
+def real_root_count(coefficients) -> int:
+    """Real roots of a polynomial (highest first), by REAL_ROOT_TOL."""
+    roots = np.roots(coefficients)
+    return int(np.sum(np.abs(roots.imag) < REAL_ROOT_TOL * (1.0 + np.abs(roots))))
+
+
+def _cos_sin_roots(a: float, b: float, c: float) -> list[float]:
+    """The th in (-pi, pi] with a + b cos th + c sin th = 0 (0 or 2; a tangency counts as none or two by
+    rounding, which the bisection of count changes steps over)."""
+    r = math.hypot(b, c)
+    if abs(a) > r:
+        return []
+    h = math.acos(-a / r)
+    return [math.atan2(c, b) + h, math.atan2(c, b) - h]
+
+
+def ternary_six_bar_count(ax: dict, joint: str, x: float, phi0: float = 0.3) -> int:
+    """Assemblies of the six-bar of this section (axes ``ax``) with ``joint`` driven at reading ``x`` (radians)."""
+    a = {n: np.asarray(v, float) for n, v in ax.items()}
+    if joint in ("J5", "J6", "J7"):
+        c2 = (a["J3"], a["J4"], float(a["J3"] @ a["J4"]))
+        if joint == "J5":                # conn keeps arc(J6, J7): J6 at Rot(a5, x) a6
+            c3 = (rodrigues(a["J5"], x) @ a["J6"], a["J7"], float(a["J6"] @ a["J7"]))
+        elif joint == "J6":              # crank + conn one body: arc(J5, J7 in it) fixed by x
+            c3 = (a["J5"], a["J7"], float(a["J5"] @ rodrigues(a["J6"], x) @ a["J7"]))
+        else:                            # conn + plate one body: J6's axis in the plate's frame is Rot(a7, -x) a6
+            c3 = (a["J5"], rodrigues(a["J7"], -x) @ a["J6"], float(a["J5"] @ a["J6"]))
+        return real_root_count(dyad_pair_eliminant(a["J1"], a["J2"], (c2, c3), phi0))
+    # the input on C1 or C2: that chain (p, q) and the other 2R chain (u, v) form a four-bar
+    (p, q), (u, v) = (("J1", "J2"), ("J3", "J4")) if joint in ("J1", "J2") else (("J3", "J4"), ("J1", "J2"))
+    k = float(a[u] @ a[v])
+    rotations = []
+    if joint in ("J1", "J3"):            # R = Rot(a_p, x) Rot(a_q, th): u . R v = k in th
+        w = rodrigues(a[p], -x) @ a[u]
+        v0 = (a[q] @ a[v]) * a[q]
+        for th in _cos_sin_roots(float(w @ v0) - k, float(w @ (a[v] - v0)), float(w @ np.cross(a[q], a[v]))):
+            rotations.append(rodrigues(a[p], x) @ rodrigues(a[q], th))
+    else:                                # R = Rot(a_p, th) Rot(a_q, x): u . Rot(a_p, th) v' = k, v' = Rot(a_q, x) v
+        vv = rodrigues(a[q], x) @ a[v]
+        v0 = (a[p] @ vv) * a[p]
+        # u . Rot(a_p, th) vv = u . (v0 + cos th (vv - v0) + sin th (a_p x vv))
+        for th in _cos_sin_roots(float(a[u] @ v0) - k, float(a[u] @ (vv - v0)), float(a[u] @ np.cross(a[p], vv))):
+            rotations.append(rodrigues(a[p], th) @ rodrigues(a[q], x))
+    n = 0
+    for rot in rotations:                # the crank-conn dyad reaches the plate's J7: J6 on two circles
+        n += 0 if _circle_intersections(a["J5"], arc(a["J5"], a["J6"]), rot @ a["J7"],
+                                        arc(a["J6"], a["J7"])) is None else 2
+    return n
+
+
+#: Bisection of a count change stops at this width (radians of input).
+CHANGE_BISECT_TOL = 1e-12
+
+
+def count_changes(count, lo: float, hi: float, n: int, tol: float = CHANGE_BISECT_TOL) -> np.ndarray:
+    """The inputs in [lo, hi] where ``count`` (input -> int) changes: n samples, each change bisected to ``tol``."""
+    xs = np.linspace(lo, hi, n)
+    ks = [count(x) for x in xs]
+    out = []
+    for x0, x1, k0, k1 in zip(xs[:-1], xs[1:], ks[:-1], ks[1:]):
+        if k0 == k1:
+            continue
+        while x1 - x0 > tol:
+            m = 0.5 * (x0 + x1)
+            if count(m) == k0:
+                x0 = m
+            else:
+                x1 = m
+        out.append(0.5 * (x0 + x1))
+    return np.array(out)

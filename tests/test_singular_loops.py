@@ -13,7 +13,12 @@ references written here, independent of the Bernstein code and of K_p:
   h(t) = (a2 c1 - a1 c2)^2 + (a1 b2 - a2 b1)^2 - (b1 c2 - b2 c1)^2 in t = tan((phi - phi0) / 2) (each of a, b,
   c times 1 + t^2): its real roots are the assemblies.
 
-Along the input line both counts are sampled densely and each change located by bisection (to BISECT_TOL):
+* A six-bar whose ground and plate are both ternary (issue 40: the two loops must be solved together): with the
+  input on the three-link chain the eliminant of two dyad constraints, with it on a two-link chain a four-bar
+  and a dyad's circle intersections (:func:`singular_refs.ternary_six_bar_count`).
+
+Along the input line the counts are sampled densely and each change located by bisection (to
+singular_refs.CHANGE_BISECT_TOL):
 the reference singular inputs. Invariants (as tests/test_singular.py): every reference input lies in a box
 of the cover, every box lies within its width of one.
 """
@@ -28,14 +33,9 @@ import pytest
 
 import spherekin
 from spherekin.systems.singular import MAX_DET_COEFFS, SingularPlane, det_plan, LoopPlane
-from singular_refs import EXAMPLES, _circle_intersections, arc, rodrigues
+from singular_refs import (EXAMPLES, ISSUE40_AXES_DEG, _circle_intersections, arc, count_changes, dyad_pair_eliminant,
+                           polar_axes, real_root_count, rodrigues, ternary_six_bar_count, ternary_six_bar_toml)
 
-#: Bisection of a count change stops at this width (radians of input): far below the cells' width.
-BISECT_TOL = 1e-10
-#: A root of h (companion eigenvalue) is real when its imaginary part is below this (relative to 1 + |t|):
-#: near a merging pair the parts grow like sqrt(distance to the fold), so the count is wrong only within
-#: ~1e-14 rad of it; rounding of well separated roots stays ~1e-12.
-REAL_TOL = 1e-7
 #: Closed boxes: a reference point on a box edge counts as inside within this.
 EDGE = 1e-9
 
@@ -70,64 +70,17 @@ def watt_count(ax, a: float) -> int:
 
 
 def stephenson_h(ax, a: float, phi0: float) -> np.ndarray:
-    """Coefficients (highest first, numpy.roots order) of h(t), t = tan((phi - phi0) / 2), at input A = a."""
+    """Coefficients (highest first, numpy.roots order) of h(t), t = tan((phi - phi0) / 2), at input A = a: ternary2 =
+    Rot(F, phi) Rot(G, psi), and the links B-C, D-E keep their arcs (:func:`singular_refs.dyad_pair_eliminant`)."""
     r1 = rodrigues(ax["A"], a)
-    f, g = ax["F"], ax["G"]
-
-    def circle(axis, v):                 # Rot(axis, x) v = v0 + cos x v1 + sin x v2
-        v0 = (axis @ v) * axis
-        return v0, v - v0, np.cross(axis, v)
-
-    def poly(w0, w1, w2):                # (1 + t^2) (w0 + cos phi w1 + sin phi w2), phi = phi0 + 2 atan t: coefficients
-        c, s = math.cos(phi0), math.sin(phi0)
-        # cos phi = c cos u - s sin u, sin phi = s cos u + c sin u; (1 + t^2) cos u = 1 - t^2, (1 + t^2) sin u = 2t
-        p1 = c * w1 + s * w2             # times cos u
-        p2 = -s * w1 + c * w2            # times sin u
-        return [w0 + p1, 2 * p2, w0 - p1]   # coefficients of 1, t, t^2
-
-    out = []
-    for near, far in (("B", "C"), ("D", "E")):
-        target = r1 @ ax[near]           # the moving joint on ternary1
-        k = float(ax[near] @ ax[far])
-        # r = target . Rot(f, phi) Rot(g, psi) far0 - k = (Rot(f, -phi) target) . (u0 + cos psi u1 + sin psi u2) - k
-        u = circle(g, ax[far])
-        v0, v1, v2 = circle(f, target)   # Rot(f, -phi) target = v0 + cos phi v1 - sin phi v2
-        vp = poly(v0, v1, -v2)
-        coef = []
-        for j, uj in enumerate(u):
-            cj = [float(vk @ uj) for vk in vp]
-            if j == 0:
-                cj = [cj[0] - k, cj[1], cj[2] - k]      # - k (1 + t^2)
-            coef.append(np.polynomial.Polynomial(cj))
-        out.append(coef)
-    (a1, b1, c1), (a2, b2, c2) = out
-    h = (a2 * c1 - a1 * c2) ** 2 + (a1 * b2 - a2 * b1) ** 2 - (b1 * c2 - b2 * c1) ** 2
-    return h.coef[::-1]
+    return dyad_pair_eliminant(ax["F"], ax["G"], [(r1 @ ax[near], ax[far], float(ax[near] @ ax[far]))
+                                                  for near, far in (("B", "C"), ("D", "E"))], phi0)
 
 
 def stephenson_count(ax, a: float, phi0: float = 0.3) -> int:
     """Assemblies of the Stephenson six-bar at input A = a: the real roots of h (module doc); phi0 puts
     phi = phi0 + pi (t infinite) away from the roots."""
-    roots = np.roots(stephenson_h(ax, a, phi0))
-    return int(np.sum(np.abs(roots.imag) < REAL_TOL * (1.0 + np.abs(roots))))
-
-
-def count_changes(count, lo: float, hi: float, n: int) -> np.ndarray:
-    """The inputs in [lo, hi] where ``count`` (input -> int) changes: n samples, each change bisected."""
-    xs = np.linspace(lo, hi, n)
-    ks = [count(x) for x in xs]
-    out = []
-    for x0, x1, k0, k1 in zip(xs[:-1], xs[1:], ks[:-1], ks[1:]):
-        if k0 == k1:
-            continue
-        while x1 - x0 > BISECT_TOL:
-            m = 0.5 * (x0 + x1)
-            if count(m) == k0:
-                x0 = m
-            else:
-                x1 = m
-        out.append(0.5 * (x0 + x1))
-    return np.array(out)
+    return real_root_count(stephenson_h(ax, a, phi0))
 
 
 def _check_cover(sset, ref, width_lo: float, width_hi: float) -> None:
@@ -166,21 +119,63 @@ def test_stephenson_six_bar_singular_inputs():
     assert sum(b.status == "singular" for b in sset.boxes) >= 3
 
 
-@pytest.mark.parametrize("name", ["watt_six_bar", "stephenson_six_bar"])
-def test_determinant_is_det_kp_at_assemblies(name):
+def _ternary_six_bar(tmp_path, joint: str):
+    """The issue-40 six-bar (ternary ground and plate) with ``joint`` driven: (axes, mechanism file)."""
+    ax = polar_axes(ISSUE40_AXES_DEG)
+    path = tmp_path / f"six_bar_{joint}.toml"
+    path.write_text(ternary_six_bar_toml(ax, joint, f"ternary six-bar driven at {joint}"))
+    return ax, path
+
+
+@pytest.mark.parametrize("joint", ["J1", "J2", "J3", "J4", "J5", "J6", "J7"])
+def test_ternary_six_bar_singular_inputs_with_the_input_on_each_joint(tmp_path, joint):
+    """The six-bar of issue 40 (ground J1, J3, J5 and plate J2, J4, J7 ternary) over a full turn of each joint
+    driven in turn: the cover, complete, holds every input where the reference count changes, and every
+    ``singular`` box holds one (both failed with J5, J6, J7 driven before det K_p's Laplace terms carried the
+    same factors: cells at -2.00, -1.63, -0.93, 2.37 for J5, the truth -2.0258, -1.6958, -0.8542, 2.4070)."""
+    ax, path = _ternary_six_bar(tmp_path, joint)
+    ref = count_changes(lambda x: ternary_six_bar_count(ax, joint, x), -math.pi, math.pi, 800)
+    assert len(ref) >= 2
+    sset = spherekin.singular(path, x=(joint, -math.pi, math.pi), tol=0.05)
+    assert sset.complete and sset.system == "loops"
+    for r in ref:
+        assert any(b.x[0] - EDGE <= r <= b.x[1] + EDGE for b in sset.boxes), r
+    for b in sset.boxes:
+        if b.status == "singular":
+            assert np.any((ref >= b.x[0] - EDGE) & (ref <= b.x[1] + EDGE)), b
+
+
+def test_ternary_six_bar_reference_counts_agree_with_the_report():
+    """The issue's numbers: driven at J5 the reference's count changes are -2.025789, -1.695815, -0.854246,
+    2.406960 (as `map --joint J1` found), and `solve` proves 2 assemblies at 2.40, 0 at 2.41, 0 at -2.03, 2 at
+    -2.02: the reference is the issue's, not a copy of the code."""
+    ax = polar_axes(ISSUE40_AXES_DEG)
+    ref = count_changes(lambda x: ternary_six_bar_count(ax, "J5", x), -math.pi, math.pi, 800)
+    assert np.allclose(ref, [-2.025789, -1.695815, -0.854246, 2.406960], atol=1e-6)
+    assert [ternary_six_bar_count(ax, "J5", x) for x in (2.40, 2.41, -2.03, -2.02)] == [2, 0, 0, 2]
+
+
+@pytest.mark.parametrize("name", ["watt_six_bar", "stephenson_six_bar", "ternary_J5"])
+def test_determinant_is_det_kp_at_assemblies(name, tmp_path):
     """D (Bernstein form, loop frames) at each solved assembly equals det K_p of the mechanism's Jacobians
     there (the code's other route, columns in the ground frame) times prod (1 + t_v^2)^(deg_v / 2): every
-    Laplace term carries the same factors; signs included."""
+    Laplace term carries the same factors (the issue-40 six-bar's two terms cross different joints: without the
+    lifts D is not a multiple of det K_p); signs included."""
     from spherekin.core import bernstein
 
-    m = spherekin.load_mechanism(EXAMPLES / f"{name}.toml")
-    lp = LoopPlane(m, SingularPlane(("A", -1.5, 1.5), None, {}))
+    if name == "ternary_J5":
+        _, path = _ternary_six_bar(tmp_path, "J5")
+        m, driven, at = spherekin.load_mechanism(path), "J5", (-1.5, -1.2)
+    else:
+        m, driven, at = spherekin.load_mechanism(EXAMPLES / f"{name}.toml"), "A", (-1.1,)
+    lp = LoopPlane(m, SingularPlane((driven, -1.9, 1.5), None, {}))
+    assert name != "ternary_J5" or len(set(lp.plan.lifts)) == 2
     cs = lp.charts
     cols = [m.passive.index(n) for n in m.loop_unknowns]
     checked = 0
-    for a in (-1.1,):                     # 4 assemblies of each six-bar
+    for a in at:                          # 4 assemblies of each six-bar
         for s in spherekin.solve(m, (a,)).solutions:
-            angles = {**dict(zip(m.loop_unknowns, s.angles)), "A": a}
+            angles = {**dict(zip(m.loop_unknowns, s.angles)), driven: a}
             v = np.array([[angles[n] for n in cs.variables]])
             chart = next(c for c in range(cs.n_charts) if np.all(np.abs(lp.unit(np.array([c]), v) - 0.5) <= 0.5))
             u = lp.unit(np.array([chart]), v)[0]

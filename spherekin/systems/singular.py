@@ -149,6 +149,17 @@ def _weights(s0: float, t_lo, t_hi) -> np.ndarray:
     return bernstein.from_power(power, nvars=1)
 
 
+def _one_plus_t2(charts, c, v: int, n: int) -> np.ndarray:
+    """(1 + t_v^2) (B, 1, .., 3, .., 1) in Bernstein form over the unit variable v of the charts ``c`` (index
+    array (B,)) of ``charts``, t_v = lo + (hi - lo) x: (1 + lo^2) + 2 lo w x + w^2 x^2 (n variables)."""
+    lo = np.asarray(charts.map_lo[c, v], dtype=float).reshape(-1)
+    w = np.asarray(charts.map_hi[c, v], dtype=float).reshape(-1) - lo
+    net = bernstein.from_power(np.stack([1.0 + lo * lo, 2.0 * lo * w, w * w], axis=-1), nvars=1)
+    shape = [len(lo)] + [1] * n
+    shape[1 + v] = 3
+    return net.reshape(shape)
+
+
 def _linear_basis(k: int) -> np.ndarray:
     """(4, 2, 2, 2): Bernstein control points (degree 1 per variable) of each quaternion component on
     chart k: q_k = 1, the others CHART_EXTENT (2x - 1) in their variable."""
@@ -708,11 +719,18 @@ class DetPlan:
     """How :class:`LoopPlane` builds D = det K_p: ``loops``: per loop its :class:`LoopColumn` s; ``terms``:
     the Laplace expansion over the loops' row blocks, (sign, (S_1, ..., S_l)) with S_i the sorted columns
     (indices into ``loops[i]``) of loop i's 3 x 3 minor; ``degrees``: D's degree per variable (the chart's
-    ``variables`` order; the largest over the terms)."""
+    ``variables`` order; the largest over the terms); ``lifts``: per term, per variable, the factors
+    (1 + t_v^2) it is multiplied by so that every term carries the same factor prod_v (1 + t_v^2)^(degree_v / 2).
+
+    Why the lifts: a rotation by a variable joint is built as (1 + t^2) Rot, so a term whose columns' paths
+    cross variable v k times carries (1 + t_v^2)^k. Terms whose paths differ (a Stephenson six-bar driven on its
+    three-link chain: one term crosses J1 and J2, the other neither) carry different factors, and their plain sum
+    is not a positive multiple of det K_p: its zeros are not the singular set (issue 40)."""
 
     loops: tuple
     terms: tuple
     degrees: tuple
+    lifts: tuple
 
     @property
     def coefficients(self) -> int:
@@ -795,15 +813,15 @@ def det_plan(mechanism, variables) -> DetPlan:
     if not terms:
         raise ValueError("mechanism: its passive Jacobian is singular everywhere (no choice of 3 passive joints per "
                          "loop covers every passive joint): no isolated singular set")
-    degrees = [0] * len(variables)
-    for _, chosen in terms:
-        for v, name in enumerate(variables):
-            d = 2 * sum(any(j == name for j, _ in loops[k][c].path) for k, s in enumerate(chosen) for c in s)
-            degrees[v] = max(degrees[v], d)
-    plan = DetPlan(tuple(loops), tuple(terms), tuple(degrees))
+    # the factors (1 + t_v^2) each term carries: one per chosen column whose path crosses v
+    carried = [tuple(sum(any(j == name for j, _ in loops[k][c].path) for k, s in enumerate(chosen) for c in s)
+                     for name in variables) for _, chosen in terms]
+    top = [max(col) for col in zip(*carried)]
+    lifts = tuple(tuple(t - e for t, e in zip(top, own)) for own in carried)
+    plan = DetPlan(tuple(loops), tuple(terms), tuple(2 * t for t in top), lifts)
     if plan.coefficients > MAX_DET_COEFFS:
         raise ValueError(f"mechanism: det K_p of its {n_loops} loops would have {plan.coefficients} Bernstein "
-                         f"coefficients per chart (degrees {dict(zip(variables, degrees))}), more than MAX_DET_COEFFS "
+                         f"coefficients per chart (degrees {dict(zip(variables, plan.degrees))}), more than MAX_DET_COEFFS "
                          f"= {MAX_DET_COEFFS}: too large to search")
     return plan
 
@@ -881,12 +899,16 @@ class LoopPlane:
             cols = [[self._column(lc, charts, c, variables, n, absolute) for lc in loop] for loop in plan.loops]
             minors: dict = {}
             det = None
-            for sign, chosen in plan.terms:
+            for (sign, chosen), lift in zip(plan.terms, plan.lifts):
                 term = None
                 for i, s in enumerate(chosen):
                     if (i, s) not in minors:
                         minors[i, s] = self._minor([cols[i][k] for k in s], n, absolute)
                     term = minors[i, s] if term is None else bernstein.multiply(term, minors[i, s], n)
+                for v, power in enumerate(lift):          # the factors (1 + t_v^2) the other terms carry
+                    for _ in range(power):
+                        factor = _one_plus_t2(charts, c, v, n)
+                        term = bernstein.multiply(term, np.abs(factor) if absolute else factor, n)
                 term = term if absolute else sign * term
                 det = term if det is None else _add_elevated(det, term, n)
             dets.append(det)
@@ -963,12 +985,8 @@ class LoopPlane:
             d, dmag = (x[0] for x in self._det_nets(cs, np.array([c])))
             width = cs.map_hi[c] - cs.map_lo[c]
 
-            def one_plus_t2(v):          # (1 + t_v^2) in the chart's unit variable: (1 + lo^2) + 2 lo w x + w^2 x^2
-                lo, w = float(cs.map_lo[c, v]), float(width[v])
-                net = bernstein.from_power(np.array([1.0 + lo * lo, 2.0 * lo * w, w * w]), nvars=1)
-                shape = [1] * n
-                shape[v] = 3
-                return net.reshape(shape)
+            def one_plus_t2(v):          # (1 + t_v^2) in the chart's unit variable
+                return _one_plus_t2(cs, np.array([c]), v, n)[0]
 
             weights = []                 # per column j: dD/dt_j (1 + t_j^2) Q_j and its magnitudes' net (None: D free of t_j)
             for lc in loop:
