@@ -33,6 +33,7 @@ import dataclasses
 import os
 import time
 from dataclasses import dataclass
+import math
 from typing import Callable, Mapping
 
 import numpy as np
@@ -787,6 +788,15 @@ SINGULAR_TOL = 1e-2
 #: cells of 0.1 rad are proven for about two thirds of the cover; wider cells meet more branches and folds
 #: of the curve per cell, where the slice has several roots or none, so they would mostly be ``unresolved``.
 SINGULAR_MAX_TOL = 0.5
+#: The finest boxes the cover searches (the smallest of REFINE_FRACTIONS and CUSP_REFINE_FRACTIONS times T,
+#: T/32) must be at least this many times CELL_SLACK (:data:`spherekin.trust.singular.CELL_SLACK`, 1e-9 rad: the
+#: allowance for the tan-half maps' rounding with which a box meets a cell); narrower, a box meets cells by its
+#: slack alone and the refinement rounds cannot shrink the cover onto the curve. So T >= 4 x 1e-9 x 32 = 1.28e-7
+#: rad (:func:`singular_min_tol`; a full turn is then 4.9e7 cells per axis, indices far inside int64).
+SLACK_MARGIN = 4
+#: A cell must also be this many float64 spacings (ulps) of the plane's largest coordinate wide, so that its
+#: edges are distinct, well separated floats (relevant only for ranges far from 0: at |x| <= 8 rad, 1.9e-9).
+CELL_ULPS = 2 ** 20
 #: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
 #: general_3rrr over [-pi, pi]^2 with the traced cover processes ~1.5e6 boxes at T = 0.01 and ~3e6 at 1e-3
 #: (measured; 5.7e6 at 0.01 before the tracing); the cap only stops a runaway (a continuum of singular configurations over
@@ -811,6 +821,33 @@ CUSP_VECTORS = ((0.5390, -0.7270, 0.4253), (-0.3120, 0.2240, 0.9233))
 #: points overestimates by ~its width squared); measured on general_3rrr at T = 0.1 over [-0.5, 0.5]^2, one
 #: round of T/8 cut the cells the reference curve misses from 15 to 6 (T/4: 14) and proved 4 more cells.
 REFINE_FRACTIONS = (0.125, 0.03125)
+
+
+def singular_min_tol() -> float:
+    """The narrowest cell width T (radians) a singular set accepts: SLACK_MARGIN x CELL_SLACK over the finest
+    fraction of T the cover searches (trust.singular is imported here, not at the module's top: 0.6 s)."""
+    from .trust.singular import CELL_SLACK
+
+    return SLACK_MARGIN * CELL_SLACK / min(REFINE_FRACTIONS + CUSP_REFINE_FRACTIONS)
+
+
+def check_singular_tol(value, name: str = "tol", axes=()) -> float:
+    """The cell width T (radians) of a certified singular set, checked before any work: a number with
+    :func:`singular_min_tol` <= T <= SINGULAR_MAX_TOL, at least CELL_ULPS float spacings of the largest coordinate of
+    ``axes`` ((name, lo, hi), ...: radians). ValueError naming ``name`` (the keyword or option as typed)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not 0 < value <= SINGULAR_MAX_TOL:
+        raise ValueError(f"{name}: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {value!r}")
+    if value < singular_min_tol():
+        raise ValueError(f"{name}: T = {value:g} rad is below {singular_min_tol():.3g}, the narrowest cell the cover "
+                         "can resolve in float64 (its finest boxes, T/32, must stay wider than the 1e-9 rad allowance "
+                         "for rounding with which a box meets a cell); locate a singular input more finely with "
+                         "solve or the branch map")
+    far = max((abs(float(v)) for a in axes for v in a[1:]), default=0.0)
+    if value < CELL_ULPS * float(np.spacing(far)):
+        raise ValueError(f"{name}: T = {value:g} rad is too narrow for coordinates as large as {far:g} rad (float64 "
+                         f"spacing {float(np.spacing(far)):.3g}); give the plane's ranges within a few turns of 0")
+    return float(value)
 
 
 def _plane_axis(mech, key: str, spec) -> tuple:
@@ -985,8 +1022,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     missing = [n for n in mech.actuated if n not in fixed and n not in (ax[0], None if ay is None else ay[0])]
     if missing:
         raise ValueError(f"fixed: expected a reading for every actuated joint off the plane, missing {', '.join(missing)}")
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 < tol <= SINGULAR_MAX_TOL):
-        raise ValueError(f"tol: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {tol!r}")
+    tol = check_singular_tol(tol, "tol", (ax,) if ay is None else (ax, ay))
     if isinstance(max_boxes, bool) or not isinstance(max_boxes, (int, np.integer)) or max_boxes < 1:
         raise ValueError(f"max_boxes: expected a positive whole number, got {max_boxes!r}")
     t0 = time.perf_counter()

@@ -173,6 +173,8 @@ def test_singular_tol_is_checked_before_any_work():
      "--singular-tol: only with --singular"),
     (["--grid", "beta1=0:1:3", "--grid", "beta2=0:1:3", "--fix", "beta3=0.5", "--singular", "--singular-tol", "1"],
      "--singular-tol: expected 0 < T <= 0.5"),
+    (["--grid", "beta1=0:1:3", "--grid", "beta2=0:1:3", "--fix", "beta3=0.5", "--singular", "--singular-tol", "1e-30"],
+     "--singular-tol: T = 1e-30 rad is below 1.28e-07"),
 ])
 def test_cli_singular_option_errors_are_one_line(args, words, capsys):
     from spherekin.cli import main

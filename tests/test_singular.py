@@ -159,6 +159,14 @@ def test_cli_json_and_table(tmp_path, capsys):
     (["--x", "beta9=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5"], "--x: expected an actuated joint"),
     (["--x", "beta1=1:0", "--y", "beta2=0:1", "--fix", "beta3=0.5"], "--x beta1: expected lo < hi"),
     (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--tol", "0"], "--tol: expected 0 < T"),
+    (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--tol", "nan"], "--tol: expected 0 < T"),
+    # issue 40: T from ~1e-21 down gave 'complete: yes', no cell, and overflowed cell indices (RuntimeWarnings)
+    (["--x", "beta1=0.9:1.4", "--y", "beta2=1.1:1.6", "--fix", "beta3=0.5", "--tol", "1e-30"],
+     "--tol: T = 1e-30 rad is below 1.28e-07"),
+    (["--x", "beta1=0.9:1.4", "--y", "beta2=1.1:1.6", "--fix", "beta3=0.5", "--tol", "1e-300"], "is below 1.28e-07"),
+    (["--x", "beta1=0.9:1.4", "--y", "beta2=1.1:1.6", "--fix", "beta3=0.5", "--tol", "1.2e-7"], "is below 1.28e-07"),
+    (["--x", "beta1=1000000000000:1000000000001", "--fix", "beta2=1", "--fix", "beta3=0.5", "--tol", "0.001"],
+     "--tol: T = 0.001 rad is too narrow for coordinates as large as 1e+12 rad"),
     (["--x", "beta1=0:1", "--y", "beta2=0:1"], "--fix: expected a reading for every actuated joint"),
     (["--x", "beta1=0:1", "--y", "beta1=0:1", "--fix", "beta3=0.5"], "--y: expected another actuated joint"),
     (["--x", "beta1=0:1", "--y", "beta2=0:1", "--fix", "beta3=0.5", "--fix", "beta3=1"], "--fix beta3: given twice"),
@@ -177,6 +185,24 @@ def test_cli_errors_are_one_line(args, words, capsys):
     err = capsys.readouterr().err
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("spherekin: error: ") and words in err
+
+
+def test_narrowest_tolerance_is_derived_from_the_cell_slack():
+    """The floor on T is CELL_SLACK's margin over the finest box fraction, not a number of its own, and it is
+    accepted exactly there (refused just below) by the API before any work."""
+    from spherekin.problem import (CUSP_REFINE_FRACTIONS, REFINE_FRACTIONS, SLACK_MARGIN, check_singular_tol,
+                                   singular_min_tol)
+    from spherekin.trust.singular import CELL_SLACK, Grid
+
+    floor = singular_min_tol()
+    assert floor == SLACK_MARGIN * CELL_SLACK / min(REFINE_FRACTIONS + CUSP_REFINE_FRACTIONS) == pytest.approx(1.28e-7)
+    assert check_singular_tol(floor, "tol", (("x", -math.pi, math.pi),)) == floor
+    with pytest.raises(ValueError, match="^tol: T = .* is below"):
+        spherekin.singular(RRR, x=("beta1", 0.9, 1.4), y=("beta2", 1.1, 1.6), fixed={"beta3": 0.5},
+                           tol=math.nextafter(floor, 0.0))
+    # the grid itself refuses what it cannot index (a caller that bypasses the check)
+    with pytest.raises(ValueError, match="cannot be indexed"):
+        Grid.over((("x", 0.9, 1.4),), 1e-30)
 
 
 # ---------------------------------------------------------------- the loop equations (item 6)

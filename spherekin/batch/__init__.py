@@ -110,15 +110,16 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
     map's plane (:func:`spherekin.singular` over the grid's ranges, cells no wider than singular_tol,
     ``singular_max_boxes`` its box cap), in :attr:`AssemblyMap.singular_set`. Not to be confused with
     the map's ``singular`` counts (entries the solver flagged singular) nor its ``measure``."""
-    from ..problem import as_mechanism, singular
-    from .maps import aggregate, check_singular_tol
+    from ..problem import as_mechanism, check_singular_tol, singular
+    from .maps import aggregate
 
     mechanism = as_mechanism(mechanism)
     inputs = grid_inputs(mechanism, [x, y], fixed)
     x, y = inputs.axes
     sset = None
     if singular_tol is not None:     # checked and computed before the map: its errors come before any long work
-        singular_tol = check_singular_tol(singular_tol)
+        singular_tol = check_singular_tol(singular_tol, "singular_tol", ((x.name, x.values[0], x.values[-1]),
+                                                                          (y.name, y.values[0], y.values[-1])))
         _prepare(mechanism, inputs, strategy)          # the map's strategy checked too (milliseconds)
         caps = {} if singular_max_boxes is None else {"max_boxes": singular_max_boxes}
         sset = singular(mechanism, (x.name, x.values[0], x.values[-1]), (y.name, y.values[0], y.values[-1]),

@@ -19,7 +19,7 @@ import numpy as np
 
 from .inputs import GridAxis
 
-__all__ = ["MAP_COLUMNS", "FLAGGED", "AssemblyMap", "aggregate", "check_singular_tol"]
+__all__ = ["MAP_COLUMNS", "FLAGGED", "AssemblyMap", "aggregate"]
 
 #: The columns of a results table a map reads.
 MAP_COLUMNS = ("input", "solution", "status", "parallel_measure")
@@ -28,16 +28,6 @@ FLAGGED = ("unverified", "cluster", "continuum")
 #: A singular set belongs to a map when its fixed joints' readings agree within this (radians): both are
 #: the same parsed numbers, so any difference beyond rounding is another plane.
 FIXED_MATCH = 1e-12
-
-
-def check_singular_tol(value, name: str = "singular_tol") -> float:
-    """The cell width (radians) of a map's certified singular set, checked as :func:`spherekin.singular`
-    takes it: ValueError naming ``name`` (the keyword or option as typed) otherwise."""
-    from ..problem import SINGULAR_MAX_TOL
-
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= SINGULAR_MAX_TOL:
-        raise ValueError(f"{name}: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {value!r}")
-    return float(value)
 
 
 @dataclass(frozen=True, eq=False)

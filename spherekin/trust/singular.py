@@ -85,6 +85,12 @@ PROVE_BATCH = 8192
 STATIONARY_SAMPLES = 3
 
 
+#: Most cells per axis of a :class:`Grid`: cell indices are computed as floor((x - lo) / w) in float64, exact as
+#: integers up to 2^53; one bit of margin. (:func:`spherekin.problem.check_singular_tol` refuses far coarser
+#: limits first: a full turn at its narrowest T is 4.9e7 cells.)
+MAX_GRID_CELLS = 2.0 ** 52
+
+
 @dataclass(frozen=True)
 class Grid:
     """Cells of the plane: ``lo``, ``hi`` (2,) (radians; hi[1] = lo[1] for a line), ``n`` (2,) cells per
@@ -99,7 +105,11 @@ class Grid:
         """The grid over the plane's axes ((name, lo, hi), ...) with cells no wider than ``tol`` (radians)."""
         lo = tuple(float(a[1]) for a in axes)
         hi = tuple(float(a[2]) for a in axes)
-        n = tuple(max(1, math.ceil((b - a) / tol - 1e-9)) for a, b in zip(lo, hi))
+        cells = [(b - a) / tol for a, b in zip(lo, hi)]
+        if not all(math.isfinite(c) and 0 < c <= MAX_GRID_CELLS for c in cells):
+            raise ValueError(f"tol: a grid of cells {tol!r} wide over {list(zip(lo, hi))} cannot be indexed in float64 "
+                             f"(at most {MAX_GRID_CELLS:.3g} cells per axis)")
+        n = tuple(max(1, math.ceil(c - 1e-9)) for c in cells)
         return cls(lo, hi, n)
 
     def width(self, axis: int) -> float:
