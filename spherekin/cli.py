@@ -447,7 +447,15 @@ def _singular(args) -> int:
     caps = {} if args.max_boxes is None else {"max_boxes": args.max_boxes}
     if args.mode_change and y is None:
         raise ValueError("--mode-change: expected a plane of two inputs (--y), got a line")
-    sset = singular(mech, x, y, fixed, tol=args.tol * scale, **caps)   # every check before any work
+    from .budget import Budget
+
+    if args.max_memory is not None and not (math.isfinite(args.max_memory) and args.max_memory > 0):
+        raise ValueError(f"--max-memory: expected a positive number of GiB, got {args.max_memory!r}")
+    budget = Budget() if args.max_memory is None else Budget(int(args.max_memory * 2 ** 30))
+    with _signals_stop(budget) as signalled:
+        sset = singular(mech, x, y, fixed, tol=args.tol * scale, budget=budget, **caps)   # every check before any work
+    if signalled:                         # Ctrl-C or SIGTERM: report what was found, nothing more
+        home, args.mode_change = None, False
     if home is not None:
         plane_inputs = (x[0],) if y is None else (x[0], y[0])
         box = problem.free_box(home, start=args.start_solution - 1,
@@ -471,9 +479,10 @@ def _singular(args) -> int:
     elif sset.cusp_search == "none_possible":
         print("cusps: none possible (one loop: its 3 passive joints have at most 2 assemblies, or a continuum)")
     elif sset.cusp_search == "not_searched":
-        print("cusps: not searched (the loop equations of several loops: only the platform system searches them)")
+        print("cusps: not searched " + ("(the run was stopped first)" if sset.stopped and sset.system == "platform" else
+                                        "(the loop equations of several loops: only the platform system searches them)"))
     st = sset.stats
-    print(f"complete: {'yes' if sset.complete else 'no (box cap reached: the unprocessed part is unresolved)'}; "
+    print(f"complete: {'yes' if sset.complete else f'no ({sset.stopped}: the unprocessed part is unresolved)'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
     if st.crowded:
         print(f"crowded: {st.crowded} boxes set aside where the cover crowds (e.g. a continuum of singular "
@@ -504,7 +513,42 @@ def _singular(args) -> int:
 
         plot_singular(sset, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
+    if signalled:
+        written = [p for p in (args.json, args.plot) if p]
+        print(f"spherekin: {'interrupted' if signalled[0] == 'SIGINT' else 'terminated'} ({signalled[0]}) after "
+              f"{st.boxes_processed} boxes: the result is incomplete"
+              + (f" ({', '.join(written)} written)" if written else ""), file=sys.stderr)
+        return INTERRUPT_STATUS if signalled[0] == "SIGINT" else SIGTERM_STATUS
     return 0
+
+
+@contextmanager
+def _signals_stop(budget):
+    """While a long search runs: the first Ctrl-C (SIGINT) or SIGTERM asks ``budget`` to stop (the search hands
+    over what it found, which is then reported and written); a second one ends the command at once
+    (KeyboardInterrupt or :class:`Terminated`). Yields the list of the signals' names received. The handlers
+    found are restored afterwards. Main thread only."""
+    import signal
+    import threading
+
+    got: list[str] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield got
+        return
+
+    def handler(signum, frame):
+        name = "SIGINT" if signum == signal.SIGINT else "SIGTERM"
+        if got:
+            raise KeyboardInterrupt() if signum == signal.SIGINT else Terminated(name)
+        got.append(name)
+        budget.stop(name)
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield got
+    finally:
+        for sig, h in previous.items():
+            signal.signal(sig, h)
 
 
 #: map's options that draw a map of two inputs, not the branches of one (refused there by name).
@@ -1038,6 +1082,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="width bound of the cells (radians; degrees with --degrees; default: %(default)s)")
     sg.add_argument("--max-boxes", type=_whole(1), default=None, metavar="N",
                     help="cap on the boxes the cover processes (reached: the rest is reported unresolved)")
+    sg.add_argument("--max-memory", type=float, default=None, metavar="GB",
+                    help="cap on the process's memory (GiB; default: 3/4 of the machine's): reached, the run ends as "
+                         "at --max-boxes (the rest reported unresolved)")
     sg.add_argument("--json", help="write the cells as JSON (schema spherekin.singular/1, docs/results-format.md)")
     sg.add_argument("--plot", help="draw the plane with the cells coloured by status (.png, .pdf or .svg)")
     sg.add_argument("--home", metavar="B1,B2,...", help="a home input (one per actuated joint): with "

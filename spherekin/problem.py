@@ -882,14 +882,17 @@ class _PlaneRun:
     pending: int
     regions: tuple = ()
     crowded: int = 0
+    cusps_searched: bool = True
 
 
-def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _PlaneRun:
+def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps, budget) -> _PlaneRun:
     """The certified cover of one plane system (:func:`singular`): the traced cover (a plane; a line: the
     plain cover) from the boxes ``start`` (None: every chart), the cusp search (``cusps``: "tangency", the
     cusp system of :meth:`PlatformPlane.cusp_charts`; "rank", the candidates of
     :func:`spherekin.trust.singular.rank_candidates`; None: none), the cells' certificates, the unresolved
-    cells' pieces searched again (REFINE_FRACTIONS), the traced cells added."""
+    cells' pieces searched again (REFINE_FRACTIONS), the traced cells added. Once ``budget``
+    (:class:`spherekin.budget.Budget`) names a reason to stop, every stage hands over what it has (boxes not
+    processed: pending; cells not tested: unresolved) and the later stages are skipped (the cusps: not searched)."""
     from .search.boxloop import pruner_for, search_cover
     from .trust.singular import (SINGULAR, UNRESOLVED, CellStatus, cell_pieces, certify_cover, certify_cusps,
                                  pending_regions, rank_candidates, trace_cover)
@@ -899,16 +902,17 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
     if hasattr(system, "trace") and len(system.plane_columns) == 2:
         # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
         def search(width, cap, begin):
-            return search_cover(system.charts, pruner, width, cap, start=start if begin is None else begin)
+            return search_cover(system.charts, pruner, width, cap, start=start if begin is None else begin,
+                                budget=budget)
 
-        traced = trace_cover(system, search, grid, tol, COVER_FRACTION, max_boxes)
+        traced = trace_cover(system, search, grid, tol, COVER_FRACTION, max_boxes, budget)
         cover = traced.cover
     else:
-        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, max_boxes, start=start)
+        cover = search_cover(system.charts, pruner, COVER_FRACTION * tol, max_boxes, start=start, budget=budget)
     used, t_cover, accepted, pending = cover.boxes_processed, cover.seconds, len(cover.accepted[0]), cover.pending
     accepted += 0 if traced is None else traced.traced
     first = cover
-    cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid)}
+    cells = {(c.i, c.j): c for c in certify_cover(system, cover, grid, budget)}
     # the cells left unresolved: the accepted boxes over them cut by the cell and searched again with smaller
     # boxes (pieces over a cell the curve misses are discarded, the hulls certified are tighter); the pending
     # boxes of every round are kept (their cells stay unresolved). ``final`` (the rank route only): the pieces
@@ -917,20 +921,23 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
     final = []
     for fraction in REFINE_FRACTIONS:
         again = {k for k, c in cells.items() if c.status != SINGULAR}
-        if not again:
+        if not again or budget.exhausted():
             break
         if rank:
             final.append(cell_pieces(system, cover.accepted, grid, set(cells) - again))
         cover = search_cover(system.charts, pruner, fraction * tol, max(1, max_boxes - used),
-                             start=cell_pieces(system, cover.accepted, grid, again))
+                             start=cell_pieces(system, cover.accepted, grid, again), budget=budget)
         pending = tuple(np.concatenate([a, b]) for a, b in zip(pending, cover.pending))
         cover = dataclasses.replace(cover, pending=pending)
         used, t_cover, accepted = used + cover.boxes_processed, t_cover + cover.seconds, accepted + len(cover.accepted[0])
         for k in again:
             del cells[k]
-        cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid) if (c.i, c.j) in again})
+        cells.update({(c.i, c.j): c for c in certify_cover(system, cover, grid, budget) if (c.i, c.j) in again})
     cands = ()
-    if rank:
+    searched = not budget.exhausted()
+    if not searched:
+        pass                            # stopped: the cusps are not searched (the list claims nothing)
+    elif rank:
         # no tangency system on these variables: the untraced and pending boxes not proven cusp-free
         chart, alo, ahi = cover.accepted
         final.append((chart, system.unit(chart, alo), system.unit(chart, ahi)) if len(chart) else
@@ -949,7 +956,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
         chart = first.accepted[0]
         begin = (chart, system.unit(chart, first.accepted[1]), system.unit(chart, first.accepted[2]))
         found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), CUSP_FRACTION * tol,
-                             max(1, max_boxes - used), start=begin)
+                             max(1, max_boxes - used), start=begin, budget=budget)
         used, t_cover = used + found.boxes_processed, t_cover + found.seconds
         cands = certify_cusps(system, cusp_sets, found)
         # candidates without a proof: their boxes searched again with smaller boxes (most hold no root and are
@@ -957,7 +964,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
         for fraction in CUSP_REFINE_FRACTIONS:
             open_ = [c for c in cands if c.status != "cusp"]
             chart, alo, ahi = found.accepted
-            if not open_ or not len(chart) or len(found.pending[0]):
+            if not open_ or not len(chart) or len(found.pending[0]) or budget.exhausted():
                 break                   # (a capped search keeps its pending candidates unresolved)
             cols = list(system.plane_columns)
             near = np.zeros(len(chart), dtype=bool)
@@ -966,7 +973,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
                          & (alo[:, cols[1]] <= c.box_y[1]) & (ahi[:, cols[1]] >= c.box_y[0]))
             begin = (chart[near], system.unit(chart[near], alo[near]), system.unit(chart[near], ahi[near]))
             found = search_cover(cusp_sets[0], pruner_for(cusp_sets[0], DEFAULT_PRUNER, None), fraction * tol,
-                                 max(1, max_boxes - used), start=begin)
+                                 max(1, max_boxes - used), start=begin, budget=budget)
             used, t_cover = used + found.boxes_processed, t_cover + found.seconds
             cands = tuple(c for c in cands if c.status == "cusp") + certify_cusps(system, cusp_sets, found)
     if traced is not None:
@@ -978,11 +985,11 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps) -> _Plane
                 cells[k] = CellStatus(k[0], k[1], UNRESOLVED)
     aside = traced.crowded if traced is not None else tuple(a[:0] for a in pending)     # crowded cells' boxes
     regions = pending_regions(system, grid, tuple(np.concatenate(ab) for ab in zip(pending, aside)))
-    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions, len(aside[0]))
+    return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions, len(aside[0]), searched)
 
 
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
-             max_boxes: int = SINGULAR_MAX_BOXES):
+             max_boxes: int = SINGULAR_MAX_BOXES, budget=None):
     """The parallel (Type-2) singular set of ``mechanism`` in a plane of inputs, certified (issue 31).
 
     ``x`` = (name, lo, hi), ``y`` = (name, lo, hi) or None (a line): actuated joints and ranges (radians,
@@ -1000,7 +1007,13 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     system without a box U about each, and U blown up (:mod:`spherekin.systems.blowup`), where the other
     assemblies' crossings with them become regular roots that the Krawczyk slices prove; the cusp
     candidates of both are then the boxes not proven cusp-free (no tangency system there).
+
+    ``budget``: a :class:`spherekin.budget.Budget` (default: one with the machine's memory cap,
+    :data:`spherekin.budget.MEMORY_FRACTION` of its memory). When it names a reason to stop (the memory cap, or
+    a signal the command line turned into a stop), the run ends as at the box cap: ``complete`` False,
+    ``stopped`` the reason, the unprocessed part unresolved regions, untested cells unresolved, cusps not searched.
     """
+    from .budget import Budget
     from .systems.blowup import StationaryPlane, outside
     from .systems.singular import LoopPlane, PlatformPlane, SingularPlane
     from .results import Cusp, CuspSearch, SingularBox, SingularSet, SingularStats
@@ -1025,6 +1038,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     tol = check_singular_tol(tol, "tol", (ax,) if ay is None else (ax, ay))
     if isinstance(max_boxes, bool) or not isinstance(max_boxes, (int, np.integer)) or max_boxes < 1:
         raise ValueError(f"max_boxes: expected a positive whole number, got {max_boxes!r}")
+    budget = Budget() if budget is None else budget
     t0 = time.perf_counter()
     plane = SingularPlane(ax, ay, {k: float(v) for k, v in fixed.items()})
     on_platform = Platform.accepts(mech) is None
@@ -1038,11 +1052,12 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         # both: outside U the agile eye still has its self-motion inputs (beta = (+-pi/2, 0), (+-pi/2, pi) at
         # beta3 = 0.5: `solve` reports a continuum), around which the tangency system degenerates (measured,
         # whole plane at T = 0.1: 9,173 cusp boxes accepted, 72 candidates, none proven, ~300 s)
-        runs.append(_plane_run(system, grid, tol, int(max_boxes), outside(system, stationary), "rank"))
+        runs.append(_plane_run(system, grid, tol, int(max_boxes), outside(system, stationary), "rank", budget))
         blown = StationaryPlane(mech, plane, stationary)
-        runs.append(_plane_run(blown, grid, tol, max(1, int(max_boxes) - runs[0].used), None, "rank"))
+        runs.append(_plane_run(blown, grid, tol, max(1, int(max_boxes) - runs[0].used), None, "rank", budget))
     else:
-        runs.append(_plane_run(system, grid, tol, int(max_boxes), None, "tangency" if on_platform else None))
+        runs.append(_plane_run(system, grid, tol, int(max_boxes), None, "tangency" if on_platform else None,
+                               budget))
     cells: dict = {}
     for run in runs:
         for k, c in run.cells.items():
@@ -1060,7 +1075,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
                   ) if on_platform and ay is not None else ()
     listed = set(outside_regions(cells, regions)) | {k for k, c in cells.items() if c.status == SINGULAR}
     cells = [cells[k] for k in sorted(listed)]
-    complete = n_pending == 0
+    stopped = budget.reason or ("box cap" if n_pending else None)
+    complete = stopped is None
     t2 = time.perf_counter()
     boxes = tuple(SingularBox(grid.edges(0, c.i), None if ay is None else grid.edges(1, c.j), c.status)
                   for c in cells)
@@ -1073,11 +1089,11 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     if ay is None:
         search = CuspSearch.NOT_APPLICABLE
     elif on_platform:
-        search = CuspSearch.SEARCHED
+        search = CuspSearch.SEARCHED if all(r.cusps_searched for r in runs) else CuspSearch.NOT_SEARCHED
     else:
         search = CuspSearch.NONE_POSSIBLE if len(mech.link_graph.loops) == 1 else CuspSearch.NOT_SEARCHED
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
-                       Platform.name if on_platform else Loops.name, cusps, search)
+                       Platform.name if on_platform else Loops.name, cusps, search, stopped=stopped)
 
 
 #: Radii (radians of input) of the circles around a proven cusp tried by :func:`mode_change`, in order: small

@@ -668,7 +668,8 @@ class SingularSet:
     singularities when ``complete``, and also when not (then the unprocessed part is in ``unresolved``
     regions: boxes wider than a cell, the plane projections of the boxes left pending at the cap). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty), and
     ``cusp_search`` what that list covers (:class:`CuspSearch`). ``system``: the equations used ("platform"
-    or "loops").
+    or "loops"). ``stopped``: why the run ended before its work was done ("box cap", "memory cap", "SIGINT",
+    "SIGTERM"), None when it finished; ``complete`` is False then.
     """
 
     x: tuple
@@ -683,6 +684,7 @@ class SingularSet:
     cusp_search: CuspSearch = CuspSearch.NOT_SEARCHED
     free_box: object = None
     mode_change: object = None
+    stopped: str | None = None
 
     def counts(self) -> dict:
         """Boxes by status: {"singular": n, "unresolved": m}."""
@@ -697,7 +699,7 @@ class SingularSet:
                 "x_range": [float(self.x[1]), float(self.x[2])],
                 "y_range": None if self.y is None else [float(self.y[1]), float(self.y[2])],
                 "fixed": {k: float(v) for k, v in self.fixed.items()}, "tol": float(self.tol),
-                "system": self.system, "complete": bool(self.complete),
+                "system": self.system, "complete": bool(self.complete), "stopped": self.stopped,
                 "boxes": [{"x": [float(b.x[0]), float(b.x[1])],
                            "y": None if b.y is None else [float(b.y[0]), float(b.y[1])], "status": b.status}
                           for b in self.boxes],

@@ -4,7 +4,7 @@ Every ``import`` of a spherekin module is collected with ``ast`` (module level a
 functions). No module imports ``verification/``, no private name crosses a module boundary (neither
 imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (docs/layout.md):
 
-output files (atomic) -> where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
+output files (atomic), run control (budget) -> where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> systems (spherekin/systems/) -> trust (spherekin/trust/) -> pipeline (problem) ->
 families of inputs (spherekin/batch/) -> interfaces (cli, plot).
 
@@ -24,7 +24,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parent.parent / "spherekin"
 
 LAYERS = [
-    ("output files", {"atomic"}),
+    ("output files, run control", {"atomic", "budget"}),
     ("where work runs", {"cluster"}),
     ("core", {"core"}),
     ("closure equations", {"closure", "paper_gosselin"}),

@@ -131,11 +131,89 @@ def test_a_capped_run_at_a_fine_tolerance_reports_its_unprocessed_part_as_region
         assert any(c.status == "unresolved" and (c.box_x, c.box_y) == (b.x, b.y) for c in sset.cusps)
 
 
+class StopAfter:
+    """A budget (duck-typed as :class:`spherekin.budget.Budget`) that names a reason to stop at its k-th check:
+    a stop at a chosen stage of the run, as a Ctrl-C at that moment does."""
+
+    def __init__(self, k: int):
+        self.k, self.calls, self.reason = k, 0, None
+
+    def stop(self, reason):
+        self.reason = self.reason or reason
+
+    def exhausted(self):
+        self.calls += 1
+        if self.calls >= self.k:
+            self.stop("SIGINT")
+        return self.reason
+
+
+@pytest.mark.parametrize("k", [1, 20, 48, 100, 120, 130, 135])
+def test_a_run_stopped_at_any_stage_still_holds_every_singular_input(square_set, reference_points, k):
+    """Stopped at its k-th check (the square's run checks 136 times: 46-52 between trace batches, the others in
+    the box loops, between proof batches, before the refinement and the cusps): not complete, ``stopped`` names the reason, every reference
+    singular input is still in a box (the unprocessed part unresolved regions, the untested cells unresolved),
+    and every cell claimed singular is one the finished run proves too."""
+    (x0, x1), (y0, y1) = SQUARE
+    budget = StopAfter(k)
+    sset = spherekin.singular(RRR, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": 0.5}, tol=T,
+                              budget=budget)
+    assert budget.calls >= k and not sset.complete and sset.stopped == "SIGINT"
+    assert sset.as_dict()["stopped"] == "SIGINT" and sset.as_dict()["complete"] is False
+    assert _covered(sset, reference_points).all()
+    proven = {(b.x, b.y) for b in square_set.boxes if b.status == "singular"}
+    assert {(b.x, b.y) for b in sset.boxes if b.status == "singular"} <= proven
+    if k == 1:                            # stopped at the first check: nothing processed, the whole square open
+        assert sset.counts()["singular"] == 0 and sset.cusp_search == "not_searched"
+
+
+def test_the_memory_cap_ends_a_run_as_the_box_cap_does(reference_points):
+    """A budget whose memory cap is below what the process already holds: the run stops at once, says so
+    (``stopped``: "memory cap"), and the whole square is one unresolved region, never dropped."""
+    from spherekin.budget import MEMORY, Budget
+
+    (x0, x1), (y0, y1) = SQUARE
+    sset = spherekin.singular(RRR, x=("beta1", x0, x1), y=("beta2", y0, y1), fixed={"beta3": 0.5}, tol=T,
+                              budget=Budget(max_memory=1))
+    assert not sset.complete and sset.stopped == MEMORY == "memory cap"
+    assert _covered(sset, reference_points).all()
+    assert sset.counts()["singular"] == 0
+
+
+@pytest.mark.parametrize("sig, code, word", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated")])
+def test_an_interrupted_singular_writes_what_it_found(tmp_path, sig, code, word):
+    """Ctrl-C or SIGTERM during a long cover (the whole plane at T = 1e-3, minutes): the command stops within
+    seconds, exits 130 or 143 with one line on stderr, and writes its JSON whole, marked incomplete with the
+    signal named (before: exit 1 with "error: interrupted () after N boxes", or 130/143 and no JSON)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "s.json"
+    proc = subprocess.Popen([sys.executable, "-m", "spherekin", "singular", str(RRR), "--x", "beta1=-pi:pi", "--y",
+                             "beta2=-pi:pi", "--fix", "beta3=0.5", "--tol", "1e-3", "--json", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(EXAMPLES.parent)})
+    time.sleep(6)                        # past the imports and the compile: inside the cover
+    t0 = time.monotonic()
+    proc.send_signal(getattr(signal, sig))
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == code, stderr
+    assert time.monotonic() - t0 < 60
+    assert stderr.count("\n") == 1 and stderr.startswith(f"spherekin: {word} ({sig}) after"), stderr
+    doc = json.loads(out.read_text())
+    assert doc["complete"] is False and doc["stopped"] == sig and doc["boxes"]
+    assert "complete: no" in stdout
+
+
 def test_json_schema(square_set):
     doc = square_set.as_dict()
     assert doc["schema"] == SINGULAR_SCHEMA == "spherekin.singular/1"
     assert (doc["x"], doc["y"], doc["fixed"], doc["tol"]) == ("beta1", "beta2", {"beta3": 0.5}, T)
     assert doc["complete"] is True and doc["free_box"] is None and doc["cusp_search"] == "searched"
+    assert doc["stopped"] is None
     assert all(set(c) == {"x", "y", "box", "status"} and c["status"] in ("cusp", "unresolved") for c in doc["cusps"])
     assert {"boxes_processed", "seconds"} <= set(doc["stats"])
     assert doc["boxes"] and all(set(b) == {"x", "y", "status"} and b["status"] in ("singular", "unresolved")

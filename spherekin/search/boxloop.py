@@ -198,7 +198,7 @@ class _LoopResult:
 
 
 def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isolate=True, progress=None,
-          trace=None, owner=None, n_inputs=1, batch=BATCH, keep_pending=False) -> _LoopResult:
+          trace=None, owner=None, n_inputs=1, batch=BATCH, keep_pending=False, budget=None) -> _LoopResult:
     """The box loop over the charts of one input (``owner`` None), or of a chunk of inputs.
 
     ``owner`` (C,) int: the input (0..n_inputs-1) each chart of ``charts`` belongs to (the chart sets
@@ -212,7 +212,7 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
     are no longer processed) and the caller solves it again on its own, where the cap raises.
     ``keep_pending`` (one input only): reaching a cap stops the loop without raising and hands back
     the unprocessed boxes (the batch at hand and the stack) as ``pending``, none dropped (a cover:
-    :func:`search_cover`).
+    :func:`search_cover`); so does a ``budget`` (:class:`spherekin.budget.Budget`) that names a reason to stop.
     """
     n = len(charts.variables)
     layout = _Layout(charts)
@@ -266,7 +266,7 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
             over = counts["boxes_processed"] > max_boxes
             deep = np.zeros(n_inputs, dtype=bool)
             deep[own[depth > max_depth]] = True
-            if single and keep_pending and (over[0] or deep[0]):
+            if single and keep_pending and (over[0] or deep[0] or (budget is not None and budget.exhausted())):
                 pending = [(c, a, b) for c, a, b in zip(chart, lo, hi)]
                 pending += [(c, a, b) for s_lo, s_hi, _, s_chart in stack for c, a, b in zip(s_chart, s_lo, s_hi)]
                 counts["boxes_processed"] -= np.bincount(own, minlength=n_inputs)    # this batch was not
@@ -883,17 +883,19 @@ def _box_arrays(boxes, n: int) -> tuple:
             np.array([b for _, _, b in boxes], dtype=float))
 
 
-def search_cover(charts: ChartSet, pruner, tol: float, max_boxes: int, start=None) -> Cover:
+def search_cover(charts: ChartSet, pruner, tol: float, max_boxes: int, start=None, budget=None) -> Cover:
     """A cover of the solutions of ``charts`` (any number of equations in N variables, no isolation):
     the box loop (:func:`_loop`) accepting boxes whose metric sides are all below ``tol *
     charts.accept_width``. ``pruner``: built for the pruned blocks (:func:`pruner_for`); ``start``:
     (chart, lo, hi) initial boxes (default: every chart's unit box). Reaching ``max_boxes`` (or the
-    depth cap, DEPTH_PER_UNKNOWN per variable) stops the loop and the unprocessed boxes come back as
+    depth cap, DEPTH_PER_UNKNOWN per variable, or a ``budget`` that names a reason to stop:
+    :class:`spherekin.budget.Budget`) stops the loop and the unprocessed boxes come back as
     ``pending``, never dropped: outside the accepted and pending boxes the charts hold no solution
     (every other box was discarded because some equation's Bernstein hull, widened by its
     tolerance, excludes 0)."""
     t0 = time.perf_counter()
     n = len(charts.variables)
-    loop = _loop(charts, pruner, tol, max_boxes, DEPTH_PER_UNKNOWN * n, start, False, keep_pending=True)
+    loop = _loop(charts, pruner, tol, max_boxes, DEPTH_PER_UNKNOWN * n, start, False, keep_pending=True,
+                 budget=budget)
     return Cover(_box_arrays(loop.accepted, n), _box_arrays(loop.pending, n),
                  int(loop.counts["boxes_processed"][0]), time.perf_counter() - t0)

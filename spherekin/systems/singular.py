@@ -58,6 +58,9 @@ PROOF_RADIUS = 1e-4
 #: a box of the cover's size) and the last step (unit coordinates of the box) below which it counts as converged.
 PREDICT_STEPS = 6
 PREDICT_CONVERGED = 1e-6
+#: Pieces per batch of :meth:`PlatformPlane.trace` (memory: each piece copies its box's control points, ~8 kB,
+#: several times over in the Krawczyk test: ~0.2 GB a batch).
+PIECE_BATCH = 8192
 #: Boxes per batch of :meth:`PlatformPlane.cusp_free` (memory: ~8 kB of control points per box).
 CUSP_FREE_BATCH = 4096
 #: The square slice: the three legs' equations (block 0) and D (block 1).
@@ -455,18 +458,35 @@ class PlatformPlane:
         if count == 0 or len(chart) == 0:
             return np.zeros(0, dtype=bool), np.zeros((0, lo.shape[1])), np.zeros((0, lo.shape[1]))
         cs = self.charts
-        cps = self._restricted(chart, lo, hi)
-        tols = [cs.tols[b][chart].T for b in (0, 1)]
-        if pieces is not None:
+        if pieces is None:
+            owner, a, z = np.arange(len(chart)), None, None
+        else:
             owner, a, z = (np.asarray(v) for v in pieces)
             owner = owner.astype(int)
-            at = -2 - (lo.shape[1] - 1 - param)                   # the param axis, counted from the batch axis
-            cps = [np.moveaxis(bernstein.restrict_batch_last(np.moveaxis(c[..., owner], at, -2), a[:, None],
-                                                             z[:, None], {}), -2, at) for c in cps]
-            tols = [t[:, owner] for t in tols]
-            w = hi[owner, param] - lo[owner, param]
-            lo, hi = lo[owner].copy(), hi[owner].copy()
-            lo[:, param], hi[:, param] = lo[:, param] + a * w, lo[:, param] + z * w
+        at = -2 - (lo.shape[1] - 1 - param)                       # the param axis, counted from the batch axis
+        out = []
+        # in batches (of boxes, or of pieces with their boxes): a box over many cells along param has as many
+        # pieces, each a copy of its control points (issue 40: 1.4e7 pieces at T = 1e-6 asked for 74 GB at once)
+        for s in range(0, count, PIECE_BATCH):
+            o = owner[s:s + PIECE_BATCH]
+            boxes, inv = np.unique(o, return_inverse=True)
+            cps = self._restricted(chart[boxes], lo[boxes], hi[boxes])
+            tols = [cs.tols[b][chart[o]].T for b in (0, 1)]
+            plo, phi = lo[o].copy(), hi[o].copy()
+            if pieces is None:
+                cps = [c[..., inv] for c in cps]
+            else:
+                pa, pz = a[s:s + PIECE_BATCH], z[s:s + PIECE_BATCH]
+                cps = [np.moveaxis(bernstein.restrict_batch_last(np.moveaxis(c[..., inv], at, -2), pa[:, None],
+                                                                 pz[:, None], {}), -2, at) for c in cps]
+                w = phi[:, param] - plo[:, param]
+                plo[:, param], phi[:, param] = plo[:, param] + pa * w, plo[:, param] + pz * w
+            out.append(self._trace_test(cps, tols, plo, phi, param))
+        return tuple(np.concatenate(parts) for parts in zip(*out))
+
+    @staticmethod
+    def _trace_test(cps, tols, lo, hi, param) -> tuple:
+        """:meth:`trace` on restricted control points ``cps`` (batch last) of the boxes [lo, hi] (unit, (B, N))."""
         ok, klo, khi = krawczyk_parametric(_SLICE, cps, tols, int(param))
         keep = [k for k in range(lo.shape[1]) if k != param]
         out_lo, out_hi = lo.copy(), hi.copy()

@@ -46,7 +46,6 @@ reported by it (its other boxes are not claimed root-free).
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import itertools
 import math
@@ -120,11 +119,19 @@ class Grid:
         w = self.width(axis)
         return self.lo[axis] + i * w, (self.hi[axis] if i == self.n[axis] - 1 else self.lo[axis] + (i + 1) * w)
 
+    def index(self, axis: int, x) -> np.ndarray:
+        """The cell index (int array) on ``axis`` of x (radians; may lie outside the grid: indices < 0 or >= n).
+        ValueError when an x is not finite (a box's bound NaN or infinite is a defect upstream, never guessed)."""
+        x = np.asarray(x, dtype=float)
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"grid: a box bound is not finite ({x[~np.isfinite(x)][:3]}): no cell index")
+        k = np.floor((x - self.lo[axis]) / self.width(axis))
+        return np.clip(k, -1, self.n[axis]).astype(int)
+
     def span(self, axis: int, a, b) -> tuple[np.ndarray, np.ndarray]:
         """First and last cell indices (B,) on ``axis`` met by the ranges [a, b] (B,; radians), with CELL_SLACK."""
-        w = self.width(axis)
-        first = np.floor((np.asarray(a) - CELL_SLACK - self.lo[axis]) / w).astype(int)
-        last = np.floor((np.asarray(b) + CELL_SLACK - self.lo[axis]) / w).astype(int)
+        first = self.index(axis, np.asarray(a) - CELL_SLACK)
+        last = self.index(axis, np.asarray(b) + CELL_SLACK)
         return np.clip(first, 0, self.n[axis] - 1), np.clip(last, 0, self.n[axis] - 1)
 
 
@@ -181,13 +188,14 @@ def cell_pieces(system, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, n
     return c, np.clip(lo, 0.0, 1.0), np.clip(hi, 0.0, 1.0)
 
 
-def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
+def certify_cover(system, cover, grid: Grid, budget=None) -> tuple[CellStatus, ...]:
     """The covered cells of ``grid`` and their statuses (module doc).
 
     ``system``: a compiled plane system (:class:`spherekin.systems.singular.PlatformPlane` or ``LoopPlane``:
     ``charts``, ``plane_columns``, ``unit`` and ``prove``); ``cover``: its
     :class:`spherekin.search.boxloop.Cover`. The cells met by accepted boxes only: the pending boxes are
-    the caller's unresolved regions (:func:`pending_regions`).
+    the caller's unresolved regions (:func:`pending_regions`). Once ``budget`` (:class:`spherekin.budget.Budget`)
+    names a reason to stop, no more cells are tested: they stay ``unresolved`` (no proof is claimed).
     """
     cols = list(system.plane_columns)
     n_plane = len(cols)
@@ -198,6 +206,8 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
     proven = set()
     # attempts: (cell, chart, fixed axis, value, lo (N,), hi (N,)); two rounds (the preferred axis, then the other)
     for round_ in range(2 if n_plane == 2 else 1):
+        if budget is not None and budget.exhausted():
+            break
         tries = []
         for cell, members in met.items():
             if cell in proven:
@@ -209,12 +219,16 @@ def certify_cover(system, cover, grid: Grid) -> tuple[CellStatus, ...]:
         if not tries:
             break
         cells, ch, fix, val, lo, hi = (np.array(v) for v in zip(*tries))
-        ok = np.concatenate([system.prove(ch[s:s + PROVE_BATCH], fix[s:s + PROVE_BATCH], val[s:s + PROVE_BATCH],
-                                          lo[s:s + PROVE_BATCH], hi[s:s + PROVE_BATCH])
-                             for s in range(0, len(ch), PROVE_BATCH)])
+        ok = np.zeros(len(ch), dtype=bool)
+        for s in range(0, len(ch), PROVE_BATCH):
+            if budget is not None and budget.exhausted():
+                break                                   # the rest untested: unresolved
+            ok[s:s + PROVE_BATCH] = system.prove(ch[s:s + PROVE_BATCH], fix[s:s + PROVE_BATCH], val[s:s + PROVE_BATCH],
+                                                 lo[s:s + PROVE_BATCH], hi[s:s + PROVE_BATCH])
         cells = [tuple(int(v) for v in c) for c in cells]
         proven |= {cells[k] for k in np.flatnonzero(ok)}
-    proven |= stationary_sign_changes(system, grid, sorted(set(met) - proven))
+    if budget is None or not budget.exhausted():
+        proven |= stationary_sign_changes(system, grid, sorted(set(met) - proven))
     out = [CellStatus(i, j, SINGULAR if (i, j) in proven else UNRESOLVED) for i, j in sorted(met)]
     return tuple(out)
 
@@ -239,31 +253,23 @@ def pending_regions(system, grid: Grid, pending) -> tuple:
 
 def outside_regions(cells, regions) -> list:
     """The cells (an iterable of (i, j)) inside none of the index ranges ``regions`` ((i0, i1, j0, j1),
-    :func:`pending_regions`), in their order. Per row of the grid the regions' column ranges, merged and
-    searched by bisection, so the cost is the regions' rows, not the plane's cells."""
-    rows: dict = {}
+    :func:`pending_regions`), in their order. The cells sorted by row once; each region then tests only the
+    cells of its rows (a slice found by bisection), so the cost is the cells the regions' rows hold, not the
+    regions' rows (a stopped run at a small T: regions thousands of rows tall, millions of rows in all)."""
+    cells = list(cells)
+    if not cells or not regions:
+        return cells
+    ij = np.array(cells, dtype=np.int64).reshape(-1, 2)
+    order = np.argsort(ij[:, 0], kind="stable")
+    rows, cols = ij[order, 0], ij[order, 1]
+    inside = np.zeros(len(ij), dtype=bool)
     for i0, i1, j0, j1 in regions:
-        for i in range(i0, i1 + 1):
-            rows.setdefault(i, []).append((j0, j1))
-    merged = {}
-    for i, spans in rows.items():
-        starts, ends = [], []
-        for a, b in sorted(spans):
-            if ends and a <= ends[-1] + 1:
-                ends[-1] = max(ends[-1], b)
-            else:
-                starts.append(a)
-                ends.append(b)
-        merged[i] = (starts, ends)
-
-    def inside(i, j):
-        if i not in merged:
-            return False
-        starts, ends = merged[i]
-        k = bisect.bisect_right(starts, j) - 1
-        return k >= 0 and j <= ends[k]
-
-    return [(i, j) for i, j in cells if not inside(i, j)]
+        a, b = np.searchsorted(rows, i0, "left"), np.searchsorted(rows, i1, "right")
+        if a < b:
+            inside[a:b] |= (cols[a:b] >= j0) & (cols[a:b] <= j1)
+    keep = np.ones(len(ij), dtype=bool)
+    keep[order[inside]] = False
+    return [c for c, k in zip(cells, keep) if k]
 
 
 def stationary_sign_changes(system, grid: Grid, cells) -> set:
@@ -607,6 +613,16 @@ PROOF_SLACK = 1e-12
 PROOF_NUDGE = 1e-4
 #: Boxes per batch of trace tests (memory: ~8 kB of control points per box).
 TRACE_BATCH = 4096
+#: Pieces (a traced box's parts over one cell each along the parameter) tested in one group: each carries its
+#: enclosure, end tests and cells (~1 kB with the Python lists), so a group stays ~0.1 GB however small T is.
+PIECE_GROUP = 65536
+#: A box is traced only when each of its pieces' enclosures meets at most this many cells. Reason: a piece is one
+#: cell long along the parameter, so its enclosure's other side, over T, is the branch's slope plus the
+#: enclosure's slack; at a small T a loose enclosure of a coarse level's box met ~10^4 cells per piece and the
+#: cell lists ran the process out of memory (issue 40, T = 1e-6). Such a box is searched at the next level
+#: (smaller boxes, tighter enclosures), or traced along the other input; at T >= 1e-3 no piece of general_3rrr's
+#: whole plane met more than a handful (results unchanged, compared cell for cell at T = 0.05).
+PIECE_CELLS = 64
 #: A cell met by more untraced boxes of one level than this is crowded: those boxes are set aside (an
 #: unresolved region, :func:`pending_regions`), not searched at the next, finer level. Reason: above a
 #: continuum of singular configurations over one input (the agile eye's self-motion inputs, beta =
@@ -647,7 +663,8 @@ def trace_levels(tol: float, cover_fraction: float) -> tuple:
     return tuple(out) + (last,)
 
 
-def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, max_boxes: int) -> TracedCover:
+def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, max_boxes: int,
+                budget=None) -> TracedCover:
     """The cover of a plane system's singular curves with certified tracing (issue 31 benchmark).
 
     Level by level (:func:`trace_levels`), the box loop accepts boxes of the level's width (``search(width,
@@ -671,7 +688,11 @@ def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, m
 
     Also why the traced boxes hold no cusp: every J_V over the box is regular, so the branch's tangent
     has a nonzero component along p (J_V dv = -J_p dp, dp = 0 gives dv = 0): its projection to the
-    plane is never 0. The cusp search may start from the untraced boxes only."""
+    plane is never 0. The cusp search may start from the untraced boxes only.
+
+    Once ``budget`` (:class:`spherekin.budget.Budget`, also handed to ``search`` by the caller) names a reason to
+    stop, the boxes of the level at hand that are not traced become pending (unresolved regions), not cells:
+    a level's boxes may each span thousands of cells at a small T."""
 
     charts = system.charts
     n = len(charts.variables)
@@ -696,8 +717,12 @@ def trace_cover(system, search, grid: Grid, tol: float, cover_fraction: float, m
             break
         ulo = np.clip(system.unit(chart, alo) - ROUNDTRIP_PAD, 0.0, 1.0)
         uhi = np.clip(system.unit(chart, ahi) + ROUNDTRIP_PAD, 0.0, 1.0)
-        ok = _trace_boxes(system, grid, chart, ulo, uhi, met, proven)
+        ok = _trace_boxes(system, grid, chart, ulo, uhi, met, proven, budget)
         traced += int(ok.sum())
+        if budget is not None and budget.exhausted():
+            pend = [np.concatenate([a, b[~ok]]) for a, b in zip(pend, (chart, ulo, uhi))]
+            rest = (chart[:0], alo[:0], ahi[:0])
+            break
         if k == len(levels) - 1 or len(cover.pending[0]):
             rest = (chart[~ok], alo[~ok], ahi[~ok])      # the cell's width, or a capped search: the old path
             break
@@ -735,9 +760,14 @@ def _in_crowded_cells(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return out
 
 
-def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
+def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set, budget=None) -> np.ndarray:
     """Trace tests of boxes (chart (B,), unit lo, hi (B, N)): (B,) bool, True where traced; adds the
-    traced boxes' cells to ``met`` and the cells proven to ``proven`` (:func:`trace_cover`)."""
+    traced boxes' cells to ``met`` and the cells proven to ``proven`` (:func:`trace_cover`). Batches left
+    once ``budget`` names a reason to stop are not traced (False)."""
+
+    def stop():
+        return budget is not None and budget.exhausted()
+
     charts = system.charts
     cols = list(system.plane_columns)
     alo, ahi = charts.angle_box(chart, ulo, uhi)
@@ -747,23 +777,30 @@ def _trace_boxes(system, grid: Grid, chart, ulo, uhi, met: set, proven: set) -> 
     # boxes proven empty first: K of the box itself (either input the parameter) disjoint from it, so no
     # singular configuration in it (K holds every root of the box): dropped from the cover ("traced", no cell)
     for s in range(0, len(chart), TRACE_BATCH):
+        if stop():
+            return traced
         traced[s:s + TRACE_BATCH] = system.empty(chart[s:s + TRACE_BATCH], ulo[s:s + TRACE_BATCH], uhi[s:s + TRACE_BATCH])
     for round_ in range(2):
         axis_of = pref if round_ == 0 else 1 - pref
         for axis in (0, 1):
             idx = np.flatnonzero(~traced & (axis_of == axis))
             for s in range(0, len(idx), TRACE_BATCH):
+                if stop():
+                    return traced
                 part = idx[s:s + TRACE_BATCH]
-                traced[part] = _trace_axis(system, grid, axis, chart[part], ulo[part], uhi[part], met, proven)
+                traced[part] = _trace_axis(system, grid, axis, chart[part], ulo[part], uhi[part], met, proven, budget)
     return traced
 
 
-def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven: set) -> np.ndarray:
+def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven: set, budget=None) -> np.ndarray:
     """:func:`_trace_boxes` with plane axis ``axis`` (0: x, 1: y) as the parameter for every box.
 
     The box test (on V, :func:`_trace_box`) proves that for every p of the box one root lies in V; each
     piece is then tested on its own narrow V' (Newton's band over the piece, inside V): a root in V'
-    is that unique root of V, so K(V') encloses every root of the box over the piece, tightly."""
+    is that unique root of V, so K(V') encloses every root of the box over the piece, tightly. The boxes
+    whose box test passed go on in groups of at most PIECE_GROUP pieces (a box spans ~width / T cells along
+    p: at a small T a batch of boxes has millions of pieces); groups left once ``budget`` names a reason to
+    stop are not traced."""
     charts = system.charts
     p = list(system.plane_columns)[axis]
     vlo, vhi, line = _trace_box(system, p, chart, ulo, uhi)
@@ -772,20 +809,38 @@ def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven
     idx = np.flatnonzero(whole)
     if not len(idx):
         return out
-    chart, vlo, vhi, line = chart[idx], vlo[idx], vhi[idx], tuple(v[idx] for v in line)
+    alo, ahi = charts.angle_box(chart[idx], vlo[idx], vhi[idx])
+    first, last = grid.span(axis, alo[:, p], ahi[:, p])
+    ends = np.cumsum(last - first + 1)                       # pieces of the boxes so far (at most: cells met)
+    start = 0
+    while start < len(idx):
+        if budget is not None and budget.exhausted():
+            break
+        stop = max(start + 1, int(np.searchsorted(ends, (ends[start - 1] if start else 0) + PIECE_GROUP, "right")))
+        group = idx[start:stop]
+        out[group] = _trace_group(system, grid, axis, p, chart[group], vlo[group], vhi[group],
+                                  tuple(v[group] for v in line), met, proven)
+        start = stop
+    return out
+
+
+def _trace_group(system, grid: Grid, axis: int, p: int, chart, vlo, vhi, line, met: set, proven: set) -> np.ndarray:
+    """The pieces of boxes whose box test passed (:func:`_trace_axis`): (B,) bool, True where every piece is
+    proven (the box is traced); adds the cells to ``met`` and ``proven``."""
+    charts = system.charts
     # the pieces: each box's range along p cut at the cell edges (fractions of the range; the ends 0 and 1
     # exact, each cut shared by the two pieces beside it: the pieces cover the range)
     owner, fa, fz = [], [], []
-    for b in range(len(idx)):
+    for b in range(len(chart)):
         cuts = _cuts(grid, axis, charts, int(chart[b]), p, vlo[b, p], vhi[b, p])
         owner += [b] * (len(cuts) - 1)
         fa += cuts[:-1]
         fz += cuts[1:]
     owner, fa, fz = np.array(owner), np.array(fa), np.array(fz)
     ok, klo, khi, ends = _test_pieces(system, p, chart, vlo, vhi, line, owner, fa, fz)
-    good = np.ones(len(idx), dtype=bool)
+    ok[ok] = _cells_in_pieces(system, grid, chart[owner[ok]], klo[ok], khi[ok]) <= PIECE_CELLS
+    good = np.ones(len(chart), dtype=bool)
     good[owner[~ok]] = False                                 # a box is traced when every piece is proven
-    out[idx[good]] = True
     keep = good[owner]
     owner, fa, fz, klo, khi = (v[keep] for v in (owner, fa, fz, klo, khi))
     ends = tuple(v[keep] for v in ends)
@@ -814,7 +869,7 @@ def _trace_axis(system, grid: Grid, axis: int, chart, ulo, uhi, met: set, proven
         ends = tuple(v[g] for v in sub[3])
         if not len(owner):
             break
-    return out
+    return good
 
 
 def _test_pieces(system, p: int, chart, vlo, vhi, line, owner, fa, fz) -> tuple:
@@ -912,6 +967,15 @@ def _cuts(grid: Grid, axis: int, charts, c: int, col: int, u0: float, u1: float)
     return [0.0] + [float(v) for v in f if 0.0 < v < 1.0] + [1.0]
 
 
+def _cells_in_pieces(system, grid: Grid, chart, klo, khi) -> np.ndarray:
+    """How many cells each piece's enclosure [klo, khi] (unit, (P, N)) meets, (P,) (no lists built)."""
+    cols = list(system.plane_columns)
+    alo, ahi = system.charts.angle_box(chart, klo, khi)
+    s0 = grid.span(0, alo[:, cols[0]], ahi[:, cols[0]])
+    s1 = grid.span(1, alo[:, cols[1]], ahi[:, cols[1]])
+    return (s0[1] - s0[0] + 1) * (s1[1] - s1[0] + 1)
+
+
 def _piece_cells(system, grid: Grid, chart, klo, khi) -> list:
     """The cells (i, j) met by each piece's enclosure [klo, khi] (unit, (P, N)): a list of lists."""
     cols = list(system.plane_columns)
@@ -934,10 +998,10 @@ def _prove_pieces(system, grid: Grid, axis: int, chart, ends, proven: set) -> No
     blo, bhi = charts.angle_box(chart, lb, hb)
     xa, ya0, ya1 = alo[:, p], alo[:, q], ahi[:, q]
     xb, yb0, yb1 = blo[:, p], blo[:, q], bhi[:, q]
-    wp = grid.width(axis)
-    ia = np.floor((xa - grid.lo[axis]) / wp).astype(int)
-    ib = np.floor((xb - grid.lo[axis]) / wp).astype(int)
-    for k in np.flatnonzero(ok_a & ok_b & (ia == ib) & (ia >= 0) & (ia < grid.n[axis])):
+    ok = ok_a & ok_b & np.isfinite(xa) & np.isfinite(xb)     # a failed test's enclosure is not read
+    ia, ib = np.full(len(xa), -1), np.full(len(xb), -1)
+    ia[ok], ib[ok] = grid.index(axis, xa[ok]), grid.index(axis, xb[ok])
+    for k in np.flatnonzero(ok & (ia == ib) & (ia >= 0) & (ia < grid.n[axis])):
         e0, e1 = grid.edges(axis, int(ia[k]))
         if min(xa[k], xb[k]) - e0 < PROOF_SLACK or e1 - max(xa[k], xb[k]) < PROOF_SLACK:
             continue                                  # an end too close to the cell's edge along p
