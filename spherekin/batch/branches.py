@@ -34,8 +34,8 @@ Method (:func:`branch_map`):
    than the sampling may lie there, so the branches are cut there and no circuit is joined across it;
 5. join branches into circuits (union-find over branch points and the wrap).
 
-Step 0, before the first solve: the cover, and its cells' edges added to the grid (up to
-:data:`COVER_SAMPLES`), so that a count change the grid steps over is seen at a cell's edges and
+Step 0, before the first solve: the cover, and the edges of its runs of adjacent cells added to the
+grid (up to :data:`COVER_SAMPLES`), so that a count change the grid steps over is seen at a cell's edges and
 bisected (a pair of branch points a grid step apart is then located, not only flagged); only a pair
 inside one cell (or a run of cells) stays unresolved. The step is skipped with ``cover_tol=None``
 (then nothing says the sampling lost no pair).
@@ -136,10 +136,12 @@ COVER_EXPLAINS = 2.0
 #: continuum of singular assemblies over an interval of inputs) returns the unprocessed part as
 #: unresolved regions, which the cross-check turns unresolved like any cell it cannot account for.
 COVER_MAX_BOXES = 2_000_000
-#: The edges of the cover's cells solved as extra samples at most (beyond, only the edges of each run
-#: of adjacent cells). Reason: a solve takes ~10 ms (four-bar) to ~0.1 s (six-bar), so at most ~20 s
-#: more; a generic linkage's cover has one or two cells per branch point, more only next to a
-#: near-tangency (the change-point four-bar: 12 cells at T = 1e-6) or a continuum.
+#: The edges of the cover's runs of adjacent cells solved as extra samples at most (more: none; the
+#: runs are then judged on the grid's samples alone). Reason: a solve takes ~10 ms (four-bar) to ~0.1 s
+#: (six-bar), ~0.5 s within 1e-5 of a near-tangency, so ~20-100 s more at most; a generic linkage's
+#: cover has one run per branch point, many only over a continuum of singular assemblies. Only a run's
+#: two edges: inside a run of unresolved cells the solver slows down without bound (the change-point
+#: four-bar: 0.4-0.7 s per solve at its run's cell edges, 42 s at its discriminant's minimum).
 COVER_SAMPLES = 200
 
 #: The connect step: ``connect(u0, Q0, u1, Q1)`` with the solutions at inputs u0 < u1 (arrays
@@ -610,15 +612,10 @@ def _runs(intervals) -> list[tuple[float, float]]:
 
 
 def _edge_samples(cells, lo: float, hi: float) -> list[float]:
-    """The inputs to add to the grid for the cover's ``cells`` (lo, hi, status): every cell's edges,
-    or, beyond :data:`COVER_SAMPLES`, each run of adjacent cells' two (none beyond that either); within
-    [lo, hi]."""
-    edges = sorted({e for c in cells for e in c[:2]})
-    if len(edges) > COVER_SAMPLES:
-        edges = sorted({e for run in _runs(c[:2] for c in cells) for e in run})
-    if len(edges) > COVER_SAMPLES:
-        return []
-    return [e for e in edges if lo <= e <= hi]
+    """The inputs to add to the grid for the cover's ``cells`` (lo, hi, status): the two edges of each
+    run of adjacent cells within [lo, hi], none when more than :data:`COVER_SAMPLES`."""
+    edges = sorted({e for run in _runs(c[:2] for c in cells) for e in run if lo <= e <= hi})
+    return edges if len(edges) <= COVER_SAMPLES else []
 
 
 def cross_check(cells, points, tol: float, period: float | None = None):
