@@ -154,6 +154,9 @@ def test_crank_rocker_has_two_crank_circuits_on_the_closed_form():
     per_circuit = [{signs[k] for k in c.branches} for c in bmap.circuits]
     assert sorted(map(sorted, per_circuit)) == [[0], [1]]
     assert "crank: covers the full input turn" in bmap.report()
+    # no zero of the discriminant: the certified cover holds no cell, and says so
+    assert bmap.cover.complete and bmap.cover.cells == () and bmap.unresolved == ()
+    assert "no branch point over the input's range (proven)" in bmap.report()
 
 
 def test_non_grashof_branch_points_join_the_two_assemblies_into_one_circuit(tmp_path):
@@ -192,6 +195,8 @@ def test_cli_map_of_a_one_input_file_writes_branches_json_and_plot(tmp_path, cap
     assert {"inputs", "branches", "branch_points", "circuits", "input", "joints", "output"} <= set(data)
     assert data["input"] == "A" and data["output"] == "D" and len(data["inputs"]) == 25
     assert len(data["circuits"]) == 2 and all(c["crank"] for c in data["circuits"])
+    assert data["cover"]["cells"] == [] and data["cover"]["complete"] and data["cover"]["error"] is None
+    assert "cross-check: certified singular cover of A at T = 1.0e-06 rad, complete, 0 cell(s)" in text
     assert png.stat().st_size > 0
 
 

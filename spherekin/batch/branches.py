@@ -31,13 +31,15 @@ Method (:func:`branch_map`):
    (:func:`cross_check`). A located branch point outside every cell is a *disagreement* (reported,
    never dropped: one of the two is wrong); a part of the cover no located branch point accounts for
    (:data:`COVER_EXPLAINS` cells around each) is turned *unresolved*: a pair of branch points closer
-   than the sampling may lie there, so the branches are cut there and no circuit is joined across it;
+   than the sampling may lie there, so the branches are cut there and no circuit is joined across it.
+   The resolution left: branch points within :data:`COVER_EXPLAINS` T of a located one are taken
+   for it (as two closer than :data:`BISECT_TOL` are by the bisection);
 5. join branches into circuits (union-find over branch points and the wrap).
 
 Step 0, before the first solve: the cover, and the edges of its runs of adjacent cells added to the
-grid (up to :data:`COVER_SAMPLES`), so that a count change the grid steps over is seen at a cell's edges and
-bisected (a pair of branch points a grid step apart is then located, not only flagged); only a pair
-inside one cell (or a run of cells) stays unresolved. The step is skipped with ``cover_tol=None``
+grid (up to :data:`COVER_SAMPLES`), so that a count change the grid steps over is seen at a run's
+edges and bisected (a pair of branch points a grid step apart is then located, not only flagged);
+only a pair inside one run of cells stays unresolved. The step is skipped with ``cover_tol=None``
 (then nothing says the sampling lost no pair).
 
 The connect step is a function of two consecutive samples only (:data:`Connector`), so a certified
@@ -120,9 +122,10 @@ BRANCH_RESIDUAL_TOL = 1e-12
 #: (step 4 of the module doc). Reason: the same resolution as :data:`BISECT_TOL`: a branch point the
 #: map misses next to one it locates lies within :data:`COVER_EXPLAINS` T of it, the "closer than
 #: 1e-6" the map already leaves unresolved; and a line's cover costs about the same at any T from 1e-2
-#: to 1e-6 (measured: the boxes of the passive unknowns dominate; examples/watt_six_bar.toml 1.3-1.5 s
-#: at every T, examples/stephenson_six_bar.toml 16-20 s), more below (a near-tangency's run of
-#: unresolved cells grows as 1/T: the issue-40 change-point four-bar 0.6 s at 1e-6, 12 s at 1e-8).
+#: to 1e-6 (measured, medians of 3 at T = 1e-2 / 1e-3 / 1e-6: the boxes of the passive unknowns
+#: dominate; examples/four_bar.toml 0.13 / 0.13 / 0.18 s, examples/watt_six_bar.toml 2.0 / 2.3 / 2.7 s,
+#: examples/stephenson_six_bar.toml 17 / 20 / 14 s), more below (a near-tangency's run of unresolved
+#: cells grows as 1/T: the issue-40 change-point four-bar 0.9 s at 1e-6, 12 s at 1e-8, one run).
 COVER_TOL = 1e-6
 #: A located branch point accounts for the cover's cells within this many cell widths T of it (its
 #: interval +- its tolerance, widened by this times T). Reason: the cover accepts boxes of sides at most
@@ -131,8 +134,8 @@ COVER_TOL = 1e-6
 #: adjacent cell (examples/watt_six_bar.toml at T = 1e-5, examples/stephenson_six_bar.toml at 1e-2
 #: and 1e-3).
 COVER_EXPLAINS = 2.0
-#: Box cap of the branch map's cover (boxes of the augmented system processed). Reason: about 8 times
-#: what the examples' Stephenson six-bar needs at T = 1e-6 (~2.4e5, ~20 s); a cover that reaches it (a
+#: Box cap of the branch map's cover (boxes of the augmented system processed). Reason: about 7 times
+#: what the examples' Stephenson six-bar needs at T = 1e-6 (2.7e5 boxes, ~15 s); a cover that reaches it (a
 #: continuum of singular assemblies over an interval of inputs) returns the unprocessed part as
 #: unresolved regions, which the cross-check turns unresolved like any cell it cannot account for.
 COVER_MAX_BOXES = 2_000_000
@@ -224,12 +227,16 @@ class CoverCheck:
             return f"cross-check: not done (the certified singular cover failed: {self.error})"
         head = (f"cross-check: certified singular cover of {input_name} at T = {self.tol * scale:.1e}{unit}, "
                 f"{'complete' if self.complete else 'capped'}, {len(self.cells)} cell(s), {self.seconds:.1f} s")
-        parts = [f"{len(self.unresolved)} interval(s) no branch point accounts for, turned unresolved"
-                 if self.unresolved else "every cell holds a located branch point"]
+        if not self.cells:
+            parts = ["no branch point over the input's range (proven)"]
+        elif self.unresolved:
+            parts = [f"{len(self.unresolved)} interval(s) no branch point accounts for, turned unresolved"]
+        else:
+            parts = ["every cell next to a located branch point"]
         if self.disagreements:
             parts.append(f"DISAGREES: {len(self.disagreements)} located branch point(s) outside the cover "
                          f"(branch point(s) {', '.join(str(k + 1) for k in self.disagreements)})")
-        else:
+        elif self.cells:
             parts.append("every located branch point inside it")
         return head + ": " + "; ".join(parts)
 
