@@ -25,7 +25,22 @@ Method (:func:`branch_map`):
 3. locate each branch point: from the bisected bracket, Newton (Gauss-Newton, least squares) on the
    augmented system (the loop equations, F_n - I = 0 of every loop, and det K_p = 0) in the passive
    readings and the input, to :data:`NEWTON_STEP_TOL`;
-4. join branches into circuits (union-find over branch points and the wrap).
+4. hold the located branch points against the certified singular cover of the input's line
+   (:func:`spherekin.singular` at :data:`COVER_TOL`, step 0 below): a branch point of a one-input
+   linkage is a parallel-singular input, and outside the cover's cells the count is proven constant
+   (:func:`cross_check`). A located branch point outside every cell is a *disagreement* (reported,
+   never dropped: one of the two is wrong); a part of the cover no located branch point accounts for
+   (:data:`COVER_EXPLAINS` cells around each) is turned *unresolved*: a pair of branch points closer
+   than the sampling may lie there, so the branches are cut there and no circuit is joined across it.
+   The resolution left: branch points within :data:`COVER_EXPLAINS` T of a located one are taken
+   for it (as two closer than :data:`BISECT_TOL` are by the bisection);
+5. join branches into circuits (union-find over branch points and the wrap).
+
+Step 0, before the first solve: the cover, and the edges of its runs of adjacent cells added to the
+grid (up to :data:`COVER_SAMPLES`), so that a count change the grid steps over is seen at a run's
+edges and bisected (a pair of branch points a grid step apart is then located, not only flagged);
+only a pair inside one run of cells stays unresolved. The step is skipped with ``cover_tol=None``
+(then nothing says the sampling lost no pair).
 
 The connect step is a function of two consecutive samples only (:data:`Connector`), so a certified
 continuation on the loop equations (:mod:`spherekin.trust.loop_continuation`) can take the place of
@@ -38,7 +53,8 @@ JSON: :meth:`BranchMap.as_dict` (schema :data:`BRANCHES_SCHEMA`, docs/results-fo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -48,8 +64,9 @@ from ..core.groups import connected_groups
 from ..core.angles import TWO_PI, wrap
 from .inputs import GridAxis, grid_inputs
 
-__all__ = ["BRANCHES_SCHEMA", "DEFAULT_SAMPLES", "Branch", "BranchPoint", "Circuit", "BranchMap", "Connector",
-           "NearestConnector", "branch_map", "check_one_input", "locate_branch_point"]
+__all__ = ["BRANCHES_SCHEMA", "COVER_TOL", "DEFAULT_SAMPLES", "Branch", "BranchPoint", "Circuit", "BranchMap",
+           "Connector", "CoverCheck", "NearestConnector", "branch_map", "check_one_input", "cross_check",
+           "locate_branch_point"]
 
 #: Inputs solved between two calls of a branch map's progress callback. Reason: one solve of a
 #: six-bar takes ~0.1 s, so a line every ~1 s; fewer inputs per call would cost solve_many's batching.
@@ -100,6 +117,35 @@ CHART_HALF_WIDTH = 1.0
 #: A polished branch point is accepted when its closure residual (largest |F_n - I| entry) is below
 #: this. Reason: the same bound polishing accepts a root with (trust/polish.py CONVERGED_TOL).
 BRANCH_RESIDUAL_TOL = 1e-12
+
+#: Cell width T (radians of input) of the certified singular cover the branch points are held against
+#: (step 4 of the module doc). Reason: the same resolution as :data:`BISECT_TOL`: a branch point the
+#: map misses next to one it locates lies within :data:`COVER_EXPLAINS` T of it, the "closer than
+#: 1e-6" the map already leaves unresolved; and a line's cover costs about the same at any T from 1e-2
+#: to 1e-6 (measured, medians of 3 at T = 1e-2 / 1e-3 / 1e-6: the boxes of the passive unknowns
+#: dominate; examples/four_bar.toml 0.13 / 0.13 / 0.18 s, examples/watt_six_bar.toml 2.0 / 2.3 / 2.7 s,
+#: examples/stephenson_six_bar.toml 17 / 20 / 14 s), more below (a near-tangency's run of unresolved
+#: cells grows as 1/T: the issue-40 change-point four-bar 0.9 s at 1e-6, 12 s at 1e-8, one run).
+COVER_TOL = 1e-6
+#: A located branch point accounts for the cover's cells within this many cell widths T of it (its
+#: interval +- its tolerance, widened by this times T). Reason: the cover accepts boxes of sides at most
+#: T/2 (problem.COVER_FRACTION), so a box around a branch point meets its own cell and at most the
+#: next one on either side: measured, the examples' folds within T/2 of a cell's edge give a second,
+#: adjacent cell (examples/watt_six_bar.toml at T = 1e-5, examples/stephenson_six_bar.toml at 1e-2
+#: and 1e-3).
+COVER_EXPLAINS = 2.0
+#: Box cap of the branch map's cover (boxes of the augmented system processed). Reason: about 7 times
+#: what the examples' Stephenson six-bar needs at T = 1e-6 (2.7e5 boxes, ~15 s); a cover that reaches it (a
+#: continuum of singular assemblies over an interval of inputs) returns the unprocessed part as
+#: unresolved regions, which the cross-check turns unresolved like any cell it cannot account for.
+COVER_MAX_BOXES = 2_000_000
+#: The edges of the cover's runs of adjacent cells solved as extra samples at most (more: none; the
+#: runs are then judged on the grid's samples alone). Reason: a solve takes ~10 ms (four-bar) to ~0.1 s
+#: (six-bar), ~0.5 s within 1e-5 of a near-tangency, so ~20-100 s more at most; a generic linkage's
+#: cover has one run per branch point, many only over a continuum of singular assemblies. Only a run's
+#: two edges: inside a run of unresolved cells the solver slows down without bound (the change-point
+#: four-bar: 0.4-0.7 s per solve at its run's cell edges, 42 s at its discriminant's minimum).
+COVER_SAMPLES = 200
 
 #: The connect step: ``connect(u0, Q0, u1, Q1)`` with the solutions at inputs u0 < u1 (arrays
 #: (n0, P) and (n1, P) of passive readings, radians) -> for each row of Q0 the row of Q1 it continues
@@ -152,14 +198,68 @@ class Circuit:
     crank: bool
 
 
+@dataclass(frozen=True)
+class CoverCheck:
+    """What the cross-check against the certified singular cover did (:func:`cross_check`).
+
+    ``tol``: the cover's cell width T (radians); ``complete``: whether the cover finished within its
+    box cap (when not, its unprocessed part is among ``cells`` as unresolved regions, wider than T);
+    ``cells``: the cover's cells (lo, hi, status "singular" or "unresolved"), radians; outside them no
+    branch point (the count is proven constant); ``unresolved``: the input intervals (lo, hi) turned
+    unresolved in the map: where the cover holds cells no located branch point accounts for (each
+    widened to the solved inputs the branches end at); ``disagreements``: the indices of the located
+    branch points outside every cell (one of the two results is wrong there); ``samples``: the cells'
+    edges added to the grid; ``seconds``: the cover's time; ``error``: why the cover could not be
+    computed (one line; then nothing was checked and the other fields are empty)."""
+
+    tol: float
+    complete: bool
+    cells: tuple[tuple[float, float, str], ...] = ()
+    unresolved: tuple[tuple[float, float], ...] = ()
+    disagreements: tuple[int, ...] = ()
+    samples: int = 0
+    seconds: float = 0.0
+    error: str | None = None
+
+    def summary(self, input_name: str, scale: float = 1.0, unit: str = " rad") -> str:
+        """One line: the cover, and what it found against the map (``scale``, ``unit``: the angles')."""
+        if self.error is not None:
+            return f"cross-check: not done (the certified singular cover failed: {self.error})"
+        head = (f"cross-check: certified singular cover of {input_name} at T = {self.tol * scale:.1e}{unit}, "
+                f"{'complete' if self.complete else 'capped'}, {len(self.cells)} cell(s), {self.seconds:.1f} s")
+        if not self.cells:
+            parts = ["no branch point over the input's range (proven)"]
+        elif self.unresolved:
+            parts = [f"{len(self.unresolved)} interval(s) no branch point accounts for, turned unresolved"]
+        else:
+            parts = ["every cell next to a located branch point"]
+        if self.disagreements:
+            parts.append(f"DISAGREES: {len(self.disagreements)} located branch point(s) outside the cover "
+                         f"(branch point(s) {', '.join(str(k + 1) for k in self.disagreements)})")
+        elif self.cells:
+            parts.append("every located branch point inside it")
+        return head + ": " + "; ".join(parts)
+
+    def as_dict(self) -> dict:
+        """The ``cover`` object of the branch map's JSON (docs/results-format.md)."""
+        return {"tol": float(self.tol), "complete": bool(self.complete),
+                "cells": [{"x": [float(lo), float(hi)], "status": st} for lo, hi, st in self.cells],
+                "unresolved": [[float(lo), float(hi)] for lo, hi in self.unresolved],
+                "disagreements": [int(k) for k in self.disagreements], "samples": int(self.samples),
+                "seconds": float(self.seconds), "error": self.error}
+
+
 @dataclass(frozen=True, eq=False)
 class BranchMap:
     """The branches and circuits of a one-input mechanism (module doc). ``input``: the actuated
     joint; ``joints``: the passive joints (columns of every angle array); ``output``: the joint
     drawn and reported; ``grid``: the inputs first solved (radians); ``full_turn``: whether the grid
     wraps; ``counts``: solutions at each grid input; ``samples``: inputs solved in all;
-    ``unresolved``: input intervals (lo, hi), :data:`BISECT_TOL` wide, whose solutions could not be
-    connected (the branches end there and the circuits are not joined across them)."""
+    ``unresolved``: input intervals (lo, hi) whose solutions could not be connected (the branches end
+    there and the circuits are not joined across them): :data:`BISECT_TOL` wide where two branches
+    cross, and the cells of the singular cover no located branch point accounts for (``cover``);
+    ``cover``: the cross-check against the certified singular cover (:class:`CoverCheck`, None when
+    skipped)."""
 
     mechanism: str
     input: str
@@ -173,6 +273,7 @@ class BranchMap:
     branch_points: tuple[BranchPoint, ...]
     circuits: tuple[Circuit, ...]
     unresolved: tuple[tuple[float, float], ...] = ()
+    cover: CoverCheck | None = None
 
     @property
     def output_column(self) -> int:
@@ -195,9 +296,16 @@ class BranchMap:
                 for b in circ.branch_points) or "none"
             kind = "crank: covers the full input turn" if circ.crank else "not a full turn"
             rows.append(f"  circuit {c}: {self.input} in {spans}{unit}; branch points: {points}; {kind}")
+        flagged = set(self.cover.unresolved) if self.cover is not None else set()
         for lo, hi in self.unresolved:
+            why = ("the certified cover holds a singular input there that no located branch point accounts for: "
+                   "branch points closer than the sampling may lie there" if (lo, hi) in flagged
+                   else "branches crossing, or branch points closer than that")
             rows.append(f"  unresolved: the solutions at {self.input} = {lo * scale:.10g} and {hi * scale:.10g}{unit} "
-                        "could not be connected (branches crossing, or branch points closer than that)")
+                        f"could not be connected ({why})")
+        rows.append("  " + (self.cover.summary(self.input, scale, unit) if self.cover is not None
+                            else "cross-check: skipped (no certified singular cover: a pair of branch points closer "
+                                 "than the sampling would go unseen)"))
         return "\n".join(rows)
 
     def as_dict(self) -> dict:
@@ -217,6 +325,7 @@ class BranchMap:
                           "intervals": [[float(lo), float(hi)] for lo, hi in c.intervals], "crank": bool(c.crank)}
                          for c in self.circuits],
             "unresolved": [[float(lo), float(hi)] for lo, hi in self.unresolved],
+            "cover": None if self.cover is None else self.cover.as_dict(),
         }
 
 
@@ -403,7 +512,8 @@ class _Samples:
 
 def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | None = None,
                samples: int = DEFAULT_SAMPLES, connect: Connector | None = None,
-               progress: Callable[[int, int], None] | None = None, **strategy) -> BranchMap:
+               progress: Callable[[int, int], None] | None = None, cover_tol: float | None = COVER_TOL,
+               **strategy) -> BranchMap:
     """The branches, branch points and circuits of a one-input mechanism (module doc).
 
     ``mechanism``: a SphericalMechanism or a mechanism file's path, one actuated joint; ``grid``:
@@ -411,12 +521,15 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     ``samples`` points; a grid spanning 2 pi of an unlimited joint wraps); ``joint``: the passive
     joint reported and drawn (default: the first passive joint); ``connect``: the connect step
     (default :class:`NearestConnector`); ``progress``: called with (inputs solved, inputs planned so
-    far) as solving goes (refinements add inputs); ``strategy``: the keywords of :func:`spherekin.compile`.
+    far) as solving goes (refinements add inputs); ``cover_tol``: the cell width T (radians) of the
+    certified singular cover the map is held against (:class:`CoverCheck`; None: no cross-check);
+    ``strategy``: the keywords of :func:`spherekin.compile`.
     The passive joints' ranges are lifted: a circuit is a property of the linkage, which a range
     cuts short but never joins to another (an assembly leaving a range meets no other there).
-    Islands of assemblies narrower than a grid step between two inputs of the same count are not seen.
+    Islands of assemblies narrower than a grid step between two inputs of the same count are not seen
+    by the sampling; the cover's cells show where they may be (step 4 of the module doc).
     """
-    from ..problem import as_mechanism, compile as compile_problem
+    from ..problem import SINGULAR_MAX_TOL, as_mechanism, compile as compile_problem
 
     mech = as_mechanism(mechanism)
     name = check_one_input(mech)
@@ -426,16 +539,24 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     if joint not in joints:
         raise ValueError(f"joint: {joint!r} is not a passive joint of this mechanism; expected one of "
                          f"{', '.join(joints)}")
+    if cover_tol is not None and (isinstance(cover_tol, bool) or not isinstance(cover_tol, (int, float))
+                                  or not 0 < cover_tol <= SINGULAR_MAX_TOL):
+        raise ValueError(f"cover_tol: expected None or 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {cover_tol!r}")
     values, full = _grid_of(mech, name, grid, samples)
     mech = mech.without_ranges(mech.passive)        # circuits are the linkage's: a passive range cuts them, joins none
     problem = compile_problem(mech, **strategy)
     connect = connect or NearestConnector(mech, name, joints)
     base = list(values[:-1]) if full else list(values)
     ends = base + ([base[0] + TWO_PI] if full else [])
-    store = _Samples(problem, joints, full, progress, len(base))
-    store.solve(base)
+    check = None if cover_tol is None else _cover(mech, name, ends[0], ends[-1], float(cover_tol))
+    if check is not None and check.error is None:   # the cells' edges: a count change inside the grid's steps
+        extra = _edge_samples(check.cells, ends[0], ends[-1])
+        check = replace(check, samples=len(set(extra) - set(ends)))
+        ends = sorted(set(ends) | set(extra))
+    store = _Samples(problem, joints, full, progress, len(ends) - (1 if full else 0))
+    store.solve(ends[:-1] if full else ends)
     if full:
-        store.at[ends[-1]] = store.at[base[0]]
+        store.at[ends[-1]] = store.at[ends[0]]
     # ----- resolve every interval: a matching, or a bisected count change
     pending = list(zip(ends, ends[1:]))
     done: dict[float, tuple[float, np.ndarray, bool]] = {}      # a -> (b, match, count change)
@@ -459,7 +580,101 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
         mids = [0.5 * (a + b) for a, b in halve]
         store.solve(mids)
         pending = [part for (a, b), m in zip(halve, mids) for part in ((a, m), (m, b))]
-    return _assemble(mech, name, joints, joint, values, full, store, ends, done, tuple(unresolved))
+    located = _locate_all(mech, name, joints, store, done)
+    if check is not None and check.error is None:
+        points = [(r[0], r[2]) for a in sorted(located) for _, _, r in located[a]]    # the branch points' order
+        left, outside = cross_check([(lo, hi) for lo, hi, _ in check.cells], points, check.tol,
+                                    TWO_PI if full else None)
+        flagged = _cut(store, done, left)
+        check = replace(check, unresolved=flagged, disagreements=outside)
+        unresolved = [iv for iv in unresolved if not any(lo <= iv[0] and iv[1] <= hi for lo, hi in flagged)]
+        unresolved = sorted(unresolved + list(flagged))
+    return _assemble(mech, name, joints, joint, values, full, store, ends, done, located, tuple(unresolved), check)
+
+
+def _cover(mech, name: str, lo: float, hi: float, tol: float) -> CoverCheck:
+    """The certified singular cover of the input ``name`` over [lo, hi] (radians) at cell width ``tol``
+    (:func:`spherekin.singular`), as a :class:`CoverCheck` not yet judged (``error``: its one-line
+    refusal, e.g. a mechanism whose det K_p it cannot expand)."""
+    from ..problem import singular
+
+    t0 = time.perf_counter()
+    try:
+        sset = singular(mech, x=(name, lo, hi), tol=tol, max_boxes=COVER_MAX_BOXES)
+    except ValueError as exc:
+        return CoverCheck(tol, False, error=str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+    cells = tuple(sorted((float(b.x[0]), float(b.x[1]), str(b.status)) for b in sset.boxes))
+    return CoverCheck(tol, bool(sset.complete), cells, seconds=time.perf_counter() - t0)
+
+
+def _runs(intervals) -> list[tuple[float, float]]:
+    """Intervals (lo, hi) merged where they meet or touch, sorted."""
+    out: list[list[float]] = []
+    for lo, hi in sorted(intervals):
+        if out and lo <= out[-1][1]:
+            out[-1][1] = max(out[-1][1], hi)
+        else:
+            out.append([lo, hi])
+    return [(lo, hi) for lo, hi in out]
+
+
+def _edge_samples(cells, lo: float, hi: float) -> list[float]:
+    """The inputs to add to the grid for the cover's ``cells`` (lo, hi, status): the two edges of each
+    run of adjacent cells within [lo, hi], none when more than :data:`COVER_SAMPLES`."""
+    edges = sorted({e for run in _runs(c[:2] for c in cells) for e in run if lo <= e <= hi})
+    return edges if len(edges) <= COVER_SAMPLES else []
+
+
+def cross_check(cells, points, tol: float, period: float | None = None):
+    """Located branch points against a certified singular cover of their input's line.
+
+    ``cells``: the cover's cells (lo, hi) (radians): outside them no branch point; ``points``: the
+    located branch points (input, tolerance) (radians); ``tol``: the cover's cell width T; ``period``:
+    2 pi for a full turn (a point is then also compared at +- one period). Returns (``left``: the parts
+    of the cover no point accounts for, merged intervals (lo, hi), sorted; a point accounts for the
+    cover within its tolerance plus :data:`COVER_EXPLAINS` T of it; ``outside``: the indices of the
+    points that meet no cell, which account for nothing)."""
+    runs = _runs(cells)
+    shifts = (0.0,) if period is None else (-period, 0.0, period)
+    outside, windows = [], []
+    for k, (u, t) in enumerate(points):
+        if not any(lo <= u + s + t and u + s - t <= hi for lo, hi in runs for s in shifts):
+            outside.append(k)
+            continue
+        reach = t + COVER_EXPLAINS * tol
+        windows += [(u + s - reach, u + s + reach) for s in shifts]
+    left = []
+    for lo, hi in runs:
+        pieces = [(lo, hi)]
+        for w_lo, w_hi in _runs(windows):
+            pieces = [part for a, b in pieces for part in ((a, min(b, w_lo)), (max(a, w_hi), b)) if part[1] > part[0]]
+        left += pieces
+    return tuple(left), tuple(outside)
+
+
+def _cut(store, done: dict, left) -> tuple[tuple[float, float], ...]:
+    """Cut the map's connections across the intervals ``left`` (lo, hi) (radians): each run of
+    consecutive connected intervals meeting one becomes one interval connecting nothing (``done``
+    updated in place; a count change keeps its branch point). Returns the intervals flagged
+    unresolved: each of ``left`` widened to the solved inputs its cut ends at, merged."""
+    flagged = []
+    for lo, hi in left:
+        keys = [a for a in sorted(done) if a < hi and done[a][0] > lo]
+        f_lo, f_hi = lo, hi
+        run: list[float] = []
+        for a in keys + [None]:
+            if a is not None and not done[a][2]:
+                run.append(a)
+                continue
+            if run:
+                end = done[run[-1]][0]
+                done[run[0]] = (end, np.full(len(store.at[run[0]]), -1, dtype=int), False)
+                for inner in run[1:]:
+                    del done[inner]
+                f_lo, f_hi = min(f_lo, run[0]), max(f_hi, end)
+            run = []
+        flagged.append((f_lo, f_hi))
+    return tuple(_runs(flagged))
 
 
 def _next_to_a_count_change(store, a: float, b: float) -> bool:
@@ -492,8 +707,33 @@ def _pairs(q: np.ndarray) -> list[tuple[int, int]]:
     return pairs
 
 
-def _assemble(mech, name, joints, joint, values, full, store, ends, done, unresolved) -> BranchMap:
-    """Chains of matched samples -> branches; count changes -> located branch points; circuits."""
+def _meeting_rows(store, done: dict, a: float) -> tuple[float, list[int], bool]:
+    """The count change over ``done[a]``: (the input of its larger side, the rows there no solution
+    of the other side continues to or from, whether that side is ``a``)."""
+    b, match, _ = done[a]
+    na, nb = len(store.at[a]), len(store.at[b])
+    if na > nb:
+        return a, [r for r in range(na) if match[r] < 0], True
+    return b, sorted(set(range(nb)) - set(int(m) for m in match if m >= 0)), False
+
+
+def _locate_all(mech, name, joints, store, done: dict) -> dict:
+    """Every count change of ``done`` -> [(i, j, located)]: the rows of :func:`_meeting_rows` met in
+    pairs (:func:`_pairs`) and each pair's branch point (:func:`locate_branch_point`'s tuple)."""
+    out = {}
+    for a in sorted(done):
+        b, _, transition = done[a]
+        if not transition:
+            continue
+        at, rows, _ = _meeting_rows(store, done, a)
+        q = store.at[at][rows]
+        out[a] = [(i, j, locate_branch_point(mech, name, joints, at, q[i] + 0.5 * wrap(q[j] - q[i]), (a, b)))
+                  for i, j in _pairs(q)]
+    return out
+
+
+def _assemble(mech, name, joints, joint, values, full, store, ends, done, located, unresolved, check) -> BranchMap:
+    """Chains of matched samples -> branches; count changes -> the located branch points; circuits."""
     us = sorted(done) + [ends[-1]]
     # chains: (sample input, row) sequences; a row at u continues to match[row] at the next input
     chains: list[list[tuple[float, int]]] = []
@@ -517,27 +757,16 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done, unreso
     points, joins = [], []
     starts: dict[int, int] = {}
     stops: dict[int, int] = {}
-    for a in sorted(done):
-        b, match, transition = done[a]
-        if not transition:
-            continue
-        na, nb = len(store.at[a]), len(store.at[b])
-        if na > nb:
-            at, rows = a, [r for r in range(na) if match[r] < 0]
-            chain_of = [last[(a, r)] for r in rows]
-        else:
-            at, rows = b, sorted(set(range(nb)) - set(int(m) for m in match if m >= 0))
-            chain_of = [first[(b, r)] for r in rows]
-        q = store.at[at][rows]
-        for i, j in _pairs(q):
-            centre = q[i] + 0.5 * wrap(q[j] - q[i])
-            u_bp, q_bp, tol, residual, polished = locate_branch_point(mech, name, joints, at, centre, (a, b))
+    for a in sorted(located):
+        at, rows, ending = _meeting_rows(store, done, a)
+        chain_of = [(last if ending else first)[(at, r)] for r in rows]
+        for i, j, (u_bp, q_bp, tol, residual, polished) in located[a]:
             k = len(points)
             pair = (chain_of[i], chain_of[j])
             points.append(BranchPoint(float(u_bp), tuple(float(x) for x in q_bp), float(tol), float(residual), bool(polished),
                                       pair))
             for c in pair:
-                (stops if na > nb else starts)[c] = k
+                (stops if ending else starts)[c] = k
             joins.append(pair)
     # the wrap of a full turn: a chain ending at the last input continues as the one at the first
     if full:
@@ -558,7 +787,7 @@ def _assemble(mech, name, joints, joint, values, full, store, ends, done, unreso
                                starts.get(k), stops.get(k)))
     circuits = _circuits(branches, points, joins, full, ends)
     return BranchMap(mech.name, name, joints, joint, values, full, tuple(len(store.at[u]) for u in values),
-                     len(store.at) - (1 if full else 0), tuple(branches), tuple(points), circuits, unresolved)
+                     len(store.at) - (1 if full else 0), tuple(branches), tuple(points), circuits, unresolved, check)
 
 
 def _circuits(branches, points, joins, full, ends) -> tuple[Circuit, ...]:
