@@ -482,7 +482,10 @@ def _singular(args) -> int:
         print("cusps: not searched " + ("(the run was stopped first)" if sset.stopped and sset.system == "platform" else
                                         "(the loop equations of several loops: only the platform system searches them)"))
     st = sset.stats
-    print(f"complete: {'yes' if sset.complete else f'no ({sset.stopped}: the unprocessed part is unresolved)'}; "
+    if sset.cross_check is not None:
+        print(sset.cross_check.text())
+    why = (f"{sset.stopped}: the unprocessed part is unresolved" if sset.stopped else "the cross-check disagrees")
+    print(f"complete: {'yes' if sset.complete else f'no ({why})'}; "
           f"boxes processed {st.boxes_processed}, {st.seconds:.2f} s")
     if st.crowded:
         print(f"crowded: {st.crowded} boxes set aside where the cover crowds (e.g. a continuum of singular "

@@ -988,6 +988,62 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps, budget) -
     return _PlaneRun(cells, tuple(cands), used, t_cover, accepted, len(pending[0]), regions, len(aside[0]), searched)
 
 
+#: A line's cover is held against proven counts (:func:`_line_cross_check`) at this many inputs of each free
+#: interval (between two cells): its two ends, each moved inward by CROSS_CHECK_INSET of min(T, its length), and
+#: the points between them evenly. Reason: a missed branch point changes the count between some two of them;
+#: the ends are where a cell placed off the true point leaves it (issue 40: cells 0.02-0.07 off), and 3
+#: solves per cell cost ~0.1 s on a six-bar.
+CROSS_CHECK_POINTS = 3
+#: ... inset of the ends: far enough from a cell that the solve there is not next to its fold (slow, flagged).
+CROSS_CHECK_INSET = 0.25
+
+
+def _free_intervals(boxes, lo: float, hi: float) -> list[tuple[float, float]]:
+    """The parts of [lo, hi] outside every box's x-range (closed boxes, merged), in order."""
+    out, at = [], lo
+    for a, b in sorted((b.x[0], b.x[1]) for b in boxes):
+        if a > at:
+            out.append((at, a))
+        at = max(at, b)
+    if at < hi:
+        out.append((at, hi))
+    return out
+
+
+def _line_cross_check(mech, ax, fixed, boxes, tol: float, on_platform: bool):
+    """A line's cover held against proven counts (issue 40 item 3): solve at CROSS_CHECK_POINTS inputs of each
+    free interval (:func:`_free_intervals`) and compare the exact counts within each interval; a
+    :class:`spherekin.results.CrossCheck`. The counts are of the mechanism the cover describes: the platform
+    system's cover ignores every joint range, so do its counts; the loop equations' cover applies the passive
+    ranges, so a count could change where an assembly leaves its range (no singularity): skipped then."""
+    from .results import CrossCheck
+
+    ranged = [n for n in mech.passive if mech.joint(n).range is not None]
+    if ranged and not on_platform:
+        return CrossCheck(skipped=f"passive joint ranges ({', '.join(ranged)}): a count also changes where an "
+                                  "assembly leaves its range")
+    free = mech.without_ranges()
+    rows, owner = [], []
+    for k, (a, b) in enumerate(_free_intervals(boxes, ax[1], ax[2])):
+        inset = CROSS_CHECK_INSET * min(tol, b - a)
+        for u in np.linspace(a + inset, b - inset, CROSS_CHECK_POINTS):
+            rows.append([u if n == ax[0] else fixed[n] for n in free.actuated])
+            owner.append(k)
+    if not rows:
+        return CrossCheck()
+    reports = compile(free).solve_many(np.array(rows))
+    seen: dict = {}
+    out = []
+    for k, row, rep in zip(owner, rows, reports):
+        if not rep.count_exact:
+            continue
+        x = row[free.actuated.index(ax[0])]
+        if k in seen and seen[k][1] != rep.proven_count:
+            out.append(((float(seen[k][0]), float(x), None, None), (seen[k][1], rep.proven_count)))
+        seen[k] = (x, rep.proven_count)
+    return CrossCheck(len(rows), sum(r.count_exact for r in reports), tuple(out))
+
+
 def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, tol: float = SINGULAR_TOL,
              max_boxes: int = SINGULAR_MAX_BOXES, budget=None):
     """The parallel (Type-2) singular set of ``mechanism`` in a plane of inputs, certified (issue 31).
@@ -1076,13 +1132,16 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     listed = set(outside_regions(cells, regions)) | {k for k, c in cells.items() if c.status == SINGULAR}
     cells = [cells[k] for k in sorted(listed)]
     stopped = budget.reason or ("box cap" if n_pending else None)
-    complete = stopped is None
-    t2 = time.perf_counter()
     boxes = tuple(SingularBox(grid.edges(0, c.i), None if ay is None else grid.edges(1, c.j), c.status)
                   for c in cells)
     boxes += tuple(SingularBox((grid.edges(0, i0)[0], grid.edges(0, i1)[1]),
                                None if ay is None else (grid.edges(1, j0)[0], grid.edges(1, j1)[1]), "unresolved")
                    for i0, i1, j0, j1 in regions)
+    check = None
+    if ay is None and stopped is None:    # a line: the cover held against proven counts between its cells
+        check = _line_cross_check(mech, ax, plane.fixed, boxes, tol, on_platform)
+    complete = stopped is None and not (check and check.disagreements)
+    t2 = time.perf_counter()
     # t_cover: the box loops; the rest: set-up, projection and certificates
     stats = SingularStats(used, accepted, n_pending, t_cover, t2 - t0 - t_cover, t2 - t0,
                           sum(r.crowded for r in runs))
@@ -1093,7 +1152,8 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     else:
         search = CuspSearch.NONE_POSSIBLE if len(mech.link_graph.loops) == 1 else CuspSearch.NOT_SEARCHED
     return SingularSet(ax, ay, plane.fixed, float(tol), boxes, complete, stats,
-                       Platform.name if on_platform else Loops.name, cusps, search, stopped=stopped)
+                       Platform.name if on_platform else Loops.name, cusps, search, stopped=stopped,
+                       cross_check=check)
 
 
 #: Radii (radians of input) of the circles around a proven cusp tried by :func:`mode_change`, in order: small

@@ -26,7 +26,7 @@ __all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluste
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
-           "SingularStats", "SingularSet"]
+           "SingularStats", "SingularSet", "CrossCheck"]
 
 
 def format_number(value, spec: str = "+.6f") -> str:
@@ -581,6 +581,37 @@ class CuspSearch(StrEnum):
 
 
 @dataclass(frozen=True)
+class CrossCheck:
+    """A singular set held against proven counts (issue 40 item 3): outside its cells the count cannot change,
+    so two inputs between the same two cells (a *free interval* of a line, or two neighbours of a map's grid)
+    with different proven counts prove the cover wrong. ``samples``: inputs solved (or grid points read);
+    ``proven``: of them with an exact count; ``disagreements``: ((x lo, x hi, y lo, y hi), (count, count)) per
+    pair of inputs (radians; y None on a line) whose proven counts differ with no cell between them: the cover
+    is then not complete. ``skipped``: why no check ran (None when it ran)."""
+
+    samples: int = 0
+    proven: int = 0
+    disagreements: tuple = ()
+    skipped: str | None = None
+
+    def text(self) -> str:
+        """One line for the command line's report."""
+        if self.skipped:
+            return f"cross-check: not run ({self.skipped})"
+        if not self.disagreements:
+            return f"cross-check: the proven counts at {self.proven} of {self.samples} inputs agree with the cells"
+        (x0, x1, y0, y1), (a, b) = self.disagreements[0]
+        at = f"x in [{x0:.6g}, {x1:.6g}]" + ("" if y0 is None else f", y in [{y0:.6g}, {y1:.6g}]")
+        return (f"cross-check: DISAGREES: proven counts {a} and {b} at {at} with no cell between them "
+                f"({len(self.disagreements)} such pair(s)): a singular input was missed, the set is not complete")
+
+    def as_dict(self) -> dict:
+        return {"samples": self.samples, "proven": self.proven, "skipped": self.skipped,
+                "disagreements": [{"between": [float(v) if v is not None else None for v in box],
+                                   "counts": [int(k) for k in counts]} for box, counts in self.disagreements]}
+
+
+@dataclass(frozen=True)
 class SingularBox:
     """A cell of the plane in the cover of the singular set: ``x``, ``y`` = (lo, hi) radians (``y`` None
     on a line); ``status``: "singular" (a singular configuration is proven at an input of the cell) or
@@ -669,7 +700,9 @@ class SingularSet:
     regions: boxes wider than a cell, the plane projections of the boxes left pending at the cap). ``cusps``: the curve's cusps (:class:`Cusp`; platform systems in a plane, else empty), and
     ``cusp_search`` what that list covers (:class:`CuspSearch`). ``system``: the equations used ("platform"
     or "loops"). ``stopped``: why the run ended before its work was done ("box cap", "memory cap", "SIGINT",
-    "SIGTERM"), None when it finished; ``complete`` is False then.
+    "SIGTERM"), None when it finished; ``complete`` is False then. ``cross_check``: the set held against proven
+    counts (:class:`CrossCheck`; a line's free intervals, by :func:`spherekin.singular`; a map's grid, by the
+    map); a disagreement makes ``complete`` False.
     """
 
     x: tuple
@@ -685,6 +718,7 @@ class SingularSet:
     free_box: object = None
     mode_change: object = None
     stopped: str | None = None
+    cross_check: CrossCheck | None = None
 
     def counts(self) -> dict:
         """Boxes by status: {"singular": n, "unresolved": m}."""
@@ -706,4 +740,5 @@ class SingularSet:
                 "cusps": [c.as_dict() for c in self.cusps], "cusp_search": str(self.cusp_search),
                 "free_box": self.free_box,
                 "mode_change": None if self.mode_change is None else self.mode_change.as_dict(),
+                "cross_check": None if self.cross_check is None else self.cross_check.as_dict(),
                 "stats": asdict(self.stats)}

@@ -111,6 +111,25 @@ def test_count_changes_of_the_map_lie_in_cells_of_the_set(map_with_set):
     assert changes >= 10                 # the square is crossed by the curves
 
 
+def test_the_map_holds_its_set_against_its_proven_counts(map_with_set):
+    """Issue 40 item 3, inside the product: the map checks its own set as the test above does. On the true set
+    every count change has a cell (``complete`` stays, the table says so); with the cells near half the count
+    changes removed, the same check finds those pairs and the set is not complete (a cover missing a
+    branch point is never silently called complete)."""
+    from spherekin.batch.maps import grid_cross_check
+
+    s = map_with_set.singular_set
+    assert s.cross_check is not None and s.cross_check.skipped is None and not s.cross_check.disagreements
+    assert s.cross_check.samples == GRID_N ** 2 and s.cross_check.proven > 0 and s.complete
+    assert "cross-check: the proven counts at" in map_with_set.table()
+    keep = tuple(b for b in s.boxes if b.x[0] > 1.4)               # the cells of the left half dropped
+    check = grid_cross_check(map_with_set, dataclasses.replace(s, boxes=keep))
+    assert check.disagreements
+    for (x0, x1, y0, y1), (a, b) in check.disagreements:
+        assert x0 <= 1.4 + SING_T and a != b
+    assert "DISAGREES" in check.text()
+
+
 def test_reference_singular_inputs_across_the_map_are_in_cells(map_with_set):
     from singular_refs import singular_points_on_line
 

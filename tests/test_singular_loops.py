@@ -25,6 +25,7 @@ of the cover, every box lies within its width of one.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 
@@ -143,6 +144,29 @@ def test_ternary_six_bar_singular_inputs_with_the_input_on_each_joint(tmp_path, 
     for b in sset.boxes:
         if b.status == "singular":
             assert np.any((ref >= b.x[0] - EDGE) & (ref <= b.x[1] + EDGE)), b
+
+
+def test_a_line_cover_held_against_proven_counts_is_not_complete_when_it_misses(tmp_path, monkeypatch):
+    """Issue 40 item 3: `singular` on a line solves at the ends and middle of every interval between its cells;
+    proven counts that differ inside one interval prove a missed singular input. With the defect put back (det
+    K_p's terms unlifted) the cover of the J5-driven six-bar misses every branch point, and the cross-check
+    finds each: not complete. Right, the same check agrees (15 proven counts) and the cover is complete."""
+    import spherekin.systems.singular as sing
+
+    _, path = _ternary_six_bar(tmp_path, "J5")
+    good = spherekin.singular(path, x=("J5", -math.pi, math.pi), tol=0.01)
+    assert good.complete and not good.cross_check.disagreements and good.cross_check.proven >= 10
+    right = sing.det_plan
+    monkeypatch.setattr(sing, "det_plan", lambda m, v: dataclasses.replace(
+        right(m, v), lifts=tuple((0,) * len(lift) for lift in right(m, v).lifts)))
+    bad = spherekin.singular(path, x=("J5", -math.pi, math.pi), tol=0.01)   # the issue's cells: 0.02-0.07 off
+    assert not bad.complete and bad.stopped is None
+    pairs = bad.cross_check.disagreements
+    ax = polar_axes(ISSUE40_AXES_DEG)
+    ref = count_changes(lambda x: ternary_six_bar_count(ax, "J5", x), -math.pi, math.pi, 800)
+    for r in ref:                          # each true branch point lies between a disagreeing pair
+        assert any(x0 <= r <= x1 for (x0, x1, _, _), _ in pairs), r
+    assert bad.as_dict()["cross_check"]["disagreements"]
 
 
 def test_ternary_six_bar_reference_counts_agree_with_the_report():

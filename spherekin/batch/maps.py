@@ -83,7 +83,9 @@ class AssemblyMap:
             counts = self.singular_set.counts()
             rows.append(f"  certified singular set (cells <= {self.singular_set.tol:.3g} rad): "
                         f"{counts.get('singular', 0)} singular, {counts.get('unresolved', 0)} unresolved cell(s)"
-                        + ("" if self.singular_set.complete else " (box cap reached: incomplete)"))
+                        + ("" if self.singular_set.complete else " (incomplete)"))
+            if self.singular_set.cross_check is not None:
+                rows.append("  " + self.singular_set.cross_check.text())
         return "\n".join(rows)
 
     def frame(self):
@@ -94,6 +96,36 @@ class AssemblyMap:
         return pd.DataFrame({self.x.name: xx.ravel(), self.y.name: yy.ravel(), "solutions": self.solutions.ravel(),
                              "certified": self.certified.ravel(), "singular": self.singular.ravel(),
                              "flagged": self.flagged.ravel(), "parallel_measure": self.measure.ravel()})
+
+
+#: A map's grid point counts as on a cell's edge within this (radians): the grid's values and the cells' edges
+#: are computed apart, each to rounding (~1e-16 rad); far above it, far below any grid step.
+EDGE_SLACK = 1e-9
+
+
+def grid_cross_check(amap: "AssemblyMap", sset):
+    """The singular set ``sset`` of ``amap``'s plane held against its proven counts (issue 40 item 3): every two
+    neighbours of the grid (along x, along y) whose counts are both proven (every entry certified) and differ
+    must have a cell of ``sset`` (any status) meeting the segment between them, since outside the cells the
+    count cannot change. A :class:`spherekin.results.CrossCheck` of the pairs that do not."""
+    from ..results import CrossCheck
+
+    xs, ys = np.asarray(amap.x.values, float), np.asarray(amap.y.values, float)
+    lo = np.array([[b.x[0], b.y[0]] for b in sset.boxes]).reshape(-1, 2) - EDGE_SLACK
+    hi = np.array([[b.x[1], b.y[1]] for b in sset.boxes]).reshape(-1, 2) + EDGE_SLACK
+    proven, n = amap.proven, amap.solutions
+    out = []
+    for axis in (0, 1):
+        a = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+        b = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+        for i, j in zip(*np.nonzero(proven[a] & proven[b] & (n[a] != n[b]))):
+            i2, j2 = (i + 1, j) if axis == 0 else (i, j + 1)
+            seg_lo = np.array([min(xs[i], xs[i2]), min(ys[j], ys[j2])])
+            seg_hi = np.array([max(xs[i], xs[i2]), max(ys[j], ys[j2])])
+            if not np.any(np.all((lo <= seg_hi) & (hi >= seg_lo), axis=1)):
+                out.append(((float(seg_lo[0]), float(seg_hi[0]), float(seg_lo[1]), float(seg_hi[1])),
+                            (int(n[i, j]), int(n[i2, j2]))))
+    return CrossCheck(int(n.size), int(proven.sum()), tuple(out))
 
 
 def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mechanism: str, *,
