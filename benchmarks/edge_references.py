@@ -45,8 +45,12 @@ Mechanisms of two legs (spherical four-bar and five-bar)
 
 from __future__ import annotations
 
+import contextlib
 import math
+import re
+import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mpmath
 import numpy as np
@@ -58,7 +62,8 @@ from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 
 __all__ = ["DIGITS", "CHANGE_TOL", "DECIDE_SEPARATION", "DISC_TOL", "ROOT_ACCURACY", "EdgeReference", "Edge",
            "four_bar", "five_bar", "two_leg_reference", "two_leg_edges", "two_leg_coincidences", "rrr_reference",
-           "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis"]
+           "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis", "precision",
+           "file_angle", "RrrFile", "read_rrr_file"]
 
 #: Working precision (decimal digits).
 DIGITS = 50
@@ -92,9 +97,32 @@ TINY_RESIDUAL = mpmath.mpf(10) ** (-(DIGITS - 3))
 
 # ------------------------------------------------------------------------------ small mp helpers
 
+_PRECISION = [DIGITS]
+
+
+@contextlib.contextmanager
+def precision(digits: int):
+    """Every reference computed inside ``with precision(digits):`` works at ``digits`` decimal digits
+    instead of DIGITS (the tolerances that follow the precision, Newton's and TINY_RESIDUAL's, with it;
+    the fixed ones, DECIDE_SEPARATION, SMALL_STEP, ROOT_ACCURACY, stay)."""
+    _PRECISION.append(int(digits))
+    try:
+        yield
+    finally:
+        _PRECISION.pop()
+
+
+def _dps() -> int:
+    return _PRECISION[-1]
+
+
+def _tiny_residual():
+    return mpmath.mpf(10) ** (-(_dps() - 3))
+
+
 def mp_axis(v) -> list:
     """The direction of the float vector v in mpmath, normalized at DIGITS digits."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         x = [mpmath.mpf(float(t)) for t in v]
         n = mpmath.sqrt(sum(t * t for t in x))
         return [t / n for t in x]
@@ -267,7 +295,7 @@ def _two_leg(mech: SphericalMechanism) -> _TwoLeg:
         e_joint, d_joint, c_joint = js
     else:
         raise ValueError(f"mech: leg {lo.name!r} is neither (D, C) nor (E*, D, C)")
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         b0, c0, d0 = mp_axis(lb.joints[1].axis), mp_axis(c_joint.axis), mp_axis(d_joint.axis)
         plat = mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in mech.platform_reference_matrix])
         return _TwoLeg(
@@ -292,7 +320,7 @@ def two_leg_reference(mech: SphericalMechanism, inputs) -> EdgeReference:
     the order of ``mech.actuated``): count 0, 1 or 2 from the sign of the Gram determinant of
     (B, Q, C), each assembly's platform rotation and its points B, D (current), C."""
     g = _two_leg(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         b = _rot(g.a_axis, _mp(inputs[g.a_index]) - g.a_ref, g.b0)
         q = _q_point(g, inputs)
         c = _dot(b, q)
@@ -334,7 +362,7 @@ def two_leg_edges(mech: SphericalMechanism, inputs=None) -> list:
     inputs = [0.0] * n_in if inputs is None else list(inputs)
     direction = tuple(1.0 if i == g.a_index else 0.0 for i in range(n_in))
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         p, s1, s0 = _sinusoid(g, inputs)
         rho = mpmath.sqrt(p * p + s1 * s1)
         phi0 = mpmath.atan2(s1, p)                       # cos angle(B, Q) is largest at phi0
@@ -377,7 +405,7 @@ def two_leg_coincidences(mech: SphericalMechanism) -> list:
     if g.e_axis is None:
         return []
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         # cos angle(A, D(phi)) = P cos(phi) + S' sin(phi) + S, phi = theta_E - ref_E
         ed, ea = _dot(g.e_axis, g.d0), _dot(g.e_axis, g.a_axis)
         p = _dot(g.a_axis, g.d0) - ed * ea
@@ -390,6 +418,74 @@ def two_leg_coincidences(mech: SphericalMechanism) -> list:
                 theta = theta - 2 * mpmath.pi * mpmath.nint(theta / (2 * mpmath.pi))
                 out.append(float(theta))
     return out
+
+
+# ------------------------------------------------------------------------------ mechanism files (issue 40)
+
+_FILE_ANGLE = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+)?\s*(?P<star>\*)?\s*"
+                         r"(?P<pi>pi)?\s*(?:/\s*(?P<den>\d+(?:\.\d*)?|\.\d+))?\s*$")
+
+
+def file_angle(value) -> float:
+    """An angle of a mechanism file (docs/mechanism-format.md), as the float it stands for: a number, or
+    a text [sign][number][*]pi[/denominator] evaluated left to right in double precision (the number
+    times pi, then divided), the sign last. The file's floats are these numbers."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    m = _FILE_ANGLE.match(value) if isinstance(value, str) else None
+    if m is None or not (m["num"] or m["pi"]):
+        raise ValueError(f"angle: expected a number or a pi expression, got {value!r}")
+    out = float(m["num"]) if m["num"] else 1.0
+    if m["pi"]:
+        out *= math.pi
+    if m["den"]:
+        out /= float(m["den"])
+    return -out if m["sign"] == "-" else out
+
+
+@dataclass(frozen=True)
+class RrrFile:
+    """A kind "3-RRR" mechanism file read with tomllib (not with spherekin): its numbers as written.
+    ``u``, ``w0``, ``v0``: the base axes, elbow axes at zero and platform axes (3 float triples each,
+    not normalized); ``alpha2``: the distal link angles (:func:`file_angle`); ``offsets``: the
+    ``[joint_offsets]`` table as (joint name, float) pairs (a joint reads its angle minus its offset)."""
+
+    path: str
+    u: tuple
+    w0: tuple
+    v0: tuple
+    alpha2: tuple
+    offsets: tuple = ()
+
+    def offset(self, name: str) -> float:
+        return dict(self.offsets).get(name, 0.0)
+
+
+def read_rrr_file(path) -> RrrFile:
+    """The :class:`RrrFile` of a kind "3-RRR" mechanism file."""
+    data = tomllib.loads(Path(path).read_text())
+    if data.get("kind") != "3-RRR":
+        raise ValueError(f"{path}: expected a kind \"3-RRR\" file")
+
+    def triples(key):
+        return tuple(tuple(float(t) for t in v) for v in data[key])
+
+    return RrrFile(str(path), triples("base_axes"), triples("elbow_axes_at_zero"), triples("platform_axes"),
+                   tuple(file_angle(a) for a in data["distal_link_angles"]),
+                   tuple((n, file_angle(v)) for n, v in data.get("joint_offsets", {}).items()))
+
+
+def _rrr_of_file(f: RrrFile) -> "_Rrr":
+    """The 3-RRR of a file at the working precision: u_i, w_i^0, v_i^0 the directions of the file's
+    vectors (normalized in mpmath), cos alpha2_i of the file's float; input beta_i (a reading) turns the
+    elbow to Rot(u_i, beta_i + offset_i) w_i^0 (refs = -offsets); the platform frame is the file's (R
+    maps v_i^0 to v_i: no platform reference)."""
+    with mpmath.workdps(_dps()):
+        u, w, v = ([mp_axis(x) for x in vs] for vs in (f.u, f.w0, f.v0))
+        refs = [-_mp(f.offset(f"beta{i + 1}")) for i in range(3)]
+        cos_a2 = [mpmath.cos(_mp(a)) for a in f.alpha2]
+        fgeo = tuple(np.array([[float(t) for t in x] for x in vs]) for vs in (u, w, v)) + (np.array(f.alpha2, float),)
+        return _Rrr(u, w, v, refs, cos_a2, mpmath.eye(3), fgeo)
 
 
 # ------------------------------------------------------------------------------ 3-RRR
@@ -405,13 +501,15 @@ class _Rrr:
     float_geometry: tuple
 
 
-def _rrr(mech: SphericalMechanism) -> _Rrr:
+def _rrr(mech) -> _Rrr:
+    if isinstance(mech, RrrFile):
+        return _rrr_of_file(mech)
     if len(mech.legs) != 3 or any(len(leg.joints) != 3 or not leg.joints[0].actuated
                                   or leg.joints[1].actuated or leg.joints[2].actuated for leg in mech.legs):
         raise ValueError("mech: expected a 3-RRR (three legs of 3 joints, the base joint actuated)")
     order = [mech.actuated.index(leg.joints[0].name) for leg in mech.legs]
     legs = [mech.legs[order.index(i)] for i in range(3)]      # leg of input i
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         u = [mp_axis(leg.joints[0].axis) for leg in legs]
         w = [mp_axis(leg.joints[1].axis) for leg in legs]
         v = [mp_axis(leg.joints[2].axis) for leg in legs]
@@ -426,7 +524,7 @@ def _rrr(mech: SphericalMechanism) -> _Rrr:
 def _rrr_quadrics(g: _Rrr, inputs) -> list:
     """q^T A_i q = |q|^2 (w_i(beta_i) . R'(q) v_i - cos alpha2_i), at DIGITS digits."""
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         for i in range(3):
             w = _rot(g.u[i], _mp(inputs[i]) - g.refs[i], g.w[i])
             out.append(leg_quadric_mp(w, g.v[i], g.cos_a2[i]))
@@ -452,7 +550,7 @@ def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
     next to a found root is driven to a missing one; the result is then polished without deflation."""
     q = mpmath.matrix([mpmath.mpc(x) for x in q0])
     q = q / mpmath.sqrt(sum(x * x for x in q))
-    tol = mpmath.mpf(10) ** (-(DIGITS - 10))
+    tol = mpmath.mpf(10) ** (-(_dps() - 10))
     known = [r for r0 in deflate for r in (r0, -r0)]
     for k in range(max_steps):
         f, jac = quadric_system_mp(quadrics, q)
@@ -474,7 +572,7 @@ def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
         if known:
             if size < mpmath.mpf(10) ** -20:
                 return _newton(quadrics, q, max_steps - k)
-        elif size < tol or (size < SMALL_STEP and mpmath.norm(f, mpmath.inf) < TINY_RESIDUAL):
+        elif size < tol or (size < SMALL_STEP and mpmath.norm(f, mpmath.inf) < _tiny_residual()):
             return q, True
     return q, False
 
@@ -565,18 +663,19 @@ def _pair_distance(a, b):
     return min(max(abs(a[j] - s * b[j]) for j in range(4)) for s in (1, -1))
 
 
-def rrr_reference(mech: SphericalMechanism, inputs, seed: int = 0) -> EdgeReference:
+def rrr_reference(mech, inputs, seed: int = 0) -> EdgeReference:
     """The reference of a 3-RRR at ``inputs`` (floats or mpf, radians, order of ``mech.actuated``),
-    from its joint axes; ``count`` None when undecided (module docstring)."""
+    from its joint axes (``mech`` a SphericalMechanism) or from its file's numbers (``mech`` an
+    :class:`RrrFile`); ``count`` None when undecided (module docstring)."""
     g = _rrr(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         roots, why = _rrr_roots(g, inputs, seed)
         if why:
             return EdgeReference(None, note=why)
         sep = min(_pair_distance(a, b) for i, a in enumerate(roots) for b in roots[i + 1:])
         if sep < DECIDE_SEPARATION:
             return EdgeReference(None, min_separation=float(sep),
-                                 note=f"two roots {mpmath.nstr(sep, 3)} apart: not resolved at {DIGITS} digits")
+                                 note=f"two roots {mpmath.nstr(sep, 3)} apart: not resolved at {_dps()} digits")
         real = [r for r in roots if max(abs(mpmath.im(x)) for x in r) < mpmath.mpf("1e-30")]
         if len(real) % 2:
             return EdgeReference(None, min_separation=float(sep), note=f"{len(real)} real roots (odd)")
@@ -602,14 +701,15 @@ def _closest_pair_g(g: _Rrr, x):
     return mpmath.re(sum(t * t for t in best[1]))
 
 
-def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
+def rrr_singular_input(mech, x_a, x_b, width: float = 1e-9, accuracy=ROOT_ACCURACY):
     """(x*, direction): the input on the segment x_a -> x_b where the reference count changes, to
-    ~ROOT_ACCURACY (mpf tuple), and x_b - x_a scaled to max norm 1. Bisection on the count (ends with
+    ~``accuracy`` (radians; mpf tuple), and x_b - x_a scaled to max norm 1 (``mech``: as
+    :func:`rrr_reference`). Bisection on the count (ends with
     different counts required) to a bracket of ``width`` (radians), then regula falsi (Illinois) on
     the signed squared distance of the merging pair of roots, which is linear through the fold.
     ValueError when the counts at the ends are equal or a count is undecided."""
     g = _rrr(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         xa = [_mp(v) for v in x_a]
         xb = [_mp(v) for v in x_b]
         span = max(abs(xb[i] - xa[i]) for i in range(3))
@@ -651,7 +751,7 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
             g_lo = g_hi = mpmath.mpf(1)
         best_g, side = None, 0
         for _ in range(60):
-            if g_lo * g_hi > 0 or (hi - lo) * span < ROOT_ACCURACY:
+            if g_lo * g_hi > 0 or (hi - lo) * span < accuracy:
                 break               # done, or not a simple fold: keep the bracket
             s = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
             try:
@@ -660,7 +760,7 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
                 break               # the pair too close to resolve
             if best_g is None or abs(gs) < best_g:
                 best, best_g = s, abs(gs)
-            if gs == 0 or abs(gs) < mpmath.mpf(10) ** (-(DIGITS - 5)):
+            if gs == 0 or abs(gs) < mpmath.mpf(10) ** (-(_dps() - 5)):
                 break
             if gs * g_lo > 0:
                 lo, g_lo = s, gs
@@ -672,19 +772,19 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
                 if side == 1:
                     g_lo /= 2
                 side = 1
-        # check: the count changes across best (ROOT_ACCURACY on either side); else bisect on
-        eps = ROOT_ACCURACY / span
+        # check: the count changes across best (accuracy on either side); else bisect on
+        eps = mpmath.mpf(accuracy) / span
         try:
             ok = count(best - eps) == c_lo and count(best + eps) != c_lo
         except ValueError:
             ok = False
         if not ok:
-            lo, hi = bisect(lo, hi, ROOT_ACCURACY, undecided_ends=True)
+            lo, hi = bisect(lo, hi, accuracy, undecided_ends=True)
             best = (lo + hi) / 2
         return tuple(point(best)), direction
 
 
-def rrr_segment(mech: SphericalMechanism, rng, max_tries: int = 200):
+def rrr_segment(mech, rng, max_tries: int = 200):
     """A random segment of inputs (uniform in [-pi, pi]^3) along which the reference count changes:
     (x*, direction) by :func:`rrr_singular_input`. RuntimeError after ``max_tries`` segments."""
     for _ in range(max_tries):
@@ -702,7 +802,7 @@ def rrr_segment(mech: SphericalMechanism, rng, max_tries: int = 200):
 def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1) -> Edge:
     """An input on the agile eye's (spherekin.mechanism.gosselin) codimension-2 singular set
     beta1 = 0, beta2 = sign pi/2 (any beta3; pairs of assembly modes merge there), at 50 digits."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         x = (mpmath.mpf(0), sign * mpmath.pi / 2, mpmath.mpf(float(beta3)))
     d = np.asarray(direction, float)
     return Edge(x, tuple(d / np.abs(d).max()), "singular-line", "beta1 = 0, beta2 = +-pi/2")
@@ -713,7 +813,7 @@ def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1)
 def inputs_at(edge: Edge, distance: float) -> tuple:
     """The float inputs nearest x* + distance * direction (each entry rounded once from 50 digits),
     and the actual signed distance (float) along the direction's largest entry."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         d = mpmath.mpf(float(distance))
         x = tuple(float(edge.x_star[i] + d * mpmath.mpf(edge.direction[i])) for i in range(len(edge.x_star)))
         k = int(np.argmax(np.abs(edge.direction)))

@@ -16,7 +16,8 @@ from ..core.angles import check_geometry_angle
 from ..core.columns import RESERVED_COLUMNS
 
 __all__ = ["UNIT_TOL", "ROTATION_TOL", "NAME_FORBIDDEN", "parse_angle", "check_ascii", "shown", "check_name",
-           "check_joint_name", "check_unit_vector", "given_unit_vector", "normalized_floats", "check_range", "check_rotation"]
+           "check_joint_name", "check_unit_vector", "given_unit_vector", "normalized_floats", "check_range",
+           "check_rotation"]
 
 #: |norm - 1| allowed for an axis before it is normalized. Reason: axes are often typed by hand in
 #: mechanism files with 6-8 significant digits; anything further from unit length is a mistake
