@@ -319,6 +319,20 @@ def test_fold_of_the_file_certified_roots_are_the_file_s():
         assert np.all(k_lo - 1e-12 < y) and np.all(y < k_hi + 1e-12)
 
 
+def test_newton_gives_up_where_no_root_is(monkeypatch):
+    """1e-15 past the fold, next to the complex pair, Newton in extended precision bounces at the pair's
+    imaginary part (~3e-8): it gives up once its smallest step has not halved for EXTENDED_NEWTON_STALL
+    steps (~0.5 s per point for all EXTENDED_NEWTON_STEPS at a 3-RRR, paid by every point of a cluster)."""
+    mech = spherekin.load_mechanism(GENERAL_3RRR)
+    past = fold_input(1e-15)
+    y = np.array([-1.92818005, 1.53194891, -0.1522432, 3.02461638, -0.74858013, 2.34897804])   # the pair
+    steps = []
+    solve = mpmath.lu_solve
+    monkeypatch.setattr(mpmath, "lu_solve", lambda a, b: steps.append(1) or solve(a, b))
+    assert polish_extended(mech, past, y) is None
+    assert extended.EXTENDED_NEWTON_STALL < len(steps) <= 3 * extended.EXTENDED_NEWTON_STALL
+
+
 def test_three_rrr_offsets_move_the_readings_only():
     """A joint offset moves the zero of the joint's reading (docs/mechanism-format.md: it reads its angle minus
     the offset): the file's roots, shifted by minus the offsets, are the roots of the same 3-RRR with offsets,

@@ -105,6 +105,7 @@ __all__ = [
     "RRR_CONSTANTS_CACHE",
     "EXTENDED_NEWTON_STEPS",
     "EXTENDED_NEWTON_TOL",
+    "EXTENDED_NEWTON_STALL",
     "certify_extended",
     "krawczyk_boxes_extended",
     "polish_extended",
@@ -189,12 +190,20 @@ EXTENDED_NEWTON_STEPS = 60
 #: :func:`polish_extended` stops when a step is below this (radians): far below the smallest radius
 #: the test uses (1e-13) and far above the working precision (1e-50).
 EXTENDED_NEWTON_TOL = 1e-30
+#: :func:`polish_extended` gives up when its smallest step so far has not shrunk by half within this
+#: many steps. Reason: converging, Newton at least halves its step every step (a double root's linear
+#: phase, then quadratic); next to a complex pair, where the mechanism has no assembly (an input past
+#: a fold), its steps bounce at about the pair's imaginary part (~3e-8 at 1e-15 from a fold) for all
+#: EXTENDED_NEWTON_STEPS steps (~0.5 s each time at a 3-RRR); 8 leaves room for a start that wanders
+#: a few steps before the halving sets in. Giving up proves nothing: the point stays unproven.
+EXTENDED_NEWTON_STALL = 8
 
 
 def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS) -> np.ndarray | None:
     """Newton's method on this module's equations F in extended precision from ``theta`` (passive
     readings, ``mechanism.loop_unknowns`` order): the root it converges to, rounded to floats, or
-    None (no convergence within ``steps``, a singular Jacobian, or a system that is not square).
+    None (no convergence within ``steps``, a smallest step not halved within EXTENDED_NEWTON_STALL
+    steps, a singular Jacobian, or a system that is not square).
 
     Why: next to a branch or change point the float polish (:mod:`spherekin.trust.polish`) stops
     ~1e-16 / sigma_min away from a root (a valley of near-solutions ~1e-7 long where two roots are
@@ -214,6 +223,7 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
 
     with mpmath.workdps(EXTENDED_DIGITS):
         y = [mpmath.mpf(float(v)) for v in y0]
+        smallest, since = math.inf, 0
         for _ in range(steps):
             f, _, jac = plan.evaluate([ctx.mpf(v) for v in y], jacobian=True)
             try:
@@ -224,8 +234,15 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
             y = [a - b for a, b in zip(y, step)]
             if not all(mpmath.isfinite(v) for v in y):
                 return None
-            if max(abs(v) for v in step) < EXTENDED_NEWTON_TOL:
+            size = max(abs(v) for v in step)
+            if size < EXTENDED_NEWTON_TOL:
                 return np.array([float(v) for v in y])
+            if size <= smallest / 2:
+                smallest, since = size, 0
+            else:
+                since += 1
+                if since >= EXTENDED_NEWTON_STALL:
+                    return None
     return None
 
 
