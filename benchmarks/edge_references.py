@@ -63,7 +63,8 @@ from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 __all__ = ["DIGITS", "CHANGE_TOL", "DECIDE_SEPARATION", "DISC_TOL", "ROOT_ACCURACY", "EdgeReference", "Edge",
            "four_bar", "five_bar", "two_leg_reference", "two_leg_edges", "two_leg_coincidences", "rrr_reference",
            "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis", "precision",
-           "file_angle", "RrrFile", "read_rrr_file"]
+           "file_angle", "RrrFile", "read_rrr_file", "GraphFile", "read_graph_file", "watt_reference",
+           "stephenson_reference", "graph_reference", "graph_folds", "SIX_BAR_TOL"]
 
 #: Working precision (decimal digits).
 DIGITS = 50
@@ -170,7 +171,8 @@ class EdgeReference:
     their platform ``rotations`` (float 3x3, from 50 digits; as spherekin's ``platform_rotation``),
     the same at 50 digits (``mp_rotations``), per assembly the current joint axes that fix it
     (``points``: joint name -> mp unit vector; two-leg mechanisms), the ``discriminant`` (two-leg:
-    the Gram determinant; 3-RRR: None) and the smallest distance between two roots (3-RRR)."""
+    the Gram determinant; 3-RRR: None) and the smallest distance between two roots (3-RRR); six-bars:
+    ``readings``, per assembly every joint's reading (name -> float, radians)."""
 
     count: int | None
     rotations: tuple = ()
@@ -179,6 +181,7 @@ class EdgeReference:
     discriminant: object = None
     min_separation: float | None = None
     note: str = ""
+    readings: tuple = field(default=(), repr=False)
 
 
 @dataclass(frozen=True)
@@ -806,6 +809,257 @@ def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1)
         x = (mpmath.mpf(0), sign * mpmath.pi / 2, mpmath.mpf(float(beta3)))
     d = np.asarray(direction, float)
     return Edge(x, tuple(d / np.abs(d).max()), "singular-line", "beta1 = 0, beta2 = +-pi/2")
+
+
+# ------------------------------------------------------------------------------ six-bars (graph files, issue 40)
+
+#: A six-bar reference is undecided when a discriminant (Watt: the Gram determinant of a circle
+#: intersection; Stephenson: the imaginary part of a root of the eliminant, relative to 1 + |t|) is
+#: below this: at 1e-16 from a fold a pair is ~1e-8 apart (discriminant ~1e-16, imaginary part
+#: ~1e-8); at the working precision (50-60 digits) rounding is below 1e-45.
+SIX_BAR_TOL = mpmath.mpf("1e-40")
+#: mpmath.polyroots' iterations and extra precision (bits) for the Stephenson eliminant (degree 8): two
+#: roots 1e-8 apart converge only linearly at first; 400 steps and 120 extra bits leave its error
+#: estimate below 1e-40 at 1e-16 from a fold (checked: the error is part of the decision).
+POLYROOTS_STEPS = 400
+POLYROOTS_EXTRAPREC = 120
+
+
+@dataclass(frozen=True)
+class GraphFile:
+    """A kind "graph" mechanism file read with tomllib: ``joints`` maps a name to (links (a, b), the
+    axis floats as written, actuated, reference_angle float); ``ground``, ``output``. Joint [a, b]
+    turns link b relative to link a: R_b = R_a Rot(axis, reading - reference_angle), every link's frame
+    the ground's in the reference assembly."""
+
+    path: str
+    joints: tuple
+    ground: str
+    output: str | None
+
+    def joint(self, name: str):
+        return dict((n, rest) for n, *rest in self.joints)[name]
+
+
+def read_graph_file(path) -> GraphFile:
+    data = tomllib.loads(Path(path).read_text())
+    if data.get("kind") != "graph":
+        raise ValueError(f"{path}: expected a kind \"graph\" file")
+    joints = tuple((j["name"], tuple(j["links"]), tuple(float(t) for t in j["axis"]), bool(j.get("actuated", False)),
+                    file_angle(j.get("reference_angle", 0.0))) for j in data["joints"])
+    return GraphFile(str(path), joints, data["ground"], data.get("output"))
+
+
+def _check_topology(g: GraphFile, links: dict, actuated: tuple) -> None:
+    got = {n: tuple(lk) for n, lk, *_ in g.joints}
+    if got != links or tuple(n for n, _, _, act, _ in g.joints if act) != actuated:
+        raise ValueError(f"{g.path}: not the six-bar this reference is written for (joints {got})")
+
+
+def _unit_mp(v):
+    n = mpmath.sqrt(_dot(v, v))
+    return [t / n for t in v]
+
+
+def _frame_onb(p, q):
+    """The rotation matrix with columns (p, n, p x n), n = unit(p x q): F(R p, R q) = R F(p, q)."""
+    n = _unit_mp(_cross(p, q))
+    m = _cross(p, n)
+    return mpmath.matrix([[p[i], n[i], m[i]] for i in range(3)])
+
+
+def _carry(p0, q0, p, q):
+    """The rotation taking p0 to p and q0 to q (angle(p0, q0) = angle(p, q))."""
+    return _frame_onb(p, q) * _frame_onb(p0, q0).T
+
+
+def _rot_mat(axis, angle):
+    k = mpmath.matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return mpmath.eye(3) + mpmath.sin(angle) * k + (1 - mpmath.cos(angle)) * k * k
+
+
+def _apply(m, v):
+    return [sum(m[i, j] * v[j] for j in range(3)) for i in range(3)]
+
+
+def _circles(p, cp, q, cq):
+    """The unit vectors x with x . p = cp and x . q = cq (p, q unit, not parallel): (the two, the Gram
+    discriminant g2 |p x q|^2 = 1 - |alpha p + beta q|^2; the two are real when it is > 0)."""
+    pq = _dot(p, q)
+    den = 1 - pq * pq
+    alpha, beta = (cp - pq * cq) / den, (cq - pq * cp) / den
+    n = _cross(p, q)
+    base = [alpha * p[i] + beta * q[i] for i in range(3)]
+    disc = 1 - _dot(base, base)
+    if disc <= 0:
+        return [], disc
+    gamma = mpmath.sqrt(disc / den)
+    return [[base[i] + s * gamma * n[i] for i in range(3)] for s in (1, -1)], disc
+
+
+def _readings(g: GraphFile, axes: dict, rots: dict) -> dict:
+    """Every joint's reading (float, wrapped to [-pi, pi]) from the links' rotations: joint [a, b] with
+    axis X0 reads reference + the angle of R_a^T R_b about X0."""
+    out = {}
+    for name, (a, b), _, _, ref in g.joints:
+        x0 = axes[name]
+        p = _unit_mp(_cross(x0, [1, 0, 0] if abs(x0[0]) < 0.9 else [0, 1, 0]))
+        qp = _apply(rots[a].T * rots[b], p)
+        phi = mpmath.atan2(_dot(x0, _cross(p, qp)), _dot(p, qp))
+        out[name] = float(mpmath.atan2(mpmath.sin(ref + phi), mpmath.cos(ref + phi)))
+    return out
+
+
+def _graph_result(g: GraphFile, axes, assemblies, undecided: str = "") -> EdgeReference:
+    if undecided:
+        return EdgeReference(None, note=undecided)
+    rots = tuple(_to_float(r[g.output]) for r in assemblies)
+    return EdgeReference(len(assemblies), rots, tuple(r[g.output] for r in assemblies),
+                         readings=tuple(_readings(g, axes, r) for r in assemblies))
+
+
+WATT_LINKS = {"A": ("ground", "crank"), "B": ("crank", "coupler"), "C": ("coupler", "rocker"),
+              "D": ("ground", "rocker"), "E": ("crank", "link5"), "F": ("link5", "link6"), "G": ("link6", "coupler")}
+STEPHENSON_LINKS = {"A": ("ground", "ternary1"), "B": ("ternary1", "link1"), "C": ("link1", "ternary2"),
+                    "D": ("ternary1", "link2"), "E": ("link2", "ternary2"), "F": ("ground", "link4"),
+                    "G": ("link4", "ternary2")}
+
+
+def watt_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The Watt I six-bar of examples/watt_six_bar.toml (joint names and links as there) at input A =
+    inputs[0], from the file's numbers: the crank turns by A; C lies at its arcs from B (crank) and D
+    (ground): 0 or 2 points, each placing the coupler (B, C, G); F lies at its arcs from E (crank) and G
+    (coupler): 0 or 2 for each. Count and every assembly's link rotations and readings."""
+    _check_topology(g, WATT_LINKS, ("A",))
+    with mpmath.workdps(_dps()):
+        ax = {n: _unit_mp([_mp(t) for t in v]) for n, _, v, _, _ in g.joints}
+        r_crank = _rot_mat(ax["A"], _mp(inputs[0]) - _mp(g.joint("A")[3]))
+        b, e = _apply(r_crank, ax["B"]), _apply(r_crank, ax["E"])
+        cs, disc1 = _circles(b, _dot(ax["B"], ax["C"]), ax["D"], _dot(ax["D"], ax["C"]))
+        if abs(disc1) < SIX_BAR_TOL:
+            return _graph_result(g, ax, [], f"circle discriminant of C {mpmath.nstr(disc1, 3)}: a double assembly")
+        out = []
+        for c in cs:
+            r_coupler = _carry(ax["B"], ax["C"], b, c)
+            r_rocker = _carry(ax["D"], ax["C"], ax["D"], c)
+            gg = _apply(r_coupler, ax["G"])
+            fs, disc2 = _circles(e, _dot(ax["E"], ax["F"]), gg, _dot(ax["G"], ax["F"]))
+            if abs(disc2) < SIX_BAR_TOL:
+                return _graph_result(g, ax, [], f"circle discriminant of F {mpmath.nstr(disc2, 3)}: a double assembly")
+            for f in fs:
+                out.append({"ground": mpmath.eye(3), "crank": r_crank, "coupler": r_coupler, "rocker": r_rocker,
+                            "link5": _carry(ax["E"], ax["F"], e, f), "link6": _carry(ax["F"], ax["G"], f, gg)})
+        return _graph_result(g, ax, out)
+
+
+#: Stephenson eliminant: phi = PHI0 + 2 atan t (PHI0 puts t = infinity, phi = PHI0 + pi, away from the
+#: roots of examples/stephenson_six_bar.toml; as tests/test_singular_loops.py::stephenson_count).
+STEPHENSON_PHI0 = 0.3
+
+
+def stephenson_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The Stephenson six-bar of examples/stephenson_six_bar.toml at input A = inputs[0], from the file's
+    numbers: ternary2 = Rot(F, phi) Rot(G, psi) (the chain ground - link4 - ternary2), and the links B-C,
+    D-E keep their arcs: a_i + b_i cos psi + c_i sin psi = 0 (i = 1, 2), each of a, b, c times (1 + t^2)
+    of degree 2 in t = tan((phi - STEPHENSON_PHI0) / 2); eliminating psi (Cramer, cos^2 + sin^2 = 1)
+    leaves h(t) = (a2 c1 - a1 c2)^2 + (a1 b2 - a2 b1)^2 - (b1 c2 - b2 c1)^2 of degree 8, whose real roots
+    are the assemblies (tests/test_singular_loops.py::stephenson_h, here at the working precision)."""
+    _check_topology(g, STEPHENSON_LINKS, ("A",))
+    with mpmath.workdps(_dps()):
+        ax = {n: _unit_mp([_mp(t) for t in v]) for n, _, v, _, _ in g.joints}
+        r1 = _rot_mat(ax["A"], _mp(inputs[0]) - _mp(g.joint("A")[3]))
+        f, gax = ax["F"], ax["G"]
+        c0, s0 = mpmath.cos(STEPHENSON_PHI0), mpmath.sin(STEPHENSON_PHI0)
+        coefs = []
+        for near, far in (("B", "C"), ("D", "E")):
+            u, v, k = _apply(r1, ax[near]), ax[far], _dot(ax[near], ax[far])
+            v0 = [_dot(gax, v) * t for t in gax]
+            parts = (v0, [v[i] - v0[i] for i in range(3)], _cross(gax, v))      # Rot(G, psi) v
+            w0 = [_dot(f, u) * t for t in f]
+            w1, w2 = [u[i] - w0[i] for i in range(3)], [-t for t in _cross(f, u)]   # Rot(F, -phi) u
+            row = []
+            for j, pj in enumerate(parts):
+                al, be, ga = _dot(w0, pj), _dot(w1, pj), _dot(w2, pj)    # al + be cos phi + ga sin phi
+                if j == 0:
+                    al -= k
+                # (1 + t^2)(al + be cos phi + ga sin phi), phi = PHI0 + u, cos u = (1 - t^2)/(1 + t^2), ...
+                p1, p2 = c0 * be + s0 * ga, -s0 * be + c0 * ga
+                row.append([al + p1, 2 * p2, al - p1])                      # coefficients of 1, t, t^2
+            coefs.append(row)
+
+        def mul(p, q):
+            out = [mpmath.mpf(0)] * (len(p) + len(q) - 1)
+            for i, a in enumerate(p):
+                for j, b in enumerate(q):
+                    out[i + j] += a * b
+            return out
+
+        def sub(p, q):
+            return [a - b for a, b in zip(p, q)]
+
+        (a1, b1, c1), (a2, b2, c2) = coefs
+        x_num, y_num, det = sub(mul(a2, c1), mul(a1, c2)), sub(mul(a1, b2), mul(a2, b1)), sub(mul(b1, c2), mul(b2, c1))
+        h = sub([p + q for p, q in zip(mul(x_num, x_num), mul(y_num, y_num))], mul(det, det))
+        roots, err = mpmath.polyroots(h[::-1], maxsteps=POLYROOTS_STEPS, extraprec=POLYROOTS_EXTRAPREC, error=True)
+        if err > SIX_BAR_TOL:
+            return _graph_result(g, ax, [], f"eliminant roots not converged (error {mpmath.nstr(err, 3)})")
+        out = []
+        for t in roots:
+            im = abs(mpmath.im(t)) / (1 + abs(t))
+            if SIX_BAR_TOL <= im < mpmath.mpf("1e-25"):
+                return _graph_result(g, ax, [], f"a root of the eliminant with imaginary part {mpmath.nstr(im, 3)}")
+            if im >= SIX_BAR_TOL:
+                continue
+            t = mpmath.re(t)
+
+            def ev(p):
+                return sum(cf * t ** i for i, cf in enumerate(p))
+
+            d = ev(det)
+            cos_psi, sin_psi = ev(x_num) / d, ev(y_num) / d
+            phi = STEPHENSON_PHI0 + 2 * mpmath.atan(t)
+            psi = mpmath.atan2(sin_psi, cos_psi)
+            r4 = _rot_mat(f, phi)
+            r2 = r4 * _rot_mat(gax, psi)
+            b, d_, c, e = _apply(r1, ax["B"]), _apply(r1, ax["D"]), _apply(r2, ax["C"]), _apply(r2, ax["E"])
+            out.append({"ground": mpmath.eye(3), "ternary1": r1, "link4": r4, "ternary2": r2,
+                        "link1": _carry(ax["B"], ax["C"], b, c), "link2": _carry(ax["D"], ax["E"], d_, e)})
+        return _graph_result(g, ax, out)
+
+
+def graph_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The reference of a six-bar file: :func:`watt_reference` or :func:`stephenson_reference` by its links."""
+    links = {n: tuple(lk) for n, lk, *_ in g.joints}
+    return (watt_reference if links == WATT_LINKS else stephenson_reference)(g, inputs)
+
+
+def graph_folds(g: GraphFile, lo: float = -math.pi, hi: float = math.pi, samples: int = 400,
+                accuracy=mpmath.mpf("1e-30"), limit: int | None = None) -> list:
+    """The inputs A in [lo, hi] where the reference count changes (the six-bar's folds), as :class:`Edge`
+    (direction +1), each bisected on the count at the working precision to ``accuracy`` (radians; an
+    undecided count ends the bisection there); ``limit``: the first ones only (samples taken in order
+    until then)."""
+    xs = np.linspace(lo, hi, samples)
+    out = []
+    with mpmath.workdps(_dps()):
+        k0 = graph_reference(g, (xs[0],)).count
+        for x0, x1 in zip(xs[:-1], xs[1:]):
+            if limit is not None and len(out) >= limit:
+                break
+            k1 = graph_reference(g, (x1,)).count
+            if k0 is None or k1 is None or k0 == k1:
+                k0 = k1
+                continue
+            a, b = mpmath.mpf(float(x0)), mpmath.mpf(float(x1))
+            while b - a > accuracy:
+                m = (a + b) / 2
+                k = graph_reference(g, (m,)).count
+                if k is None:
+                    break
+                a, b = (m, b) if k == k0 else (a, m)
+            out.append(Edge(((a + b) / 2,), (1.0,), "fold", f"{k0} -> {k1} assemblies"))
+            k0 = k1
+    return out
 
 
 # ------------------------------------------------------------------------------ shared helpers
