@@ -1,11 +1,16 @@
 """Independent 50-digit references at the edges of spherical mechanisms (issue 26, item 2).
 
-Everything here is computed from a mechanism's *joint axes* alone (``mech.legs[i].joints[j].axis``,
-``.actuated``, ``.reference_angle`` and ``mech.platform_reference_matrix``), converted exactly to
-mpmath (``mpmath.mpf(float)`` is exact) and normalized there, at :data:`DIGITS` decimal digits.
-spherekin's loop equations, its solver and its trust layer are never called; the float axes are
-the design, so a design that is a change-point mechanism on paper is, in floats, within ~1e-16 of
-one, and the references say what that float design does.
+Everything here is computed from a mechanism's numbers as given (issue 40: what a proof is about):
+its *joint axes* as given (``mech.legs[i].joints[j].given_axis``, ``.actuated``, ``.reference_angle``
+and ``mech.platform_reference_matrix``), or for a kind "3-RRR" its description (base axes, elbow axes
+at zero, platform axes as given, distal link angles, joint offsets: :func:`description_of`), or a
+mechanism file read with tomllib (:func:`read_rrr_file`, :func:`read_graph_file`), converted exactly
+to mpmath (``mpmath.mpf(float)`` is exact) and normalized there, at :data:`DIGITS` decimal digits
+(:func:`precision`: another). spherekin's loop equations, its solver and its trust layer are never
+called; the floats are the design, so a design that is a change-point mechanism on paper is, in
+floats, within ~1e-16 of one, and the references say what that float design does. (Not its float
+model: a 3-RRR's float joint axes are rotated and normalized in floats, another design ~1e-16 away,
+whose folds lie up to ~4e-15 from the description's.)
 
 Mechanisms of two legs (spherical four-bar and five-bar)
     The reference leg is (A*, B) with A actuated; the other leg is (D, C) (four-bar: D a passive
@@ -31,12 +36,15 @@ Mechanisms of two legs (spherical four-bar and five-bar)
     platform reference), as homogeneous quadrics in the quaternion of R'. The roots are found as in
     :mod:`benchmarks.reference_roots` (eigen-candidates of the degree-8 problem, complex Newton at
     50 digits, restarts until the 8 Bezout roots are distinct), but with the quadrics built at 50
-    digits from the joint axes (reference_roots rebuilds them from the 3-RRR's *description* lists,
-    a design that differs from the axes in the last bit, enough to move a fold by ~1e-16), and with
+    digits from the description's numbers as given (a 3-RRR of another kind: from its joint axes;
+    reference_roots rebuilds them from the description lists normalized in floats, a design that
+    differs in the last bit, enough to move a fold by ~1e-16), and with
     what it takes to separate the two roots of a pair 1e-16 from a fold (~1e-8 apart, where the
     eigen-candidates no longer do) or 1e-16 from the agile eye's singular lines (~1e-16 apart): the
     conjugate of each complex root, starts for a pair from the null direction of the Jacobian, and
-    restarts with deflation (:func:`_rrr_roots`). Undecided (``count`` None, with the reason): a
+    restarts with deflation (:func:`_rrr_roots`). A description (or file) is read with every vector
+    the direction of its floats, w_i(beta_i) = Rot(u_i, beta_i + offset_i) w_i^0 and the pose R
+    mapping v_i^0 to v_i (no platform reference). Undecided (``count`` None, with the reason): a
     degenerate design (no 8-dimensional null space: non-isolated roots), fewer than 8 distinct
     roots, two roots closer than :data:`DECIDE_SEPARATION`, or an odd number of real roots.
     :func:`rrr_singular_input` finds where the count changes along a segment to :data:`ROOT_ACCURACY`
@@ -63,7 +71,7 @@ from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 __all__ = ["DIGITS", "CHANGE_TOL", "DECIDE_SEPARATION", "DISC_TOL", "ROOT_ACCURACY", "EdgeReference", "Edge",
            "four_bar", "five_bar", "two_leg_reference", "two_leg_edges", "two_leg_coincidences", "rrr_reference",
            "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis", "precision",
-           "file_angle", "RrrFile", "read_rrr_file", "GraphFile", "read_graph_file", "watt_reference",
+           "file_angle", "RrrFile", "read_rrr_file", "description_of", "GraphFile", "read_graph_file", "watt_reference",
            "stephenson_reference", "graph_reference", "graph_folds", "SIX_BAR_TOL"]
 
 #: Working precision (decimal digits).
@@ -299,12 +307,12 @@ def _two_leg(mech: SphericalMechanism) -> _TwoLeg:
     else:
         raise ValueError(f"mech: leg {lo.name!r} is neither (D, C) nor (E*, D, C)")
     with mpmath.workdps(_dps()):
-        b0, c0, d0 = mp_axis(lb.joints[1].axis), mp_axis(c_joint.axis), mp_axis(d_joint.axis)
+        b0, c0, d0 = mp_axis(lb.joints[1].given_axis), mp_axis(c_joint.given_axis), mp_axis(d_joint.given_axis)
         plat = mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in mech.platform_reference_matrix])
         return _TwoLeg(
-            a_axis=mp_axis(lb.joints[0].axis), a_ref=_mp(lb.joints[0].reference_angle),
+            a_axis=mp_axis(lb.joints[0].given_axis), a_ref=_mp(lb.joints[0].reference_angle),
             a_index=mech.actuated.index(lb.joints[0].name), b0=b0, b_name=lb.joints[1].name,
-            e_axis=None if e_joint is None else mp_axis(e_joint.axis),
+            e_axis=None if e_joint is None else mp_axis(e_joint.given_axis),
             e_ref=None if e_joint is None else _mp(e_joint.reference_angle),
             e_index=None if e_joint is None else mech.actuated.index(e_joint.name),
             d0=d0, d_name=d_joint.name, c0=c0, c_name=c_joint.name,
@@ -504,9 +512,19 @@ class _Rrr:
     float_geometry: tuple
 
 
+def description_of(mech: SphericalMechanism) -> RrrFile:
+    """The numbers of a kind "3-RRR" mechanism's description as given (``geometry.given_axes``, the
+    distal link angles' floats, the joint offsets): what its file holds (tests/test_mechanism_io.py checks
+    that they are the file's), as an :class:`RrrFile`."""
+    g = mech.geometry
+    return RrrFile(f"<{mech.name}>", *g.given_axes, tuple(g.distal_link_angles), tuple(g.joint_offsets))
+
+
 def _rrr(mech) -> _Rrr:
     if isinstance(mech, RrrFile):
         return _rrr_of_file(mech)
+    if getattr(mech, "kind", None) == "3-RRR" and getattr(mech.geometry, "given_axes", None) is not None:
+        return _rrr_of_file(description_of(mech))        # its description's numbers, not its float joint axes
     if len(mech.legs) != 3 or any(len(leg.joints) != 3 or not leg.joints[0].actuated
                                   or leg.joints[1].actuated or leg.joints[2].actuated for leg in mech.legs):
         raise ValueError("mech: expected a 3-RRR (three legs of 3 joints, the base joint actuated)")
