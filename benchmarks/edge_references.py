@@ -1,11 +1,16 @@
 """Independent 50-digit references at the edges of spherical mechanisms (issue 26, item 2).
 
-Everything here is computed from a mechanism's *joint axes* alone (``mech.legs[i].joints[j].axis``,
-``.actuated``, ``.reference_angle`` and ``mech.platform_reference_matrix``), converted exactly to
-mpmath (``mpmath.mpf(float)`` is exact) and normalized there, at :data:`DIGITS` decimal digits.
-spherekin's loop equations, its solver and its trust layer are never called; the float axes are
-the design, so a design that is a change-point mechanism on paper is, in floats, within ~1e-16 of
-one, and the references say what that float design does.
+Everything here is computed from a mechanism's numbers as given (issue 40: what a proof is about):
+its *joint axes* as given (``mech.legs[i].joints[j].given_axis``, ``.actuated``, ``.reference_angle``
+and ``mech.platform_reference_matrix``), or for a kind "3-RRR" its description (base axes, elbow axes
+at zero, platform axes as given, distal link angles, joint offsets: :func:`description_of`), or a
+mechanism file read with tomllib (:func:`read_rrr_file`, :func:`read_graph_file`), converted exactly
+to mpmath (``mpmath.mpf(float)`` is exact) and normalized there, at :data:`DIGITS` decimal digits
+(:func:`precision`: another). spherekin's loop equations, its solver and its trust layer are never
+called; the floats are the design, so a design that is a change-point mechanism on paper is, in
+floats, within ~1e-16 of one, and the references say what that float design does. (Not its float
+model: a 3-RRR's float joint axes are rotated and normalized in floats, another design ~1e-16 away,
+whose folds lie up to ~4e-15 from the description's.)
 
 Mechanisms of two legs (spherical four-bar and five-bar)
     The reference leg is (A*, B) with A actuated; the other leg is (D, C) (four-bar: D a passive
@@ -31,12 +36,15 @@ Mechanisms of two legs (spherical four-bar and five-bar)
     platform reference), as homogeneous quadrics in the quaternion of R'. The roots are found as in
     :mod:`benchmarks.reference_roots` (eigen-candidates of the degree-8 problem, complex Newton at
     50 digits, restarts until the 8 Bezout roots are distinct), but with the quadrics built at 50
-    digits from the joint axes (reference_roots rebuilds them from the 3-RRR's *description* lists,
-    a design that differs from the axes in the last bit, enough to move a fold by ~1e-16), and with
+    digits from the description's numbers as given (a 3-RRR of another kind: from its joint axes;
+    reference_roots rebuilds them from the description lists normalized in floats, a design that
+    differs in the last bit, enough to move a fold by ~1e-16), and with
     what it takes to separate the two roots of a pair 1e-16 from a fold (~1e-8 apart, where the
     eigen-candidates no longer do) or 1e-16 from the agile eye's singular lines (~1e-16 apart): the
     conjugate of each complex root, starts for a pair from the null direction of the Jacobian, and
-    restarts with deflation (:func:`_rrr_roots`). Undecided (``count`` None, with the reason): a
+    restarts with deflation (:func:`_rrr_roots`). A description (or file) is read with every vector
+    the direction of its floats, w_i(beta_i) = Rot(u_i, beta_i + offset_i) w_i^0 and the pose R
+    mapping v_i^0 to v_i (no platform reference). Undecided (``count`` None, with the reason): a
     degenerate design (no 8-dimensional null space: non-isolated roots), fewer than 8 distinct
     roots, two roots closer than :data:`DECIDE_SEPARATION`, or an odd number of real roots.
     :func:`rrr_singular_input` finds where the count changes along a segment to :data:`ROOT_ACCURACY`
@@ -45,8 +53,12 @@ Mechanisms of two legs (spherical four-bar and five-bar)
 
 from __future__ import annotations
 
+import contextlib
 import math
+import re
+import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mpmath
 import numpy as np
@@ -58,7 +70,9 @@ from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 
 __all__ = ["DIGITS", "CHANGE_TOL", "DECIDE_SEPARATION", "DISC_TOL", "ROOT_ACCURACY", "EdgeReference", "Edge",
            "four_bar", "five_bar", "two_leg_reference", "two_leg_edges", "two_leg_coincidences", "rrr_reference",
-           "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis"]
+           "rrr_singular_input", "rrr_segment", "agile_eye_edge", "passive_angles", "inputs_at", "mp_axis", "precision",
+           "file_angle", "RrrFile", "read_rrr_file", "description_of", "GraphFile", "read_graph_file", "watt_reference",
+           "stephenson_reference", "graph_reference", "graph_folds", "SIX_BAR_TOL"]
 
 #: Working precision (decimal digits).
 DIGITS = 50
@@ -92,9 +106,32 @@ TINY_RESIDUAL = mpmath.mpf(10) ** (-(DIGITS - 3))
 
 # ------------------------------------------------------------------------------ small mp helpers
 
+_PRECISION = [DIGITS]
+
+
+@contextlib.contextmanager
+def precision(digits: int):
+    """Every reference computed inside ``with precision(digits):`` works at ``digits`` decimal digits
+    instead of DIGITS (the tolerances that follow the precision, Newton's and TINY_RESIDUAL's, with it;
+    the fixed ones, DECIDE_SEPARATION, SMALL_STEP, ROOT_ACCURACY, stay)."""
+    _PRECISION.append(int(digits))
+    try:
+        yield
+    finally:
+        _PRECISION.pop()
+
+
+def _dps() -> int:
+    return _PRECISION[-1]
+
+
+def _tiny_residual():
+    return mpmath.mpf(10) ** (-(_dps() - 3))
+
+
 def mp_axis(v) -> list:
     """The direction of the float vector v in mpmath, normalized at DIGITS digits."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         x = [mpmath.mpf(float(t)) for t in v]
         n = mpmath.sqrt(sum(t * t for t in x))
         return [t / n for t in x]
@@ -142,7 +179,8 @@ class EdgeReference:
     their platform ``rotations`` (float 3x3, from 50 digits; as spherekin's ``platform_rotation``),
     the same at 50 digits (``mp_rotations``), per assembly the current joint axes that fix it
     (``points``: joint name -> mp unit vector; two-leg mechanisms), the ``discriminant`` (two-leg:
-    the Gram determinant; 3-RRR: None) and the smallest distance between two roots (3-RRR)."""
+    the Gram determinant; 3-RRR: None) and the smallest distance between two roots (3-RRR); six-bars:
+    ``readings``, per assembly every joint's reading (name -> float, radians)."""
 
     count: int | None
     rotations: tuple = ()
@@ -151,6 +189,7 @@ class EdgeReference:
     discriminant: object = None
     min_separation: float | None = None
     note: str = ""
+    readings: tuple = field(default=(), repr=False)
 
 
 @dataclass(frozen=True)
@@ -267,13 +306,13 @@ def _two_leg(mech: SphericalMechanism) -> _TwoLeg:
         e_joint, d_joint, c_joint = js
     else:
         raise ValueError(f"mech: leg {lo.name!r} is neither (D, C) nor (E*, D, C)")
-    with mpmath.workdps(DIGITS):
-        b0, c0, d0 = mp_axis(lb.joints[1].axis), mp_axis(c_joint.axis), mp_axis(d_joint.axis)
+    with mpmath.workdps(_dps()):
+        b0, c0, d0 = mp_axis(lb.joints[1].given_axis), mp_axis(c_joint.given_axis), mp_axis(d_joint.given_axis)
         plat = mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in mech.platform_reference_matrix])
         return _TwoLeg(
-            a_axis=mp_axis(lb.joints[0].axis), a_ref=_mp(lb.joints[0].reference_angle),
+            a_axis=mp_axis(lb.joints[0].given_axis), a_ref=_mp(lb.joints[0].reference_angle),
             a_index=mech.actuated.index(lb.joints[0].name), b0=b0, b_name=lb.joints[1].name,
-            e_axis=None if e_joint is None else mp_axis(e_joint.axis),
+            e_axis=None if e_joint is None else mp_axis(e_joint.given_axis),
             e_ref=None if e_joint is None else _mp(e_joint.reference_angle),
             e_index=None if e_joint is None else mech.actuated.index(e_joint.name),
             d0=d0, d_name=d_joint.name, c0=c0, c_name=c_joint.name,
@@ -292,7 +331,7 @@ def two_leg_reference(mech: SphericalMechanism, inputs) -> EdgeReference:
     the order of ``mech.actuated``): count 0, 1 or 2 from the sign of the Gram determinant of
     (B, Q, C), each assembly's platform rotation and its points B, D (current), C."""
     g = _two_leg(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         b = _rot(g.a_axis, _mp(inputs[g.a_index]) - g.a_ref, g.b0)
         q = _q_point(g, inputs)
         c = _dot(b, q)
@@ -334,7 +373,7 @@ def two_leg_edges(mech: SphericalMechanism, inputs=None) -> list:
     inputs = [0.0] * n_in if inputs is None else list(inputs)
     direction = tuple(1.0 if i == g.a_index else 0.0 for i in range(n_in))
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         p, s1, s0 = _sinusoid(g, inputs)
         rho = mpmath.sqrt(p * p + s1 * s1)
         phi0 = mpmath.atan2(s1, p)                       # cos angle(B, Q) is largest at phi0
@@ -377,7 +416,7 @@ def two_leg_coincidences(mech: SphericalMechanism) -> list:
     if g.e_axis is None:
         return []
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         # cos angle(A, D(phi)) = P cos(phi) + S' sin(phi) + S, phi = theta_E - ref_E
         ed, ea = _dot(g.e_axis, g.d0), _dot(g.e_axis, g.a_axis)
         p = _dot(g.a_axis, g.d0) - ed * ea
@@ -390,6 +429,74 @@ def two_leg_coincidences(mech: SphericalMechanism) -> list:
                 theta = theta - 2 * mpmath.pi * mpmath.nint(theta / (2 * mpmath.pi))
                 out.append(float(theta))
     return out
+
+
+# ------------------------------------------------------------------------------ mechanism files (issue 40)
+
+_FILE_ANGLE = re.compile(r"^\s*(?P<sign>[+-])?\s*(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\d+)?\s*(?P<star>\*)?\s*"
+                         r"(?P<pi>pi)?\s*(?:/\s*(?P<den>\d+(?:\.\d*)?|\.\d+))?\s*$")
+
+
+def file_angle(value) -> float:
+    """An angle of a mechanism file (docs/mechanism-format.md), as the float it stands for: a number, or
+    a text [sign][number][*]pi[/denominator] evaluated left to right in double precision (the number
+    times pi, then divided), the sign last. The file's floats are these numbers."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    m = _FILE_ANGLE.match(value) if isinstance(value, str) else None
+    if m is None or not (m["num"] or m["pi"]):
+        raise ValueError(f"angle: expected a number or a pi expression, got {value!r}")
+    out = float(m["num"]) if m["num"] else 1.0
+    if m["pi"]:
+        out *= math.pi
+    if m["den"]:
+        out /= float(m["den"])
+    return -out if m["sign"] == "-" else out
+
+
+@dataclass(frozen=True)
+class RrrFile:
+    """A kind "3-RRR" mechanism file read with tomllib (not with spherekin): its numbers as written.
+    ``u``, ``w0``, ``v0``: the base axes, elbow axes at zero and platform axes (3 float triples each,
+    not normalized); ``alpha2``: the distal link angles (:func:`file_angle`); ``offsets``: the
+    ``[joint_offsets]`` table as (joint name, float) pairs (a joint reads its angle minus its offset)."""
+
+    path: str
+    u: tuple
+    w0: tuple
+    v0: tuple
+    alpha2: tuple
+    offsets: tuple = ()
+
+    def offset(self, name: str) -> float:
+        return dict(self.offsets).get(name, 0.0)
+
+
+def read_rrr_file(path) -> RrrFile:
+    """The :class:`RrrFile` of a kind "3-RRR" mechanism file."""
+    data = tomllib.loads(Path(path).read_text())
+    if data.get("kind") != "3-RRR":
+        raise ValueError(f"{path}: expected a kind \"3-RRR\" file")
+
+    def triples(key):
+        return tuple(tuple(float(t) for t in v) for v in data[key])
+
+    return RrrFile(str(path), triples("base_axes"), triples("elbow_axes_at_zero"), triples("platform_axes"),
+                   tuple(file_angle(a) for a in data["distal_link_angles"]),
+                   tuple((n, file_angle(v)) for n, v in data.get("joint_offsets", {}).items()))
+
+
+def _rrr_of_file(f: RrrFile) -> "_Rrr":
+    """The 3-RRR of a file at the working precision: u_i, w_i^0, v_i^0 the directions of the file's
+    vectors (normalized in mpmath), cos alpha2_i of the file's float; input beta_i (a reading) turns the
+    elbow to Rot(u_i, beta_i + offset_i) w_i^0 (refs = -offsets); the platform frame is the file's (R
+    maps v_i^0 to v_i: no platform reference)."""
+    with mpmath.workdps(_dps()):
+        u, w, v = ([mp_axis(x) for x in vs] for vs in (f.u, f.w0, f.v0))
+        refs = [-_mp(f.offset(f"beta{i + 1}")) for i in range(3)]
+        cos_a2 = [mpmath.cos(_mp(a)) for a in f.alpha2]
+        fgeo = tuple(np.array([[float(t) for t in x] for x in vs]) for vs in (u, w, v)) + (np.array(f.alpha2, float),)
+        return _Rrr(u, w, v, refs, cos_a2, mpmath.eye(3), fgeo)
 
 
 # ------------------------------------------------------------------------------ 3-RRR
@@ -405,13 +512,25 @@ class _Rrr:
     float_geometry: tuple
 
 
-def _rrr(mech: SphericalMechanism) -> _Rrr:
+def description_of(mech: SphericalMechanism) -> RrrFile:
+    """The numbers of a kind "3-RRR" mechanism's description as given (``geometry.given_axes``, the
+    distal link angles' floats, the joint offsets): what its file holds (tests/test_mechanism_io.py checks
+    that they are the file's), as an :class:`RrrFile`."""
+    g = mech.geometry
+    return RrrFile(f"<{mech.name}>", *g.given_axes, tuple(g.distal_link_angles), tuple(g.joint_offsets))
+
+
+def _rrr(mech) -> _Rrr:
+    if isinstance(mech, RrrFile):
+        return _rrr_of_file(mech)
+    if getattr(mech, "kind", None) == "3-RRR" and getattr(mech.geometry, "given_axes", None) is not None:
+        return _rrr_of_file(description_of(mech))        # its description's numbers, not its float joint axes
     if len(mech.legs) != 3 or any(len(leg.joints) != 3 or not leg.joints[0].actuated
                                   or leg.joints[1].actuated or leg.joints[2].actuated for leg in mech.legs):
         raise ValueError("mech: expected a 3-RRR (three legs of 3 joints, the base joint actuated)")
     order = [mech.actuated.index(leg.joints[0].name) for leg in mech.legs]
     legs = [mech.legs[order.index(i)] for i in range(3)]      # leg of input i
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         u = [mp_axis(leg.joints[0].axis) for leg in legs]
         w = [mp_axis(leg.joints[1].axis) for leg in legs]
         v = [mp_axis(leg.joints[2].axis) for leg in legs]
@@ -426,7 +545,7 @@ def _rrr(mech: SphericalMechanism) -> _Rrr:
 def _rrr_quadrics(g: _Rrr, inputs) -> list:
     """q^T A_i q = |q|^2 (w_i(beta_i) . R'(q) v_i - cos alpha2_i), at DIGITS digits."""
     out = []
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         for i in range(3):
             w = _rot(g.u[i], _mp(inputs[i]) - g.refs[i], g.w[i])
             out.append(leg_quadric_mp(w, g.v[i], g.cos_a2[i]))
@@ -452,7 +571,7 @@ def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
     next to a found root is driven to a missing one; the result is then polished without deflation."""
     q = mpmath.matrix([mpmath.mpc(x) for x in q0])
     q = q / mpmath.sqrt(sum(x * x for x in q))
-    tol = mpmath.mpf(10) ** (-(DIGITS - 10))
+    tol = mpmath.mpf(10) ** (-(_dps() - 10))
     known = [r for r0 in deflate for r in (r0, -r0)]
     for k in range(max_steps):
         f, jac = quadric_system_mp(quadrics, q)
@@ -474,7 +593,7 @@ def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
         if known:
             if size < mpmath.mpf(10) ** -20:
                 return _newton(quadrics, q, max_steps - k)
-        elif size < tol or (size < SMALL_STEP and mpmath.norm(f, mpmath.inf) < TINY_RESIDUAL):
+        elif size < tol or (size < SMALL_STEP and mpmath.norm(f, mpmath.inf) < _tiny_residual()):
             return q, True
     return q, False
 
@@ -565,18 +684,19 @@ def _pair_distance(a, b):
     return min(max(abs(a[j] - s * b[j]) for j in range(4)) for s in (1, -1))
 
 
-def rrr_reference(mech: SphericalMechanism, inputs, seed: int = 0) -> EdgeReference:
+def rrr_reference(mech, inputs, seed: int = 0) -> EdgeReference:
     """The reference of a 3-RRR at ``inputs`` (floats or mpf, radians, order of ``mech.actuated``),
-    from its joint axes; ``count`` None when undecided (module docstring)."""
+    from its joint axes (``mech`` a SphericalMechanism) or from its file's numbers (``mech`` an
+    :class:`RrrFile`); ``count`` None when undecided (module docstring)."""
     g = _rrr(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         roots, why = _rrr_roots(g, inputs, seed)
         if why:
             return EdgeReference(None, note=why)
         sep = min(_pair_distance(a, b) for i, a in enumerate(roots) for b in roots[i + 1:])
         if sep < DECIDE_SEPARATION:
             return EdgeReference(None, min_separation=float(sep),
-                                 note=f"two roots {mpmath.nstr(sep, 3)} apart: not resolved at {DIGITS} digits")
+                                 note=f"two roots {mpmath.nstr(sep, 3)} apart: not resolved at {_dps()} digits")
         real = [r for r in roots if max(abs(mpmath.im(x)) for x in r) < mpmath.mpf("1e-30")]
         if len(real) % 2:
             return EdgeReference(None, min_separation=float(sep), note=f"{len(real)} real roots (odd)")
@@ -602,14 +722,15 @@ def _closest_pair_g(g: _Rrr, x):
     return mpmath.re(sum(t * t for t in best[1]))
 
 
-def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
+def rrr_singular_input(mech, x_a, x_b, width: float = 1e-9, accuracy=ROOT_ACCURACY):
     """(x*, direction): the input on the segment x_a -> x_b where the reference count changes, to
-    ~ROOT_ACCURACY (mpf tuple), and x_b - x_a scaled to max norm 1. Bisection on the count (ends with
+    ~``accuracy`` (radians; mpf tuple), and x_b - x_a scaled to max norm 1 (``mech``: as
+    :func:`rrr_reference`). Bisection on the count (ends with
     different counts required) to a bracket of ``width`` (radians), then regula falsi (Illinois) on
     the signed squared distance of the merging pair of roots, which is linear through the fold.
     ValueError when the counts at the ends are equal or a count is undecided."""
     g = _rrr(mech)
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         xa = [_mp(v) for v in x_a]
         xb = [_mp(v) for v in x_b]
         span = max(abs(xb[i] - xa[i]) for i in range(3))
@@ -651,7 +772,7 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
             g_lo = g_hi = mpmath.mpf(1)
         best_g, side = None, 0
         for _ in range(60):
-            if g_lo * g_hi > 0 or (hi - lo) * span < ROOT_ACCURACY:
+            if g_lo * g_hi > 0 or (hi - lo) * span < accuracy:
                 break               # done, or not a simple fold: keep the bracket
             s = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
             try:
@@ -660,7 +781,7 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
                 break               # the pair too close to resolve
             if best_g is None or abs(gs) < best_g:
                 best, best_g = s, abs(gs)
-            if gs == 0 or abs(gs) < mpmath.mpf(10) ** (-(DIGITS - 5)):
+            if gs == 0 or abs(gs) < mpmath.mpf(10) ** (-(_dps() - 5)):
                 break
             if gs * g_lo > 0:
                 lo, g_lo = s, gs
@@ -672,19 +793,19 @@ def rrr_singular_input(mech: SphericalMechanism, x_a, x_b, width: float = 1e-9):
                 if side == 1:
                     g_lo /= 2
                 side = 1
-        # check: the count changes across best (ROOT_ACCURACY on either side); else bisect on
-        eps = ROOT_ACCURACY / span
+        # check: the count changes across best (accuracy on either side); else bisect on
+        eps = mpmath.mpf(accuracy) / span
         try:
             ok = count(best - eps) == c_lo and count(best + eps) != c_lo
         except ValueError:
             ok = False
         if not ok:
-            lo, hi = bisect(lo, hi, ROOT_ACCURACY, undecided_ends=True)
+            lo, hi = bisect(lo, hi, accuracy, undecided_ends=True)
             best = (lo + hi) / 2
         return tuple(point(best)), direction
 
 
-def rrr_segment(mech: SphericalMechanism, rng, max_tries: int = 200):
+def rrr_segment(mech, rng, max_tries: int = 200):
     """A random segment of inputs (uniform in [-pi, pi]^3) along which the reference count changes:
     (x*, direction) by :func:`rrr_singular_input`. RuntimeError after ``max_tries`` segments."""
     for _ in range(max_tries):
@@ -702,10 +823,261 @@ def rrr_segment(mech: SphericalMechanism, rng, max_tries: int = 200):
 def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1) -> Edge:
     """An input on the agile eye's (spherekin.mechanism.gosselin) codimension-2 singular set
     beta1 = 0, beta2 = sign pi/2 (any beta3; pairs of assembly modes merge there), at 50 digits."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         x = (mpmath.mpf(0), sign * mpmath.pi / 2, mpmath.mpf(float(beta3)))
     d = np.asarray(direction, float)
     return Edge(x, tuple(d / np.abs(d).max()), "singular-line", "beta1 = 0, beta2 = +-pi/2")
+
+
+# ------------------------------------------------------------------------------ six-bars (graph files, issue 40)
+
+#: A six-bar reference is undecided when a discriminant (Watt: the Gram determinant of a circle
+#: intersection; Stephenson: the imaginary part of a root of the eliminant, relative to 1 + |t|) is
+#: below this: at 1e-16 from a fold a pair is ~1e-8 apart (discriminant ~1e-16, imaginary part
+#: ~1e-8); at the working precision (50-60 digits) rounding is below 1e-45.
+SIX_BAR_TOL = mpmath.mpf("1e-40")
+#: mpmath.polyroots' iterations and extra precision (bits) for the Stephenson eliminant (degree 8): two
+#: roots 1e-8 apart converge only linearly at first; 400 steps and 120 extra bits leave its error
+#: estimate below 1e-40 at 1e-16 from a fold (checked: the error is part of the decision).
+POLYROOTS_STEPS = 400
+POLYROOTS_EXTRAPREC = 120
+
+
+@dataclass(frozen=True)
+class GraphFile:
+    """A kind "graph" mechanism file read with tomllib: ``joints`` maps a name to (links (a, b), the
+    axis floats as written, actuated, reference_angle float); ``ground``, ``output``. Joint [a, b]
+    turns link b relative to link a: R_b = R_a Rot(axis, reading - reference_angle), every link's frame
+    the ground's in the reference assembly."""
+
+    path: str
+    joints: tuple
+    ground: str
+    output: str | None
+
+    def joint(self, name: str):
+        return dict((n, rest) for n, *rest in self.joints)[name]
+
+
+def read_graph_file(path) -> GraphFile:
+    data = tomllib.loads(Path(path).read_text())
+    if data.get("kind") != "graph":
+        raise ValueError(f"{path}: expected a kind \"graph\" file")
+    joints = tuple((j["name"], tuple(j["links"]), tuple(float(t) for t in j["axis"]), bool(j.get("actuated", False)),
+                    file_angle(j.get("reference_angle", 0.0))) for j in data["joints"])
+    return GraphFile(str(path), joints, data["ground"], data.get("output"))
+
+
+def _check_topology(g: GraphFile, links: dict, actuated: tuple) -> None:
+    got = {n: tuple(lk) for n, lk, *_ in g.joints}
+    if got != links or tuple(n for n, _, _, act, _ in g.joints if act) != actuated:
+        raise ValueError(f"{g.path}: not the six-bar this reference is written for (joints {got})")
+
+
+def _unit_mp(v):
+    n = mpmath.sqrt(_dot(v, v))
+    return [t / n for t in v]
+
+
+def _frame_onb(p, q):
+    """The rotation matrix with columns (p, n, p x n), n = unit(p x q): F(R p, R q) = R F(p, q)."""
+    n = _unit_mp(_cross(p, q))
+    m = _cross(p, n)
+    return mpmath.matrix([[p[i], n[i], m[i]] for i in range(3)])
+
+
+def _carry(p0, q0, p, q):
+    """The rotation taking p0 to p and q0 to q (angle(p0, q0) = angle(p, q))."""
+    return _frame_onb(p, q) * _frame_onb(p0, q0).T
+
+
+def _rot_mat(axis, angle):
+    k = mpmath.matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return mpmath.eye(3) + mpmath.sin(angle) * k + (1 - mpmath.cos(angle)) * k * k
+
+
+def _apply(m, v):
+    return [sum(m[i, j] * v[j] for j in range(3)) for i in range(3)]
+
+
+def _circles(p, cp, q, cq):
+    """The unit vectors x with x . p = cp and x . q = cq (p, q unit, not parallel): (the two, the Gram
+    discriminant g2 |p x q|^2 = 1 - |alpha p + beta q|^2; the two are real when it is > 0)."""
+    pq = _dot(p, q)
+    den = 1 - pq * pq
+    alpha, beta = (cp - pq * cq) / den, (cq - pq * cp) / den
+    n = _cross(p, q)
+    base = [alpha * p[i] + beta * q[i] for i in range(3)]
+    disc = 1 - _dot(base, base)
+    if disc <= 0:
+        return [], disc
+    gamma = mpmath.sqrt(disc / den)
+    return [[base[i] + s * gamma * n[i] for i in range(3)] for s in (1, -1)], disc
+
+
+def _readings(g: GraphFile, axes: dict, rots: dict) -> dict:
+    """Every joint's reading (float, wrapped to [-pi, pi]) from the links' rotations: joint [a, b] with
+    axis X0 reads reference + the angle of R_a^T R_b about X0."""
+    out = {}
+    for name, (a, b), _, _, ref in g.joints:
+        x0 = axes[name]
+        p = _unit_mp(_cross(x0, [1, 0, 0] if abs(x0[0]) < 0.9 else [0, 1, 0]))
+        qp = _apply(rots[a].T * rots[b], p)
+        phi = mpmath.atan2(_dot(x0, _cross(p, qp)), _dot(p, qp))
+        out[name] = float(mpmath.atan2(mpmath.sin(ref + phi), mpmath.cos(ref + phi)))
+    return out
+
+
+def _graph_result(g: GraphFile, axes, assemblies, undecided: str = "") -> EdgeReference:
+    if undecided:
+        return EdgeReference(None, note=undecided)
+    rots = tuple(_to_float(r[g.output]) for r in assemblies)
+    return EdgeReference(len(assemblies), rots, tuple(r[g.output] for r in assemblies),
+                         readings=tuple(_readings(g, axes, r) for r in assemblies))
+
+
+WATT_LINKS = {"A": ("ground", "crank"), "B": ("crank", "coupler"), "C": ("coupler", "rocker"),
+              "D": ("ground", "rocker"), "E": ("crank", "link5"), "F": ("link5", "link6"), "G": ("link6", "coupler")}
+STEPHENSON_LINKS = {"A": ("ground", "ternary1"), "B": ("ternary1", "link1"), "C": ("link1", "ternary2"),
+                    "D": ("ternary1", "link2"), "E": ("link2", "ternary2"), "F": ("ground", "link4"),
+                    "G": ("link4", "ternary2")}
+
+
+def watt_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The Watt I six-bar of examples/watt_six_bar.toml (joint names and links as there) at input A =
+    inputs[0], from the file's numbers: the crank turns by A; C lies at its arcs from B (crank) and D
+    (ground): 0 or 2 points, each placing the coupler (B, C, G); F lies at its arcs from E (crank) and G
+    (coupler): 0 or 2 for each. Count and every assembly's link rotations and readings."""
+    _check_topology(g, WATT_LINKS, ("A",))
+    with mpmath.workdps(_dps()):
+        ax = {n: _unit_mp([_mp(t) for t in v]) for n, _, v, _, _ in g.joints}
+        r_crank = _rot_mat(ax["A"], _mp(inputs[0]) - _mp(g.joint("A")[3]))
+        b, e = _apply(r_crank, ax["B"]), _apply(r_crank, ax["E"])
+        cs, disc1 = _circles(b, _dot(ax["B"], ax["C"]), ax["D"], _dot(ax["D"], ax["C"]))
+        if abs(disc1) < SIX_BAR_TOL:
+            return _graph_result(g, ax, [], f"circle discriminant of C {mpmath.nstr(disc1, 3)}: a double assembly")
+        out = []
+        for c in cs:
+            r_coupler = _carry(ax["B"], ax["C"], b, c)
+            r_rocker = _carry(ax["D"], ax["C"], ax["D"], c)
+            gg = _apply(r_coupler, ax["G"])
+            fs, disc2 = _circles(e, _dot(ax["E"], ax["F"]), gg, _dot(ax["G"], ax["F"]))
+            if abs(disc2) < SIX_BAR_TOL:
+                return _graph_result(g, ax, [], f"circle discriminant of F {mpmath.nstr(disc2, 3)}: a double assembly")
+            for f in fs:
+                out.append({"ground": mpmath.eye(3), "crank": r_crank, "coupler": r_coupler, "rocker": r_rocker,
+                            "link5": _carry(ax["E"], ax["F"], e, f), "link6": _carry(ax["F"], ax["G"], f, gg)})
+        return _graph_result(g, ax, out)
+
+
+#: Stephenson eliminant: phi = PHI0 + 2 atan t (PHI0 puts t = infinity, phi = PHI0 + pi, away from the
+#: roots of examples/stephenson_six_bar.toml; as tests/test_singular_loops.py::stephenson_count).
+STEPHENSON_PHI0 = 0.3
+
+
+def stephenson_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The Stephenson six-bar of examples/stephenson_six_bar.toml at input A = inputs[0], from the file's
+    numbers: ternary2 = Rot(F, phi) Rot(G, psi) (the chain ground - link4 - ternary2), and the links B-C,
+    D-E keep their arcs: a_i + b_i cos psi + c_i sin psi = 0 (i = 1, 2), each of a, b, c times (1 + t^2)
+    of degree 2 in t = tan((phi - STEPHENSON_PHI0) / 2); eliminating psi (Cramer, cos^2 + sin^2 = 1)
+    leaves h(t) = (a2 c1 - a1 c2)^2 + (a1 b2 - a2 b1)^2 - (b1 c2 - b2 c1)^2 of degree 8, whose real roots
+    are the assemblies (tests/test_singular_loops.py::stephenson_h, here at the working precision)."""
+    _check_topology(g, STEPHENSON_LINKS, ("A",))
+    with mpmath.workdps(_dps()):
+        ax = {n: _unit_mp([_mp(t) for t in v]) for n, _, v, _, _ in g.joints}
+        r1 = _rot_mat(ax["A"], _mp(inputs[0]) - _mp(g.joint("A")[3]))
+        f, gax = ax["F"], ax["G"]
+        c0, s0 = mpmath.cos(STEPHENSON_PHI0), mpmath.sin(STEPHENSON_PHI0)
+        coefs = []
+        for near, far in (("B", "C"), ("D", "E")):
+            u, v, k = _apply(r1, ax[near]), ax[far], _dot(ax[near], ax[far])
+            v0 = [_dot(gax, v) * t for t in gax]
+            parts = (v0, [v[i] - v0[i] for i in range(3)], _cross(gax, v))      # Rot(G, psi) v
+            w0 = [_dot(f, u) * t for t in f]
+            w1, w2 = [u[i] - w0[i] for i in range(3)], [-t for t in _cross(f, u)]   # Rot(F, -phi) u
+            row = []
+            for j, pj in enumerate(parts):
+                al, be, ga = _dot(w0, pj), _dot(w1, pj), _dot(w2, pj)    # al + be cos phi + ga sin phi
+                if j == 0:
+                    al -= k
+                # (1 + t^2)(al + be cos phi + ga sin phi), phi = PHI0 + u, cos u = (1 - t^2)/(1 + t^2), ...
+                p1, p2 = c0 * be + s0 * ga, -s0 * be + c0 * ga
+                row.append([al + p1, 2 * p2, al - p1])                      # coefficients of 1, t, t^2
+            coefs.append(row)
+
+        def mul(p, q):
+            out = [mpmath.mpf(0)] * (len(p) + len(q) - 1)
+            for i, a in enumerate(p):
+                for j, b in enumerate(q):
+                    out[i + j] += a * b
+            return out
+
+        def sub(p, q):
+            return [a - b for a, b in zip(p, q)]
+
+        (a1, b1, c1), (a2, b2, c2) = coefs
+        x_num, y_num, det = sub(mul(a2, c1), mul(a1, c2)), sub(mul(a1, b2), mul(a2, b1)), sub(mul(b1, c2), mul(b2, c1))
+        h = sub([p + q for p, q in zip(mul(x_num, x_num), mul(y_num, y_num))], mul(det, det))
+        roots, err = mpmath.polyroots(h[::-1], maxsteps=POLYROOTS_STEPS, extraprec=POLYROOTS_EXTRAPREC, error=True)
+        if err > SIX_BAR_TOL:
+            return _graph_result(g, ax, [], f"eliminant roots not converged (error {mpmath.nstr(err, 3)})")
+        out = []
+        for t in roots:
+            im = abs(mpmath.im(t)) / (1 + abs(t))
+            if SIX_BAR_TOL <= im < mpmath.mpf("1e-25"):
+                return _graph_result(g, ax, [], f"a root of the eliminant with imaginary part {mpmath.nstr(im, 3)}")
+            if im >= SIX_BAR_TOL:
+                continue
+            t = mpmath.re(t)
+
+            def ev(p):
+                return sum(cf * t ** i for i, cf in enumerate(p))
+
+            d = ev(det)
+            cos_psi, sin_psi = ev(x_num) / d, ev(y_num) / d
+            phi = STEPHENSON_PHI0 + 2 * mpmath.atan(t)
+            psi = mpmath.atan2(sin_psi, cos_psi)
+            r4 = _rot_mat(f, phi)
+            r2 = r4 * _rot_mat(gax, psi)
+            b, d_, c, e = _apply(r1, ax["B"]), _apply(r1, ax["D"]), _apply(r2, ax["C"]), _apply(r2, ax["E"])
+            out.append({"ground": mpmath.eye(3), "ternary1": r1, "link4": r4, "ternary2": r2,
+                        "link1": _carry(ax["B"], ax["C"], b, c), "link2": _carry(ax["D"], ax["E"], d_, e)})
+        return _graph_result(g, ax, out)
+
+
+def graph_reference(g: GraphFile, inputs) -> EdgeReference:
+    """The reference of a six-bar file: :func:`watt_reference` or :func:`stephenson_reference` by its links."""
+    links = {n: tuple(lk) for n, lk, *_ in g.joints}
+    return (watt_reference if links == WATT_LINKS else stephenson_reference)(g, inputs)
+
+
+def graph_folds(g: GraphFile, lo: float = -math.pi, hi: float = math.pi, samples: int = 400,
+                accuracy=mpmath.mpf("1e-30"), limit: int | None = None) -> list:
+    """The inputs A in [lo, hi] where the reference count changes (the six-bar's folds), as :class:`Edge`
+    (direction +1), each bisected on the count at the working precision to ``accuracy`` (radians; an
+    undecided count ends the bisection there); ``limit``: the first ones only (samples taken in order
+    until then)."""
+    xs = np.linspace(lo, hi, samples)
+    out = []
+    with mpmath.workdps(_dps()):
+        k0 = graph_reference(g, (xs[0],)).count
+        for x0, x1 in zip(xs[:-1], xs[1:]):
+            if limit is not None and len(out) >= limit:
+                break
+            k1 = graph_reference(g, (x1,)).count
+            if k0 is None or k1 is None or k0 == k1:
+                k0 = k1
+                continue
+            a, b = mpmath.mpf(float(x0)), mpmath.mpf(float(x1))
+            while b - a > accuracy:
+                m = (a + b) / 2
+                k = graph_reference(g, (m,)).count
+                if k is None:
+                    break
+                a, b = (m, b) if k == k0 else (a, m)
+            out.append(Edge(((a + b) / 2,), (1.0,), "fold", f"{k0} -> {k1} assemblies"))
+            k0 = k1
+    return out
 
 
 # ------------------------------------------------------------------------------ shared helpers
@@ -713,7 +1085,7 @@ def agile_eye_edge(beta3: float = 0.3, direction=(0.6, 0.8, 0.3), sign: int = 1)
 def inputs_at(edge: Edge, distance: float) -> tuple:
     """The float inputs nearest x* + distance * direction (each entry rounded once from 50 digits),
     and the actual signed distance (float) along the direction's largest entry."""
-    with mpmath.workdps(DIGITS):
+    with mpmath.workdps(_dps()):
         d = mpmath.mpf(float(distance))
         x = tuple(float(edge.x_star[i] + d * mpmath.mpf(edge.direction[i])) for i in range(len(edge.x_star)))
         k = int(np.argmax(np.abs(edge.direction)))

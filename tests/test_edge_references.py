@@ -11,6 +11,11 @@
   the singular input of the issue-13 segment separates 8 from 6 assemblies at +-1e-18.
 * The campaign's judge on made-up reports: an exact wrong count, an invented root and a lost one
   are wrong; a cluster holding the missing roots is flagged.
+* On the files' numbers (issue 40): a text angle is the double the format's reader computes; the 3-RRR
+  file reference has the joint-axes reference's count at generic inputs and its poses meet the file's
+  leg constraints at 50 digits; the six-bar references count as tests/test_singular_loops.py's float
+  references (circle intersections, the degree-8 eliminant), every joint reads 0 at the file's
+  reference assembly, and each assembly closes every link's arcs at 50 digits.
 """
 
 from __future__ import annotations
@@ -50,13 +55,13 @@ def mp_angle(a, b):
 
 
 def link_angles(mech):
-    """Every link angle of a two-leg mechanism from its float axes at 50 digits: (joint, joint) -> angle."""
+    """Every link angle of a two-leg mechanism from its axes as given, at 50 digits: (joint, joint) -> angle."""
     out = {}
     for leg in mech.legs:
         for j, k in zip(leg.joints, leg.joints[1:]):
-            out[(j.name, k.name)] = mp_angle(mpv(j.axis), mpv(k.axis))
+            out[(j.name, k.name)] = mp_angle(mpv(j.given_axis), mpv(k.given_axis))
     b, c = mech.legs[0].joints[-1], mech.legs[1].joints[-1]
-    out[(b.name, c.name)] = mp_angle(mpv(b.axis), mpv(c.axis))
+    out[(b.name, c.name)] = mp_angle(mpv(b.given_axis), mpv(c.given_axis))
     return out
 
 
@@ -101,7 +106,7 @@ def test_four_bar_constructor_is_the_preset():
 def test_four_bar_assemblies_close_and_match_the_model(angles):
     mech = er.four_bar(*angles)
     links = link_angles(mech)
-    axes = {j.name: mpv(j.axis) for leg in mech.legs for j in leg.joints}
+    axes = {j.name: mpv(j.given_axis) for leg in mech.legs for j in leg.joints}
     rng = np.random.default_rng(sum(angles))
     seen = 0
     for theta in rng.uniform(-np.pi, np.pi, 6):
@@ -140,7 +145,7 @@ def test_the_count_changes_exactly_at_the_branch_inputs(angles):
     mech = er.four_bar(*angles)
     links = link_angles(mech)
     a, b = links[("B", "C")], links[("D", "C")]
-    a_axis, b0, d0 = (mpv(j.axis) for j in (mech.legs[0].joints[0], mech.legs[0].joints[1], mech.legs[1].joints[0]))
+    a_axis, b0, d0 = (mpv(j.given_axis) for j in (mech.legs[0].joints[0], mech.legs[0].joints[1], mech.legs[1].joints[0]))
     edges = er.two_leg_edges(mech)
     assert edges
     with mpmath.workdps(er.DIGITS):
@@ -176,7 +181,7 @@ def test_five_bar_references():
 
     for mech in (five_bar(), er.five_bar(70, 40, 65, 55, 50)):
         links = link_angles(mech)
-        axes = {j.name: mpv(j.axis) for leg in mech.legs for j in leg.joints}
+        axes = {j.name: mpv(j.given_axis) for leg in mech.legs for j in leg.joints}
         rng = np.random.default_rng(5)
         for x in rng.uniform(-np.pi, np.pi, (8, 2)):
             ref = er.two_leg_reference(mech, x)
@@ -240,13 +245,21 @@ def test_rrr_singular_input_separates_the_issue_counts():
 
 
 def test_agile_eye_singular_line_and_passive_angles():
+    """The agile eye's joint axes (exact unit vectors, every distal link angle exactly pi/2, as a kind "general"
+    mechanism: judged on its joint axes) has 8 assemblies 1e-12 from its singular line, pairs merging on it.
+    Its description's distal link angles are the double of pi/2 (6.1e-17 short of it): that 3-RRR, the one
+    a proof is about (issue 40), has 6 there."""
+    import dataclasses
+
     from spherekin.mechanism import gosselin
 
-    mech = gosselin()
+    described = gosselin()
+    mech = dataclasses.replace(described, kind="general", geometry=None)
     edge = er.agile_eye_edge()
     inputs, _ = er.inputs_at(edge, 1e-12)
     ref = er.rrr_reference(mech, inputs)
     assert ref.count == 8 and ref.min_separation < 1e-11     # pairs merging on the line
+    assert er.rrr_reference(described, inputs).count == 6
     for r in ref.rotations:                                  # some legs at u_i = v_i: actuator free
         (pa,) = er.passive_angles(mech, r, inputs)
         fwd = mech.forward({**dict(zip(mech.actuated, inputs)), **pa})
@@ -310,3 +323,71 @@ def test_box_test_modulo_two_pi():
     assert not in_box(np.array([0.0, 0.2]), box)
     narrow = SimpleNamespace(lo=np.array([3.0, 0.0]), hi=np.array([3.2, 0.0]))
     assert in_box(np.array([3.1 - 2 * np.pi, 0.0]), narrow) and not in_box(np.array([2.9, 0.0]), narrow)
+
+
+# ---------------------------------------------------------------- the files' numbers (issue 40)
+
+EXAMPLES = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_file_angle_is_the_readers_double():
+    from spherekin.mechanism.checks import parse_angle
+
+    for text in ("5*pi/12", "pi/2", "-3*pi/4", "2pi", "0.25", "1.5 * pi / 3", "-pi"):
+        assert er.file_angle(text) == parse_angle("a", text)
+    assert er.file_angle("5*pi/12") == 5 * math.pi / 12
+
+
+def test_rrr_file_reference_is_the_files_3rrr():
+    import spherekin
+
+    path = EXAMPLES / "general_3rrr.toml"
+    f = er.read_rrr_file(path)
+    mech = spherekin.load_mechanism(path)
+    assert f.u == mech.geometry.given_axes[0] and f.alpha2 == (5 * math.pi / 12,) * 3
+    for x in ((0.3, -0.2, 0.5), (1.0, 2.0, -1.5)):
+        ref = er.rrr_reference(f, x)
+        assert ref.count == er.rrr_reference(mech, x).count and ref.count >= 2
+        for rot in ref.mp_rotations:                    # w_i(beta_i) . R v_i^0 = cos alpha2_i, at 50 digits
+            for i in range(3):
+                u, w0, v0 = (mpv(vs[i]) for vs in (f.u, f.w0, f.v0))
+                b = mpmath.mpf(x[i])
+                uw = er._cross(u, w0)
+                w = [w0[k] * mpmath.cos(b) + uw[k] * mpmath.sin(b) + u[k] * er._dot(u, w0) * (1 - mpmath.cos(b))
+                     for k in range(3)]
+                v = [sum(rot[k, j] * v0[j] for j in range(3)) for k in range(3)]
+                assert abs(er._dot(w, v) - mpmath.cos(mpmath.mpf(f.alpha2[i]))) < mpmath.mpf("1e-40")
+
+
+@pytest.mark.parametrize("name", ["watt_six_bar.toml", "stephenson_six_bar.toml"])
+def test_six_bar_references(name):
+    from singular_refs import EXAMPLES as EX
+    from test_singular_loops import graph_axes, stephenson_count, watt_count
+
+    g = er.read_graph_file(EXAMPLES / name)
+    ax = graph_axes(EX / name)
+    count = watt_count if name.startswith("watt") else stephenson_count
+    for a in (-2.9, -2.0, -0.8, 0.0, 0.3, 1.0, 2.5):
+        ref = er.graph_reference(g, (a,))
+        assert ref.count == count(ax, a), a
+    home = er.graph_reference(g, (0.0,))
+    assert min(max(abs(v) for v in r.values()) for r in home.readings) < 1e-14     # the file's assembly
+    axes = {n: mpv(v) for n, _, v, _, _ in g.joints}
+    ref = er.graph_reference(g, (1.0,))
+    assert len(ref.readings) == ref.count
+    for readings in ref.readings:      # every joint [a, b]: R_a^T R_b = Rot(axis, reading - reference), both loops
+        rot = {g.ground: mpmath.eye(3)}
+        pending = list(g.joints)
+        while pending:
+            for j in list(pending):
+                n, (a, b), _, _, r0 = j
+                if a in rot and b not in rot:
+                    rot[b] = rot[a] * er._rot_mat(axes[n], mpmath.mpf(readings[n]) - r0)
+                    pending.remove(j)
+                elif a in rot and b in rot:              # a loop's closing joint: its reading closes it
+                    q = rot[a].T * rot[b] - er._rot_mat(axes[n], mpmath.mpf(readings[n]) - r0)
+                    assert max(abs(q[i, k]) for i in range(3) for k in range(3)) < 1e-14
+                    pending.remove(j)
+                elif b in rot and a not in rot:
+                    rot[a] = rot[b] * er._rot_mat(axes[n], mpmath.mpf(readings[n]) - r0).T
+                    pending.remove(j)

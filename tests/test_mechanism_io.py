@@ -85,6 +85,51 @@ def test_dump_and_load_round_trip(tmp_path, name):
         assert a.reference_angle == pytest.approx(b.reference_angle, abs=1e-12)
 
 
+def test_the_files_numbers_are_kept_as_given(tmp_path):
+    """The numbers of a file are the mechanism (issue 40): a joint's axis and a 3-RRR's vectors keep their
+    floats as given (``given_axis``, ``geometry.given_axes``: what the proofs in extended precision
+    normalize exactly), the float model uses them normalized in floats, and a file written back holds the
+    same numbers, so that it loads to the same mechanism (equal, also for a batch's fingerprint)."""
+    import dataclasses
+    import tomllib
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    for name in ("watt_six_bar.toml", "four_bar.toml"):
+        data = tomllib.loads((examples / name).read_text())
+        mech = load_mechanism(examples / name)
+        raw = {j["name"]: tuple(float(t) for t in j["axis"])
+               for j in data.get("joints", [j for leg in data.get("legs", []) for j in leg["joints"]])}
+        for j in mech.joints:
+            assert j.given_axis == raw[j.name]
+            assert j.axis == tuple(float(t) for t in np.array(raw[j.name]) / np.linalg.norm(raw[j.name]))
+            assert dataclasses.replace(j, range=None).given_axis == raw[j.name]     # kept by a copy
+        back = load_mechanism(write(tmp_path, dumps_mechanism(mech)))
+        assert back == mech and [j.given_axis for j in back.joints] == [j.given_axis for j in mech.joints]
+    data = tomllib.loads((examples / "general_3rrr.toml").read_text())
+    mech = load_mechanism(examples / "general_3rrr.toml")
+    assert mech.geometry.given_axes == tuple(tuple(tuple(float(t) for t in v) for v in data[key])
+                                             for key in ("base_axes", "elbow_axes_at_zero", "platform_axes"))
+    assert mech.geometry.given_axes != (mech.geometry.base_axes, mech.geometry.elbow_axes_at_zero,
+                                        mech.geometry.platform_axes)      # normalizing in floats moves them
+    moved = three_rrr(*mech.geometry.given_axes, mech.geometry.distal_link_angles, joint_offsets={"gamma2": 0.25})
+    for m in (mech, moved):
+        back = load_mechanism(write(tmp_path, dumps_mechanism(m)))
+        assert back == m and back.geometry.joint_offsets == m.geometry.joint_offsets
+    assert moved.geometry.joint_offsets == (("gamma2", 0.25),)
+
+
+def test_a_joint_given_a_new_axis_is_the_new_axis():
+    from spherekin.mechanism import Joint
+
+    j = Joint("A", (0.0, 0.6, 0.8000001))
+    assert j.given_axis == (0.0, 0.6, 0.8000001) and j.axis != j.given_axis
+    import dataclasses
+    k = dataclasses.replace(j, axis=(1.0, 0.0, 0.0))
+    assert k.given_axis == k.axis == (1.0, 0.0, 0.0)
+    assert Joint("A", j.axis, given_axis=j.given_axis) == j
+
+
 def test_dump_keeps_ranges(tmp_path):
     x, y, z = np.eye(3)
     mech = three_rrr([x, y, -z], [y, -z, x], [z, x, y], [math.pi / 2] * 3, {"delta2": (-1.0, 2.0)})

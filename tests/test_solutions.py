@@ -200,3 +200,39 @@ def test_proven_entries_are_one_root_only_when_their_certificates_say_so():
     # certificates that overlap without either enclosing the other's root: not two proven roots
     wide = _unique([_proven(0.5, 2e-9, 1.5e-9), _proven(0.5 + 3e-9, 2e-9, 1.5e-9)])
     assert count_summary(wide) == (1, False)
+
+
+def test_one_root_reached_twice_in_extended_precision_is_kept_once():
+    """Newton in extended precision returns the same floats for one root from every start; the points it
+    came from sit a whole turn away in one angle (a cluster next to -pi). Brought back next to the cluster by
+    whole turns, the root is one new point, not two 1 ulp apart (p + wrap(root - p) rounds differently for
+    each p: the second copy, 4e-16 from the first, could only be tested on a box of radius 2e-16, and the
+    root went unproven next to general_3rrr's fold; issue 40)."""
+    from spherekin.trust import solutions as sol_mod
+
+    root = np.array([4.355005308974469, 1.5319488948170208, -0.1522431426361721, 3.0246163691633017,
+                     -0.7485801211630532, 2.3489779844202126])
+    starts = [np.array([-1.9281799856320951, 1.5319488816065345, -0.15224307859390707, 3.024616379653313,
+                        -0.7485801747299905, 2.348978020579718]),
+              np.array([-1.9281798678051123, 1.531948989525117, -0.1522432130096957, 3.0246162426211547,
+                        -0.7485801834904994, 2.3489779885528104])]
+
+    class Extended:                       # Newton's root from anywhere; no certificate
+        def polish(self, theta):
+            return root.copy()
+
+        def certify(self, theta, radii):
+            return None
+
+    class NoCertificate:
+        certified, krawczyk_box, no_solution = False, None, False
+
+    def certify_fn(system, thetas, radii, angle_tolerance):
+        return [NoCertificate() for _ in thetas]
+
+    points = [sol_mod._Point(p, None, 0.0) for p in starts]
+    out = sol_mod._sharpen(certify_fn, None, points, Extended())
+    assert len(out) == 1
+    expected = root.copy()
+    expected[0] -= 2 * np.pi
+    assert np.array_equal(out[0].theta, expected)

@@ -16,7 +16,8 @@ from ..core.angles import check_geometry_angle
 from ..core.columns import RESERVED_COLUMNS
 
 __all__ = ["UNIT_TOL", "ROTATION_TOL", "NAME_FORBIDDEN", "parse_angle", "check_ascii", "shown", "check_name",
-           "check_joint_name", "check_unit_vector", "check_range", "check_rotation"]
+           "check_joint_name", "check_unit_vector", "given_unit_vector", "normalized_floats", "check_range",
+           "check_rotation"]
 
 #: |norm - 1| allowed for an axis before it is normalized. Reason: axes are often typed by hand in
 #: mechanism files with 6-8 significant digits; anything further from unit length is a mistake
@@ -139,8 +140,12 @@ def check_joint_name(key: str, value) -> str:
     return value
 
 
-def check_unit_vector(key: str, value) -> tuple[float, float, float]:
-    """A unit 3-vector (norm 1 within UNIT_TOL), returned normalized to full precision."""
+def given_unit_vector(key: str, value) -> tuple[float, float, float]:
+    """The floats of a unit 3-vector exactly as given (norm 1 within UNIT_TOL), not normalized.
+
+    These are the numbers that define the direction (a mechanism file's axis): the proofs of
+    :mod:`spherekin.trust.extended` normalize them exactly; :func:`check_unit_vector` rounds the
+    direction to floats for everything else."""
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
         raise ValueError(f"{key}: expected a unit vector [x, y, z], got {shown(value)}")
     if len(value) != 3:
@@ -161,8 +166,20 @@ def check_unit_vector(key: str, value) -> tuple[float, float, float]:
         raise ValueError(f"{key}: expected a unit vector, got the zero vector")
     if abs(norm - 1.0) > UNIT_TOL:
         raise ValueError(f"{key}: expected a unit vector (norm 1 within {UNIT_TOL:g}), got norm {norm:.9g} for {comps}")
-    vec = vec / norm
-    return (float(vec[0]), float(vec[1]), float(vec[2]))
+    return (comps[0], comps[1], comps[2])
+
+
+def normalized_floats(vec) -> tuple[float, float, float]:
+    """vec / |vec| in floats (the direction of a given vector rounded to floats, ~1e-16 off)."""
+    v = np.array(vec, dtype=float)
+    v = v / float(np.linalg.norm(v))
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def check_unit_vector(key: str, value) -> tuple[float, float, float]:
+    """A unit 3-vector (norm 1 within UNIT_TOL), returned normalized to full precision (in floats:
+    :func:`given_unit_vector` keeps the numbers as given)."""
+    return normalized_floats(given_unit_vector(key, value))
 
 
 def check_range(key: str, value) -> tuple[float, float] | None:

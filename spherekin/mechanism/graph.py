@@ -30,7 +30,8 @@ from typing import Sequence
 import numpy as np
 
 from ..core.angles import check_geometry_angle
-from .checks import check_joint_name, check_name, check_range, check_unit_vector, parse_angle, shown
+from .checks import (check_joint_name, check_name, check_range, given_unit_vector, normalized_floats, parse_angle,
+                     shown)
 
 __all__ = ["Joint", "Step", "GraphLoop", "MechanismGraph", "mobility"]
 
@@ -41,17 +42,31 @@ class Joint:
     actuated, its range (lo, hi) in radians or None (unlimited: the full circle), and its reading
     at the reference configuration (radians). The name is checked by
     :func:`~.checks.check_joint_name` (it names a column of the results); the range ends and the
-    reference reading are within :data:`~spherekin.core.angles.MAX_GEOMETRY_ANGLE` of 0."""
+    reference reading are within :data:`~spherekin.core.angles.MAX_GEOMETRY_ANGLE` of 0.
+
+    ``given_axis``: the axis floats as given (a mechanism file's numbers, norm 1 within
+    :data:`~.checks.UNIT_TOL`); the joint's axis is their exact direction, which the proofs in
+    extended precision (:mod:`spherekin.trust.extended`) use, and ``axis`` is that direction
+    rounded to floats (~1e-16 off), which everything else uses. Left out (None), it is the
+    ``axis`` argument; a ``given_axis`` whose float direction is not the ``axis`` argument is
+    replaced by it (so ``dataclasses.replace(joint, axis=new)`` gives the joint of ``new``, and
+    ``dataclasses.replace(joint, range=None)`` keeps both)."""
 
     name: str
     axis: tuple
     actuated: bool = False
     range: tuple | None = None
     reference_angle: float = 0.0
+    given_axis: tuple | None = field(default=None, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "name", check_joint_name("name", self.name))
-        object.__setattr__(self, "axis", check_unit_vector("axis", self.axis))
+        raw = given_unit_vector("axis", self.axis)
+        given = None if self.given_axis is None else given_unit_vector("given_axis", self.given_axis)
+        if given is None or normalized_floats(given) != raw:
+            given = raw
+        object.__setattr__(self, "given_axis", given)
+        object.__setattr__(self, "axis", normalized_floats(given))
         if not isinstance(self.actuated, (bool, np.bool_)):
             raise ValueError(f"actuated: expected true or false, got {shown(self.actuated)}")
         object.__setattr__(self, "actuated", bool(self.actuated))

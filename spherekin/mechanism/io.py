@@ -194,11 +194,6 @@ def _build_graph(body: Mapping) -> SphericalMechanism:
 # Writing
 # --------------------------------------------------------------------------------------------
 
-#: A joint offset of a 3-RRR is written to a file only above this (radians). Reason: the offsets are
-#: recovered as differences of reference readings computed twice from axes normalized twice, which
-#: agree to a few ulps (~1e-16) without any offset; no one states an offset of 1e-12 rad.
-OFFSET_ROUNDING = 1e-12
-
 
 def _num(x: float) -> str:
     return repr(float(x))
@@ -220,17 +215,14 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
     if mech.kind == "3-RRR" and mech.geometry is not None:
         g = mech.geometry
         lines += ['kind = "3-RRR"', f"name = {_str(mech.name)}", f"reference_leg = {_str(mech.reference_leg)}"]
-        for key in ("base_axes", "elbow_axes_at_zero", "platform_axes"):
-            lines.append(f"{key} = [" + ", ".join(_vec(v) for v in getattr(g, key)) + "]")
+        for key, vectors in zip(("base_axes", "elbow_axes_at_zero", "platform_axes"), g.given_axes):
+            lines.append(f"{key} = [" + ", ".join(_vec(v) for v in vectors) + "]")     # the floats as given
         lines.append("distal_link_angles = [" + ", ".join(_num(a) for a in g.distal_link_angles) + "]")
         ranged = [j for j in mech.joints if j.range is not None]
         if ranged:
             lines += ["", "[joint_ranges]"] + [f"{j.name} = {_vec(j.range)}" for j in ranged]
-        plain = three_rrr(g.base_axes, g.elbow_axes_at_zero, g.platform_axes, g.distal_link_angles)
-        moved = [(j.name, p.reference_angle - j.reference_angle) for j, p in zip(mech.joints, plain.joints)
-                 if abs(p.reference_angle - j.reference_angle) > OFFSET_ROUNDING]
-        if moved:
-            lines += ["", "[joint_offsets]"] + [f"{n} = {_num(v)}" for n, v in moved]
+        if g.joint_offsets:
+            lines += ["", "[joint_offsets]"] + [f"{n} = {_num(v)}" for n, v in g.joint_offsets]
         return "\n".join(lines) + "\n"
     if mech.graph is not None:
         g = mech.graph
@@ -252,8 +244,9 @@ def dumps_mechanism(mech: SphericalMechanism) -> str:
 
 
 def _joint_lines(j) -> list[str]:
-    """A joint's axis and, when not the defaults, actuated, range and reference_angle (both kinds)."""
-    lines = [f"axis = {_vec(j.axis)}"]
+    """A joint's axis (its floats as given) and, when not the defaults, actuated, range and
+    reference_angle (both kinds)."""
+    lines = [f"axis = {_vec(j.given_axis)}"]
     if j.actuated:
         lines.append("actuated = true")
     if j.range is not None:

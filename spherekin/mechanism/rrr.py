@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -41,7 +41,7 @@ import numpy as np
 from ..core.angles import check_geometry_angle
 from ..core.rotations import cross
 from .chains import angle_about, axis_rotation, least_aligned_basis
-from .checks import check_range, check_unit_vector, parse_angle, shown
+from .checks import check_range, given_unit_vector, normalized_floats, parse_angle, shown
 from .model import PARALLEL_TOL, Joint, Leg, SphericalMechanism
 
 __all__ = [
@@ -98,23 +98,49 @@ class ThreeRRRGeometry:
     elbow_axes_at_zero: tuple
     platform_axes: tuple
     distal_link_angles: tuple
+    #: The description's vectors with their floats as given (issue 40): (base_axes,
+    #: elbow_axes_at_zero, platform_axes) before normalization (None: the three lists above). The
+    #: mechanism is their exact directions; the lists above round them to floats (~1e-16 off).
+    given_axes: tuple | None = field(default=None, repr=False)
+    #: The (joint name, offset) pairs of the nonzero ``joint_offsets`` (radians, as given), in
+    #: :func:`rrr_joint_names` order: a joint reads its angle minus its offset.
+    joint_offsets: tuple = ()
+
+    def __post_init__(self):
+        if self.given_axes is None:
+            object.__setattr__(self, "given_axes", (tuple(self.base_axes), tuple(self.elbow_axes_at_zero),
+                                                    tuple(self.platform_axes)))
 
     @property
     def proximal_link_angles(self) -> tuple[float, ...]:
         """alpha1_i = angle(u_i, w_i^0)."""
         return tuple(_angle(u, w) for u, w in zip(self.base_axes, self.elbow_axes_at_zero))
 
+    def _next_axis_serves(self, i: int) -> bool:
+        """Whether r_i^0 is the next platform axis (else a basis vector; the module docstring)."""
+        v, nxt = self.platform_axes[i], self.platform_axes[(i + 1) % 3]
+        return bool(np.linalg.norm(cross(v, nxt)) >= PLATFORM_DIRECTION_MIN_SINE)
+
     @property
     def platform_directions(self) -> tuple[tuple[float, ...], ...]:
         """r_i^0 (platform frame): the reference direction of delta_i (see the module docstring)."""
-        out = []
-        for i, v in enumerate(self.platform_axes):
-            nxt = self.platform_axes[(i + 1) % 3]
-            if np.linalg.norm(cross(v, nxt)) >= PLATFORM_DIRECTION_MIN_SINE:
-                out.append(tuple(nxt))
-            else:
-                out.append(tuple(float(c) for c in least_aligned_basis(v)))
-        return tuple(out)
+        return tuple(tuple(self.platform_axes[(i + 1) % 3]) if self._next_axis_serves(i)
+                     else tuple(float(c) for c in least_aligned_basis(v)) for i, v in enumerate(self.platform_axes))
+
+    @property
+    def given_platform_directions(self) -> tuple[tuple[float, ...], ...]:
+        """r_i^0 as :attr:`platform_directions` chooses it, with the next platform axis's floats as
+        given (``given_axes``; a basis vector is exact): the direction the delta_i readings are
+        measured to, for the proofs in extended precision."""
+        given = self.given_axes[2]
+        return tuple(tuple(given[(i + 1) % 3]) if self._next_axis_serves(i) else d
+                     for i, d in enumerate(self.platform_directions))
+
+    @property
+    def offsets(self) -> dict[str, float]:
+        """Joint name -> offset (radians) of every joint, 0.0 where none was given."""
+        given = dict(self.joint_offsets)
+        return {n: given.get(n, 0.0) for n in rrr_joint_names()}
 
     def assembly_bands(self) -> tuple[tuple[float, float], ...]:
         """Per leg, the interval of angle(u_i, v_i) for which the leg can be assembled."""
@@ -125,11 +151,12 @@ class ThreeRRRGeometry:
 
 
 def _three_vectors(key: str, value) -> tuple:
+    """The 3 vectors of ``key``, their floats as given (checked: unit within UNIT_TOL)."""
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
         raise ValueError(f"{key}: expected a list of 3 unit vectors, got {shown(value)}")
     if len(value) != 3:
         raise ValueError(f"{key}: expected 3 unit vectors (one per leg), got {len(value)}")
-    return tuple(check_unit_vector(f"{key}[{i}]", v) for i, v in enumerate(value))
+    return tuple(given_unit_vector(f"{key}[{i}]", v) for i, v in enumerate(value))
 
 
 def _three_angles(key: str, value) -> tuple:
@@ -240,9 +267,9 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
     equal to a joint's angle at a home pose makes it read 0 there). Bad input raises ValueError
     naming the argument.
     """
-    u = _three_vectors("base_axes", base_axes)
-    w0 = _three_vectors("elbow_axes_at_zero", elbow_axes_at_zero)
-    v0 = _three_vectors("platform_axes", platform_axes)
+    given = tuple(_three_vectors(key, value) for key, value in (
+        ("base_axes", base_axes), ("elbow_axes_at_zero", elbow_axes_at_zero), ("platform_axes", platform_axes)))
+    u, w0, v0 = (tuple(normalized_floats(v) for v in vectors) for vectors in given)
     alpha2 = _three_angles("distal_link_angles", distal_link_angles)
     for i in range(3):
         if np.linalg.norm(cross(u[i], w0[i])) < PARALLEL_TOL:
@@ -253,7 +280,8 @@ def three_rrr(base_axes, elbow_axes_at_zero, platform_axes, distal_link_angles, 
     ranges = _joint_table("joint_ranges", joint_ranges, "[lo, hi]", check_range)
     offsets = _joint_table("joint_offsets", joint_offsets, "angle",
                            lambda key, v: check_geometry_angle(key, parse_angle(key, v)))
-    geom = ThreeRRRGeometry(u, w0, v0, alpha2)
+    nonzero = tuple((n, offsets[n]) for n in rrr_joint_names() if offsets.get(n, 0.0) != 0.0)
+    geom = ThreeRRRGeometry(u, w0, v0, alpha2, given_axes=given, joint_offsets=nonzero)
     rot = find_reference_pose(geom)
     if rot is None:
         bands = ", ".join(f"leg{i + 1}: [{lo:.4f}, {hi:.4f}]" for i, (lo, hi) in enumerate(geom.assembly_bands()))

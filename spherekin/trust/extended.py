@@ -9,12 +9,32 @@ times |J^-1| exceeds every box that still contracts: for delta below ~1e-5 neith
 certified. Here every constant is exact and the arithmetic carries :data:`EXTENDED_DIGITS` digits,
 so F(y) is ~1e-50 wide and the test is limited only by the float point y it is given.
 
-The mechanism certified is the one given by the floats of the :class:`SphericalMechanism`: each
-joint axis is the direction of its float vector (normalized in interval arithmetic, so the exact
-unit vector lies in the enclosure), each actuator input and each reading offset
-(``Joint.reference_angle``) is the exact value of its float (``mpf(float)`` is exact). Nothing is
-read from the LoopSystem or the float model: the equations are written again from the model's
-convention (:mod:`spherekin.mechanism.model`):
+The mechanism certified is the one its file's numbers give (issue 40: "the mechanism of the file, as
+its floats give it"), every constant derived from them in extended precision; no float64
+intermediate enters. Each actuator input is the exact value of its float (``mpf(float)`` is exact).
+
+* kinds "graph" and "general": each joint axis is the direction of its vector as given
+  (``Joint.given_axis``, normalized in interval arithmetic, so the exact unit vector lies in the
+  enclosure; ``Joint.axis`` is that direction rounded to floats, the float model's), each reading
+  offset (``Joint.reference_angle``) the exact value of its float;
+* kind "3-RRR": the float model's joints are derived in floats (elbow axes rotated by a float
+  reference input, normalized vectors, reference readings from atan2): ~1e-16 from the file's, a
+  neighbouring mechanism whose folds lie up to ~4e-15 from the file's (general_3rrr.toml). The legs
+  are written instead from the description's numbers (``ThreeRRRGeometry.given_axes``, the
+  distal link angles' floats and the joint offsets, docs/mechanism-format.md), in interval
+  arithmetic: u, w^0, v^0, r^0 the directions of the file's vectors, a2 the distal link angle,
+  p = unit(u - (u.w^0) w^0), v_ref = cos a2 w^0 + sin a2 p, q = sin a2 w^0 - cos a2 p (w^0's
+  direction normal to v_ref), q^0 = unit(r^0 - (r^0.v^0) v^0), and the leg's platform rotation at
+  readings (beta, gamma, delta) is P = Rot(u, beta + o_beta) Rot(w^0, gamma + o_gamma)
+  Rot(v_ref, delta + o_delta) T, T = [v_ref, q, v_ref x q] [v^0, q^0, v^0 x q^0]^T (o: the offsets,
+  a reading being the angle minus its offset): at every geometric angle 0 the leg is folded
+  (gamma = 0: v on u's side) with R r^0 along q (delta = 0), and each joint turns what follows it
+  about its current axis, so P is the pose R of the description (v_i = R v_i^0 at the distal link
+  angle from w_i = Rot(u_i, beta_i + o) w_i^0). The legs of the float model must agree with these
+  to RECORD_MATCH_TOL (else ValueError: the proofs would be about other legs).
+
+Nothing is read from the LoopSystem or the float model: the equations are written again from the
+model's convention (:mod:`spherekin.mechanism.model`):
 
 * a leg's joints are listed base -> platform; joint i turns by the displacement
   d_i = reading_i - reference_angle_i about its axis a_i in the reference configuration (right-hand
@@ -22,12 +42,13 @@ convention (:mod:`spherekin.mechanism.model`):
   exponentials; Rodrigues' formula Rot(a, d) = cos d I + sin d [a]x + (1 - cos d) a a^T); the
   platform rotation along the leg is D R_ref (R_ref = ``platform_reference``, I by default);
 * one loop per leg k other than the reference leg r; the loop closes iff both legs place the
-  platform alike, D_r = D_k, i.e. M_k = D_r^T D_k = I. For a mechanism written as a graph the two
-  "legs" of a loop are its two chains from its root link (``LoopGeometry.up``/``down``; a joint
-  crossed from its second link to its first turns by -d), and the loop closes iff both turn the
-  closing link alike: the same condition. (M_k = R_ref (R_r^T R_k) R_ref^T for the
-  platform rotations R = D R_ref: the same condition, written so that the float R_ref, orthogonal
-  only to rounding, does not enter; M_k = R_r^T R_k exactly when R_ref = I, as in every preset.)
+  platform alike, D_r = D_k, i.e. M_k = D_r^T D_k = I (for a 3-RRR, M_k = P_r^T P_k with the legs'
+  poses P above: the same condition). For a mechanism written as a graph the two "legs" of a loop
+  are its two chains from its root link (``LoopGeometry.up``/``down``; a joint crossed from its
+  second link to its first turns by -d), and the loop closes iff both turn the closing link alike:
+  the same condition. (M_k = R_ref (R_r^T R_k) R_ref^T for the platform rotations R = D R_ref: the
+  same condition, written so that the float R_ref, orthogonal only to rounding, does not enter;
+  M_k = R_r^T R_k exactly when R_ref = I, as in every preset.)
 
 The square system F: for every loop the entries (2,1), (3,1), (3,2) (1-based; :data:`LOOP_ENTRIES`)
 of M_k, in the passive readings of ``mechanism.loop_unknowns`` order, the actuated readings fixed
@@ -53,14 +74,16 @@ EXTENDED_DIGITS digits (a private context per call: no global mpmath state is to
 
 Departures from the float test: the equations are M_k = D_r^T D_k from the axes (not the Eq. (2)
 products of a LoopSystem), the constants are exact (``angle_tolerance`` = 0: a certificate is about
-the mechanism exactly as given by its floats, not about every rounding of it), the diagonal check
-(the Eq. (2) products of the float test have no spurious half-turn roots to exclude), X - y is
+the mechanism exactly as its file's floats give it, not about every rounding of it; a constant
+derived from them, a cosine or a normalized axis, is an enclosure ~1e-50 wide of its exact value),
+the diagonal check (the Eq. (2) products of the float test have no spurious half-turn roots to exclude), X - y is
 evaluated as an interval per unknown (not enclosed by [-rho, rho]), and only square systems are
 tested (redundant actuation is out of scope: "not certified: not square").
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 from typing import Mapping, Sequence
@@ -68,6 +91,8 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..mechanism import SphericalMechanism
+from ..mechanism.chains import axis_rotation
+from ..mechanism.rrr import ThreeRRRGeometry, rrr_joint_names
 from .krawczyk import BoxTests, KrawczykResult, check_radii
 from .transversal import check_angles
 
@@ -76,8 +101,11 @@ __all__ = [
     "EXTENDED_RADII",
     "EXTENDED_RCOND_MIN",
     "LOOP_ENTRIES",
+    "RECORD_MATCH_TOL",
+    "RRR_CONSTANTS_CACHE",
     "EXTENDED_NEWTON_STEPS",
     "EXTENDED_NEWTON_TOL",
+    "EXTENDED_NEWTON_STALL",
     "certify_extended",
     "krawczyk_boxes_extended",
     "polish_extended",
@@ -102,6 +130,13 @@ EXTENDED_RADII = (1e-13, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
 #: |I - C J(y)| ~ 1e-16 / rcond: at 1e-14 it is ~1e-2, beyond which C no longer makes K small; and
 #: roots that close (~1e-14 rad) cannot be told apart by boxes around float points (ulp ~4e-16).
 EXTENDED_RCOND_MIN = 1e-14
+
+#: A kind "3-RRR" mechanism's legs must agree with the legs written from its description to this
+#: (max |entry| of each joint's axis and each leg's platform rotation at the reference readings, in
+#: floats). Reason: both are the same legs computed two ways in floats (~1e-15 apart, a little more
+#: where a reference reading is ill-conditioned); legs that are not the description's (another
+#: mechanism given the same ``geometry``) are off by far more, and the proofs would not be about them.
+RECORD_MATCH_TOL = 1e-9
 
 #: The entries (row, column), 0-based, of M_k = D_r^T D_k that form the equations of each loop:
 #: (2,1), (3,1), (3,2) 1-based, i.e. (w_z, -w_y, w_x) of M = I + [w]x (the float test's choice,
@@ -155,12 +190,20 @@ EXTENDED_NEWTON_STEPS = 60
 #: :func:`polish_extended` stops when a step is below this (radians): far below the smallest radius
 #: the test uses (1e-13) and far above the working precision (1e-50).
 EXTENDED_NEWTON_TOL = 1e-30
+#: :func:`polish_extended` gives up when its smallest step so far has not shrunk by half within this
+#: many steps. Reason: converging, Newton at least halves its step every step (a double root's linear
+#: phase, then quadratic); next to a complex pair, where the mechanism has no assembly (an input past
+#: a fold), its steps bounce at about the pair's imaginary part (~3e-8 at 1e-15 from a fold) for all
+#: EXTENDED_NEWTON_STEPS steps (~0.5 s each time at a 3-RRR); 8 leaves room for a start that wanders
+#: a few steps before the halving sets in. Giving up proves nothing: the point stays unproven.
+EXTENDED_NEWTON_STALL = 8
 
 
 def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS) -> np.ndarray | None:
     """Newton's method on this module's equations F in extended precision from ``theta`` (passive
     readings, ``mechanism.loop_unknowns`` order): the root it converges to, rounded to floats, or
-    None (no convergence within ``steps``, a singular Jacobian, or a system that is not square).
+    None (no convergence within ``steps``, a smallest step not halved within EXTENDED_NEWTON_STALL
+    steps, a singular Jacobian, or a system that is not square).
 
     Why: next to a branch or change point the float polish (:mod:`spherekin.trust.polish`) stops
     ~1e-16 / sigma_min away from a root (a valley of near-solutions ~1e-7 long where two roots are
@@ -180,6 +223,7 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
 
     with mpmath.workdps(EXTENDED_DIGITS):
         y = [mpmath.mpf(float(v)) for v in y0]
+        smallest, since = math.inf, 0
         for _ in range(steps):
             f, _, jac = plan.evaluate([ctx.mpf(v) for v in y], jacobian=True)
             try:
@@ -190,8 +234,15 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
             y = [a - b for a, b in zip(y, step)]
             if not all(mpmath.isfinite(v) for v in y):
                 return None
-            if max(abs(v) for v in step) < EXTENDED_NEWTON_TOL:
+            size = max(abs(v) for v in step)
+            if size < EXTENDED_NEWTON_TOL:
                 return np.array([float(v) for v in y])
+            if size <= smallest / 2:
+                smallest, since = size, 0
+            else:
+                since += 1
+                if since >= EXTENDED_NEWTON_STALL:
+                    return None
     return None
 
 
@@ -243,9 +294,17 @@ def leg_rotations_extended(mechanism, joint_angles: Mapping[str, float]) -> dict
     ctx = plan.ctx
     x = [ctx.mpf(readings[n]) for n in plan.names]
     ref = [[ctx.mpf(float(v)) for v in row] for row in mechanism.platform_reference]
+    if plan.tails[0][0] is not None:
+        # a 3-RRR's legs give the pose P(x) of its description: D = P(x) P(x_ref)^T, x_ref the
+        # joints' reference readings (both P exact rotations, enclosed)
+        at_ref = _Plan(mechanism, [j.reference_angle for j in mechanism.joints if j.actuated], check_ranges=False)
+        x_ref = [at_ref.ctx.mpf(float(mechanism.joint(n).reference_angle)) for n in at_ref.names]
     out = {}
     for k, name in enumerate(plan.chain_names[:plan.n_legs]):
         d, _ = plan.leg_rotation(k, x, jacobian=False)
+        if plan.tails[0][k] is not None:
+            p_ref, _ = at_ref.leg_rotation(k, x_ref, jacobian=False)
+            d = _matmul(d, [[ctx.make_mpf(p_ref[j][i]._mpi_) for j in range(3)] for i in range(3)])     # P(x_ref)^T
         bounds = [[_outward(v) for v in row] for row in _matmul(d, ref)]
         out[name] = (np.array([[b[0] for b in row] for row in bounds]),
                      np.array([[b[1] for b in row] for row in bounds]))
@@ -330,30 +389,46 @@ class _Plan:
                 ends.append(chains[key])
             loops.append(tuple(ends))
         joints = {j.name: j for j in mechanism.joints}
-        exact, approx = [], []
+        record = _three_rrr_record(mechanism)
+        legs = None if record is None else _rrr_leg_constants(record, mechanism.legs)
+        exact, approx, tails_exact, tails_approx = [], [], [], []
         for key in chains:
-            exact.append(tuple(self._joint(joints[n], sign, known, index, True) for n, sign in key))
-            approx.append(tuple(self._joint(joints[n], sign, known, index, False) for n, sign in key))
+            if legs is None:
+                # the direction of the joint's floats as given (its axis: that direction rounded)
+                consts = [(_unit_exact(ctx, joints[n].given_axis), ctx.mpf(float(joints[n].reference_angle)))
+                          for n, _ in key]
+                floats = [(list(joints[n].axis), float(joints[n].reference_angle)) for n, _ in key]
+                tail = tail_float = None
+            elif key in legs:
+                raw_consts, raw_tail, floats, tail_float = legs[key]
+                consts = [([ctx.make_mpf(v) for v in axis], ctx.make_mpf(ref)) for axis, ref in raw_consts]
+                tail = [[ctx.make_mpf(v) for v in row] for row in raw_tail]
+            else:
+                raise ValueError(f"mechanism: the chain {[n for n, _ in key]} of a kind \"3-RRR\" mechanism is "
+                                 "not a leg")
+            exact.append(tuple(self._joint(joints[n], sign, known, index, a, r, True)
+                               for (n, sign), (a, r) in zip(key, consts)))
+            approx.append(tuple(self._joint(joints[n], sign, known, index, list(a), r, False)
+                                for (n, sign), (a, r) in zip(key, floats)))
+            tails_exact.append(tail)
+            tails_approx.append(tail_float)
         self.exact = tuple(exact)
         self.approx = tuple(approx)
+        self.tails = (tuple(tails_exact), tuple(tails_approx))
         self.chain_names = tuple(labels)
         self.loops = tuple(loops)
         self.n_eq = 3 * len(self.loops)
         self.m = len(self.names)
         self.square = self.n_eq == self.m
 
-    def _joint(self, joint, sign: int, known: dict, index: dict, exact: bool) -> _JointPlan:
+    def _joint(self, joint, sign: int, known: dict, index: dict, axis, ref, exact: bool) -> _JointPlan:
+        """The joint's plan from its constants (``axis``: the unit vector at the reference configuration,
+        ``ref``: its reading there; enclosures of the exact ones when ``exact``, else floats next to them)."""
         if exact:
-            ctx = self.ctx
-            raw = [ctx.mpf(float(v)) for v in joint.axis]          # exact: mpf(float) is exact
-            norm = ctx.sqrt(raw[0] * raw[0] + raw[1] * raw[1] + raw[2] * raw[2])
-            axis = [v / norm for v in raw]                         # encloses the exact unit vector
-            num, ref = self.exact_numbers, ctx.mpf(float(joint.reference_angle))
-            fixed = ctx.mpf(known[joint.name]) if joint.name in known else None
+            num = self.exact_numbers
+            fixed = self.ctx.mpf(known[joint.name]) if joint.name in known else None    # exact
         else:
-            vec = np.asarray(joint.axis, dtype=float)
-            axis = [float(v) for v in vec / np.linalg.norm(vec)]
-            num, ref = self.float_numbers, float(joint.reference_angle)
+            num = self.float_numbers
             fixed = known.get(joint.name)
         outer = [[axis[p] * axis[q] for q in range(3)] for p in range(3)]
         if fixed is None:
@@ -377,7 +452,8 @@ class _Plan:
                     currents.append((jp.unknown, w if jp.sign > 0 else [-w[0], -w[1], -w[2]]))
                 rot = _rodrigues(num, jp.axis, jp.outer, jp.sign * (x[jp.unknown] - jp.reference))
             p = rot if p is None else _matmul(p, rot)
-        return p, currents
+        tail = self.tails[0 if exact else 1][leg]
+        return (p if tail is None else _matmul(p, tail)), currents
 
     def evaluate(self, x, jacobian: bool, exact: bool = True):
         """At the unknowns x (intervals, or floats when not ``exact``): F (n_eq values, LOOP_ENTRIES
@@ -405,6 +481,94 @@ class _Plan:
                         row[idx] = row[idx] - _dot(w, vxu)                 # d/d reading, leg r
                     jac.append(row)
         return f, diag, (jac if jacobian else None)
+
+
+def _three_rrr_record(mechanism):
+    """The :class:`~spherekin.mechanism.rrr.ThreeRRRGeometry` of a kind "3-RRR" mechanism (its
+    description's floats as given), or None for the other kinds (their joints' ``given_axis`` and
+    ``reference_angle`` are the file's numbers)."""
+    g = mechanism.geometry
+    if mechanism.kind != "3-RRR" or not isinstance(g, ThreeRRRGeometry):
+        return None
+    if tuple(j.name for j in mechanism.joints) != rrr_joint_names() or len(mechanism.legs) != 3 \
+            or any(len(leg.joints) != 3 for leg in mechanism.legs):
+        raise ValueError("mechanism: a kind \"3-RRR\" mechanism whose legs are not beta_i, gamma_i, delta_i")
+    return g
+
+
+#: How many 3-RRR descriptions keep their legs' constants (:func:`_rrr_leg_constants`) between calls.
+#: Reason: they depend on the description alone, cost ~8 ms to compute at EXTENDED_DIGITS (square
+#: roots, a cosine and a sine, 3 x 3 products per leg: more than a Krawczyk test), and one solve calls
+#: this module up to 1,000 times on one mechanism; a batch or a campaign works on a few at a time.
+RRR_CONSTANTS_CACHE = 16
+
+
+@functools.lru_cache(maxsize=RRR_CONSTANTS_CACHE)
+def _rrr_leg_constants(g, legs) -> dict:
+    """Chain key -> (per joint (axis, reference reading), tail T) of each leg of a 3-RRR, written in
+    extended precision from its description's floats as given (``g``: its
+    :class:`~spherekin.mechanism.rrr.ThreeRRRGeometry`; ``legs``: its legs; module docstring,
+    "3-RRR"), as raw interval endpoints (``_mpi_``, EXTENDED_DIGITS; any context at that precision
+    reads them with ``make_mpf``), then the same as floats next to them. ValueError unless the legs
+    are those the description gives: at the joints' reference readings, each joint's current axis
+    within RECORD_MATCH_TOL of its float axis (the platform reference, which only names the pose,
+    does not enter the equations)."""
+    from mpmath.ctx_iv import MPIntervalContext
+
+    ctx = MPIntervalContext()
+    ctx.dps = EXTENDED_DIGITS
+    offsets = g.offsets
+    u_all, w_all, v_all = g.given_axes
+    out = {}
+    for i, leg in enumerate(legs):
+        u, w0, v0 = (_unit_exact(ctx, vs[i]) for vs in (u_all, w_all, v_all))
+        r0 = _unit_exact(ctx, g.given_platform_directions[i])
+        ca, sa = _interval_cos_sin(ctx, ctx.mpf(float(g.distal_link_angles[i])))
+        p = _unit_of(ctx, [a - _dot(u, w0) * b for a, b in zip(u, w0)])      # u's direction normal to w0
+        v_ref = [ca * a + sa * b for a, b in zip(w0, p)]                       # gamma = 0: v on u's side
+        q = [sa * a - ca * b for a, b in zip(w0, p)]                           # w0's direction normal to v_ref
+        q0 = _unit_of(ctx, [a - _dot(r0, v0) * b for a, b in zip(r0, v0)])    # r0's direction normal to v0
+        frame, frame0 = (_columns(a, b, _cross(a, b)) for a, b in ((v_ref, q), (v0, q0)))
+        tail = _matmul(frame, [list(col) for col in zip(*frame0)])             # T v0 = v_ref, T q0 = q
+        axes = (u, w0, v_ref)
+        refs = [-ctx.mpf(float(offsets[j.name])) for j in leg.joints]
+        # the legs of the float model are these: each current axis at the joints' reference readings
+        rot = np.eye(3)
+        for axis, ref, j in zip(axes, refs, leg.joints):
+            a = np.array([_mid(v) for v in axis])
+            if not np.abs(rot @ a - np.array(j.axis)).max() <= RECORD_MATCH_TOL:
+                raise ValueError(f"mechanism: joint {j.name!r} of a kind \"3-RRR\" mechanism is not the one its "
+                                 "description (geometry) gives")
+            rot = rot @ axis_rotation(a, float(j.reference_angle) - _mid(ref))
+        out[tuple((j.name, 1) for j in leg.joints)] = (
+            tuple((tuple(v._mpi_ for v in axis), ref._mpi_) for axis, ref in zip(axes, refs)),
+            tuple(tuple(v._mpi_ for v in row) for row in tail),
+            tuple((tuple(_mid(v) for v in axis), _mid(ref)) for axis, ref in zip(axes, refs)),
+            tuple(tuple(_mid(v) for v in row) for row in tail))
+    return out
+
+
+def _unit_exact(ctx, vec):
+    """The unit vector along the float vector ``vec``, enclosed (mpf(float) is exact)."""
+    return _unit_of(ctx, [ctx.mpf(float(v)) for v in vec])
+
+
+def _unit_of(ctx, vec):
+    """vec / |vec| for an interval vector (encloses the exact unit vector of every vector in vec)."""
+    norm = ctx.sqrt(vec[0] * vec[0] + vec[1] * vec[1] + vec[2] * vec[2])
+    return [v / norm for v in vec]
+
+
+def _columns(a, b, c):
+    """The 3x3 matrix with columns a, b, c."""
+    return [[a[i], b[i], c[i]] for i in range(3)]
+
+
+def _mid(v) -> float:
+    """A float next to the midpoint of an interval (a float is returned as is)."""
+    if isinstance(v, float):
+        return v
+    return float(v.mid)
 
 
 def _rodrigues(num: _Numbers, a, outer, d):

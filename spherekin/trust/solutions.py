@@ -737,7 +737,9 @@ def _sharpen(certify_fn, system, points: list[_Point], extended) -> list[_Point]
         if theta is None:
             stay.append(p)
             continue
-        theta = p.theta + wrap(theta - p.theta)                         # next to the cluster, as p
+        # next to the cluster, as p, by whole turns: the same root reached from two points is then the
+        # same floats (p.theta + wrap(theta - p.theta) rounds differently for each p: one root kept twice)
+        theta = theta - 2 * math.pi * np.round((theta - p.theta) / (2 * math.pi))
         if _inside_any([q.box for q in proven], theta, theta) or any(np.array_equal(theta, q.theta) for q in new):
             continue                                                    # a root already in hand
         new.append(_Point(theta, p.polished, p.seed_moved + float(np.abs(theta - p.theta).max()),
