@@ -18,7 +18,7 @@ import pytest
 import spherekin
 from spherekin.cli import main
 from spherekin.results import SINGULAR_SCHEMA
-from singular_refs import (EXAMPLES, five_bar_curve_points, five_bar_from_file, five_bar_moving, five_bar_tangency,
+from singular_refs import (EXAMPLES, count_changes, five_bar_count, five_bar_curve_points, five_bar_from_file, five_bar_moving, five_bar_tangency,
                            four_bar_branch_inputs, four_bar_from_arcs, four_bar_from_file, four_bar_toml,
                            lines_across, singular_points_on_line)
 
@@ -208,6 +208,23 @@ def test_an_interrupted_singular_writes_what_it_found(tmp_path, sig, code, word)
     assert "complete: no" in stdout
 
 
+def _edges(square, eps: float) -> list:
+    """The four edges of ``square`` ((x0, x1), (y0, y1)), each moved ``eps`` inward: segments (p0, p1)."""
+    (x0, x1), (y0, y1) = square
+    return [((x0 + eps, y0), (x0 + eps, y1)), ((x1 - eps, y0), (x1 - eps, y1)),
+            ((x0, y0 + eps), (x1, y0 + eps)), ((x0, y1 - eps), (x1, y1 - eps))]
+
+
+@pytest.mark.parametrize("eps", [0.0, 1e-6])
+def test_singular_inputs_on_the_window_edges_are_covered(square_set, eps):
+    """Issue 40: a cover that says complete holds the window's closed edges too (a 3-RRR missed 2 of 19,376
+    points within 2e-6 of its window's lower edges). The reference's singular inputs on each edge of the square,
+    and 1e-6 inside it, all lie in a box."""
+    pts = [s.inputs[:2] for p0, p1 in _edges(SQUARE, eps) for s in singular_points_on_line(p0, p1, n_samples=60)]
+    assert len(pts) >= 4                 # the curves cross the square's edges
+    assert square_set.complete and _covered(square_set, np.array(pts)).all()
+
+
 def test_json_schema(square_set):
     doc = square_set.as_dict()
     assert doc["schema"] == SINGULAR_SCHEMA == "spherekin.singular/1"
@@ -342,6 +359,25 @@ def test_five_bar_curve():
             bb, dd = five_bar_moving(fb, grid)
             coincide = np.arccos(np.clip(np.einsum("ka,ka->k", bb, dd), -1, 1)).min() <= margin
             assert f.min() <= 0.0 <= f.max() or coincide, b
+
+
+def test_five_bar_singular_inputs_on_the_window_edges_are_covered():
+    """Issue 40: a window of the five-bar's plane whose lower edges pass through points of its singular curve
+    (two of the reference curve's points as the corner): every input where the reference count changes along
+    each edge, and 1e-6 inside it, lies in a box of the window's complete cover."""
+    fb = five_bar_from_file()
+    points = five_bar_curve_points(fb)
+    px, py = points[0]
+    square = ((px, px + 0.8), (py, py + 0.8))
+    sset = spherekin.singular(EXAMPLES / "five_bar.toml", x=("A", *square[0]), y=("E", *square[1]), tol=0.05)
+    edge_points = []
+    for eps in (0.0, 1e-6):
+        for p0, p1 in _edges(square, eps):
+            p0, p1 = np.array(p0), np.array(p1)
+            on = count_changes(lambda t: int(five_bar_count(fb, [p0 + t * (p1 - p0)])[0]), 0.0, 1.0, 200)
+            edge_points += [p0 + t * (p1 - p0) for t in on]
+    assert len(edge_points) >= 2
+    assert sset.complete and _covered(sset, np.array(edge_points)).all()
 
 
 def test_cli_free_box_of_a_home_pose_against_the_reference_tracking(tmp_path, capsys):
