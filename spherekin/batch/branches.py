@@ -529,7 +529,7 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     Islands of assemblies narrower than a grid step between two inputs of the same count are not seen
     by the sampling; the cover's cells show where they may be (step 4 of the module doc).
     """
-    from ..problem import SINGULAR_MAX_TOL, as_mechanism, compile as compile_problem
+    from ..problem import as_mechanism, check_singular_tol, compile as compile_problem
 
     mech = as_mechanism(mechanism)
     name = check_one_input(mech)
@@ -539,10 +539,9 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     if joint not in joints:
         raise ValueError(f"joint: {joint!r} is not a passive joint of this mechanism; expected one of "
                          f"{', '.join(joints)}")
-    if cover_tol is not None and (isinstance(cover_tol, bool) or not isinstance(cover_tol, (int, float))
-                                  or not 0 < cover_tol <= SINGULAR_MAX_TOL):
-        raise ValueError(f"cover_tol: expected None or 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {cover_tol!r}")
     values, full = _grid_of(mech, name, grid, samples)
+    if cover_tol is not None:                       # as singular() checks it, on the grid's range: before any work
+        cover_tol = check_singular_tol(cover_tol, "cover_tol", ((name, float(values[0]), float(values[-1])),))
     mech = mech.without_ranges(mech.passive)        # circuits are the linkage's: a passive range cuts them, joins none
     problem = compile_problem(mech, **strategy)
     connect = connect or NearestConnector(mech, name, joints)
