@@ -195,6 +195,7 @@ def test_rank_candidates_keep_the_reference_cusp():
     """The cusp candidates without a tangency system (the blow-up's route: boxes not proven cusp-free by the rank
     of the orientation Jacobian, trust.singular.rank_candidates) on general_3rrr's cusp square: the reference
     cusp lies in a candidate's box (a box holding a cusp can never be proven cusp-free)."""
+    from spherekin.budget import Budget
     from spherekin.mechanism import load_mechanism
     from spherekin.problem import _plane_run
     from spherekin.systems.singular import PlatformPlane, SingularPlane
@@ -203,7 +204,7 @@ def test_rank_candidates_keep_the_reference_cusp():
     (x0, x1), (y0, y1) = CUSP_SQUARE
     plane = SingularPlane(("beta1", x0, x1), ("beta2", y0, y1), {"beta3": 0.5})
     system = PlatformPlane(load_mechanism(RRR), plane)
-    run = _plane_run(system, Grid.over(plane.axes, T), T, 10**6, None, "rank")
+    run = _plane_run(system, Grid.over(plane.axes, T), T, 10**6, None, "rank", Budget())
     reference = cusps_in_square(CUSP_SQUARE, n=21)
     assert len(reference) == 1 and run.cusps
     for x, y in reference:
