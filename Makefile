@@ -6,6 +6,7 @@
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
 #   make bench / bench-peers / sweep / edge -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root
 #     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
+#   make singular-campaign -- every singular cover against solve_many's counts and branch_map (~30 min CPU x 2 cores)
 #   make docs -- the documentation site into docs/_build/html (installs the [docs] extra; warnings are errors)
 #   make docs-check -- the site built afresh and checked in headless Chromium (Debian: chromium chromium-driver)
 #   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
@@ -19,7 +20,7 @@ DOCS_STAMP := $(VENV)/.installed-docs
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge mutants docs docs-check
+.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -78,6 +79,9 @@ sweep: $(STAMP)
 
 edge: $(STAMP)
 	$(BIN)/python -m benchmarks.edge_campaign --jobs 2
+
+singular-campaign: $(STAMP)
+	$(BIN)/python -m benchmarks.singular_campaign --jobs 2
 
 mutants: $(STAMP)
 	$(BIN)/python mutation/run.py $(if $(ONLY),--only $(ONLY))

@@ -591,7 +591,8 @@ def _judged(case, cov, refs, brefs, prefs, quick: bool) -> tuple[dict, list, lis
             row["seconds"] += ref["seconds"] + bref["seconds"]
             row["cpu"] += ref["cpu"] + bref["cpu"]
             row.update(grid_solves=ref["solves"], unchecked_pairs=ref["unchecked_pairs"], bmap_error=bref.get("error"),
-                       bmap_seconds=bref["seconds"], grid_seconds=ref["seconds"])
+                       bmap_seconds=bref["seconds"], grid_seconds=ref["seconds"], count_changes=ref["changes"],
+                       bmap_points=bref["points"])
         exact = {round(x, 12): (k, e) for x, k, e in zip(ref["grid"], ref["counts"], ref["exact"])}
         spots = cov.get("spots") or []
         row["spots"] = spots
