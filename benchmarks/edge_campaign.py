@@ -466,7 +466,7 @@ def table(rows) -> tuple[list, list]:
     return headers, lines
 
 
-def _render(headers, lines) -> str:
+def render_table(headers, lines) -> str:
     try:
         from tabulate import tabulate
 
@@ -515,7 +515,7 @@ def main(argv=None) -> int:
                 print(f"  {n}/{len(todo)} inputs, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     wall = time.perf_counter() - t0
     headers, lines = table(rows)
-    print(_render(headers, lines))
+    print(render_table(headers, lines))
     n_wrong = sum(r["verdict"] == "wrong" for r in rows)
     print(f"\ntotal wrong: {n_wrong} of {len(rows)} inputs ({sum(r['verdict'] == 'undecided' for r in rows)} "
           f"reference undecided, {sum(r['verdict'] == 'error' for r in rows)} errors); wall time {wall:.0f} s "

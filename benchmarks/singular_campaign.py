@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import graph_designs as gd
-from benchmarks.edge_campaign import _render
+from benchmarks.edge_campaign import render_table
 from spherekin.cluster import connect, map_in_order
 from spherekin.mechanism.io import mechanism_from_dict
 from spherekin.problem import SINGULAR_TOL
@@ -633,7 +633,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     rows, wall = run(args)
     headers, lines = table(rows)
-    print(_render(headers, lines))
+    print(render_table(headers, lines))
     wrong = [r for r in rows if r["status"] == "ok" and r["complete"] and r["outside"]]
     for r in wrong:
         os.makedirs(args.save, exist_ok=True)
