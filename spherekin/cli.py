@@ -161,9 +161,7 @@ def _solve(args) -> int:
     values = mech.check_inputs(inputs)
     # every argument and output path is checked before the first line of output (compile checks
     # the strategy's names and numbers: --tol, --jobs)
-    problem = compile_problem(mech, formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
-                              parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate,
-                              jobs=args.jobs, system=args.system)
+    problem = compile_problem(mech, jobs=args.jobs, **{**_strategy(args), "system": args.system})
     if args.json:
         _check_output_file("--json", args.json, (".json",))
     if args.plot:
@@ -183,9 +181,9 @@ def _solve(args) -> int:
     print(f"{report.count_text()}; passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
     used = report.settings
-    print(f"{used.parameterization}, formulation {used.formulation}, pruner {args.pruner}"
-          + (f" ({used.lp_backend or 'default backend'})" if args.pruner != "pp" else "")
-          + f", tol {args.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
+    print(f"{used.parameterization}, formulation {used.formulation}, pruner {used.pruner}"
+          + (f" ({used.lp_backend or 'default backend'})" if used.pruner != "pp" else "")
+          + f", tol {used.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
     print(as_options(used.system_text()))
@@ -278,9 +276,14 @@ def _check_strategy(mech, args) -> None:
 
 def _strategy(args) -> dict:
     from .problem import DEFAULT_SYSTEM
+    from .systems import ON_CAP_COVER
 
     # --system only when asked for: the default strategy (and a batch's job name) stays as before
     chosen = {} if args.system == DEFAULT_SYSTEM else dict(system=args.system)
+    if getattr(args, "on_cap", ON_CAP_COVER) != ON_CAP_COVER:
+        chosen["on_cap"] = args.on_cap
+    if getattr(args, "max_boxes", None) is not None:
+        chosen["max_boxes"] = args.max_boxes
     return dict(formulation=args.formulation, pruner=args.pruner, lp_backend=args.lp_backend,
                 parameterization=args.parameterization, tol=args.tol, isolate=not args.no_isolate, **chosen)
 
@@ -971,8 +974,8 @@ def _add_strategy_options(so) -> None:
     from .search.parameterizations import PARAMETERIZATIONS
     from .problem import DEFAULT_FORMULATION, DEFAULT_SYSTEM, formulation_choices
     from .search.pruners import PRUNERS
-    from .systems import SYSTEMS, system_choices
-    from .search.boxloop import DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
+    from .systems import ON_CAP_CHOICES, ON_CAP_COVER, SYSTEMS, system_choices
+    from .search.boxloop import DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL
 
     so.add_argument("--parameterization", default=DEFAULT_PARAMETERIZATION, choices=list(PARAMETERIZATIONS),
                     help="variables of the loop equations: tan-half: t = tan(theta/2), the paper's (charts for "
@@ -996,6 +999,12 @@ def _add_strategy_options(so) -> None:
                          + (f"; {', '.join(REJECTED_LP_BACKENDS)}: measured and refused (the error says why)"
                             if REJECTED_LP_BACKENDS else ""))
     so.add_argument("--tol", type=float, default=DEFAULT_TOL, help="tolerance in radians (default %(default)g)")
+    so.add_argument("--max-boxes", type=_whole(1), default=None, metavar="N",
+                    help=f"box cap of one input's search (default {DEFAULT_MAX_BOXES}); see --on-cap")
+    so.add_argument("--on-cap", default=ON_CAP_COVER, choices=list(ON_CAP_CHOICES),
+                    help="a search that reaches its box cap: cover: cover the solutions at a coarser tolerance "
+                         "(a continuum), the count not proven and the line saying so; raise: stop with the "
+                         "error. Default %(default)s")
     so.add_argument("--no-isolate", action="store_true",
                     help="subdivide every box down to the tolerance (no Krawczyk isolation; the paper's behaviour)")
 
@@ -1272,8 +1281,15 @@ def _sigterm_as_interrupt():
 
 
 def _run_command(args, options: dict[str, str]) -> int:
+    import warnings
+
+    from .problem import CappedSearchWarning
+
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            # the count line says it (SearchLimit.text: the tolerance asked for and the covering's)
+            warnings.simplefilter("ignore", CappedSearchWarning)
+            return args.func(args)
     except ValueError as exc:  # bad input: a clear message, not a traceback
         print(error_line(str(exc), options), file=sys.stderr)
         return 2

@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+import warnings
 from dataclasses import dataclass
 import math
 from typing import Callable, Mapping
@@ -43,7 +44,8 @@ from .core.groups import pad_by_owner
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
-from .systems import AUTO, LOOP_FORMULATION, SYSTEMS, Strategy, choose, system_choices
+from .systems import (AUTO, LOOP_FORMULATION, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAISE, SYSTEMS, Strategy, choose,
+                      system_choices)
 from .systems.loops import CompiledLoops, Loops
 from .systems.platform import CompiledPlatform, Platform
 from .results import (EmptyReason, SearchLimit, SearchReport, Settings, SolveReport, SolverStats,
@@ -57,7 +59,8 @@ from .search.parameterizations import stack_chart_sets
 __all__ = ["DEFAULT_FORMULATION", "DEFAULT_SYSTEM", "LOOP_FORMULATION", "PIPELINE_FORMULATIONS", "formulation_choices",
            "system_choices", "resolve_system", "CONTINUUM_TOL", "REFINE_FACTOR",
            "REFINE_MIN_TOL", "REFINE_MAX_BOXES", "POSE_MATCH", "REPR_NAME_CHARS", "Strategy", "Problem", "compile",
-           "solve", "disagreement", "as_mechanism", "inverse_kinematics", "DEFAULT_CHUNK"]
+           "solve", "disagreement", "as_mechanism", "inverse_kinematics", "DEFAULT_CHUNK", "CappedSearchWarning",
+           "ON_CAP_CHOICES"]
 
 #: The default: the platform formulation where it applies, else :data:`LOOP_FORMULATION`.
 DEFAULT_FORMULATION = "auto"
@@ -65,6 +68,12 @@ DEFAULT_FORMULATION = "auto"
 DEFAULT_SYSTEM = AUTO
 #: The formulations a solve accepts beyond the registered loop formulations (FORMULATIONS).
 PIPELINE_FORMULATIONS = ("auto", "platform")
+
+
+class CappedSearchWarning(UserWarning):
+    """A solve's search reached ``max_boxes`` at the tolerance asked for and the solution set was covered
+    at :data:`CONTINUUM_TOL` instead (``on_cap="cover"``): the count is not proven; the report's
+    ``settings.tol`` is the covering's, ``settings.limit`` says what was asked and what stopped it."""
 
 
 def formulation_choices() -> tuple[str, ...]:
@@ -167,7 +176,8 @@ class Problem:
         st = self.strategy
         return dict(formulation=st.formulation if not self.declined else DEFAULT_FORMULATION,
                     pruner=st.pruner, lp_backend=st.lp_backend, parameterization=st.parameterization, tol=st.tol,
-                    isolate=st.isolate, jobs=st.jobs, max_boxes=st.max_boxes, max_depth=st.max_depth)
+                    isolate=st.isolate, jobs=st.jobs, max_boxes=st.max_boxes, max_depth=st.max_depth,
+                    on_cap=st.on_cap)
 
     # ------------------------------------------------------------------ one input
 
@@ -564,11 +574,17 @@ class Problem:
         except SearchInterrupted as exc:
             return self._interrupted(exc, tol)
         except SolverLimitError as exc:
+            if s.on_cap == ON_CAP_RAISE:
+                raise
             # A continuum of solutions (or a cap too small for this tol): cover the solution set with
             # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
             # algorithm then returns a discretization of the solution set).
             covering = max(tol, CONTINUUM_TOL)
             limit = SearchLimit(str(exc), tol, covering)
+            warnings.warn(CappedSearchWarning(
+                f"the search at tol {tol:g} reached max_boxes={s.max_boxes} (a continuum of solutions, or a cap "
+                f"too small for this tol): the solution set is covered at tol {covering:g} instead and the count "
+                f"is not proven (report.settings.limit; on_cap='raise' to get the error)"), stacklevel=2)
             try:
                 report = run(covering)
             except SolverLimitError as exc2:
@@ -646,6 +662,7 @@ def compile(
     max_boxes: int = DEFAULT_MAX_BOXES,
     max_depth: int | None = None,
     system: str = DEFAULT_SYSTEM,
+    on_cap: str = ON_CAP_COVER,
 ) -> Problem:
     """Compile ``mechanism`` (a :class:`spherekin.mechanism.SphericalMechanism`, or the path of a
     mechanism file) for a strategy (the keywords of :func:`solve`, same defaults); every name and
@@ -655,10 +672,12 @@ def compile(
         raise ValueError(f"formulation: expected one of {list(formulation_choices())}, got {formulation!r}")
     if system not in system_choices():
         raise ValueError(f"system: expected one of {list(system_choices())}, got {system!r}")
+    if on_cap not in ON_CAP_CHOICES:
+        raise ValueError(f"on_cap: expected one of {list(ON_CAP_CHOICES)}, got {on_cap!r}")
     check_strategy(LOOP_FORMULATION if formulation in ("auto", "platform") else formulation, pruner, lp_backend,
                    parameterization, tol, jobs)
     strategy = Strategy(formulation, pruner, lp_backend, parameterization, float(tol), bool(isolate), jobs,
-                        max_boxes, max_depth)
+                        max_boxes, max_depth, on_cap)
     chosen, declined = resolve_system(mechanism, strategy, system)
     resolved = formulation if formulation in FORMULATIONS else (
         LOOP_FORMULATION if chosen is Loops else chosen.name)
@@ -710,6 +729,7 @@ def solve(
     progress: Callable[[dict], None] | None = None,
     trace: Callable[[dict], None] | None = None,
     system: str = DEFAULT_SYSTEM,
+    on_cap: str = ON_CAP_COVER,
 ) -> SolveReport:
     """Direct kinematics: every assembly of ``mechanism`` at actuator ``inputs`` inside its joint ranges.
 
@@ -729,7 +749,12 @@ def solve(
     * ``parameterization`` of the loop equations ("tan-half", "sin-cos");
     * ``tol``: the size (radians) of the boxes the search stops at; ``isolate``: Krawczyk isolation;
     * ``jobs``: worker processes over the charts of the loop equations;
-    * caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.search.boxloop.solve_system`).
+    * caps ``max_boxes`` and ``max_depth`` (see :func:`spherekin.search.boxloop.solve_system`), and
+      ``on_cap``, what a search that reaches ``max_boxes`` does (:data:`ON_CAP_CHOICES`): "cover" (the
+      default) covers the solution set at :data:`CONTINUUM_TOL` instead (a continuum, or a cap too small
+      for ``tol``), warns (:class:`CappedSearchWarning`) and reports it: the count is not proven,
+      ``settings.tol`` is the covering's tolerance and ``settings.limit`` holds the one asked for;
+      "raise" raises the search's :class:`~spherekin.search.boxloop.SolverLimitError` instead.
 
     The paper-faithful configuration is ``formulation="paper", pruner="lp", lp_backend="clarabel",
     isolate=False``. For many inputs, :func:`compile` once and call :meth:`Problem.solve_many`.
@@ -740,7 +765,7 @@ def solve(
         formulation = LOOP_FORMULATION                   # a trace records the boxes of the loop equations
     problem = compile(mechanism, formulation=formulation, pruner=pruner, lp_backend=lp_backend,
                       parameterization=parameterization, tol=tol, isolate=isolate, jobs=jobs, max_boxes=max_boxes,
-                      max_depth=max_depth, system=system)
+                      max_depth=max_depth, system=system, on_cap=on_cap)
     return problem.solve(inputs, progress=progress, trace=trace)
 
 

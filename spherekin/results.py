@@ -213,6 +213,15 @@ class SearchLimit:
     def as_dict(self) -> dict:
         return {k: v for k, v in asdict(self).items() if v is not None and v is not False}
 
+    def text(self) -> str:
+        """What stopped the search, in a few words, with the tolerances: "interrupted (Ctrl-C)", or "the
+        search at tol 1e-08 hit its cap; covered at tol 0.01 instead"."""
+        if self.interrupted:
+            return "interrupted (Ctrl-C)"
+        covered = (f"covered at tol {self.covering_tol:g} instead" if self.covering_error is None
+                   else f"the covering at tol {self.covering_tol:g} hit its cap too")
+        return f"the search at tol {self.tol:g} hit its cap; {covered}"
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -512,9 +521,9 @@ class SolveReport:
                 others[key] = others.get(key, 0) + 1
         listed = ", ".join(f"{v} {k}" for k, v in others.items())
         limit = self.settings.limit
-        capped = "" if limit is None else ("; interrupted (Ctrl-C)" if limit.interrupted else "; the search hit a cap")
+        capped = "" if limit is None else f"; {limit.text()}"
         if not self.solutions and limit is not None:
-            stopped = "interrupted (Ctrl-C)" if limit.interrupted else "the search hit a cap"
+            stopped = limit.text()
             return f"no solution found before the search stopped ({stopped}): the count is not known"
         return f"at least {n} {word} proven (count not exact: {listed or 'none listed'}{capped}; see the status column)"
 

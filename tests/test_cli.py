@@ -10,7 +10,7 @@ import pytest
 
 from spherekin.cli import main
 from spherekin.problem import DEFAULT_FORMULATION, formulation_choices
-from spherekin.systems import SYSTEMS
+from spherekin.systems import ON_CAP_CHOICES, SYSTEMS
 from spherekin.search.lp_backends import LP_BACKENDS, REJECTED_LP_BACKENDS
 from spherekin.search.parameterizations import PARAMETERIZATIONS
 from spherekin.search.pruners import PRUNERS, ProjectedPolyhedron
@@ -95,7 +95,8 @@ def test_help_choices_are_the_registries(capsys):
     assert _help_choices(capsys) == {"--parameterization": list(PARAMETERIZATIONS),
                                      "--system": ["auto", *SYSTEMS],
                                      "--formulation": list(formulation_choices()),
-                                     "--pruner": list(PRUNERS), "--lp-backend": list(LP_BACKENDS)}
+                                     "--pruner": list(PRUNERS), "--lp-backend": list(LP_BACKENDS),
+                                     "--on-cap": list(ON_CAP_CHOICES)}
 
 
 def test_help_lists_a_registered_strategy(registered, capsys):

@@ -18,10 +18,17 @@ from typing import ClassVar
 
 from ..search.registry import Registry
 
-__all__ = ["AUTO", "Strategy", "Compiled", "System", "SYSTEMS", "system_choices", "choose"]
+__all__ = ["AUTO", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Compiled", "System", "SYSTEMS", "system_choices", "choose"]
 
 #: The name that lets the registry choose: the first system (in order of preference) that accepts.
 AUTO = "auto"
+
+#: What a solve does when its search reaches ``max_boxes``: cover the solution set with coarser
+#: boxes (``spherekin.problem.CONTINUUM_TOL``), say so (``settings.limit``, a warning, the count
+#: not proven) and report the covering; or raise the search's ``SolverLimitError``.
+ON_CAP_COVER = "cover"
+ON_CAP_RAISE = "raise"
+ON_CAP_CHOICES = (ON_CAP_COVER, ON_CAP_RAISE)
 
 
 @dataclass(frozen=True)
@@ -38,6 +45,7 @@ class Strategy:
     jobs: int
     max_boxes: int
     max_depth: int | None
+    on_cap: str = ON_CAP_COVER
 
 
 class Compiled(ABC):
