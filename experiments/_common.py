@@ -1,5 +1,10 @@
 """Shared plumbing of the experiment scripts: arguments, timing, machine description, output files.
 
+Every solve of an experiment goes through :func:`pinned_solve` with a :class:`Pinned` strategy (every
+keyword given: a library default may change, what an experiment measures must not change with it), and
+every row records what actually ran, read back from the report (:func:`ran`), and ``capped: true``
+with no count when the search reached its cap (issue 41).
+
 Every experiment writes ``experiments/results/<name>.json`` (all numbers, the settings and the
 machine; generated, git-ignored) and ``experiments/results/<name>.md`` (the table quoted in
 experiments/README.md, committed); ``--quick`` runs go to ``experiments/results/quick/``.
@@ -14,6 +19,8 @@ import platform
 import statistics
 import subprocess
 import time
+import warnings
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -97,3 +104,135 @@ def write_results(name: str, args, data: dict, tables: Sequence[tuple[str, Seque
     path.write_text("\n".join(parts) + "\n")
     print(f"wrote {out / (name + '.json')} and {path}")
     return path
+
+
+# ------------------------------------------------------------------ what ran
+
+#: The settings a row records, read from the report (``report.settings``): what actually ran.
+RAN_KEYS = ("system", "formulation", "parameterization", "pruner", "lp_backend", "tol")
+#: Names that let the library choose (a default pipeline's row): what ran is recorded, not compared.
+CHOOSE = "auto"
+
+
+@dataclass(frozen=True)
+class Pinned:
+    """Every strategy keyword of :func:`spherekin.solve` an experiment's solve runs with (none left to a
+    default). ``system``/``formulation`` "auto" only for a row labelled as the default pipeline;
+    ``lp_backend`` None only with the pp pruner (no LP); ``tol`` in radians."""
+
+    system: str
+    formulation: str
+    parameterization: str
+    pruner: str
+    lp_backend: str | None
+    tol: float
+    isolate: bool
+    max_boxes: int
+    max_depth: int | None = None
+
+    def __post_init__(self):
+        if self.pruner != "pp" and self.lp_backend is None:
+            raise ValueError(f"Pinned: pruner {self.pruner!r} solves LPs: name its lp_backend")
+
+    def keywords(self) -> dict:
+        """The keywords of :func:`spherekin.solve`; a cap raises (``on_cap="raise"``): an experiment
+        never takes the library's coarser covering for a count."""
+        return {**asdict(self), "on_cap": "raise"}
+
+    def asked(self) -> dict:
+        """The :data:`RAN_KEYS` as asked (the row's ``asked``)."""
+        return {k: getattr(self, k) for k in RAN_KEYS}
+
+
+def ran(report) -> dict:
+    """What ran, read from ``report.settings`` (a solve's :class:`~spherekin.results.SolveReport` or a
+    search's :class:`~spherekin.results.SearchReport`): the :data:`RAN_KEYS`."""
+    st = report.settings
+    return {k: getattr(st, k, None) for k in RAN_KEYS}
+
+
+#: The keys the library chooses together when the system is "auto" (the platform system's variables are
+#: a quaternion's, whatever parameterization the loop equations would have used).
+CHOSEN_WITH_SYSTEM = ("system", "formulation", "parameterization")
+
+
+def differences(asked: dict, ran_: dict) -> dict:
+    """{key: (asked, ran)} where a run did not run what it asked for; when a row lets the library choose
+    its system ("auto"), the :data:`CHOSEN_WITH_SYSTEM` keys are what the library chose (the row says
+    what), not compared."""
+    chosen = CHOOSE in (asked.get("system"), asked.get("formulation"))
+    return {k: (v, ran_.get(k)) for k, v in asked.items()
+            if not (chosen and k in CHOSEN_WITH_SYSTEM) and ran_.get(k) != v}
+
+
+@dataclass(frozen=True)
+class Solved:
+    """One pinned solve, repeated: ``report`` (the last; None when capped), ``capped`` (the search
+    reached its cap: no count), ``error`` (the cap's message), ``times`` (s, every repeat)."""
+
+    pinned: Pinned
+    report: object | None
+    capped: bool
+    error: str | None = None
+    times: tuple = field(default=())
+
+    @property
+    def time(self) -> float:
+        """Median wall time (s) of the repeats (NaN when capped)."""
+        return statistics.median(self.times) if self.times else float("nan")
+
+    def settings_row(self) -> dict:
+        """The row's record of the strategy: ``asked``, ``ran`` (from the report; None when capped),
+        ``capped``, and ``error`` when capped."""
+        out = dict(asked=self.pinned.asked(), ran=None if self.report is None else ran(self.report),
+                   capped=self.capped)
+        if self.error is not None:
+            out["error"] = self.error
+        return out
+
+
+def pinned_solve(mech, inputs, pinned: Pinned, repeats: int = 1, trace=None) -> Solved:
+    """``repeats`` solves of ``mech`` at ``inputs`` (radians) with every keyword of ``pinned``; a cap is
+    ``capped`` (never a count). RuntimeError when the report says another strategy ran than the one
+    asked for (a default that changed under the experiment)."""
+    from spherekin import solve
+    from spherekin.search.boxloop import SolverLimitError
+
+    times, report = [], None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")      # cvxpy's "solution may be inaccurate": spherekin checks every bound
+        try:
+            for _ in range(max(1, repeats)):
+                t0 = time.perf_counter()
+                report = solve(mech, inputs, trace=trace, **pinned.keywords())
+                times.append(time.perf_counter() - t0)
+        except SolverLimitError as exc:
+            return Solved(pinned, None, True, str(exc).split(";")[0])
+    if report.settings.limit is not None:     # an interrupted search: what it found is not a count
+        return Solved(pinned, None, True, report.settings.limit.text())
+    check_ran(pinned.asked(), report)
+    return Solved(pinned, report, False, None, tuple(times))
+
+
+def check_ran(asked: dict, report) -> None:
+    """RuntimeError naming every key where ``report`` ran something else than ``asked``."""
+    diff = differences(asked, ran(report))
+    if diff:
+        raise RuntimeError("the solve ran another strategy than the experiment asked for: "
+                           + ", ".join(f"{k} {a!r} -> {r!r}" for k, (a, r) in diff.items()))
+
+
+def ran_text(row: dict) -> str:
+    """A row's ``ran`` in a few words for a table: "loops: paper, tan-half, lp (clarabel), tol 0.01";
+    "-" for a capped row (nothing ran to the end)."""
+    r = row.get("ran")
+    if not r:
+        return "-"
+    backend = f" ({r['lp_backend']})" if r.get("lp_backend") else ""
+    return (f"{r['system'] + ': ' if r.get('system') else ''}{r['formulation']}, {r['parameterization']}, "
+            f"{r['pruner']}{backend}, tol {r['tol']:g}")
+
+
+def spread_text(times: Sequence[float]) -> str:
+    """The spread of timings (s) for a table: "0.101-0.134 (3 runs)"."""
+    return f"{min(times):.3g}-{max(times):.3g} ({len(times)} runs)" if times else "-"
