@@ -34,7 +34,6 @@ is drawn by paper_figures/fig3_convergence.py.
 from __future__ import annotations
 
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,14 +45,17 @@ from experiments.reproduction import INPUTS, angle_gap, with_ranges
 
 from spherekin.mechanism import gosselin  # noqa: E402
 from spherekin.search.parameterizations import make_charts  # noqa: E402
-from spherekin.search.boxloop import TRACE_OUTCOMES, SolverLimitError  # noqa: E402
-from spherekin.problem import solve  # noqa: E402
+from spherekin.search.boxloop import TRACE_OUTCOMES  # noqa: E402
+from experiments._common import Pinned, pinned_solve  # noqa: E402
 
 #: The four configurations compared: (name, formulation, pruner, LP backend). HiGHS (highspy) for
 #: the LPs: every backend's bound is certified by spherekin, so they give the same boxes up to
 #: the LP tolerance, and HiGHS is ~10x faster than clarabel (experiments/results/reproduction.md).
 CONFIGS = (("paper + lp", "paper", "lp", "highspy"), ("paper + pp", "paper", "pp", None),
            ("transversal + lp", "transversal", "lp", "highspy"), ("transversal + pp", "transversal", "pp", None))
+#: The solve that gives the roots studied (the loop equations, every keyword pinned).
+ROOTS = Pinned(system="loops", formulation="halves", parameterization="tan-half", pruner="pp", lp_backend=None,
+               tol=1e-6, isolate=True, max_boxes=300_000)
 #: Roots studied: this many regular and as many serial-singular ones (the LP runs of the paper's
 #: formulation cost ~40 s per root; 8 roots would take most of an hour).
 N_ROOTS, N_ROOTS_QUICK = 2, 1
@@ -181,19 +183,19 @@ def local_ranges(root: dict, rng: np.random.Generator, half_width: float = HALF_
     return out
 
 
-def run(mech, inputs, config: tuple, tol: float, trace: bool, max_boxes: int):
-    """One solve of the local problem; returns (report or None, recorder or None, error or None, seconds)."""
+def pinned(config: tuple, tol: float, max_boxes: int) -> Pinned:
+    """The whole strategy of one run of ``config`` (name, formulation, pruner, LP backend): the loop
+    system in tan(theta/2), no Krawczyk isolation (the paper's subdivision), ``tol`` radians."""
     _, formulation, pruner, backend = config
+    return Pinned(system="loops", formulation=formulation, parameterization="tan-half", pruner=pruner,
+                  lp_backend=backend, tol=tol, isolate=False, max_boxes=max_boxes)
+
+
+def run(mech, inputs, config: tuple, tol: float, trace: bool, max_boxes: int):
+    """One solve of the local problem; returns (Solved, recorder or None): ``Solved.capped`` when the
+    run hit ``max_boxes`` (no count), else its report, what ran and the seconds."""
     rec = Recorder() if trace else None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            t, _, rep = _common.median_time(lambda: solve(mech, inputs, formulation=formulation, pruner=pruner,
-                                                          lp_backend=backend, tol=tol, isolate=False,
-                                                          max_boxes=max_boxes, trace=rec), 1)
-        except SolverLimitError as e:
-            return None, rec, str(e).split(";")[0], math.nan
-    return rep, rec, None, t
+    return pinned_solve(mech, inputs, pinned(config, tol, max_boxes), 1, trace=rec), rec
 
 
 def charts_of(mech, inputs, ranges: dict, formulation: str):
@@ -223,7 +225,7 @@ def experiment(quick: bool, seed: int = 0, args=None, roots=None, configs=CONFIG
     """The whole experiment (``args`` given: also write the results); small pieces for the tests."""
     rng = np.random.default_rng(seed)
     mech = gosselin()
-    report = solve(mech, INPUTS)
+    report = pinned_solve(mech, INPUTS, ROOTS).report
     roots = pick_roots(report, quick) if roots is None else roots
     tols = (TOLS_QUICK if quick else TOLS) if tols is None else tols
     trace_tol = (TRACE_TOL_QUICK if quick else TRACE_TOL) if trace_tol is None else trace_tol
@@ -242,7 +244,8 @@ def experiment(quick: bool, seed: int = 0, args=None, roots=None, configs=CONFIG
     for cfg in configs:
         for p in problems:
             print(f"  trace {cfg[0]:18s} root {p['index']} ...", flush=True)
-            rep, rec, err, t = run(p["mech"], INPUTS, cfg, trace_tol[cfg[1]], trace=True, max_boxes=caps[cfg[2]])
+            got, rec = run(p["mech"], INPUTS, cfg, trace_tol[cfg[1]], trace=True, max_boxes=caps[cfg[2]])
+            rep, t = got.report, got.time
             charts = charts_of(mech, INPUTS, p["ranges"], cfg[1])
             chain = root_chain(charts, rec.arrays(), list(p["root"].values())) if rec.records else []
             summ = chain_summary(chain)
@@ -251,7 +254,7 @@ def experiment(quick: bool, seed: int = 0, args=None, roots=None, configs=CONFIG
             chains.append(dict(config=cfg[0], root=p["index"], status=p["status"], chain=chain))
             summary.append(dict(config=cfg[0], root=p["index"], status=p["status"], tol=trace_tol[cfg[1]], **summ,
                                 boxes=rep.stats.boxes_processed if rep else None, time=t, root_found=found,
-                                error=err))
+                                **got.settings_row()))
 
     sweep = []
     for cfg in configs:
@@ -259,19 +262,18 @@ def experiment(quick: bool, seed: int = 0, args=None, roots=None, configs=CONFIG
         for tol in tols:
             if capped or (quick and cfg[2] == "lp" and tol < QUICK_LP_MIN_TOL):
                 continue
-            boxes, lps, t_all, err = 0, 0, 0.0, None
+            boxes, lps, t_all, got = 0, 0, 0.0, None
             for p in problems:
-                rep, _, e, t = run(p["mech"], INPUTS, cfg, tol, trace=False, max_boxes=caps[cfg[2]])
-                if rep is None:
-                    err = e
+                got, _ = run(p["mech"], INPUTS, cfg, tol, trace=False, max_boxes=caps[cfg[2]])
+                if got.capped:
                     break
-                boxes += rep.stats.boxes_processed
-                lps += rep.stats.lps_solved
-                t_all += t
-            capped = err is not None
-            print(f"  sweep {cfg[0]:18s} tol {tol:.0e}: {'cap' if err else boxes} boxes", flush=True)
-            sweep.append(dict(config=cfg[0], tol=tol, boxes=None if err else boxes, lps=None if err else lps,
-                              time=None if err else t_all, error=err))
+                boxes += got.report.stats.boxes_processed
+                lps += got.report.stats.lps_solved
+                t_all += got.time
+            capped = got.capped
+            print(f"  sweep {cfg[0]:18s} tol {tol:.0e}: {'cap' if capped else boxes} boxes", flush=True)
+            sweep.append(dict(config=cfg[0], tol=tol, boxes=None if capped else boxes, lps=None if capped else lps,
+                              time=None if capped else t_all, **got.settings_row()))
 
     data = dict(inputs=INPUTS, half_width=HALF_WIDTH, trace_tol=trace_tol, tols=list(tols), max_boxes=caps,
                 configs=[dict(name=c[0], formulation=c[1], pruner=c[2], lp_backend=c[3]) for c in configs],
@@ -314,7 +316,7 @@ def write(args, data: dict) -> None:
         row = dict(config=cfg[0])
         for r in data["sweep"]:
             if r["config"] == cfg[0]:
-                row[f"{r['tol']:.0e}"] = r["boxes"] if r["boxes"] is not None else "cap"
+                row[f"{r['tol']:.0e}"] = "capped" if r["capped"] else r["boxes"]
         sweep_rows.append(row)
     agg_cols = [("config", "configuration", ""), ("roots", "roots", "d"), ("order_median", "order p (median)", ".2f"),
                 ("order_range", "order p (range)", ""), ("ratio_median", "w'/w near root (median)", ".3f"),
@@ -323,14 +325,15 @@ def write(args, data: dict) -> None:
                 ("steps", "steps", "d"), ("near_steps", "steps near root", "d"), ("order", "order p", ".2f"),
                 ("median_ratio", "median w'/w", ".3f"), ("min_ratio", "min w'/w", ".1e"),
                 ("final_width", "final width (rad)", ".1e"), ("boxes", "boxes", "d"), ("found", "root found", ""),
-                ("error", "cap reached", "")]
+                ("error", "capped", "")]
     sweep_cols = [("config", "configuration", "")] + [(f"{t:.0e}", f"tol {t:.0e}", "") for t in tols]
     notes = (f"Local problems: a box of side {2 * data['half_width']} rad around each root (centre shifted by a seeded "
              "offset), no Krawczyk isolation; width-vs-iteration runs at tol " +
              ", ".join(f"{v:.0e} rad ({k})" for k, v in data["trace_tol"].items()) + ". Order p: "
              f"slope of log w' against log w over the pruning steps of the root's chain with w <= {ORDER_MAX_WIDTH} rad "
              f"and w' >= {ORDER_MIN_WIDTH:g} rad (w: widest side of the box holding the root, w': of its reduction); "
-             "p = 2 is quadratic, p = 1 with w'/w < 1 linear. 'cap' in the sweep: the run hit the box cap "
+             "p = 2 is quadratic, p = 1 with w'/w < 1 linear. Every run: the loop system in tan(theta/2), no isolation, "
+             "each strategy keyword pinned and read back from its report (JSON: asked, ran). 'capped' in the sweep: the run hit the box cap "
              f"({data['max_boxes']}); a run that hits it stops its chain early (final width above tol) and "
              "ends its configuration's sweep.")
     _common.write_results("convergence", args, data, [
