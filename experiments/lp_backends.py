@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments._common import median_time, parser, write_results
+from experiments._common import check_ran, median_time, parser, ran, spread_text, write_results
 from experiments._compare import MECHANISMS, angle_distance, contains, random_cases
 
 #: Half-width (radians) of the Gosselin passive ranges around the start configuration: one chart,
@@ -67,7 +67,11 @@ QUALITY_BOXES = 40
 #: Box cap of the bug demonstration: without the bug the four-bar needs ~80 boxes; with it, every
 #: LP is a doubt and the search would run to spherekin's 500000-box cap (minutes).
 BUG_DEMO_MAX_BOXES = 1000
+#: The search's strategy besides the formulation and the backend, pinned (never the library's defaults):
+#: tan(theta/2) charts, Krawczyk isolation, tol 1e-6 rad, a named box cap.
 TOL = 1e-6
+MAX_BOXES = 500_000
+SEARCH = dict(parameterization="tan-half", isolate=True, tol=TOL, max_boxes=MAX_BOXES)
 
 
 def problems(quick: bool) -> list[dict]:
@@ -112,18 +116,27 @@ def _offer(backend: str) -> None:
 
 
 def measure(backend: str, probs: list[dict], seed: int, repeats: int) -> list[dict]:
-    """Solve every problem with one backend (call it in a fresh process): counts, times, solutions."""
-    from spherekin.search.boxloop import solve_system
+    """Solve every problem with one backend (call it in a fresh process): what ran, counts, times, solutions;
+    a capped problem is ``capped`` with no count."""
+    from spherekin.search.boxloop import SolverLimitError, solve_system
 
     _offer(backend)
     rows = []
     for prob in probs:
         build, ranges, truth = _system(prob, seed)
-        med, times, rep = median_time(lambda: solve_system(build, ranges, formulation=prob["formulation"], pruner="lp",
-                                                           lp_backend=backend, tol=TOL), repeats)
+        try:
+            med, times, rep = median_time(lambda: solve_system(build, ranges, formulation=prob["formulation"],
+                                                               pruner="lp", lp_backend=backend, **SEARCH), repeats)
+        except SolverLimitError as exc:
+            rows.append(dict(prob, backend=backend, capped=True, error=str(exc).split(";")[0]))
+            continue
+        asked = dict(system=None, formulation=prob["formulation"], parameterization=SEARCH["parameterization"],
+                     pruner="lp", lp_backend=backend, tol=TOL)
+        check_ran(asked, rep)
         st = rep.stats
         sols = [np.asarray(s.angles, float).tolist() for s in rep.clusters]
-        rows.append(dict(prob, backend=backend, time=med, times=times, boxes=st.boxes_processed, lps=st.lps_solved,
+        rows.append(dict(prob, backend=backend, asked=asked, ran=ran(rep), capped=False, time=med, times=times,
+                         spread=spread_text(times), boxes=st.boxes_processed, lps=st.lps_solved,
                          doubts=st.lp_doubts, isolated=st.isolated, accepted=st.accepted, time_prune=st.time_prune,
                          ms_per_lp=1e3 * st.time_prune / max(st.lps_solved, 1), n_solutions=len(sols),
                          solutions=sols, truth_found=contains(sols, truth)))
@@ -155,7 +168,7 @@ def bound_quality(backend: str, probs: list[dict], seed: int, max_boxes: int) ->
         LP_BACKENDS.register(Recording)
         try:
             solve_system(build, ranges, formulation=prob["formulation"], pruner="lp", lp_backend=Recording.name,
-                         tol=TOL)
+                         **SEARCH)
         finally:
             LP_BACKENDS.unregister(Recording.name)
         shapes = [c.shape for c in recorded[0][0]]
@@ -202,7 +215,8 @@ def bug_demo(seed: int) -> list[dict]:
     for backend in ("highs", "highspy"):
         row = dict(order=len(rows) + 1, backend=backend)
         try:
-            rep = solve_system(build, ranges, pruner="lp", lp_backend=backend, tol=TOL, max_boxes=BUG_DEMO_MAX_BOXES)
+            rep = solve_system(build, ranges, formulation="halves", pruner="lp", lp_backend=backend,
+                               **{**SEARCH, "max_boxes": BUG_DEMO_MAX_BOXES})
             row.update(boxes=rep.stats.boxes_processed, lps=rep.stats.lps_solved, doubts=rep.stats.lp_doubts,
                        n_solutions=len(rep.clusters), outcome="finished")
         except SolverLimitError as exc:
@@ -222,6 +236,8 @@ def compare(rows: list[dict], reference: str = "highspy") -> None:
     for r in rows:
         ref = next(x for x in rows if x["problem"] == r["problem"] and x["formulation"] == r["formulation"]
                    and x["backend"] == reference)
+        if r["capped"] or ref["capped"]:        # a capped run has no count to compare
+            continue
         r["same_counts"] = (r["boxes"], r["accepted"], r["isolated"]) == (ref["boxes"], ref["accepted"], ref["isolated"])
         same_n = len(r["solutions"]) == len(ref["solutions"])
         r["max_solution_diff"] = (max((min(angle_distance(s, t) for t in ref["solutions"]) for s in r["solutions"]),
@@ -264,9 +280,11 @@ def main(argv=None):
                data["runs"],
                [("problem", "problem", ""), ("formulation", "formulation", ""), ("backend", "backend", ""),
                 ("boxes", "boxes", "d"), ("lps", "LPs", "d"), ("doubts", "doubts", "d"),
-                ("ms_per_lp", "ms / LP", ".2f"), ("time", "total (s)", ".2f"), ("time_ratio", "time ratio", ".1f"),
+                ("ms_per_lp", "ms / LP", ".2f"), ("time", "total (s)", ".2f"), ("spread", "spread (s)", ""),
+                ("time_ratio", "time ratio", ".1f"),
                 ("n_solutions", "solutions", "d"), ("same_counts", "same boxes", ""),
-                ("max_solution_diff", "max solution diff (rad)", ".1e"), ("truth_found", "start found", "")]),
+                ("max_solution_diff", "max solution diff (rad)", ".1e"), ("truth_found", "start found", ""),
+                ("error", "capped", "")]),
               ("Bound quality per LP on the boxes highspy's search reduces (Gosselin, halves; certified bound "
                "against highspy's certified bound, unit box coordinates)",
                data["bound_quality"],
