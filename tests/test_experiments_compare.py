@@ -66,7 +66,7 @@ def test_parameterizations_agree_with_ground_truth_and_close():
     for name in ("four_bar", "gosselin"):
         rows = par.compare_mechanism(name, 1, 1, rng)
         mech = _compare.MECHANISMS[name][0]()
-        assert {r["parameterization"] for r in rows} == {"tan-half", "sin-cos"}
+        assert {r["parameterization"] for r in rows} == {"tan-half", "sin-cos", par.DEFAULT_ROW}
         sets = {}
         for r in rows:
             inputs = dict(zip(mech.actuated, r["inputs"]))
@@ -86,7 +86,7 @@ def test_four_bar_has_the_two_closed_form_assemblies():
     mech = _compare.MECHANISMS["four_bar"][0]()
     rng = np.random.default_rng(5)
     case = _compare.random_cases(mech, rng, 1)[0]
-    res = par.solve_case(mech, case, "tan-half", 1)
+    res = par.solve_case(mech, case, par.VARIANTS["tan-half"], 1)
     assert res["n_solutions"] == 2
     # the coupler joint C of each assembly: at the coupler twist from B and the rocker twist from D
     legs = {leg.name: leg for leg in mech.legs}
@@ -108,7 +108,7 @@ def test_passive_angle_exactly_pi_found_by_both():
     assert case.joints["delta2"] == math.pi
     assert _closes(mech, case.joints) < CLOSURE
     for p in par.PARAMETERIZATIONS:
-        res = par.solve_case(mech, case, p, 1)
+        res = par.solve_case(mech, case, par.VARIANTS[p], 1)
         k = res["unknowns"].index("delta2")
         hits = [s for s in res["solutions"] if _dist(s, case.passive(res["unknowns"])) < 1e-7]
         assert len(hits) == 1, p
