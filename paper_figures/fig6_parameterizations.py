@@ -58,14 +58,15 @@ def draw(data: dict):
           "control points (count)", "(a) Bernstein control points: all equations, all charts\n"
           "(hatched: one loop equation on one chart)",
           hatch_values={k: max(v["loop_control_points"]) for k, v in charts.items()}, headroom=40.0)
-    _bars(axes[1], mechs, {k: v["median_boxes"] for k, v in summ.items()}, "boxes processed (median over inputs)",
+    _bars(axes[1], mechs, {k: v.get("median_boxes", np.nan) for k, v in summ.items()},   # NaN: every run capped
+          "boxes processed (median over inputs)",
           "(b) subdivision boxes")
-    _bars(axes[2], mechs, {k: v["median_time_ms"] for k, v in summ.items()}, "solve time (ms, median)",
+    _bars(axes[2], mechs, {k: v.get("median_time_ms", np.nan) for k, v in summ.items()}, "solve time (ms, median)",
           "(c) wall time per solve")
     for ax in axes:
         ax.legend(fontsize=8, loc="upper left")
     n = data["summary"][0]["inputs"]
-    agree = all(r["same_solutions"] and r["truth_found"] for r in data["summary"])
+    agree = all(r.get("same_solutions") and r.get("truth_found") for r in data["summary"])
     fig.suptitle(f"Tangent half-angle vs sin/cos parameterization ({n} random inputs per mechanism; "
                  f"{'same solutions, start pose found in every case' if agree else 'SOLUTION SETS DIFFER: see table'})",
                  fontsize=12)
