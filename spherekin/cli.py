@@ -774,7 +774,7 @@ def _track(args) -> int:
     if args.plot:
         from .plot import plot_track
 
-        plot_track(mech, track, args.plot, degrees=args.degrees)
+        plot_track(track, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return code
 

@@ -745,13 +745,28 @@ def _draw_singular_extras(ax, sset, scale: float, free_style: dict) -> list:
     return handles
 
 
-def plot_track(mechanism, track, path=None, *, degrees: bool = False):
+def plot_track(track, path=None, *args, degrees: bool = False):
     """Draw a tracked path (:class:`spherekin.trust.continuation.Track`): top, the platform's
     orientation along the path (the unit quaternion's components, w >= 0 at the start, kept
     continuous; the passive joints' angles for a mechanism without an output link); below, the parallel measure (sigma_min / sigma_max of the passive-joint Jacobian, as
     batch and map report it; log scale; 0 at a parallel singularity), with where the track stopped
-    marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it."""
+    marked. Returns the Figure; with ``path`` (.png, .pdf, .svg) also writes it: the calling
+    convention of :func:`plot_report`, :func:`plot_assembly_map` and :func:`plot_singular`. The former
+    ``plot_track(mechanism, track, path)`` still works, with a DeprecationWarning."""
+    import warnings
+
     from matplotlib.figure import Figure
+
+    from .trust.continuation import Track
+
+    if isinstance(track, SphericalMechanism) and isinstance(path, Track):     # the former convention
+        warnings.warn("plot_track(mechanism, track, path) is deprecated: call plot_track(track, path)",
+                      DeprecationWarning, stacklevel=2)
+        track, path = path, (args[0] if args else None)
+    elif args:
+        raise TypeError(f"plot_track: expected (track, path=None), got {2 + len(args)} positional arguments")
+    if not isinstance(track, Track):
+        raise ValueError(f"track: expected a Track of spherekin track (Problem.track), got {type(track).__name__}")
 
     from .core.orientation import quaternions_from_rotations
 
@@ -784,7 +799,7 @@ def plot_track(mechanism, track, path=None, *, degrees: bool = False):
     ax2.set_ylabel(TRACK_MEASURE_LABEL)
     ax2.set_xlabel("path row")
     ax2.grid(alpha=0.3, which="both")
-    title = f"{mechanism.name}: one assembly mode tracked over {len(track.poses)} row(s)"
+    title = f"{track.mechanism or 'mechanism'}: one assembly mode tracked over {len(track.poses)} row(s)"
     if st is not None:
         for a in (ax, ax2):
             a.axvline(where, color="tab:red", ls="--", lw=1)

@@ -207,11 +207,21 @@ def check_paper_four_bar(proc, code, tmp_path):
     assert rows["paper"][1] > rows["default"][1] and rows["paper"][2] > 0 == rows["default"][2]
 
 
+def check_track_plot(proc, code, tmp_path):
+    """The tracking page's Python: the track stops at the singular input the page states (checked against
+    the degree-8 reference by test_docs_pages.check_track_stop) and plot_track(track, path) writes the figure."""
+    stated = float(re.search(r"meets the singularity at beta1 =\s*(-?\d+\.\d+)", page_text("docs/howto/tracking.md"))[1])
+    found = float(re.search(r"beta1['\"]?:\s*(-?\d+\.\d+)", proc.stdout)[1])
+    assert "SingularStop" in proc.stdout and abs(found - stated) < 1e-9, proc.stdout
+    png = tmp_path / "track.png"                 # run_script ran it in tmp_path (doc_blocks.workdir)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 #: Per how-to page: a marker of each python block's code -> its check.
 CHECKS = {
     "docs/howto/own-mechanism.md": {"problem.solve_many": check_compiled_solve_many},
     "docs/howto/families.md": {"batch.assembly_map": check_batch},
-    "docs/howto/tracking.md": {"free_box": check_free_box},
+    "docs/howto/tracking.md": {"free_box": check_free_box, "plot_track": check_track_plot},
     "docs/howto/maps-singularities.md": {"spherekin.singular(": check_singular},
     "docs/howto/strategy.md": {"for strategy in": check_strategies, "registry.family": check_registries},
     "docs/howto/paper-configuration.md": {"ClosureLoop": check_closure_loop, "four_bar.toml": check_paper_four_bar},

@@ -231,7 +231,7 @@ def test_a_pose_without_an_output_link_writes_json_csv_and_a_plot(tmp_path):
     frame = tr.frame()
     assert np.isnan(frame["qw"]).all() and frame["D"].tolist() == [0.0]
     assert len(track_rows(mech, tr)) == 1
-    plot_track(mech, tr, tmp_path / "t.png")
+    plot_track(tr, tmp_path / "t.png")
     assert (tmp_path / "t.png").stat().st_size > 0
 
 

@@ -358,7 +358,7 @@ def test_track_plot_labels_clear_their_ticks_and_panels():
     path = np.loadtxt(Path(__file__).resolve().parent.parent / "examples" / "path_general_3rrr.csv",
                       delimiter=",", skiprows=1)[:6]
     start = solve(mech, path[0]).solutions[4].platform_rotation
-    fig = plot_track(mech, track(mech, path, start))
+    fig = plot_track(track(mech, path, start))
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     FigureCanvasAgg(fig).draw()
     renderer = fig.canvas.get_renderer()
@@ -424,3 +424,22 @@ def test_plot_singular_draws_one_patch_per_cell_coloured_by_status(tmp_path):
     line = SingularSet(("A", -3.0, 3.0), None, {}, 0.1, (SingularBox((0.3, 0.4), None, "singular"),), True, stats,
                        "loops")
     assert len([p for p in plot_singular(line, degrees=True).axes[0].patches if isinstance(p, Rectangle)]) == 1
+
+
+def test_plot_track_takes_the_track_first_like_the_other_plots(tmp_path):
+    """One calling convention (issue 42 item 3): ``plot_track(track, path)`` as ``plot_report(report, path)``;
+    the former ``(mechanism, track, path)`` still draws the same figure, with a DeprecationWarning."""
+    from spherekin.plot import plot_track
+    from spherekin.trust.continuation import track
+
+    mech = presets.preset("general_3rrr")
+    path = np.loadtxt(Path(__file__).resolve().parent.parent / "examples" / "path_general_3rrr.csv",
+                      delimiter=",", skiprows=1)[:3]
+    tr = track(mech, path, solve(mech, path[0]).solutions[4].platform_rotation)
+    fig = plot_track(tr, tmp_path / "x.png")
+    assert (tmp_path / "x.png").stat().st_size > 0 and fig._suptitle.get_text().startswith(mech.name)
+    with pytest.warns(DeprecationWarning, match="plot_track\\(track, path\\)"):
+        plot_track(mech, tr, tmp_path / "old.png")
+    assert (tmp_path / "old.png").stat().st_size > 0
+    with pytest.raises(ValueError, match="track: expected a Track"):
+        plot_track(mech)

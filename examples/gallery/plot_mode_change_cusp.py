@@ -62,4 +62,4 @@ for k in range(len(start.solutions)):
 # changes ends elsewhere than it started, at the other solution; its parallel measure (the distance
 # to a parallel singularity) stays away from 0 all the way.
 
-fig = plot_track(mechanism, track)
+fig = plot_track(track)

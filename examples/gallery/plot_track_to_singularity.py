@@ -30,4 +30,4 @@ print(track.stop)
 # The platform's orientation (a unit quaternion) along the path, its parallel measure (the distance
 # to a parallel singularity, 0 at one) and where the track stopped.
 
-fig = plot_track(mechanism, track)
+fig = plot_track(track)
