@@ -648,7 +648,10 @@ def _ik(args) -> int:
         rot = rotation_from_euler(angles, args.convention or "ZYX", "--euler")
     from .problem import inverse_kinematics
 
-    sols = inverse_kinematics(mech, rot, only_in_range=args.in_range)
+    # numbered over every solution, then filtered: a solution keeps its number with --in-range
+    every = list(enumerate(inverse_kinematics(mech, rot), start=1))
+    numbered = [(k, s) for k, s in every if s.in_range or not args.in_range]
+    sols = [s for _, s in every]
     scale, unit = (180.0 / math.pi, "degrees") if args.degrees else (1.0, "radians")
     q = quaternions_from_rotations(rot)
     print(f"{mech.name or args.file}: inverse kinematics at the {'platform' if mech.output == 'platform' else mech.output} "
@@ -658,7 +661,7 @@ def _ik(args) -> int:
     n_in = sum(s.in_range for s in sols)
     print(f"{len(sols)} solution(s) (working modes), {n_in} inside every joint range; joint angles in {unit}:")
     print("  #  mode  " + " ".join(f"{n:>11s}" for n in names) + "  in range" + ("" if mech.legs else "  status"))
-    for k, s in enumerate(sols, start=1):
+    for k, s in numbered:
         mode = "".join("+" if m > 0 else "-" if m < 0 else "0" for m in s.working_mode) or "-"
         print(f"{k:3d}  {mode:>4s}  " + " ".join(format_number(s.joint_angles[n] * scale, "+11.6f") for n in names)
               + f"  {'yes' if s.in_range else 'no':>8s}" + ("" if s.status is None else f"  {s.status}"))
@@ -669,7 +672,7 @@ def _ik(args) -> int:
                "quaternion": q.tolist(),
                "solutions": [{"number": k, "working_mode": list(s.working_mode),       # numbered as printed
                               "inputs": dict(zip(mech.actuated, s.inputs)), "joint_angles": dict(s.joint_angles),
-                              "in_range": s.in_range, "status": s.status} for k, s in enumerate(sols, start=1)]}
+                              "in_range": s.in_range, "status": s.status} for k, s in numbered]}
         atomic.write_text(args.json, json.dumps(out, indent=2))
         print(f"wrote {args.json}")
     return 0

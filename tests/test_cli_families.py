@@ -382,3 +382,30 @@ def test_an_interrupt_while_the_json_is_written_leaves_the_earlier_file_and_no_t
     monkeypatch.undo()
     assert json.loads(js.read_text()) == {"earlier": True}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ik.json"]
+
+
+def _ik_rows(lines: list[str]) -> dict:
+    """number -> (joint angles, in range) of the printed ik table."""
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["#", "mode"])
+    n = len(lines[head].split()) - 4
+    return {int(w[0]): ([float(v) for v in w[2:2 + n]], w[2 + n] == "yes")
+            for w in (line.split() for line in lines[head + 1:]) if w and w[0].isdigit()}
+
+
+def test_ik_in_range_keeps_each_solutions_number(tmp_path, capsys):
+    """`ik --in-range` shows the solutions inside every range under the numbers they have without it
+    (issue 42 item 7: #1 with it was #5 without it). The range on gamma1 is tested here, not by the code."""
+    text = (ROOT / "examples" / "general_3rrr.toml").read_text()
+    path = tmp_path / "ranged.toml"
+    path.write_text(text.replace('# [joint_ranges]\n# beta1 = ["-pi/2", "pi/2"]', '[joint_ranges]\ngamma1 = [0.0, 3.0]'))
+    args = ["ik", str(path), "--euler", "0.4,-0.3,1.1"]
+    assert main(args) == 0
+    every = _ik_rows(capsys.readouterr().out.splitlines())
+    js = tmp_path / "ik.json"
+    assert main([*args, "--in-range", "--json", str(js)]) == 0
+    kept = _ik_rows(capsys.readouterr().out.splitlines())
+    inside = {k for k, (angles, _) in every.items() if 0.0 <= angles[3] % (2 * math.pi) <= 3.0}   # gamma1's column
+    assert 0 < len(inside) < len(every) and set(kept) == inside
+    for k, (angles, flag) in kept.items():
+        assert flag and angles == every[k][0]
+    assert [s["number"] for s in json.loads(js.read_text())["solutions"]] == sorted(inside)
