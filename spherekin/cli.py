@@ -186,7 +186,7 @@ def _solve(args) -> int:
           + f", tol {used.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
           f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
           f"{st.lps_solved} LPs, {st.time_total:.3f} s")
-    print(as_options(used.system_text()))
+    print(as_options(used.system_text(verbose=args.verbose)))
     if used.fallback:
         print(f"note: {as_options(used.fallback)}")
     limit = used.limit
@@ -1038,6 +1038,8 @@ def build_parser() -> argparse.ArgumentParser:
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    so.add_argument("-v", "--verbose", action="store_true",
+                    help="also say why each faster system did not accept the mechanism (always in the JSON)")
     so.set_defaults(func=_solve)
     ik = sub_add_parser("ik", help="inverse kinematics: every actuator solution of a platform pose")
     ik.add_argument("file", help="mechanism file (TOML, see docs/mechanism-format.md)")

@@ -274,11 +274,13 @@ class Settings:
             out["declined"] = [{"system": name, "reason": reason} for name, reason in self.declined]
         return out
 
-    def system_text(self) -> str:
-        """One line: which system solved it and, when a faster one did not accept, why (the report's line)."""
+    def system_text(self, verbose: bool = False) -> str:
+        """One line: which system solved it; with ``verbose``, why each faster one did not accept (those
+        reasons speak of the systems' own terms, legs for the platform system: the default line keeps to
+        the file's; they are always in the JSON's ``declined``)."""
         if self.system is None:
             return ""
-        why = "; ".join(f"{name} did not accept it: {reason}" for name, reason in self.declined)
+        why = "; ".join(f"{name} did not accept it: {reason}" for name, reason in self.declined) if verbose else ""
         return f"solved by the {self.system} system" + (f" ({why})" if why else "")
 
 
@@ -300,7 +302,7 @@ class SearchReport:
 
 #: The kinds of :class:`EmptyReason`: assemblies exist once the passive joints' ranges are lifted;
 #: none exist (a redundantly actuated mechanism given inputs that do not fit together); none exist
-#: (the inputs lie outside the workspace: the legs cannot be closed).
+#: (the inputs lie outside the workspace: the loops cannot be closed).
 EMPTY_OUTSIDE_RANGES = "outside_ranges"
 EMPTY_INCONSISTENT = "inconsistent_inputs"
 EMPTY_OUTSIDE_WORKSPACE = "outside_workspace"
@@ -326,7 +328,7 @@ class EmptyReason:
         if self.kind == EMPTY_INCONSISTENT:
             return ("no assembly at all at these inputs: for a redundantly actuated mechanism, inputs that are not "
                     "consistent with one another")
-        return "no assembly at all at these inputs: the legs cannot be closed (the inputs lie outside the workspace)"
+        return "no assembly at all at these inputs: the loops cannot be closed (the inputs lie outside the workspace)"
 
     def as_dict(self) -> dict:
         return {"kind": self.kind, "ranged_joints": list(self.ranged_joints),

@@ -39,7 +39,7 @@ BLOCKS = {
     "docs/howto/own-mechanism.md": {"python": 1, "sh": 2},
     "docs/howto/paper-configuration.md": {"python": 2, "sh": 2},
     "docs/howto/strategy.md": {"python": 2, "sh": 0},
-    "docs/howto/tracking.md": {"python": 1, "sh": 2},
+    "docs/howto/tracking.md": {"python": 2, "sh": 2},
 }
 #: Fenced blocks that are not code to run: output shown, file formats, Sphinx directives.
 NOT_CODE = {"text", "toml", "json", "{toctree}", "{eval-rst}", "{include}", "{literalinclude}"}

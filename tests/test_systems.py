@@ -206,11 +206,15 @@ def test_solve_json_and_text_say_which_system_solved_and_why_not_the_fastest(tmp
     settings = json.loads(out.read_text())["settings"]
     assert settings["system"] == "loops" and settings["declined"][0]["system"] == "platform"
     lines = [line for line in text.splitlines() if line.startswith("solved by")]
+    assert lines == ["solved by the loops system"]          # a four-bar never had legs: no platform talk by default
+    assert "leg" not in text
+    assert main(["solve", str(EXAMPLES / "four_bar.toml"), "--inputs", "0.3", "-v"]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("solved by")]
     assert lines == ["solved by the loops system (platform did not accept it: "
                      + settings["declined"][0]["reason"] + ")"]
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5"]) == 0
     assert "\nsolved by the platform system\n" in capsys.readouterr().out
-    assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--no-isolate"]) == 0
+    assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--no-isolate", "-v"]) == 0
     assert "solved by the loops system (platform did not accept it: --no-isolate asked for" in capsys.readouterr().out
 
 
