@@ -386,3 +386,20 @@ def test_contract_does_nothing_for_tan_half_and_keeps_roots_for_sin_cos():
     sc.contract(chart, np.zeros_like(lo), np.ones_like(hi), tlo, thi)
     assert np.all(tlo <= u + 1e-12) and np.all(u - 1e-12 <= thi)
     assert np.all(thi - tlo <= hi - lo + 1e-15)
+
+
+def test_too_many_charts_is_one_error_before_any_chart_is_built():
+    """2^n charts for n full-circle joints (issue 42: a 25-joint chain grew to 4.3 GB before its first
+    box): past MAX_CHARTS the count is refused, naming the joints, before ``build`` is ever called;
+    at MAX_CHARTS exactly the count is not what stops it."""
+    from spherekin.search.parameterizations import MAX_CHARTS, make_charts
+
+    def build(_):
+        raise AssertionError("build called: the charts were materialised before the count was checked")
+
+    n = int(math.log2(MAX_CHARTS)) + 1
+    with pytest.raises(ValueError, match=f"{2 ** n:,} charts .*MAX_CHARTS.*sin-cos"):
+        make_charts("tan-half", build, {f"j{k}": None for k in range(n)}, "halves")
+    narrow = {f"j{k}": (None if k < n - 1 else (0.0, 1.0)) for k in range(n)}    # one joint narrower than pi
+    with pytest.raises(AssertionError, match="build called"):
+        make_charts("tan-half", build, narrow, "halves")

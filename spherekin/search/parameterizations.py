@@ -41,7 +41,7 @@ __all__ = [
     "PARAMETERIZATIONS",
     "TanHalf",
     "SinCos",
-    "CHART_MAX_WIDTH",
+    "CHART_MAX_WIDTH", "MAX_CHARTS",
     "ROUNDING_SAFETY",
     "ARC_BOX_MARGIN",
     "ChartSet",
@@ -57,6 +57,14 @@ __all__ = [
 #: width: on a chart of width pi, |t| <= tan(pi/4) = 1, where the degree-2 Bernstein form is well
 #: conditioned; a wider chart pushes |t| towards the singularity at theta = shift + pi.
 CHART_MAX_WIDTH = math.pi
+#: Most tan-half charts a problem may have (the product of every unknown's charts: 2^n for n
+#: full-circle joints). Reason: each chart carries its own equation blocks and is searched from its
+#: own root box, so charts cost memory and time before the first box is split; 2^12 holds every
+#: mechanism of the examples and benchmarks (64 for a 3-RRR or a six-bar, 512 for nine unknowns)
+#: with room to spare, while a 25-joint chain (2^25 charts) grew to 4.3 GB in 40 s with no output
+#: (issue 42). Past it: one error before any work (ranges narrower than pi need one chart each, and
+#: sin-cos has one chart in all).
+MAX_CHARTS = 2 ** 12
 #: Rounding errors of control points restricted from the unit box are at most about this many
 #: machine epsilons of the equation's magnitude (``EquationBlock.scale``: the size of the terms
 #: behind its control points, cos and sin of known angles counted as 1; products of ~2n factors in
@@ -447,6 +455,13 @@ class TanHalf(LoopParameterization):
         charts (16 per Gosselin loop instead of 64) and shared by the charts that agree on them."""
         names = list(ranges)
         per_name = [charts_for_range(ranges[name]) for name in names]
+        count = math.prod(len(p) for p in per_name)
+        if count > MAX_CHARTS:
+            wide = [name for name, p in zip(names, per_name) if len(p) > 1]
+            raise ValueError(f"parameterization 'tan-half': {count:,} charts ({len(wide)} joints over more than "
+                             f"{CHART_MAX_WIDTH:.4g} rad: {', '.join(wide[:6])}{', ...' if len(wide) > 6 else ''}), "
+                             f"more than MAX_CHARTS = {MAX_CHARTS}: give those joints ranges narrower than pi, "
+                             "or use parameterization 'sin-cos' (one chart)")
         combos = list(itertools.product(*(range(len(p)) for p in per_name)))
         loops, unknowns = build({name: per_name[k][0] for k, name in enumerate(names)})
         if tuple(u.name for u in unknowns) != tuple(names):
