@@ -3,6 +3,7 @@ one message that names the file, the key and the problem (never a numpy tracebac
 
 import math
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -261,3 +262,15 @@ def test_examples_in_the_format_document_load(tmp_path):
     robot = load_mechanism(tmp_path / f"doc{first_rrr}.toml")
     sols = robot.inverse_kinematics(np.eye(3))
     assert len(sols) == 8 and any(s.in_range for s in sols)
+
+
+def test_a_typoed_required_key_is_named_beside_the_missing_one(tmp_path):
+    """`grond = "ground"` (issue 42 item 17): the error says the required key is missing and names the unknown
+    key next to it, not only "missing key"."""
+    from spherekin.mechanism import load_mechanism
+
+    text = (Path(__file__).resolve().parent.parent / "examples" / "four_bar_graph.toml").read_text()
+    path = tmp_path / "typo.toml"
+    path.write_text(text.replace('ground = "ground"', 'grond = "ground"', 1))
+    with pytest.raises(ValueError, match=r"ground: missing key.*did you mean 'ground' for the unknown key 'grond'"):
+        load_mechanism(path)

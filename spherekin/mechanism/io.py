@@ -21,6 +21,7 @@ key and the problem.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from pathlib import Path
@@ -99,11 +100,15 @@ def mechanism_from_dict(data: Mapping, source: str = "<mechanism>") -> Spherical
 
 def _check_keys(where: str, table: Mapping, required, optional) -> None:
     prefix = f"{where}." if where else ""
+    valid = tuple(required) + tuple(optional)
     for key in required:
         if key not in table:
             hint = f" ({_KEY_HELP[key]})" if key in _KEY_HELP else ""
-            raise ValueError(f"{prefix}{key}: missing key{hint}")
-    valid = tuple(required) + tuple(optional)
+            # a typo'd key (grond for ground) is the likeliest reason a required one is missing: name it
+            unknown = [k for k in table if k not in valid]
+            near = difflib.get_close_matches(key, [str(k) for k in unknown], n=1)
+            typo = f"; did you mean {key!r} for the unknown key {near[0]!r}?" if near else ""
+            raise ValueError(f"{prefix}{key}: missing key{hint}{typo}")
     for key in table:
         if key not in valid:
             raise ValueError(f"{prefix}{key}: unknown key; valid keys here: {', '.join(valid)}")
