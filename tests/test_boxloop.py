@@ -394,3 +394,20 @@ def test_clusters_of_many_inputs_are_those_of_each_input_alone():
             for (c, a, b), got in zip(hand, many[k]):
                 assert np.allclose(got.angles, c, atol=1e-15) and np.array_equal(got.lo, a)
     assert merged >= 3                                            # the near pairs were merged
+
+
+def test_a_ctrl_c_during_a_search_says_ctrl_c_and_what_it_had_done():
+    """A plain KeyboardInterrupt (no text) reads "interrupted (Ctrl-C) after N boxes", not "interrupted ()"
+    (issue 42 item 17), and the solve reports what was accepted as interrupted."""
+    calls = []
+
+    def progress(counts):
+        calls.append(counts)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+
+    report = solve(gosselin(), (0.3, -0.2, 0.5), system="loops", formulation="halves", jobs=1, progress=progress,
+                   trace=lambda record: None)
+    limit = report.settings.limit
+    assert limit.interrupted and limit.error.startswith("interrupted (Ctrl-C) after ") and "boxes" in limit.error
+    assert not report.count_exact

@@ -372,7 +372,7 @@ def _loop(charts: ChartSet, pruner, tol, max_boxes, max_depth, start=None, isola
     except KeyboardInterrupt as exc:
         # Ctrl-C (or the command line's SIGTERM, whose text names it): stop now, hand over what was
         # accepted so far (the pipeline reports it, not exact)
-        raise SearchInterrupted(f"interrupted ({exc or 'Ctrl-C'}) after "
+        raise SearchInterrupted(f"interrupted ({str(exc) or 'Ctrl-C'}) after "
                                 f"{int(counts['boxes_processed'].sum())} boxes", *stopped()) from None
     if capped.any():
         accepted = [a for a in accepted if not capped[owner[a[0]]]]
