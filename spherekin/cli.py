@@ -276,7 +276,12 @@ def _check_strategy(mech, args) -> None:
 
 def _strategy(args) -> dict:
     from .problem import DEFAULT_SYSTEM
+    from .search.boxloop import MAX_TOL
     from .systems import ON_CAP_COVER
+
+    if getattr(args, "degrees", False) and args.tol > MAX_TOL:    # the likeliest reading: a tolerance in degrees
+        raise ValueError(f"--tol: expected at most {MAX_TOL:g} rad, got {args.tol:g}: --tol is in radians, also "
+                         f"with --degrees ({args.tol:g} deg is {math.radians(args.tol):.3g} rad)")
 
     # --system only when asked for: the default strategy (and a batch's job name) stays as before
     chosen = {} if args.system == DEFAULT_SYSTEM else dict(system=args.system)

@@ -324,3 +324,10 @@ def test_an_interrupt_raised_inside_a_finalizer_is_not_lost(signum, expected):
             caught = exc
     assert type(caught).__name__ == expected
     assert isinstance(caught, KeyboardInterrupt) and (signum != "SIGTERM" or isinstance(caught, Terminated))
+
+
+def test_a_tolerance_given_in_degrees_is_told_it_is_read_in_radians(capsys):
+    """`--degrees --tol 45` (issue 42 item 17): the error says --tol is in radians, also with --degrees."""
+    assert main(["solve", GOSSELIN, "--inputs", "10,20,30", "--degrees", "--tol", "45"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--tol is in radians, also with --degrees (45 deg is 0.785 rad)" in err
