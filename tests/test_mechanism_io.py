@@ -274,3 +274,19 @@ def test_a_typoed_required_key_is_named_beside_the_missing_one(tmp_path):
     path.write_text(text.replace('ground = "ground"', 'grond = "ground"', 1))
     with pytest.raises(ValueError, match=r"ground: missing key.*did you mean 'ground' for the unknown key 'grond'"):
         load_mechanism(path)
+
+
+def test_huge_axis_components_are_one_error_and_no_numpy_warning(tmp_path):
+    """Axes of 1e308 (issue 42 item 12): the norm is not computed by squaring (an overflow warning on stderr
+    before the error); the error alone, as an exception, with no warning."""
+    import warnings
+
+    from spherekin.mechanism import load_mechanism
+
+    text = (Path(__file__).resolve().parent.parent / "examples" / "four_bar_graph.toml").read_text()
+    path = tmp_path / "huge.toml"
+    path.write_text(text.replace("axis = [0.0, 0.0, 1.0]", "axis = [1e308, 1e308, 1.0]", 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"joints\[0\]\.axis: expected a unit vector .* got norm 1.414"):
+            load_mechanism(path)

@@ -161,7 +161,7 @@ def given_unit_vector(key: str, value) -> tuple[float, float, float]:
     vec = np.array(comps)
     if not np.all(np.isfinite(vec)):
         raise ValueError(f"{key}: expected finite components, got {comps}")
-    norm = float(np.linalg.norm(vec))
+    norm = math.hypot(*comps)          # scaled: no overflow (and no numpy warning) for 1e308 components
     if norm == 0.0:
         raise ValueError(f"{key}: expected a unit vector, got the zero vector")
     if abs(norm - 1.0) > UNIT_TOL:
