@@ -249,3 +249,35 @@ def test_the_lock_is_checked_before_whether_the_output_exists(tmp_path):
     write_lock(out, os.getpid(), socket.gethostname())
     with pytest.raises(ValueError, match="another run is writing it"):
         check_output_path(out, resume=False, overwrite=False)     # not "already exists; pass --resume"
+
+
+def test_two_symbolic_links_to_one_output_share_one_lock(tmp_path):
+    """Issue 42 item 8: two runs writing one CSV through two symbolic links both went ahead (the lock stood
+    beside each name). The lock stands beside the file itself: the second run is refused."""
+    from spherekin.batch.lock import check_unlocked
+
+    real = tmp_path / "data" / "r.csv"
+    real.parent.mkdir()
+    real.write_text("")
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.symlink_to(real)
+    b.symlink_to(real)
+    assert lock_path(a) == lock_path(b) == real.with_name("r.csv.lock")
+    with OutputLock.acquire(a):
+        with pytest.raises(ValueError, match="another run is writing it"):
+            check_unlocked(b)
+        with pytest.raises(ValueError, match="another run is writing it"):
+            OutputLock.acquire(b)
+    check_unlocked(b)                                   # released: free again
+
+
+def test_a_hard_linked_output_is_refused_before_any_work(tmp_path):
+    """A hard link cannot be resolved to one name: the output with other names is refused (one line)."""
+    from spherekin.batch.lock import check_unlocked
+
+    real = tmp_path / "r.csv"
+    real.write_text("")
+    os.link(real, tmp_path / "other.csv")
+    for check in (check_unlocked, OutputLock.acquire):
+        with pytest.raises(ValueError, match="has 2 names \\(hard links\\)"):
+            check(real)

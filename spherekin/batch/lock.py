@@ -22,13 +22,14 @@ import os
 import secrets
 import shlex
 import socket
+import stat
 import sys
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-__all__ = ["LOCK_SUFFIX", "Holder", "OutputLock", "lock_path", "check_unlocked", "process_alive", "process_start"]
+__all__ = ["LOCK_SUFFIX", "Holder", "OutputLock", "lock_path", "check_unlocked", "check_one_name", "process_alive", "process_start"]
 
 #: The lock of output ``results.csv`` is ``results.csv.lock`` (of a dataset ``results.parquet/``,
 #: ``results.parquet.lock``, beside the directory: an --overwrite empties the directory, not its lock).
@@ -126,9 +127,22 @@ def process_start(pid: int) -> float | None:
 
 
 def lock_path(out) -> Path:
-    """The lock file of output ``out`` (LOCK_SUFFIX)."""
-    out = Path(out)
-    return out.with_name(out.name + LOCK_SUFFIX)
+    """The lock file of output ``out`` (LOCK_SUFFIX), beside the file itself: symbolic links resolved, so
+    two names of one file share one lock (issue 42: two runs through two links wrote one CSV)."""
+    real = Path(os.path.realpath(out))
+    return real.with_name(real.name + LOCK_SUFFIX)
+
+
+def check_one_name(out) -> None:
+    """ValueError when ``out`` is a file with other hard links: a lock beside one name cannot stop a run
+    writing it under another (a symbolic link is resolved by :func:`lock_path`, a hard link cannot be)."""
+    try:
+        st = os.stat(out)
+    except OSError:
+        return
+    if stat.S_ISREG(st.st_mode) and st.st_nlink > 1:
+        raise ValueError(f"--out {out}: the file has {st.st_nlink} names (hard links): one writer per output "
+                         "cannot be held for its other names; write to a file of its own")
 
 
 def _read(lock: Path) -> Holder | None:
@@ -170,6 +184,7 @@ def check_unlocked(out) -> None:
     when the output is opened). The check before any work; the lock itself is taken by
     :meth:`OutputLock.acquire`."""
     out = Path(out)
+    check_one_name(out)
     holder = _read(lock_path(out))
     if holder is not None and not holder.stale():
         raise ValueError(_refusal(out, holder))
@@ -193,6 +208,7 @@ class OutputLock:
         """Take the lock of ``out``: created atomically, or taken over from a stale holder (a note on
         stderr says whose). ValueError, naming the holder, if another run holds it."""
         out = Path(out)
+        check_one_name(out)
         lock, me, previous = lock_path(out), Holder.of_this_run(), None
         while True:
             try:
