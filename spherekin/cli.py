@@ -239,7 +239,7 @@ class _BatchProgress:
 
     def __init__(self, terminal: bool, quiet: bool = False):
         self.terminal, self.t0, self.last, self.start_done = terminal, time.perf_counter(), 0.0, None
-        self.quiet = quiet
+        self.quiet, self.pending = quiet, None
 
     def __call__(self, done: int, total: int) -> None:
         if self.quiet:
@@ -248,9 +248,15 @@ class _BatchProgress:
         if self.start_done is None:
             self.start_done = done
         due = (now - self.last > 0.2) if self.terminal else (now - self.last >= PROGRESS_INTERVAL)
-        if not due and done < total:
+        # a job whose total grows (a branch map's refinements) reaches done == total once per round: on a
+        # terminal the line is redrawn; a log gets it once, at close, not one line per round (issue 42 item 14)
+        if not due and (done < total or not self.terminal):
+            self.pending = (done, total)
             return
-        self.last = now
+        self._draw(now, done, total)
+
+    def _draw(self, now: float, done: int, total: int) -> None:
+        self.last, self.pending = now, None
         elapsed = now - self.t0
         rate = (done - self.start_done) / elapsed if elapsed > 0 else 0.0
         eta = f"{(total - done) / rate:6.0f} s left" if rate > 0 and done < total else ""
@@ -263,7 +269,11 @@ class _BatchProgress:
             print(line.rstrip(), file=sys.stderr, flush=True)
 
     def close(self) -> None:
-        if self.terminal and self.last and not self.quiet:
+        if self.quiet:
+            return
+        if self.pending is not None and not self.terminal:       # the last state, once
+            self._draw(time.perf_counter(), *self.pending)
+        if self.terminal and self.last:
             print(file=sys.stderr)
 
 

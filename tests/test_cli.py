@@ -331,3 +331,20 @@ def test_a_tolerance_given_in_degrees_is_told_it_is_read_in_radians(capsys):
     assert main(["solve", GOSSELIN, "--inputs", "10,20,30", "--degrees", "--tol", "45"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--tol is in radians, also with --degrees (45 deg is 0.785 rad)" in err
+
+
+def test_a_growing_job_logs_one_progress_line_not_one_per_round(capsys):
+    """A branch map's total grows with its refinements and reaches done == total once per round (issue 42
+    item 14: ~18 bars in a log). In a log, within one PROGRESS_INTERVAL: the first state, then nothing until
+    close, then the last state once."""
+    from spherekin.cli import _BatchProgress
+
+    progress = _BatchProgress(terminal=False)
+    for rounds in range(1, 19):
+        for done in range(0, 10 * rounds + 1, 5):
+            progress(done, 10 * rounds)
+    before = capsys.readouterr().err.splitlines()
+    assert len(before) == 1 and "0/10 inputs" in before[0]
+    progress.close()
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "180/180 inputs" in lines[0]
