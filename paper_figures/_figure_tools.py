@@ -1,6 +1,6 @@
 """Shared plumbing of the paper figures: arguments, saving, and 3-D axes showing the unit sphere.
 
-Not a figure itself (``make figures`` runs ``paper_figures/fig*.py`` only). The sphere drawing
+Not a figure itself (``make figures`` runs ``paper_figures/fig*.py`` and ``exp_*.py`` only). The sphere drawing
 reuses the helpers of :mod:`spherekin.plot` (great-circle arcs, near/far splitting of curves,
 joint dots, wireframe, view direction), so the figures look like ``spherekin solve --plot``.
 """
@@ -45,7 +45,7 @@ def experiment_data(name: str, path: Path | None = None) -> tuple[dict, bool]:
     experiments/results/<name>.json (``make experiments FULL=1``), else results/quick/<name>.json
     (``make experiments``), else a quick run made now (written to results/quick/). ``quick`` says
     the data is a quick run. The JSON files are generated and not committed; the committed PNGs of
-    Figs. 3, 6, 7 come from full runs, and :func:`save` never replaces them with a quick run's.
+    exp_convergence, exp_parameterizations, exp_scaling come from full runs, and :func:`save` never replaces them with a quick run's.
     """
     import importlib
     import json

@@ -1,4 +1,4 @@
-"""Tests for paper_figures/fig{1,2,4,5}_*.py: each script writes its PNG and PDF, and its numbers agree
+"""Tests for paper_figures/fig{1,2}_*.py and exp_{slice,solutions}.py: each script writes its PNG and PDF, and its numbers agree
 with independent derivations.
 
 * fig1: the polygon's sides and exterior angles against the spherical excess (Gauss-Bonnet:
@@ -7,9 +7,9 @@ with independent derivations.
 * fig2: the displaced configuration's platform axes against R v_i^0 with R built by scipy from the
   rotation the script asks for, and the model's phi_k against exterior angles measured here from
   tangent vectors;
-* fig4: the roots of the 2-D slice against a brute-force grid + least-squares search on the leg
+* exp_slice: the roots of the 2-D slice against a brute-force grid + least-squares search on the leg
   poses built with scipy rotations (no spherekin code);
-* fig5: 8 solutions, 4 singular (the paper's count), each closing every leg (angle between the
+* exp_solutions: 8 solutions, 4 singular (the paper's count), each closing every leg (angle between the
   elbow axis and R v_i^0 equal to the distal link twist pi/2) by scipy rotations.
 """
 
@@ -149,12 +149,12 @@ def test_fig2_loops_angles_are_the_measured_exterior_angles(fig2):
             assert math.remainder(phi - turn, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
 
 
-# --------------------------------------------------------------------------------------------- fig4
+# ---------------------------------------------------------------------------------------- exp_slice
 
 @pytest.fixture(scope="module")
-def fig4(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fig4")
-    return out, load("fig4_slice").main(["--out-dir", str(out)])
+def exp_slice(tmp_path_factory):
+    out = tmp_path_factory.mktemp("exp_slice")
+    return out, load("exp_slice").main(["--out-dir", str(out)])
 
 
 def brute_force_roots(mech, inputs, fixed):
@@ -178,12 +178,12 @@ def brute_force_roots(mech, inputs, fixed):
     return roots
 
 
-def test_fig4_writes_png_and_pdf(fig4):
-    assert_written(fig4[0], "fig4_slice")
+def test_exp_slice_writes_png_and_pdf(exp_slice):
+    assert_written(exp_slice[0], "exp_slice")
 
 
-def test_fig4_roots_equal_brute_force_roots(fig4):
-    data = fig4[1]
+def test_exp_slice_roots_equal_brute_force_roots(exp_slice):
+    data = exp_slice[1]
     expected = brute_force_roots(data["mechanism"], (data["input"],), data["root"]["D"])
     assert len(expected) == 1                          # a consistent slice of a four-bar: one assembly
     for kind, run in data["runs"].items():
@@ -197,20 +197,20 @@ def test_fig4_roots_equal_brute_force_roots(fig4):
                            for r in expected) > 0.1
 
 
-# --------------------------------------------------------------------------------------------- fig5
+# --------------------------------------------------------------------------------------------- exp_solutions
 
 @pytest.fixture(scope="module")
-def fig5(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fig5")
-    return out, load("fig5_solutions").main(["--out-dir", str(out)])
+def exp_solutions(tmp_path_factory):
+    out = tmp_path_factory.mktemp("exp_solutions")
+    return out, load("exp_solutions").main(["--out-dir", str(out)])
 
 
-def test_fig5_writes_png_and_pdf(fig5):
-    assert_written(fig5[0], "fig5_solutions")
+def test_exp_solutions_writes_png_and_pdf(exp_solutions):
+    assert_written(exp_solutions[0], "exp_solutions")
 
 
-def test_fig5_eight_solutions_four_singular_each_closing(fig5):
-    data = fig5[1]
+def test_exp_solutions_eight_solutions_four_singular_each_closing(exp_solutions):
+    data = exp_solutions[1]
     sols = data["report"].solutions
     assert len(sols) == 8
     assert sorted(s.status for s in sols) == ["certified"] * 4 + ["singular"] * 4
@@ -242,9 +242,9 @@ def test_a_quick_run_never_replaces_a_committed_figure(capsys, monkeypatch, tmp_
     assert full[0].parent == committed / "quick"
 
 
-def test_fig3_without_results_runs_the_quick_experiment_of_the_experiments_package(monkeypatch, tmp_path):
+def test_exp_convergence_without_results_runs_the_quick_experiment_of_the_experiments_package(monkeypatch, tmp_path):
     """From a fresh clone no results exist: the quick run is imported as experiments.convergence
-    (the scripts run as python -m paper_figures.figN, not from inside experiments/)."""
+    (the scripts run as python -m paper_figures.<name>, not from inside experiments/)."""
     import json
 
     from experiments import _common, convergence
@@ -263,12 +263,12 @@ def test_fig3_without_results_runs_the_quick_experiment_of_the_experiments_packa
     assert calls == [["--quick"]]
 
 
-def test_fig3_runs_as_a_module():
+def test_exp_convergence_runs_as_a_module():
     import subprocess
     import sys
 
     root = Path(__file__).resolve().parent.parent
-    done = subprocess.run([sys.executable, "-m", "paper_figures.fig3_convergence", "--help"], cwd=root,
+    done = subprocess.run([sys.executable, "-m", "paper_figures.exp_convergence", "--help"], cwd=root,
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "--results" in done.stdout

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from paper_figures import _figure_tools as ft
 
-NAME = "fig7_scaling"
+NAME = "exp_scaling"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 MARKERS = {"four_bar": "o", "five_bar": "s", "gosselin": "^", "general_3rrr": "v", "3rrr_rrrr": "D",
            "4rrr_redundant": "P", "3rrr_passive_leg": "X"}

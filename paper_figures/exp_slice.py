@@ -44,7 +44,7 @@ from spherekin.core.rotations import normalized_closure  # noqa: E402
 from spherekin.search.boxloop import DEFAULT_TOL, TRACE_OUTCOMES, solve_system  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
-NAME = "fig4_slice"
+NAME = "exp_slice"
 #: Crank input (radians): the four-bar input of tests/test_plot.py; any input with two assemblies works.
 INPUT = 0.5
 #: The passive joint fixed in the slice, and the two that stay unknown (in this order: x, y axes).

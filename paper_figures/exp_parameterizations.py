@@ -17,7 +17,7 @@ import numpy as np
 
 from paper_figures import _figure_tools as ft
 
-NAME = "fig6_parameterizations"
+NAME = "exp_parameterizations"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 LABELS = {"four_bar": "four-bar", "five_bar": "five-bar", "gosselin": "Gosselin", "general_3rrr": "general 3-RRR"}
 

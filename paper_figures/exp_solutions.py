@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from spherekin.plot import current_joint_axes, plot_solutions  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
-NAME = "fig5_solutions"
+NAME = "exp_solutions"
 #: The inputs (radians) of ``make run`` (Makefile: spherekin solve examples/gosselin.toml --inputs 0.3,-0.2,0.5).
 INPUTS = (0.3, -0.2, 0.5)
 
