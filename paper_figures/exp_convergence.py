@@ -1,4 +1,4 @@
-"""Fig. 3: convergence of the subdivision near the roots (Section 4's "quadratically convergent" claim).
+"""This project's experiment (not a figure of the paper): convergence of the subdivision near the roots (Section 4's "quadratically convergent" claim).
 
 Plots the latest run of experiments/convergence.py (see _figure_tools.experiment_data: the full
 run, else the quick one, else a quick run made now) in two panels:

@@ -1,4 +1,4 @@
-"""Figure 7: how the cost of a solve grows with the number of unknown joint angles.
+"""This project's experiment (not a figure of the paper): how the cost of a solve grows with the number of unknown joint angles.
 
 Question: how do boxes and time grow from one-loop linkages (3 unknowns) to 3-RRRs (6) and to
 four-legged platforms (8 and 9)? Plots the latest run of experiments/scaling.py (see
