@@ -54,7 +54,7 @@ experiments: $(STAMP)
 	done
 
 figures: $(STAMP)
-	@for f in paper_figures/fig*.py; do \
+	@for f in paper_figures/fig*.py paper_figures/exp_*.py; do \
 		echo "== $$f"; \
 		MPLBACKEND=Agg $(BIN)/python -m paper_figures.$$(basename $$f .py) || exit 1; \
 	done

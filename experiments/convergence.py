@@ -26,7 +26,7 @@ step cannot cut a side around it by more than half. This script measures it.
 
 --quick: two roots (one regular, one serial-singular), looser trace tolerances, fewer tolerances,
 the LP runs only at the loosest, smaller caps. JSON and markdown go to experiments/results/convergence.{json,md}; the figure
-is drawn by paper_figures/fig3_convergence.py.
+is drawn by paper_figures/exp_convergence.py.
 
     python -m experiments.convergence [--quick] [--seed 0] [--out-dir experiments/results]
 """

@@ -1,6 +1,6 @@
 """Shared plumbing of the paper figures: arguments, saving, and 3-D axes showing the unit sphere.
 
-Not a figure itself (``make figures`` runs ``paper_figures/fig*.py`` only). The sphere drawing
+Not a figure itself (``make figures`` runs ``paper_figures/fig*.py`` and ``exp_*.py`` only). The sphere drawing
 reuses the helpers of :mod:`spherekin.plot` (great-circle arcs, near/far splitting of curves,
 joint dots, wireframe, view direction), so the figures look like ``spherekin solve --plot``.
 """
@@ -20,7 +20,7 @@ from experiments import _common  # the shared argument parser
 from spherekin.plot import (ZOOM, _draw_curve, _draw_point, _draw_sphere,  # noqa: E402
                             _view_direction, great_circle_arc, residual_text)
 
-__all__ = ["HERE", "DPI", "parser", "experiment_data", "save", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
+__all__ = ["HERE", "DPI", "parser", "experiment_data", "save", "save_numbers", "sphere_axes", "draw_arc", "draw_curve", "draw_point", "label_at",
            "view_for", "great_circle_arc", "polygon", "along", "away", "residual_phrase"]
 
 #: Resolution of the PNG files: 150 dpi keeps 9-point labels sharp on screen and in the README.
@@ -45,7 +45,7 @@ def experiment_data(name: str, path: Path | None = None) -> tuple[dict, bool]:
     experiments/results/<name>.json (``make experiments FULL=1``), else results/quick/<name>.json
     (``make experiments``), else a quick run made now (written to results/quick/). ``quick`` says
     the data is a quick run. The JSON files are generated and not committed; the committed PNGs of
-    Figs. 3, 6, 7 come from full runs, and :func:`save` never replaces them with a quick run's.
+    exp_convergence, exp_parameterizations, exp_scaling come from full runs, and :func:`save` never replaces them with a quick run's.
     """
     import importlib
     import json
@@ -77,6 +77,22 @@ def save(fig, out_dir, name: str, *, quick: bool = False, dpi: float = DPI) -> l
         paths.append(path)
     print(f"wrote {paths[0]} and {paths[1]}")
     return paths
+
+
+def save_numbers(out_dir, name: str, numbers: dict) -> Path:
+    """Write ``<out_dir>/<name>.json``: the numbers a figure computed on the spot and its README section
+    quotes (counts, not timings or rounding-level residuals, so a rerun writes the same bytes).
+
+    The committed file is where paper_figures/README.md reads them from (tests/test_paper_figures.py
+    compares the README's numbers with it); sorted keys and a trailing newline keep the bytes stable.
+    """
+    import json
+
+    path = Path(out_dir) / f"{name}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(numbers, indent=1, sort_keys=True) + "\n")
+    print(f"wrote {path}")
+    return path
 
 
 def residual_phrase(residual: float) -> str:

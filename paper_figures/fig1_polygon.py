@@ -1,9 +1,18 @@
-"""Figure 1: a spherical polygon and its normalized form (paper Fig. 1, centre and right; Eqs. 1 and 2).
+"""The paper's Fig. 1 redrawn: the spherical polygon of a four-bar linkage, and a spherical polygon before and after normalization (Eqs. 1 and 2).
 
-Question: what is the normalized polygon of Eq. (2) of a given spherical polygon, and do both really
-close as spherekin computes them?
+Question: which spherical polygon does a spherical linkage define (the paper's Fig. 1, left), what
+is the normalized polygon of Eq. (2) of a given spherical polygon (centre and right), and do they
+really close as spherekin computes them?
 
-How: a spherical quadrilateral with unequal sides and angles is given by its four vertices p_k
+How, left panel: the spherical four-bar of examples/four_bar.toml, loaded with
+spherekin.mechanism.io.load_mechanism, at its reference configuration (spherekin.plot.
+current_joint_axes at every joint's reference reading). Its joint axes pass through the centre, so
+they are points of the sphere, the vertices A, B, C, D of a spherical quadrilateral whose sides are
+the links (crank AB, coupler BC, rocker CD, ground DA) and whose side lengths are the link angles
+(radians); its closure, Eq. (1) of its measured sides and exterior angles, is checked like the
+centre panel's.
+
+How, centre and right: a spherical quadrilateral with unequal sides and angles is given by its four vertices p_k
 (unit vectors). Its sides alpha_k (arc p_k -> p_k+1) and exterior angles theta_k (the signed turn
 at p_k about p_k, from the pole n_k-1 of the incoming side to the pole n_k of the outgoing one) are
 measured on the sphere; spherekin.core.rotations.polygon_closure evaluates Eq. (1),
@@ -28,10 +37,14 @@ import numpy as np
 
 from paper_figures import _figure_tools as ft
 
+from spherekin.mechanism.io import load_mechanism  # noqa: E402
+from spherekin.plot import BASE_COLOUR, LEG_COLOURS, PLATFORM_COLOUR, current_joint_axes  # noqa: E402
 from spherekin.core.rotations import (Z, normalization_conjugator, normalize_polygon, normalized_closure,  # noqa: E402
                                  polygon_closure, rx)
 
 NAME = "fig1_polygon"
+#: The linkage of the left panel: a one-loop mechanism of two legs (crank and rocker, each two joints).
+FOUR_BAR = ft.ROOT / "examples" / "four_bar.toml"
 #: The quadrilateral's vertices as (polar angle from +z, azimuth) in degrees: chosen convex, with
 #: four different sides and angles, and on one hemisphere so that one view shows all of it.
 VERTICES_DEG = ((75.0, -35.0), (62.0, 50.0), (22.0, 95.0), (42.0, -128.0))
@@ -71,6 +84,37 @@ def normalized_vertices(poly: dict, phis: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
+def four_bar(path=FOUR_BAR) -> dict:
+    """The four-bar of ``path`` at its reference configuration as a spherical polygon.
+
+    Returns the mechanism, the vertex names in loop order (up the first leg, down the second), the
+    polygon (ft.polygon: vertices = current joint axes, sides = link angles and exterior angles in
+    radians), the side names with the link each side is (a leg's own link, the coupler between the
+    legs' last joints, the ground between their first joints), and the Eq. (1) closure residual.
+    """
+    mech = load_mechanism(path)
+    if len(mech.legs) != 2:
+        raise ValueError(f"{path}: expected a one-loop linkage of two legs, got {len(mech.legs)} legs")
+    ref = {j.name: j.reference_angle for j in mech.joints}
+    axes = current_joint_axes(mech, [ref[n] for n in mech.actuated], {n: ref[n] for n in mech.passive})
+    up, down = mech.legs
+    names = [j.name for j in up.joints] + [j.name for j in reversed(down.joints)]
+    poly = ft.polygon(np.concatenate([axes[up.name], axes[down.name][::-1]]))
+    n_up, m = len(up.joints), len(names)
+    links = []
+    for k in range(m):
+        if k < n_up - 1:
+            links.append((up.name, LEG_COLOURS[0]))
+        elif k == n_up - 1:
+            links.append(("coupler", PLATFORM_COLOUR))
+        elif k < m - 1:
+            links.append((down.name, LEG_COLOURS[1]))
+        else:
+            links.append(("ground", BASE_COLOUR))
+    residual = float(np.linalg.norm(polygon_closure(poly["sides"], poly["exterior"]) - np.eye(3)))
+    return dict(mechanism=mech, names=names, poly=poly, links=links, residual=residual)
+
+
 def compute(vertices_deg=VERTICES_DEG) -> dict:
     poly = ft.polygon([unit(*v) for v in vertices_deg])
     eq1 = polygon_closure(poly["sides"], poly["exterior"])
@@ -83,7 +127,7 @@ def compute(vertices_deg=VERTICES_DEG) -> dict:
     even_sign = np.sign(np.sum(q[1:2 * m:2] * poly["poles"], axis=1))
     even_gap = float(np.abs(q[1:2 * m:2] - even_sign[:, None] * poly["poles"]).max())
     q_sides = np.arctan2(np.linalg.norm(np.cross(q[:-1], q[1:]), axis=1), np.sum(q[:-1] * q[1:], axis=1))
-    return dict(poly=poly, phis=phis, eq1=eq1, eq2=eq2, normalized=q,
+    return dict(linkage=four_bar(), poly=poly, phis=phis, eq1=eq1, eq2=eq2, normalized=q,
                 residual_eq1=float(np.linalg.norm(eq1 - np.eye(3))),
                 residual_eq2=float(np.linalg.norm(eq2 - np.eye(3))),
                 walk_gap=float(np.linalg.norm(q[-1] - q[0])), odd_gap=odd_gap, even_gap=even_gap,
@@ -114,6 +158,31 @@ def _deg(a: float) -> str:
 LABEL_BOX = dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85)
 
 
+def _four_bar_panel(fig, spec, linkage: dict):
+    """The left panel: the linkage's links as great-circle arcs between its joint axes (points of the sphere)."""
+    poly, names, mech = linkage["poly"], linkage["names"], linkage["mechanism"]
+    p, m = poly["vertices"], poly["m"]
+    centre = p.sum(axis=0) / np.linalg.norm(p.sum(axis=0))
+    view = ft.view_for(p)
+    v = view[0]
+    ax = ft.sphere_axes(fig, spec, view, f"left: a spherical four-bar linkage ({FOUR_BAR.name})\n"
+                        "joint axes through the centre O: vertices; links: sides (link angles)")
+    for k in range(m):
+        a, b = p[k], p[(k + 1) % m]
+        name, colour = linkage["links"][k]
+        ft.draw_arc(ax, a, b, v, colour, 3.4)
+        mid = (a + b) / np.linalg.norm(a + b)
+        ft.label_at(ax, ft.away(mid, centre, 0.16), f"{name} {names[k]}{names[(k + 1) % m]}\n{_deg(poly['sides'][k])}",
+                    v, colour, radius=1.0, fontsize=10, bbox=LABEL_BOX)
+    for k in range(m):
+        ft.draw_point(ax, p[k], v, "black", "s" if mech.joint(names[k]).actuated else "o")
+        ft.label_at(ax, ft.away(p[k], centre, -0.12), names[k], v, "black",
+                    radius=1.0, fontsize=12, fontweight="bold")
+    ax.text2D(0.5, 0.0, f"Eq. (1) of its sides and angles: |Π Rx(θk) Rz(αk) − I| {ft.residual_phrase(linkage['residual'])}",
+              transform=ax.transAxes, ha="center", va="top", fontsize=11)
+    return ax
+
+
 def draw(data: dict):
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -123,12 +192,15 @@ def draw(data: dict):
     centre = p.sum(axis=0) / np.linalg.norm(p.sum(axis=0))
     view = ft.view_for(np.concatenate([p, q]))
     v = view[0]
-    fig = Figure(figsize=(15.0, 7.6))
-    grid = fig.add_gridspec(1, 3, width_ratios=(1.0, 1.0, 0.5), left=0.0, right=1.0, top=0.82, bottom=0.13,
+    fig = Figure(figsize=(20.0, 7.6))
+    grid = fig.add_gridspec(1, 4, width_ratios=(1.0, 1.0, 1.0, 0.5), left=0.0, right=1.0, top=0.82, bottom=0.13,
                             wspace=0.0)
 
-    # ---- left: the polygon of Eq. (1)
-    ax = ft.sphere_axes(fig, grid[0, 0], view, "a spherical quadrilateral, Eq. (1): m = 4")
+    # ---- left: the spherical polygon of a four-bar linkage
+    _four_bar_panel(fig, grid[0, 0], data["linkage"])
+
+    # ---- centre: the polygon of Eq. (1)
+    ax = ft.sphere_axes(fig, grid[0, 1], view, "centre: a spherical quadrilateral, Eq. (1): m = 4")
     for k in range(m):
         a, b = p[k], p[(k + 1) % m]
         ft.draw_arc(ax, a, b, v, POLYGON_COLOUR, 2.6)
@@ -151,7 +223,7 @@ def draw(data: dict):
               ha="center", va="top", fontsize=11)
 
     # ---- right: the normalized polygon of Eq. (2)
-    ax = ft.sphere_axes(fig, grid[0, 1], view, f"its normalized form, Eq. (2): n = 2m = {2 * m} sides of 90°")
+    ax = ft.sphere_axes(fig, grid[0, 2], view, f"right: its normalized form, Eq. (2): n = 2m = {2 * m} sides of 90°")
     for k in range(m):
         ft.draw_arc(ax, p[k], p[(k + 1) % m], v, POLYGON_COLOUR, 1.0, 2)
     for i in range(2 * m):
@@ -167,22 +239,27 @@ def draw(data: dict):
     ax.text2D(0.5, 0.0, f"|Π Rx(φi) Z − I| {ft.residual_phrase(data['residual_eq2'])}", transform=ax.transAxes,
               ha="center", va="top", fontsize=11)
     rows = [f"φ{i + 1} = {names[i]} + π = {math.degrees(data['phis'][i]) % 360:5.1f}°" for i in range(2 * m)]
-    fig.text(0.755, 0.5, "angles of Eq. (2)\n(exterior angle at q_i)\n\n" + "\n".join(rows), ha="left", va="center",
+    fig.text(6.05 / 7.0, 0.5, "angles of Eq. (2)\n(exterior angle at q_i)\n\n" + "\n".join(rows), ha="left", va="center",
              fontsize=10.5, family="DejaVu Sans Mono", linespacing=1.5)
 
     signs = set(data["even_sign"].astype(int))
     pole = "the pole" if signs == {1} else ("minus the pole" if signs == {-1} else "± the pole")
-    fig.suptitle("A spherical polygon and its normalized form (paper Fig. 1, centre and right)\n"
-                 "left: sides α_k, exterior angles θ_k (turned from the prolongation of the incoming side)\n"
+    fig.suptitle("The paper's Fig. 1 redrawn. Left: the spherical polygon of a spherical four-bar linkage "
+                 "(joint axes = vertices, links = sides). Centre and right: a spherical polygon before and after "
+                 "normalization\n"
+                 "centre: sides α_k, exterior angles θ_k (turned from the prolongation of the incoming side); "
                  f"right: all sides 90°; vertex q(2k−1) = p_k, vertex q(2k) = {pole} of side α_k", fontsize=12)
-    handles = [Line2D([], [], color=POLYGON_COLOUR, lw=2.6, label="polygon p1..p4 (sides α_k)"),
+    handles = [Line2D([], [], color=c, lw=3.0, label=f"four-bar: {name}")
+               for name, c in dict(data["linkage"]["links"]).items()]
+    handles.append(Line2D([], [], color="black", marker="s", ls="", label="four-bar: driven joint"))
+    handles += [Line2D([], [], color=POLYGON_COLOUR, lw=2.6, label="polygon p1..p4 (sides α_k)"),
                Line2D([], [], color="tab:green", lw=2.0, label="exterior angle θ_k"),
                Line2D([], [], color="0.3", lw=1.0, label="prolongation of the incoming side"),
                Line2D([], [], color=NORMALIZED_COLOUR, lw=2.4, label="normalized polygon q1..q8 (all sides 90°)"),
                Line2D([], [], color="black", marker="o", ls="", label="q(2k−1) = p_k, angle φ = θ_k + π"),
                Line2D([], [], color=NORMALIZED_COLOUR, marker="D", ls="", label="q(2k) = pole of α_k, angle φ = α_k + π"),
                Line2D([], [], color="0.3", lw=1.2, ls=(0, (3, 2)), alpha=0.6, label="far side of the sphere")]
-    fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=9.5, frameon=False, bbox_to_anchor=(0.5, 0.01))
+    fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=9.5, frameon=False, bbox_to_anchor=(0.5, 0.01))
     return fig
 
 
@@ -196,7 +273,9 @@ def main(argv=None) -> dict:
     print(f"|Eq. (1) product - I| = {data['residual_eq1']:.2e}, |Eq. (2) product - I| = {data['residual_eq2']:.2e}; "
           f"frame walk returns to q1 within {data['walk_gap']:.1e}; odd vertices on p_k within {data['odd_gap']:.1e}, "
           f"even vertices on the poles within {data['even_gap']:.1e} (signs {data['even_sign'].astype(int)})")
-    worst = max(data["residual_eq1"], data["residual_eq2"], data["walk_gap"], data["odd_gap"], data["even_gap"])
+    print(f"four-bar {FOUR_BAR.name}: vertices {data['linkage']['names']}, link angles (deg) "
+          f"{np.round(np.degrees(data['linkage']['poly']['sides']), 6)}; |Eq. (1) - I| = {data['linkage']['residual']:.2e}")
+    worst = max(data["linkage"]["residual"], data["residual_eq1"], data["residual_eq2"], data["walk_gap"], data["odd_gap"], data["even_gap"])
     if worst > CLOSURE_TOL:
         raise RuntimeError(f"the polygon or its normalized form does not close: {worst:.2e} > {CLOSURE_TOL}")
     ft.save(draw(data), args.out_dir, NAME)

@@ -1,15 +1,18 @@
-"""Figure 2: the Gosselin platform on the unit sphere and the two loops the model derives (paper Fig. 2).
+"""The paper's Fig. 2 redrawn: the Gosselin platform (left) and the spherical polygons it defines (right).
 
-Question: what mechanism does spherekin.mechanism.presets.gosselin describe, and which spherical
-polygons (closure loops, Eqs. 3-4) does the general model derive from its joint axes?
+Question: what mechanism does examples/gosselin.toml describe, drawn as the paper draws it, and
+which spherical polygons (closure loops, Eqs. 3-4) does the general model derive from its joint axes?
 
-How: every joint axis passes through the centre, so it is a point of the unit sphere and every
-link a great-circle arc (spherekin.plot's drawing helpers). Panel (a) is the reference
-configuration of the preset (beta = 0, R = I, each joint at its reference reading): there every
-axis is a coordinate axis, so several joints share a point and several links share an arc (drawn
-as nested stripes, widest first). Panel (b) moves the platform by a rotation of ROTATION_DEG about
-ROTATION_AXIS (inverse kinematics, the working mode of the reference configuration), which pulls
-the coincident links apart. Panels (c) and (d) draw, in that configuration, the two loops of the
+How: the mechanism is loaded from examples/gosselin.toml (spherekin.mechanism.io.load_mechanism);
+every coordinate drawn comes from the file's axes through spherekin's API. Every joint axis passes
+through the centre, so it is a point of the unit sphere and every link a great-circle arc
+(spherekin.plot's drawing helpers). At the file's reference configuration (beta = 0, R = I) every
+axis is a coordinate axis and several links coincide, so the mechanism is drawn with the platform
+turned by ROTATION_DEG about ROTATION_AXIS (inverse kinematics, the working mode of the reference
+configuration), which pulls them apart. Panel (a), the paper's left: the base triangle of the
+actuated joints beta_i (squares), each leg's proximal link (beta_i to the elbow gamma_i, thick) and
+distal link (gamma_i to the platform joint delta_i, thin), and the platform triangle of the
+delta_i. Panels (b) and (c), the paper's right: in that configuration, the two loops of the
 model (SphericalMechanism.loop_geometry: loop 1 up leg 1 and down leg 2, loop 2 up leg 3 and down
 leg 2, leg 2 the reference leg as in the paper), each vertex labelled with its joint and the factor
 angle phi_k = offset + sign * reading that the model puts into Eq. (2). The script measures the
@@ -28,11 +31,13 @@ import numpy as np
 
 from paper_figures import _figure_tools as ft
 
-from spherekin.mechanism import presets  # noqa: E402
+from spherekin.mechanism.io import load_mechanism  # noqa: E402
 from spherekin.plot import (BASE_COLOUR, LEG_COLOURS, PLATFORM_COLOUR, _configuration_arcs,  # noqa: E402
-                            _draw_configuration, _legend_handles, current_joint_axes)
+                            current_joint_axes)
 
 NAME = "fig2_gosselin"
+#: The mechanism drawn: the paper's Gosselin platform as this repository describes it.
+MECHANISM_FILE = ft.ROOT / "examples" / "gosselin.toml"
 #: The displaced configuration of panels (b)-(d): the platform turned by ROTATION_DEG about this
 #: axis from R = I. 25 deg separates the links that coincide at the reference configuration by
 #: ~0.2-0.4 rad on the sphere while keeping the pose recognisably the reference one.
@@ -41,8 +46,9 @@ ROTATION_DEG = 25.0
 #: Measured exterior angles and the model's phi_k must agree to this (radians, modulo 2 pi), and
 #: both loops must close to it: double-precision products of 6 rotations are exact to ~1e-15.
 ANGLE_TOL = 1e-12
-#: Line widths (points) of the nested stripes in panel (a): base, platform, then one per leg.
-STRIPES = {"base": 11.0, "platform": 8.0, "leg1": 5.5, "leg2": 3.8, "leg3": 2.0}
+#: Line widths (points) of the mechanism panel: proximal links thick, distal links thin (as the
+#: paper's drawing tells them apart), the platform and the base in between.
+WIDTHS = {"proximal": 4.2, "distal": 1.8, "platform": 3.2, "base": 2.6}
 GREEK = {"beta": "β", "gamma": "γ", "delta": "δ"}
 
 
@@ -98,7 +104,7 @@ def loop_data(mech, readings: dict, axes: dict) -> list[dict]:
 
 
 def compute() -> dict:
-    mech = presets.gosselin()
+    mech = load_mechanism(MECHANISM_FILE)
     configs = configurations(mech)
     axes = {k: axes_at(mech, r) for k, r in configs.items()}
     loops = loop_data(mech, configs["displaced"], axes["displaced"])
@@ -145,46 +151,25 @@ def _joint_colours(mech) -> dict:
     return {j.name: LEG_COLOURS[i % len(LEG_COLOURS)] for i, leg in enumerate(mech.legs) for j in leg.joints}
 
 
-def _reference_panel(ax, mech, axes, view) -> None:
-    """Links as nested stripes (many coincide) and one label per point listing the joints there."""
+def _mechanism_panel(ax, mech, axes, view) -> None:
+    """The mechanism as the paper draws it: base triangle, each leg's proximal and distal link, platform triangle."""
     v = view[0]
     legs = [leg.name for leg in mech.legs]
     base = [axes[n][0] for n in legs]
     platform = [axes[n][-1] for n in legs]
-    for i in range(3):
-        ft.draw_arc(ax, base[i], base[(i + 1) % 3], v, BASE_COLOUR, STRIPES["base"], 2)
-    for i in range(3):
-        ft.draw_arc(ax, platform[i], platform[(i + 1) % 3], v, PLATFORM_COLOUR, STRIPES["platform"], 3)
-    for i, n in enumerate(legs):
-        for p, q in zip(axes[n][:-1], axes[n][1:]):
-            ft.draw_arc(ax, p, q, v, LEG_COLOURS[i], STRIPES[n], 4 + i)
-    points: list[tuple[np.ndarray, list[str]]] = []
-    colours = _joint_colours(mech)
-    for leg in mech.legs:
-        for j, p in zip(leg.joints, axes[leg.name]):
-            for q, names in points:
-                if np.linalg.norm(p - q) < 1e-9:
-                    names.append(j.name)
-                    break
-            else:
-                points.append((p, [j.name]))
-    for p, names in points:
-        ft.draw_point(ax, p, v, "black")
-        axis = "".join(f"{'−' if c < 0 else ''}{'xyz'[k]}" for k, c in enumerate(np.round(p).astype(int)) if c)
-        text = f"{axis}: " + ", ".join(greek(n) for n in names)
-        ft.label_at(ax, p, text, v, "black", radius=1.17, fontsize=10,
-                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.6", alpha=0.9))
-    del colours
-
-
-def _displaced_panel(ax, mech, axes, view) -> None:
-    v = view[0]
-    _draw_configuration(ax, mech, axes, _configuration_arcs(mech, axes), v)
+    for i in range(len(legs)):
+        ft.draw_arc(ax, base[i], base[(i + 1) % len(legs)], v, BASE_COLOUR, WIDTHS["base"], 2)
+        ft.draw_arc(ax, platform[i], platform[(i + 1) % len(legs)], v, PLATFORM_COLOUR, WIDTHS["platform"], 3)
     centre = sum(p for leg in axes.values() for p in leg)
     centre = centre / np.linalg.norm(centre)
     colours = _joint_colours(mech)
-    for leg in mech.legs:
-        for j, p in zip(leg.joints, axes[leg.name]):
+    for i, leg in enumerate(mech.legs):
+        pts = axes[leg.name]
+        for k, (p, q) in enumerate(zip(pts[:-1], pts[1:])):
+            ft.draw_arc(ax, p, q, v, LEG_COLOURS[i % len(LEG_COLOURS)],
+                        WIDTHS["proximal"] if k == 0 else WIDTHS["distal"], 4)
+        for j, p in zip(leg.joints, pts):
+            ft.draw_point(ax, p, v, colours[j.name], "s" if j.actuated else "o")
             ft.label_at(ax, ft.away(p, centre, 0.13), greek(j.name), v, colours[j.name], radius=1.0, fontsize=11,
                         fontweight="bold")
 
@@ -225,34 +210,39 @@ def draw(data: dict):
 
     mech, axes = data["mechanism"], data["axes"]
     view = ft.view_for(np.concatenate([pts for cfg in axes.values() for pts, *_ in _configuration_arcs(mech, cfg)]))
-    fig = Figure(figsize=(15.0, 14.0))
-    grid = fig.add_gridspec(2, 4, width_ratios=(1.0, 0.36, 1.0, 0.36), left=0.0, right=0.99, top=0.89, bottom=0.08,
-                            wspace=0.0, hspace=0.14)
+    fig = Figure(figsize=(24.0, 8.6))
+    grid = fig.add_gridspec(1, 5, width_ratios=(1.15, 1.0, 0.36, 1.0, 0.36), left=0.0, right=0.99, top=0.8,
+                            bottom=0.13, wspace=0.0)
     cfg = data["configs"]["displaced"]
     inputs = ", ".join(f"{greek(n)} = {cfg[n]:+.3f}" for n in mech.actuated)
 
-    ax = ft.sphere_axes(fig, grid[0, 0:2], view, "(a) reference configuration: β = 0, R = I\n"
-                        "every axis is a coordinate axis; coincident links as nested stripes", pad=14)
-    _reference_panel(ax, mech, axes["reference"], view)
-    ax = ft.sphere_axes(fig, grid[0, 2:4], view, f"(b) platform turned {ROTATION_DEG:g}° about "
-                        f"({', '.join(f'{c:g}' for c in ROTATION_AXIS)})\ninputs {inputs} rad")
-    _displaced_panel(ax, mech, axes["displaced"], view)
+    ax = ft.sphere_axes(fig, grid[0, 0], view, f"(a) the Gosselin platform ({MECHANISM_FILE.name}), platform turned "
+                        f"{ROTATION_DEG:g}° about ({', '.join(f'{c:g}' for c in ROTATION_AXIS)})\n"
+                        f"inputs {inputs} rad; proximal links thick, distal links thin", pad=14)
+    _mechanism_panel(ax, mech, axes["displaced"], view)
     for k, loop in enumerate(data["loops"]):
         up, down = loop["legs"]
-        title = (f"({'cd'[k]}) loop {k + 1}: up {up}, across the platform, down {down}, across the base\n"
+        title = (f"({'bc'[k]}) loop {k + 1}: up {up}, across the platform, down {down}, across the base\n"
                  f"6 sides of 90°; |Π Rx(φi) Z − I| {ft.residual_phrase(data['residuals'][k])}")
-        ax = ft.sphere_axes(fig, grid[1, 2 * k], view, title)
+        ax = ft.sphere_axes(fig, grid[0, 1 + 2 * k], view, title, pad=14)
         rows = _loop_panel(ax, mech, axes["displaced"], loop, view)
-        tab = fig.add_subplot(grid[1, 2 * k + 1])
+        tab = fig.add_subplot(grid[0, 2 + 2 * k])
         tab.set_axis_off()
         tab.text(0.0, 0.5, "vertex, joint,\nangle in Eq. (2):\n\n" + "\n".join(rows), transform=tab.transAxes,
                  ha="left", va="center", fontsize=10.5, family="DejaVu Sans Mono", linespacing=1.5)
-    fig.suptitle("The Gosselin platform (agile-eye geometry) and the two closure loops the model derives "
-                 "(paper Fig. 2, Eqs. 3-5)\n"
+    fig.suptitle("The paper's Fig. 2 redrawn: the Gosselin platform (left) and the spherical polygons it defines "
+                 "(right; Eqs. 3-5)\n"
                  "joint axes are points of the unit sphere, links are great-circle arcs; actuated joints β_i "
                  "(squares), passive γ_i, δ_i (dots)", fontsize=12.5)
-    handles = _legend_handles(mech)
-    handles.append(Line2D([], [], color="0.8", lw=1.4, label="other links (loop panels)"))
+    handles = [Line2D([], [], color=BASE_COLOUR, lw=WIDTHS["base"], label="base"),
+               Line2D([], [], color=PLATFORM_COLOUR, lw=WIDTHS["platform"], label="platform")]
+    for i, leg in enumerate(mech.legs):
+        c = LEG_COLOURS[i % len(LEG_COLOURS)]
+        handles += [Line2D([], [], color=c, lw=WIDTHS["proximal"], label=f"{leg.name}: proximal link"),
+                    Line2D([], [], color=c, lw=WIDTHS["distal"], label=f"{leg.name}: distal link")]
+    handles += [Line2D([], [], color="black", marker="s", ls="", label="actuated joint β_i"),
+                Line2D([], [], color="0.8", lw=1.4, label="other links (loop panels)"),
+                Line2D([], [], color="0.3", lw=1.2, ls=(0, (3, 2)), alpha=0.6, label="far side of the sphere")]
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=10, frameon=False, bbox_to_anchor=(0.5, 0.01))
     return fig
 

@@ -1,4 +1,4 @@
-"""Tests of experiments/reproduction.py, experiments/convergence.py and paper_figures/fig3_convergence.py.
+"""Tests of experiments/reproduction.py, experiments/convergence.py and paper_figures/exp_convergence.py.
 
 The scripts' functions run on tiny inputs; their numbers are checked against independent values:
 control point counts against (deg + 1)^n with the degree of the tan-half factors derived in sympy,
@@ -164,11 +164,11 @@ def test_local_problem_roots_close_in_numpy(tiny_convergence):
 
 
 def test_figure_from_tiny_results(tiny_convergence, tmp_path):
-    from paper_figures import fig3_convergence
+    from paper_figures import exp_convergence
 
     data = json.loads(json.dumps(tiny_convergence, default=float))
     path = tmp_path / "convergence.json"
     path.write_text(json.dumps(data))
-    pngs = fig3_convergence.main(["--results", str(path), "--out-dir", str(tmp_path)])
+    pngs = exp_convergence.main(["--results", str(path), "--out-dir", str(tmp_path)])
     assert [p.suffix for p in pngs] == [".png", ".pdf"]
     assert pngs[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and pngs[0].stat().st_size > 10_000

@@ -1,22 +1,28 @@
-"""Tests for paper_figures/fig{1,2,4,5}_*.py: each script writes its PNG and PDF, and its numbers agree
+"""Tests for paper_figures/fig{1,2}_*.py and exp_{slice,solutions}.py: each script writes its PNG and PDF, and its numbers agree
 with independent derivations.
 
-* fig1: the polygon's sides and exterior angles against the spherical excess (Gauss-Bonnet:
+* fig1: the four-bar panel's link angles against examples/four_bar.toml read here with tomllib; the polygon's sides and exterior angles against the spherical excess (Gauss-Bonnet:
   sum of exterior angles = 2 pi - area, area from the Van Oosterom-Strackee triangle formula) and
   the closure of Eqs. (1) and (2) by plain numpy rotation matrices written here;
-* fig2: the displaced configuration's platform axes against R v_i^0 with R built by scipy from the
-  rotation the script asks for, and the model's phi_k against exterior angles measured here from
+* fig2: the displaced configuration's platform axes against R v_i^0 (v_i^0 read from
+  examples/gosselin.toml with tomllib) with R built by scipy from the rotation the script asks for, and the model's phi_k against exterior angles measured here from
   tangent vectors;
-* fig4: the roots of the 2-D slice against a brute-force grid + least-squares search on the leg
+* exp_slice: the roots of the 2-D slice against a brute-force grid + least-squares search on the leg
   poses built with scipy rotations (no spherekin code);
-* fig5: 8 solutions, 4 singular (the paper's count), each closing every leg (angle between the
-  elbow axis and R v_i^0 equal to the distal link twist pi/2) by scipy rotations.
+* exp_solutions: 8 solutions, 4 singular (the paper's count), each closing every leg (angle between the
+  elbow axis and R v_i^0 equal to the distal link twist pi/2) by scipy rotations;
+* labels: only Figs. 1-2 are called the paper's figures (scripts, README, docs), the exp_* are
+  captioned as this project's experiments, and every count paper_figures/README.md quotes is in the
+  file its section cites.
 """
 
 from __future__ import annotations
 
 import importlib
+import json
 import math
+import re
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +30,8 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+ROOT = Path(__file__).resolve().parent.parent
+FIGURES = ROOT / "paper_figures"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Closure and angle agreement: products of at most 16 double-precision rotations are exact to ~1e-15.
 TIGHT = 1e-12
@@ -73,6 +81,36 @@ def fig1(tmp_path_factory):
 
 def test_fig1_writes_png_and_pdf(fig1):
     assert_written(fig1[0], "fig1_polygon")
+
+
+def sphere_axes_of(fig) -> list:
+    return [ax for ax in fig.axes if ax.name == "3d"]
+
+
+def test_fig1_has_the_four_bar_panel_beside_the_polygon_panels(fig1):
+    """The paper's Fig. 1 has three panels: the four-bar's polygon (left), a polygon before and after normalization."""
+    module = load("fig1_polygon")
+    panels = sphere_axes_of(module.draw(fig1[1]))
+    assert len(panels) == 3
+    assert "four-bar" in panels[0].get_title()
+    assert "Eq. (1)" in panels[1].get_title() and "Eq. (2)" in panels[2].get_title()
+
+
+def test_fig1_four_bar_is_the_example_file(fig1):
+    """Vertices are the file's joint axes (reference configuration), sides its link angles."""
+    linkage = fig1[1]["linkage"]
+    spec = tomllib.loads((ROOT / "examples" / "four_bar.toml").read_text())
+    axes = {j["name"]: np.array(j["axis"], dtype=float) for leg in spec["legs"] for j in leg["joints"]}
+    up, down = ([j["name"] for j in leg["joints"]] for leg in spec["legs"])
+    names = up + down[::-1]
+    assert linkage["names"] == names
+    np.testing.assert_allclose(linkage["poly"]["vertices"], [axes[n] for n in names], atol=1e-12)
+    for k, side in enumerate(linkage["poly"]["sides"]):
+        a, b = axes[names[k]], axes[names[(k + 1) % len(names)]]
+        assert side == pytest.approx(math.acos(np.clip(a @ b, -1, 1)), abs=1e-12)
+    assert linkage["residual"] < TIGHT
+    assert [name for name, _ in linkage["links"]] == [spec["legs"][0]["name"], "coupler", spec["legs"][1]["name"],
+                                                      "ground"]
 
 
 def test_fig1_angles_match_the_spherical_excess(fig1):
@@ -125,14 +163,26 @@ def test_fig2_writes_png_and_pdf(fig2):
     assert_written(fig2[0], "fig2_gosselin")
 
 
-def test_fig2_configuration_is_the_requested_rotation(fig2):
+def test_fig2_draws_the_mechanism_beside_its_two_loops(fig2):
+    """The paper's Fig. 2: the platform (left) and the polygons it defines (right)."""
     _, module, data = fig2
+    panels = sphere_axes_of(module.draw(data))
+    assert len(panels) == 3
+    assert "Gosselin platform" in panels[0].get_title()
+    assert [ax.get_title().split(":")[0] for ax in panels[1:]] == ["(b) loop 1", "(c) loop 2"]
+
+
+def test_fig2_configuration_is_the_requested_rotation_of_the_file(fig2):
+    _, module, data = fig2
+    assert module.MECHANISM_FILE == ROOT / "examples" / "gosselin.toml"
+    spec = tomllib.loads(module.MECHANISM_FILE.read_text())
     mech = data["mechanism"]
     r = rot(module.ROTATION_AXIS, math.radians(module.ROTATION_DEG))
-    platform0 = {"leg1": [0, 0, 1], "leg2": [1, 0, 0], "leg3": [0, 1, 0]}   # v^0 = (z, x, y), preset docstring
-    for leg in mech.legs:
-        np.testing.assert_allclose(data["axes"]["displaced"][leg.name][-1], r @ platform0[leg.name], atol=1e-12)
-        np.testing.assert_allclose(data["axes"]["reference"][leg.name][-1], platform0[leg.name], atol=1e-12)
+    for i, leg in enumerate(mech.legs):
+        base, platform0 = np.array(spec["base_axes"][i]), np.array(spec["platform_axes"][i])
+        np.testing.assert_allclose(data["axes"]["displaced"][leg.name][-1], r @ platform0, atol=1e-12)
+        np.testing.assert_allclose(data["axes"]["reference"][leg.name][-1], platform0, atol=1e-12)
+        np.testing.assert_allclose(data["axes"]["displaced"][leg.name][0], base, atol=1e-12)   # the base stays
 
 
 def test_fig2_loops_angles_are_the_measured_exterior_angles(fig2):
@@ -149,12 +199,12 @@ def test_fig2_loops_angles_are_the_measured_exterior_angles(fig2):
             assert math.remainder(phi - turn, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
 
 
-# --------------------------------------------------------------------------------------------- fig4
+# ---------------------------------------------------------------------------------------- exp_slice
 
 @pytest.fixture(scope="module")
-def fig4(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fig4")
-    return out, load("fig4_slice").main(["--out-dir", str(out)])
+def exp_slice(tmp_path_factory):
+    out = tmp_path_factory.mktemp("exp_slice")
+    return out, load("exp_slice").main(["--out-dir", str(out)])
 
 
 def brute_force_roots(mech, inputs, fixed):
@@ -178,12 +228,12 @@ def brute_force_roots(mech, inputs, fixed):
     return roots
 
 
-def test_fig4_writes_png_and_pdf(fig4):
-    assert_written(fig4[0], "fig4_slice")
+def test_exp_slice_writes_png_and_pdf(exp_slice):
+    assert_written(exp_slice[0], "exp_slice")
 
 
-def test_fig4_roots_equal_brute_force_roots(fig4):
-    data = fig4[1]
+def test_exp_slice_roots_equal_brute_force_roots(exp_slice):
+    data = exp_slice[1]
     expected = brute_force_roots(data["mechanism"], (data["input"],), data["root"]["D"])
     assert len(expected) == 1                          # a consistent slice of a four-bar: one assembly
     for kind, run in data["runs"].items():
@@ -197,20 +247,20 @@ def test_fig4_roots_equal_brute_force_roots(fig4):
                            for r in expected) > 0.1
 
 
-# --------------------------------------------------------------------------------------------- fig5
+# --------------------------------------------------------------------------------------------- exp_solutions
 
 @pytest.fixture(scope="module")
-def fig5(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fig5")
-    return out, load("fig5_solutions").main(["--out-dir", str(out)])
+def exp_solutions(tmp_path_factory):
+    out = tmp_path_factory.mktemp("exp_solutions")
+    return out, load("exp_solutions").main(["--out-dir", str(out)])
 
 
-def test_fig5_writes_png_and_pdf(fig5):
-    assert_written(fig5[0], "fig5_solutions")
+def test_exp_solutions_writes_png_and_pdf(exp_solutions):
+    assert_written(exp_solutions[0], "exp_solutions")
 
 
-def test_fig5_eight_solutions_four_singular_each_closing(fig5):
-    data = fig5[1]
+def test_exp_solutions_eight_solutions_four_singular_each_closing(exp_solutions):
+    data = exp_solutions[1]
     sols = data["report"].solutions
     assert len(sols) == 8
     assert sorted(s.status for s in sols) == ["certified"] * 4 + ["singular"] * 4
@@ -242,9 +292,9 @@ def test_a_quick_run_never_replaces_a_committed_figure(capsys, monkeypatch, tmp_
     assert full[0].parent == committed / "quick"
 
 
-def test_fig3_without_results_runs_the_quick_experiment_of_the_experiments_package(monkeypatch, tmp_path):
+def test_exp_convergence_without_results_runs_the_quick_experiment_of_the_experiments_package(monkeypatch, tmp_path):
     """From a fresh clone no results exist: the quick run is imported as experiments.convergence
-    (the scripts run as python -m paper_figures.figN, not from inside experiments/)."""
+    (the scripts run as python -m paper_figures.<name>, not from inside experiments/)."""
     import json
 
     from experiments import _common, convergence
@@ -263,12 +313,12 @@ def test_fig3_without_results_runs_the_quick_experiment_of_the_experiments_packa
     assert calls == [["--quick"]]
 
 
-def test_fig3_runs_as_a_module():
+def test_exp_convergence_runs_as_a_module():
     import subprocess
     import sys
 
     root = Path(__file__).resolve().parent.parent
-    done = subprocess.run([sys.executable, "-m", "paper_figures.fig3_convergence", "--help"], cwd=root,
+    done = subprocess.run([sys.executable, "-m", "paper_figures.exp_convergence", "--help"], cwd=root,
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "--results" in done.stdout
@@ -284,3 +334,117 @@ def test_figures_are_byte_deterministic(fig1, tmp_path):
     png = (tmp_path / "fig1_polygon.png").read_bytes()
     assert b"Software" not in png and b"Matplotlib" not in png
     assert b"CreationDate" not in (tmp_path / "fig1_polygon.pdf").read_bytes()
+
+
+# ------------------------------------------------------------------------------------------- labels
+
+#: The paper has exactly these figures (two schematic figures, no numeric tables).
+PAPER_FIGURES = {"fig1_polygon": "Fig. 1", "fig2_gosselin": "Fig. 2"}
+#: A text claiming to be one of the paper's figures: "the paper's Fig. 3", "paper Fig. 3", "paper's Figure 3".
+PAPER_CLAIM = re.compile(r"paper(?:'s)?\s+(?:Fig(?:ure|s)?\.?)\s*(\d+)", re.I)
+
+
+def scripts() -> dict:
+    return {p.stem: p for p in sorted(FIGURES.glob("*.py")) if not p.stem.startswith("_")}
+
+
+def test_only_figs_1_and_2_are_the_papers_figures():
+    names = scripts()
+    assert set(PAPER_FIGURES) <= set(names)
+    assert all(n in PAPER_FIGURES or n.startswith("exp_") for n in names), sorted(names)
+    for name, path in names.items():
+        text = path.read_text()
+        head = load(name).__doc__.split("\n")[0]
+        if name in PAPER_FIGURES:
+            assert head.startswith(f"The paper's {PAPER_FIGURES[name]} redrawn"), head
+        else:
+            assert head.startswith("This project's experiment (not a figure of the paper)"), head
+            assert not re.search(r"\bFig(?:ure|\.)\s*\d", text), name      # no figure number at all
+            assert not PAPER_CLAIM.search(text), name
+
+
+def readme_sections(text: str) -> list[tuple[str, str]]:
+    """(heading, body) of each "## " section of a README (the part before the first is heading "")."""
+    parts = re.split(r"^## (.*)$", text, flags=re.M)
+    return [("", parts[0])] + list(zip(parts[1::2], parts[2::2]))
+
+
+def test_readme_and_docs_call_only_figs_1_and_2_the_papers():
+    pages = [FIGURES / "README.md", ROOT / "experiments" / "README.md", ROOT / "README.md"]
+    pages += [p for p in (ROOT / "docs").rglob("*.md") if "_build" not in p.parts]
+    for page in pages:
+        for match in PAPER_CLAIM.finditer(page.read_text()):
+            assert match.group(1) in ("1", "2"), f"{page.relative_to(ROOT)}: {match.group(0)!r}"
+    for heading, body in readme_sections((FIGURES / "README.md").read_text())[1:]:
+        script = re.search(r"`(\w+)\.py`", heading).group(1)
+        if script in PAPER_FIGURES:
+            assert f"the paper's {PAPER_FIGURES[script]} redrawn" in heading, heading
+        else:
+            assert heading.startswith("This project's experiment"), heading
+            assert "paper's Fig" not in body, heading
+
+
+#: Words a count is quoted with in paper_figures/README.md -> the key of the numbers file that holds it.
+COUNT_WORDS = {"boxes": "boxes", "split": "split", "splits": "split", "reduced again": "reduced_again",
+               "accepted": "accepted", "discarded": "discarded", "isolated": "isolated",
+               "solutions": "solutions", "singular": "singular", "certified": "certified"}
+QUOTED_COUNT = re.compile(r"\b(\d[\d,]*)\s+(" + "|".join(sorted(map(re.escape, COUNT_WORDS), key=len, reverse=True))
+                          + r")\b")
+QUOTED_RANGE = re.compile(r"\|det\| = (\d+\.\d+)-(\d+\.\d+)")
+
+
+def file_pairs(value, key=None) -> set:
+    """(key, value) of every number in a JSON document (nested dicts and lists flattened)."""
+    if isinstance(value, dict):
+        return set().union(*(file_pairs(v, k) for k, v in value.items())) if value else set()
+    if isinstance(value, list):
+        return set().union(*(file_pairs(v, key) for v in value)) if value else set()
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return {(key, value)}
+    return set()
+
+
+def stale_quotes(text: str) -> tuple[list[str], int]:
+    """(problems, quotes checked) of a paper_figures/README.md text: every count it quotes must be the
+    value of that count's key in a numbers file its section cites ("Numbers: [`x.json`](x.json)")."""
+    problems, checked = [], 0
+    for heading, body in readme_sections(text):
+        quotes = [(COUNT_WORDS[w], int(n.replace(",", ""))) for n, w in QUOTED_COUNT.findall(body)]
+        quotes += [(k, float(v)) for lo, hi in QUOTED_RANGE.findall(body)
+                   for k, v in (("det_certified_min", lo), ("det_certified_max", hi))]
+        if not quotes:
+            continue
+        cited = re.findall(r"\[`([\w.]+\.json)`\]\(([\w./]+\.json)\)", body)
+        if not cited:
+            problems.append(f"{heading!r} quotes {quotes} but cites no numbers file")
+            continue
+        pairs = set().union(*(file_pairs(json.loads((FIGURES / path).read_text())) for _, path in cited))
+        for quote in quotes:
+            checked += 1
+            if quote not in pairs:
+                problems.append(f"{heading!r}: {quote[1]} {quote[0]} is not in {[p for _, p in cited]}")
+    return problems, checked
+
+
+def test_every_count_quoted_in_the_readme_is_in_the_file_it_cites():
+    problems, checked = stale_quotes((FIGURES / "README.md").read_text())
+    assert not problems, "\n".join(problems)
+    assert checked >= 10                      # the slice's counts, the solutions' counts and |det| range
+
+
+def test_a_stale_count_in_the_readme_is_caught():
+    """The check is real: the counts the README gave before the slice was re-run fail it."""
+    text = (FIGURES / "README.md").read_text()
+    data = json.loads((FIGURES / "exp_slice.json").read_text())["runs"]["paper"]
+    quoted = f"{data['boxes']} boxes ({data['split']} split"
+    assert quoted in text
+    problems, _ = stale_quotes(text.replace(quoted, "131 boxes (40 split"))
+    assert len(problems) == 2 and "131 boxes" in problems[0]
+    problems, _ = stale_quotes(text.replace("Numbers: [`exp_slice.json`](exp_slice.json).", ""))
+    assert any("cites no numbers file" in p for p in problems)
+
+
+def test_committed_numbers_files_are_what_the_scripts_write(exp_slice, exp_solutions):
+    """The committed <name>.json are regenerated byte for byte (make figures leaves them unchanged)."""
+    for fixture, name in ((exp_slice, "exp_slice"), (exp_solutions, "exp_solutions")):
+        assert (fixture[0] / f"{name}.json").read_text() == (FIGURES / f"{name}.json").read_text(), name

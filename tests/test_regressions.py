@@ -21,7 +21,7 @@ def test_sweep_miss_is_found(seed):
 
 
 def test_a_box_reduced_to_a_non_root_point_is_not_accepted():
-    """Found with paper_figures/fig4_slice.py: the spherical four-bar at A = 0.5 with D fixed leaves
+    """Found with paper_figures/exp_slice.py: the spherical four-bar at A = 0.5 with D fixed leaves
     two unknowns (B, C); on one tan-half chart the hull of an equation touches w = 0 at one abscissa
     only, so projected-polyhedron pruning shrinks the whole chart to one point, (B, C) = (0, pi),
     where |F - I| = 2.8. Every reported solution must be a root (checked by plain rotation products)."""

@@ -1,4 +1,4 @@
-"""Figure 7: how the cost of a solve grows with the number of unknown joint angles.
+"""This project's experiment (not a figure of the paper): how the cost of a solve grows with the number of unknown joint angles.
 
 Question: how do boxes and time grow from one-loop linkages (3 unknowns) to 3-RRRs (6) and to
 four-legged platforms (8 and 9)? Plots the latest run of experiments/scaling.py (see
@@ -15,7 +15,7 @@ from pathlib import Path
 
 from paper_figures import _figure_tools as ft
 
-NAME = "fig7_scaling"
+NAME = "exp_scaling"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 MARKERS = {"four_bar": "o", "five_bar": "s", "gosselin": "^", "general_3rrr": "v", "3rrr_rrrr": "D",
            "4rrr_redundant": "P", "3rrr_passive_leg": "X"}

@@ -1,4 +1,4 @@
-"""Figure 6: tan-half-angle vs sin/cos -- what each parameterization costs on the same mechanisms.
+"""This project's experiment (not a figure of the paper): tan-half-angle vs sin/cos -- what each parameterization costs on the same mechanisms.
 
 Question: the paper's tan(theta/2) (Section 2.2) or the sin/cos variables it proposes in Section 5?
 Plots the latest run of experiments/parameterizations.py (see _figure_tools.experiment_data) and
@@ -17,7 +17,7 @@ import numpy as np
 
 from paper_figures import _figure_tools as ft
 
-NAME = "fig6_parameterizations"
+NAME = "exp_parameterizations"
 COLOURS = {"tan-half": "#1f77b4", "sin-cos": "#d95f02"}
 LABELS = {"four_bar": "four-bar", "five_bar": "five-bar", "gosselin": "Gosselin", "general_3rrr": "general 3-RRR"}
 

@@ -1,4 +1,4 @@
-"""Figure 4: the subdivision boxes of the solver over a 2-D closure system, paper formulation vs default.
+"""This project's experiment (not a figure of the paper): the subdivision boxes of the solver over a 2-D closure system, paper formulation vs default.
 
 Question: what does the subdivision of Section 4 do, box by box, and how does the paper's scalar
 equation (Eq. 10) differ from the default formulation in the boxes it needs?
@@ -44,7 +44,7 @@ from spherekin.core.rotations import normalized_closure  # noqa: E402
 from spherekin.search.boxloop import DEFAULT_TOL, TRACE_OUTCOMES, solve_system  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
-NAME = "fig4_slice"
+NAME = "exp_slice"
 #: Crank input (radians): the four-bar input of tests/test_plot.py; any input with two assemblies works.
 INPUT = 0.5
 #: The passive joint fixed in the slice, and the two that stay unknown (in this order: x, y axes).
@@ -352,6 +352,17 @@ def draw(data: dict):
     return fig
 
 
+def numbers(data: dict) -> dict:
+    """What the README quotes, per run ("paper", "default"): boxes in all and by trace outcome, solutions reported."""
+    out = {}
+    for kind, r in data["runs"].items():
+        s = r["report"].settings
+        out[kind] = dict(formulation=s.formulation, pruner=s.pruner, isolate=bool(s.isolate), tol=data["tol"],
+                         boxes=len(r["boxes"]["outcome"]), solutions=len(r["solutions"]),
+                         roots=sum(x["is_root"] for x in r["solutions"]), **_counts(r["boxes"]))
+    return dict(input=data["input"], runs=out)
+
+
 def main(argv=None) -> dict:
     p = ft.parser(__doc__.split("\n\n")[0])
     p.add_argument("--paper-pruner", choices=("pp", "lp"), default="pp",
@@ -365,6 +376,7 @@ def main(argv=None) -> dict:
               + ", ".join(f"({math.degrees(s['angles'][0]):.4f}, {math.degrees(s['angles'][1]):.4f}) deg "
                           f"|F-I|={s['residual']:.1e}" for s in r["solutions"]))
     ft.save(draw(data), args.out_dir, NAME)
+    ft.save_numbers(args.out_dir, NAME, numbers(data))
     return data
 
 

@@ -1,4 +1,4 @@
-"""Figure 5: the solutions of the Gosselin example (paper Section 2.1) drawn on the unit sphere.
+"""This project's experiment (not a figure of the paper): the solutions of the Gosselin example (paper Section 2.1) drawn on the unit sphere.
 
 Question: what are the assemblies of the paper's Gosselin platform at the inputs that ``make run``
 solves, and which of them are singular?
@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from spherekin.plot import current_joint_axes, plot_solutions  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
 
-NAME = "fig5_solutions"
+NAME = "exp_solutions"
 #: The inputs (radians) of ``make run`` (Makefile: spherekin solve examples/gosselin.toml --inputs 0.3,-0.2,0.5).
 INPUTS = (0.3, -0.2, 0.5)
 
@@ -34,6 +34,21 @@ def compute(inputs=INPUTS) -> dict:
     mech = presets.gosselin()
     report = solve(mech, inputs)
     return dict(mechanism=mech, inputs=tuple(inputs), report=report)
+
+
+def numbers(data: dict) -> dict:
+    """What the README quotes: solutions in all and by status, and the range of |det[u w v]| (the
+    legs' fold measure: 0 when a leg's three joint axes are coplanar) over the legs of the certified
+    solutions, to 2 decimals (the README's precision; rounding keeps the bytes machine-independent)."""
+    report = data["report"]
+    counts = Counter(s.status for s in report.solutions)
+    dets = []
+    for s in report.solutions:
+        if s.status == "certified":
+            axes = current_joint_axes(data["mechanism"], data["inputs"], dict(zip(report.unknowns, s.angles)))
+            dets += [abs(float(np.linalg.det(a))) for a in axes.values()]
+    return dict(inputs=list(data["inputs"]), solutions=len(report.solutions), **dict(sorted(counts.items())),
+                det_certified_min=round(min(dets), 2), det_certified_max=round(max(dets), 2))
 
 
 def main(argv=None) -> dict:
@@ -54,6 +69,7 @@ def main(argv=None) -> dict:
         print(f"  {k}: {s.status:10s} {s.singularity:16s} " + " ".join(f"{a:+.4f}" for a in s.angles)
               + "   " + " ".join(f"{d:+.3f}" for d in dets))
     data["paths"] = paths
+    ft.save_numbers(out, NAME, numbers(data))
     return data
 
 

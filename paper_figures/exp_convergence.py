@@ -1,4 +1,4 @@
-"""Fig. 3: convergence of the subdivision near the roots (Section 4's "quadratically convergent" claim).
+"""This project's experiment (not a figure of the paper): convergence of the subdivision near the roots (Section 4's "quadratically convergent" claim).
 
 Plots the latest run of experiments/convergence.py (see _figure_tools.experiment_data: the full
 run, else the quick one, else a quick run made now) in two panels:
@@ -8,7 +8,7 @@ run, else the quick one, else a quick run made now) in two panels:
     projected-polyhedron pruning): thin lines for every root, a thick line for the first regular one;
 (b) boxes processed against the tolerance, log-log, summed over the same local problems.
 
-    python -m paper_figures.fig3_convergence [--out-dir paper_figures] [--results PATH]
+    python -m paper_figures.exp_convergence [--out-dir paper_figures] [--results PATH]
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def main(argv=None):
     args = p.parse_args(argv)
     data, quick = experiment_data("convergence", args.results)
     fig = draw(data)
-    paths = save(fig, args.out_dir, "fig3_convergence", quick=quick)
+    paths = save(fig, args.out_dir, "exp_convergence", quick=quick)
     plt.close(fig)
     return paths
 
