@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["replacing", "write_text"]
+__all__ = ["replacing", "write_text", "check_writable"]
 
 
 @contextmanager
@@ -37,3 +37,20 @@ def write_text(path, text: str) -> None:
     """Write ``text`` to the file ``path`` whole or not at all (:func:`replacing`)."""
     with replacing(path) as tmp:
         tmp.write_text(text)
+
+
+def check_writable(directory, what: str) -> None:
+    """ValueError naming ``what`` unless a file can be created in ``directory``: probed by creating (and
+    removing) the kind of hidden temporary :func:`replacing` writes there, so a read-only mount, /proc or a
+    directory without write permission is found before any work (``os.access`` says yes to root on a
+    read-only mount)."""
+    probe = Path(directory) / f".spherekin-probe.{os.getpid()}.tmp"
+    try:
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:
+        return
+    except OSError as exc:
+        raise ValueError(f"{what}: cannot write in the directory {str(directory)!r} "
+                         f"({exc.strerror or type(exc).__name__})") from None
+    os.close(fd)
+    os.unlink(probe)

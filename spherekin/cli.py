@@ -131,8 +131,7 @@ def _check_output_file(option: str, path: str, suffixes: tuple[str, ...]) -> Pat
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise ValueError(f"{option} {path}: the directory {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise ValueError(f"{option} {path}: the directory {parent} is not writable")
+    atomic.check_writable(parent, f"{option} {path}")
     return out
 
 

@@ -201,6 +201,7 @@ def check_plot_path(path, key: str = "path") -> tuple[Path, str]:
     if fmt not in PLOT_FORMATS:
         raise ValueError(f"{key}: expected a file name ending in one of "
                          f"{', '.join('.' + f for f in PLOT_FORMATS)}, got {out.name!r}")
+    atomic.check_writable(out.parent, f"{key} {out}")
     return out, fmt
 
 

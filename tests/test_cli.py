@@ -348,3 +348,15 @@ def test_a_growing_job_logs_one_progress_line_not_one_per_round(capsys):
     progress.close()
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1 and "180/180 inputs" in lines[0]
+
+
+@pytest.mark.parametrize("command", [["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--plot", "/proc/x.png"],
+                                     ["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", "/proc/x.json"],
+                                     ["singular", GOSSELIN.replace("gosselin", "four_bar"), "--x", "A=-pi:pi",
+                                      "--json", "/proc/x.json"]])
+def test_an_output_where_nothing_can_be_written_is_refused_before_the_work(command, capsys):
+    """A directory no file can be created in (/proc, a read-only mount: os.access says yes to root there) is
+    one line naming the option before any work (issue 42 item 10), found by creating a probe file."""
+    assert main(command) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "cannot write in the directory '/proc'" in err
