@@ -17,7 +17,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DOCS_STAMP := $(VENV)/.installed-docs
 
-EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling
+EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling tan_vs_sincos
 QUICK_FLAG := $(if $(FULL),,--quick)
 
 .PHONY: run test verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
