@@ -475,7 +475,8 @@ def _singular(args) -> int:
         home, args.mode_change = None, False
     if home is not None:
         plane_inputs = (x[0],) if y is None else (x[0], y[0])
-        box = problem.free_box(home, start=args.start_solution - 1,
+        window = {a[0]: (a[1], a[2]) for a in ((x,) if y is None else (x, y))}   # drawn in the plane: bound by it
+        box = problem.free_box(home, start=args.start_solution - 1, bounds=window,
                                inputs=plane_inputs if args.free == "plane" else None, shape=args.free_shape)
         sset = dataclasses.replace(sset, free_box={**box.as_dict(), "start_solution": args.start_solution})
     if args.mode_change:
@@ -514,8 +515,9 @@ def _singular(args) -> int:
               f"({'proven' if fb['proven'] else 'none proven'}; {fb['cells']} cells; cube radius "
               f"{fb['radius'] * show:.6g} {unit}, limit: {fb['limit']})")
         if fb["shape"] == "box":
-            print("  faces: " + ", ".join(f"{f['input']} {f['side']} {f['extent'] * show:.6g} ({f['limit']})"
-                                          for f in fb["faces"]))
+            at = {f"{f['input']} {f['side']}": fb["inputs"][f["input"]][0 if f["side"] == "lo" else 1] for f in fb["faces"]}
+            print("  faces: " + ", ".join(f"{f['input']} {f['side']} = {at[f['input'] + ' ' + f['side']] * show:.6g} "
+                                          f"({f['extent'] * show:.6g} from home; {f['limit']})" for f in fb["faces"]))
     if sset.mode_change is not None:
         mc = sset.mode_change
         if mc.found:

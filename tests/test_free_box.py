@@ -272,3 +272,25 @@ def test_free_box_faces_stop_at_the_actuated_joint_ranges(tmp_path):
     assert fb.radius >= 0.25                       # the cube (each face capped by its room) grew past the ranges
     rows = np.array([[fb.lo[0], fb.lo[1], 0.5], [fb.hi[0], fb.hi[1], 0.5]])
     mech.check_input_rows(rows, "corner {k}")                              # both corners inside the ranges
+
+
+def test_free_box_faces_stop_at_the_bounds_asked_for(rrr, tmp_path, capsys):
+    """Issue 42 item 4: the box drawn in a plane ran outside it (beta1 up to 1.35 over [-0.5, 0.5]). With
+    ``bounds`` every face stays inside them (limit "bounds" where it reaches them), home must lie inside,
+    and the command bounds it by its plane and prints each face as a coordinate."""
+    mech, problem, _ = rrr
+    window = {"beta1": (-0.1, 0.2), "beta2": (-0.15, 0.3)}
+    fb = problem.free_box(HOME, start=1, inputs=("beta1", "beta2"), bounds=window)
+    for k, name in enumerate(("beta1", "beta2")):
+        assert window[name][0] - 1e-12 <= fb.lo[k] and fb.hi[k] <= window[name][1] + 1e-12
+    faces = {(f.input, f.side): f for f in fb.faces}
+    assert faces[("beta1", "lo")].limit == "bounds" and math.isclose(faces[("beta1", "lo")].extent, 0.1)
+    assert all(f.limit in ("bounds", "unproven", "link", "cells") for f in fb.faces)
+    with pytest.raises(ValueError, match="bounds: expected"):
+        problem.free_box(HOME, start=1, inputs=("beta1",), bounds={"beta1": (0.1, 0.2)})   # home outside
+    from spherekin.cli import main
+
+    assert main(["singular", str(EXAMPLES / "general_3rrr.toml"), "--x", "beta1=-0.1:0.2", "--y", "beta2=-0.15:0.3",
+                 "--fix", "beta3=0.5", "--tol", "0.1", "--home", "0,0,0.5", "--start-solution", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "beta1 lo = -0.1 (0.1 from home; bounds)" in out and "beta1 [-0.1, " in out

@@ -111,7 +111,7 @@ START_TOL = 1e-6
 class Face:
     """One face of a free box: the side ("lo" or "hi") of the free input ``input``, its distance from
     home (``extent``, radians) and why it stops there (``limit``: as :class:`FreeBox`'s, plus "range":
-    the input's joint range; ``limit_at``: the failed cell's centre by input name, or None)."""
+    the input's joint range, "bounds": the bounds asked for; ``limit_at``: the failed cell's centre by input name, or None)."""
 
     input: str
     side: str
@@ -134,7 +134,7 @@ class FreeBox:
     next box out could not be proven, near ``limit_at``: a singularity of the assembly within ~a cell
     of it, or, on the loop equations, enclosures too loose there; "link": a cell could not be tied to
     the home assembly; "cells": ``max_cells``; "radius": the largest radius asked for reached; "range":
-    every face at its input's joint range);
+    every face at its input's joint range; "bounds": every face at the ``bounds`` given);
     ``limit_at``: the inputs (by name) of the failed cell's centre, or None; ``faces``: each face of the
     box (:class:`Face`; shape "box": pushed out one at a time); ``shape``: "box" or "cube" (SHAPES);
     ``seconds``: the wall time.
@@ -478,7 +478,7 @@ def checked_home(mechanism, home) -> np.ndarray:
 
 
 def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_radius: float = MAX_RADIUS,
-             min_cell: float = MIN_CELL, max_cells: int = MAX_CELLS) -> FreeBox:
+             min_cell: float = MIN_CELL, max_cells: int = MAX_CELLS, bounds=None) -> FreeBox:
     """The largest box of the inputs named in ``inputs`` (the others fixed at home; None: all) around
     ``home`` proven to hold the assembly of ``start`` without a parallel singularity (module doc).
 
@@ -487,7 +487,9 @@ def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_rad
     together until a box fails, the bracket is bisected (FACE_BISECTIONS), and the face nearest the
     failed cell is held there; the others go on, until every face is held (each face's reason in
     :attr:`FreeBox.faces`). Every face stays inside its input's joint range ("range") and within
-    ``max_radius`` of home. Every box tried is proven whole, not the added slab alone.
+    ``max_radius`` of home, and inside ``bounds`` (input name -> (lo, hi) radians, e.g. the plane a
+    singular set was computed over: limit "bounds"; home must lie in them). Every box tried is proven
+    whole, not the added slab alone.
 
     ``mechanism``: any; on the platform's orientation where the platform tracker applies
     (:func:`~spherekin.trust.continuation.not_tracked` is None: ``start`` is the platform rotation R
@@ -516,6 +518,9 @@ def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_rad
         raise ValueError(f"min_cell: expected 0 < W <= {FIRST_CELL:g} (radians), got {min_cell!r}")
     if int(max_cells) != max_cells or max_cells < 1:
         raise ValueError(f"max_cells: expected a positive integer, got {max_cells!r}")
+    for name, (lo, hi) in (bounds or {}).items():
+        if name not in names or not lo <= home[names.index(name)] <= hi:
+            raise ValueError(f"bounds: expected (lo, hi) around home for actuated joints, got {name}: ({lo}, {hi})")
     sys = _Platform(mechanism, start) if not_tracked(mechanism) is None else _Loops(mechanism, start, home)
     state = sys.start_state(home)
     state, ok = sys.continued(state[None], home[None], home[None])
@@ -523,10 +528,17 @@ def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_rad
         raise ValueError("start: the start pose could not be proven an isolated assembly at home (it is at or next "
                          "to a parallel singularity)")
     state = state[0]
-    # the room of each face (F, 2: lo side, hi side): the joint range, then max_radius
+    # the room of each face (F, 2: lo side, hi side): the joint range, the bounds, then max_radius
     room = np.array([room_in_range(home[a], mechanism.joint(names[a]).range) for a in free], dtype=float)
+    cap_limit = np.where(room < max_radius, "range", "radius").astype(object)
+    for k, a in enumerate(free):
+        if bounds is not None and names[a] in bounds:
+            lo, hi = (float(v) for v in bounds[names[a]])
+            within = np.array([home[a] - lo, hi - home[a]])
+            tighter = within < np.minimum(room[k], max_radius)
+            room[k] = np.where(tighter, within, room[k])
+            cap_limit[k] = np.where(tighter, "bounds", cap_limit[k])
     cap = np.minimum(room, max_radius)
-    cap_limit = np.where(room < max_radius, "range", "radius")
 
     def box(ext):
         lo, hi = home.copy(), home.copy()
@@ -562,7 +574,8 @@ def free_box(mechanism, home, start, inputs=None, *, shape: str = "box", max_rad
             else:
                 bad, failure = r, (why, where)
     if failure is None:
-        failure = ("range" if (cap_limit == "range").all() else "radius", None)
+        capped_by = set(cap_limit.ravel()) - {"radius"}
+        failure = (capped_by.pop() if len(capped_by) == 1 and (cap_limit != "radius").all() else "radius", None)
     ext = np.minimum(good, cap)
     # the faces: held where capped; the one nearest the cube's failure held at the cube
     held = {(k, s): (str(cap_limit[k, s]), None) for k in range(len(free)) for s in (0, 1) if ext[k, s] >= cap[k, s]}
