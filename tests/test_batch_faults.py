@@ -271,3 +271,27 @@ def test_map_in_order_on_a_cluster_whose_workers_are_all_killed_raises_cluster_l
                 list(results)
     finally:
         c.close()
+
+
+def test_a_cluster_lost_while_the_job_is_set_up_is_the_same_one_line_error():
+    """Issue 42 item 5: the scheduler gone while the client registers the job's worker plugin gave
+    distributed's CommClosedError and a traceback; it is ClusterLost (the command's one line, --resume)
+    as anywhere later in the run. A real scheduler on 127.0.0.1, killed before the job starts."""
+    import numpy as np
+    from distributed import Client
+
+    from spherekin.batch.engine import Job, _run_dask
+    from spherekin.cluster import ClusterLost
+    from spherekin.mechanism import general_3rrr
+
+    c = Cluster()
+    try:
+        client = Client(c.address, timeout=3)
+        os.kill(c.scheduler.pid, signal.SIGKILL)
+        c.scheduler.wait()
+        with pytest.raises(ClusterLost, match="lost the cluster while the job was being set up") as info:
+            _run_dask(Job.of(general_3rrr(), {}), np.zeros((4, 3)), [(0, 4)], lambda *a: None, client, 1, False)
+        assert info.value.back == "the scheduler is"
+        client.close()
+    finally:
+        c.close()

@@ -210,9 +210,13 @@ def _run_here(job: Job, inputs, todo, emit) -> None:
 def _run_dask(job: Job, inputs, todo, emit, client, workers: int, ordered: bool) -> None:
     from .plugin import CompiledProblem
 
-    address = scheduler_address(client)
-    plugin = CompiledProblem(job, client.id)
-    _register(client, plugin)
+    try:
+        address = scheduler_address(client)
+        plugin = CompiledProblem(job, client.id)
+        _register(client, plugin)
+    except OSError as exc:                      # distributed's CommClosedError is one: the cluster went down
+        raise ClusterLost(f"lost the cluster while the job was being set up ({type(exc).__name__}: "
+                          f"{' '.join(str(exc).split()) or 'connection closed'})", "the scheduler is") from None
     queue = deque(todo)
     window = max(1, workers) * TASKS_PER_WORKER
     futures = {}
