@@ -163,6 +163,9 @@ class _RecordingSink:
     def write(self, first, end, frame):
         self.writes.append((first, end, sorted(set(frame["input"]))))
 
+    def check_in_place(self, written):             # nothing on disk (spherekin.batch.sinks.Sink's protocol)
+        pass
+
     def close(self):
         pass
 

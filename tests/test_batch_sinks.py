@@ -215,3 +215,30 @@ def test_a_csv_output_is_what_pandas_writes_for_the_table_byte_for_byte(tmp_path
     back = pd.read_csv(path)
     for name in ("beta1", "beta2", names[0], names[-1], "r11", "r21", "r23", "residual"):
         np.testing.assert_array_equal(back[name].to_numpy(dtype=float), frame[name].to_numpy(dtype=float))
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+@pytest.mark.parametrize("how", ["removed", "replaced"])
+def test_an_output_replaced_during_the_run_is_not_reported_as_written(tmp_path, mech, suffix, how):
+    """Issue 42 item 11: `rm r.csv; mkdir r.csv` while a batch ran ended with "3649 row(s) written to r.csv".
+    The output is compared with the path once the run ends: removed or replaced, the run fails saying so."""
+    import shutil
+
+    from spherekin.batch import solve_to_file
+
+    out = tmp_path / f"r{suffix}"
+
+    def progress(done, total):
+        if done and out.exists() and not getattr(progress, "fired", False):
+            progress.fired = True
+            shutil.rmtree(out) if out.is_dir() else out.unlink()
+            if how == "replaced":
+                (out.mkdir() if suffix == ".csv" else out.write_text("someone else's"))
+
+    # a CSV is written through its open file (compared with the path at the end); a Parquet dataset gets a new
+    # file per chunk, whose write then fails: the same one line either way, never a traceback or "written"
+    said = (f"{how} during the run: the \\d+ row\\(s\\) written this run are not" if suffix == ".csv"
+            else "could not write .*run the same command with --resume")
+    with pytest.raises(RuntimeError, match=said):
+        solve_to_file(mech, INPUTS[:3], out, chunk_size=1, progress=progress)
+    assert progress.fired

@@ -186,6 +186,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
             _run_here(job, inputs, todo, emit)
         else:
             _run_dask(job, inputs, todo, emit, client, workers, sink.ordered)
+        sink.check_in_place(state["rows"])           # rows said written must be at the path
     except KeyboardInterrupt:
         interrupted = True
     except ClusterLost as exc:              # what was lost, then what is kept and how to finish
@@ -194,6 +195,11 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
                 f"run the same command with --resume once {exc.back} back" if path is not None
                 else f"the table was held in memory: nothing is kept ({state['solved']} of {total} inputs were done)")
         raise ClusterLost(f"{exc}; {kept}", exc.back) from None
+    except OSError as exc:                  # the output could not be written (disk full, its directory gone)
+        path = getattr(sink, "path", None)
+        raise RuntimeError(f"--out {path}: could not write ({exc.strerror or type(exc).__name__}): {state['solved']} of "
+                           f"{total} inputs are kept there; free space (or restore the path) and run the same command "
+                           "with --resume") from None
     finally:
         sink.close()
     return RunSummary(total, skipped, state["solved"] - skipped, state["rows"], workers,

@@ -152,6 +152,24 @@ class Sink:
     def discard_temporaries(self, run: str) -> None:
         """Delete the temporary files of run ``run`` (its lock token): none but a Parquet dataset's."""
 
+    #: (device, inode) of the output as opened; None: nothing on disk (a table in memory).
+    identity: tuple | None = None
+
+    def check_in_place(self, written: int) -> None:
+        """RuntimeError when the output at ``path`` is no longer the one this run wrote (removed, or
+        replaced by another file or directory during the run): the ``written`` rows are not at that
+        path, and the run must not say they are (issue 42 item 11). Called once the run has ended."""
+        if self.identity is None:
+            return
+        try:
+            st = os.stat(self.path)
+            now = (st.st_dev, st.st_ino)
+        except OSError:
+            now = None
+        if now != self.identity:
+            raise RuntimeError(f"--out {self.path}: {'removed' if now is None else 'replaced'} during the run: the "
+                               f"{written} row(s) written this run are not at that path; run the command again")
+
     def __enter__(self):
         return self
 
@@ -198,6 +216,8 @@ class ParquetSink(Sink):
             for part in path.glob("part-*.parquet"):
                 part.unlink()
         path.mkdir(exist_ok=True)
+        st = os.stat(path)
+        self.identity = (st.st_dev, st.st_ino)
         if resume:
             check_fingerprints(path, fingerprint)
             self._verify_parts()
@@ -317,6 +337,8 @@ class CsvSink(Sink):
             self._file = open(path, "wb", buffering=0)
             atomic.write_text(side, fingerprint.to_json())    # the fingerprint is there before the first row
             self._append(self._header())
+        st = os.fstat(self._file.fileno())
+        self.identity = (st.st_dev, st.st_ino)
 
     def _header(self) -> bytes:
         return (",".join(self.columns) + "\n").encode()
