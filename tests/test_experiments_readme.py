@@ -69,13 +69,15 @@ def sections(text: str) -> list[tuple[str, str]]:
 
 
 def unquoted(section: str) -> list[str]:
-    """The numbers of ``section``'s prose that round no number of the results it cites."""
+    """The numbers of ``section``'s prose (its heading line aside) that round no number of the results it
+    cites (named anywhere in the section, its heading included)."""
     cited = sorted(set(CITED.findall(section)))
     if not cited:
         return []
     pool = [_value(t) for name in cited for t in numbers((RESULTS / f"{name}.md").read_text())]
     missing = []
-    for token in numbers(_prose(section)):
+    body = section.split("\n", 1)[1] if "\n" in section else ""      # the heading's numbers are its numbering
+    for token in numbers(_prose(body)):
         quoted, half = abs(_value(token)), _half_unit(token)
         if not any(abs(abs(v) - quoted) <= half for v in pool):
             missing.append(token)
