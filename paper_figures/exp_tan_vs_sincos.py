@@ -24,6 +24,7 @@ def draw(data: dict):
     names = list(dict.fromkeys(t["problem"] for t in data["traces"]))
     fig, axes = plt.subplots(len(names), 4, figsize=(17, 3.6 * len(names)), constrained_layout=True, squeeze=False)
     capped = []
+    traced_tol = {t["problem"]: t["tol"] for t in data["traces"]}
     for row, name in zip(axes, names):
         for t in (t for t in data["traces"] if t["problem"] == name):
             p, colour = t["parameterization"], COLOURS[t["parameterization"]]
@@ -42,7 +43,7 @@ def draw(data: dict):
             row[2].loglog(tols, [r["boxes"] for r in done], "o-", color=colour, label=f"{p}: boxes")
             row[2].loglog(tols, [r["lps"] for r in done], "s--", color=colour, label=f"{p}: LPs")
             row[3].loglog(tols, [r["time"] for r in done], "o-", color=colour, label=p)
-        titles = (f"{name}\n(a) boxes per depth (tol {data['trace_tol']:g})", "(b) largest hull width H_k",
+        titles = (f"{name}\n(a) boxes per depth (tol {traced_tol[name]:g})", "(b) largest hull width H_k",
                   "(c) boxes and LPs", "(d) median time (s)")
         xlabels = ("subdivision depth", "subdivision level k", "tol (rad)", "tol (rad)")
         for ax, title, xlabel in zip(row, titles, xlabels):
