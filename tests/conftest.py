@@ -103,3 +103,19 @@ def singular_beta1(geometry, lo, hi, n_lo):
         else:
             hi = mid
     return 0.5 * (lo + hi)
+
+
+def kite():
+    """The kite four-bar: ground AD = crank AB = 40 deg, coupler BC = rocker DC = 60 deg. At crank input
+    -pi/2 (B 90 deg around A from the point towards D) B coincides with D and C can be anywhere on the
+    60-degree circle around it: a continuum of assemblies (by its geometry: no solver involved); two
+    isolated assemblies away from that input."""
+    from spherekin.mechanism import Joint, Leg, SphericalMechanism
+    from spherekin.mechanism.chains import axis_rotation, sphere_point
+
+    a = np.array([0.0, 0.0, 1.0])
+    d = np.array([math.sin(math.radians(40)), 0.0, math.cos(math.radians(40))])
+    b = axis_rotation(a, math.pi / 2) @ d
+    c = sphere_point(b, d, math.radians(60.0), math.radians(60.0), 1.0)
+    return SphericalMechanism(legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
+                                    Leg("rocker", (Joint("D", d), Joint("C", c)))), name="kite")

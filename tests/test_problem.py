@@ -11,9 +11,8 @@ import warnings
 import numpy as np
 import pytest
 
+from conftest import kite
 from spherekin import compile, solve
-from spherekin.mechanism import Joint, Leg, SphericalMechanism
-from spherekin.mechanism.chains import axis_rotation, sphere_point
 from spherekin.problem import CONTINUUM_TOL, ON_CAP_CHOICES, CappedSearchWarning
 from spherekin.search.boxloop import SolverLimitError
 
@@ -21,15 +20,6 @@ from spherekin.search.boxloop import SolverLimitError
 ASKED_TOL = 1e-6
 #: A cap the continuum passes at ASKED_TOL but its covering at CONTINUUM_TOL does not (~1e3 boxes).
 CAP = 5_000
-
-
-def _kite() -> SphericalMechanism:
-    a = np.array([0.0, 0.0, 1.0])
-    d = np.array([math.sin(math.radians(40)), 0.0, math.cos(math.radians(40))])
-    b = axis_rotation(a, math.pi / 2) @ d
-    c = sphere_point(b, d, math.radians(60.0), math.radians(60.0), 1.0)
-    return SphericalMechanism(legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
-                                    Leg("rocker", (Joint("D", d), Joint("C", c)))), name="kite")
 
 
 FOLD = (-math.pi / 2,)
@@ -40,7 +30,7 @@ def test_a_capped_solve_says_so_where_a_caller_looks_first():
     (the tolerance that ran) and ``settings.limit.tol`` the one asked for; the count line says both."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        report = solve(_kite(), FOLD, tol=ASKED_TOL, max_boxes=CAP)
+        report = solve(kite(), FOLD, tol=ASKED_TOL, max_boxes=CAP)
     capped = [w for w in caught if issubclass(w.category, CappedSearchWarning)]
     assert len(capped) == 1
     assert f"tol {ASKED_TOL:g}" in str(capped[0].message) and f"tol {CONTINUUM_TOL:g}" in str(capped[0].message)
@@ -56,18 +46,18 @@ def test_a_capped_solve_says_so_where_a_caller_looks_first():
 
 def test_on_cap_raise_gives_the_search_error_and_no_report():
     with pytest.raises(SolverLimitError, match="max_boxes"):
-        solve(_kite(), FOLD, tol=ASKED_TOL, max_boxes=CAP, on_cap="raise")
+        solve(kite(), FOLD, tol=ASKED_TOL, max_boxes=CAP, on_cap="raise")
 
 
 def test_on_cap_raise_in_a_chunk_raises_too():
     """solve_many: the capped input of a chunk is solved on its own, where the cap is handled as for one."""
-    problem = compile(_kite(), tol=ASKED_TOL, max_boxes=CAP, on_cap="raise")
+    problem = compile(kite(), tol=ASKED_TOL, max_boxes=CAP, on_cap="raise")
     with pytest.raises(SolverLimitError):
         problem.solve_many(np.array([[FOLD[0] + 0.3], [FOLD[0]]]))
 
 
 def test_a_capped_input_of_a_chunk_is_reported_as_capped_and_its_neighbour_is_not():
-    problem = compile(_kite(), tol=ASKED_TOL, max_boxes=CAP)
+    problem = compile(kite(), tol=ASKED_TOL, max_boxes=CAP)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", CappedSearchWarning)
         away, fold = problem.solve_many(np.array([[FOLD[0] + 0.3], [FOLD[0]]]))
@@ -79,21 +69,21 @@ def test_a_capped_input_of_a_chunk_is_reported_as_capped_and_its_neighbour_is_no
 def test_a_solve_within_its_cap_warns_nothing():
     with warnings.catch_warnings():
         warnings.simplefilter("error", CappedSearchWarning)
-        report = solve(_kite(), (FOLD[0] + 0.3,), tol=ASKED_TOL, max_boxes=CAP)
+        report = solve(kite(), (FOLD[0] + 0.3,), tol=ASKED_TOL, max_boxes=CAP)
     assert report.settings.limit is None and report.settings.tol == ASKED_TOL
 
 
 def test_an_unknown_on_cap_is_one_error_listing_the_choices():
     with pytest.raises(ValueError) as info:
-        compile(_kite(), on_cap="ignore")
+        compile(kite(), on_cap="ignore")
     assert "on_cap" in str(info.value) and all(c in str(info.value) for c in ON_CAP_CHOICES)
 
 
 def test_the_strategy_keywords_carry_on_cap():
     """A problem compiled again from its strategy (explain_empty, batch workers) keeps on_cap."""
-    problem = compile(_kite(), on_cap="raise")
+    problem = compile(kite(), on_cap="raise")
     assert problem.strategy_keywords()["on_cap"] == "raise"
-    assert compile(_kite(), **problem.strategy_keywords()).strategy.on_cap == "raise"
+    assert compile(kite(), **problem.strategy_keywords()).strategy.on_cap == "raise"
 
 
 def test_the_command_line_says_both_tolerances_or_stops_with_one_line(tmp_path, capsys):
@@ -101,7 +91,7 @@ def test_the_command_line_says_both_tolerances_or_stops_with_one_line(tmp_path, 
     from spherekin.mechanism.io import dumps_mechanism
 
     path = tmp_path / "kite.toml"
-    path.write_text(dumps_mechanism(_kite()))
+    path.write_text(dumps_mechanism(kite()))
     common = ["solve", str(path), "--inputs", repr(FOLD[0]), "--tol", repr(ASKED_TOL), "--max-boxes", str(CAP)]
     assert main(common) == 0
     out = capsys.readouterr()
