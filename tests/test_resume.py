@@ -175,6 +175,60 @@ def test_empty_actuator_cells_are_not_an_input_without_solution(tmp_path, capsys
     pd.testing.assert_frame_equal(read_results(out), reference[0])
 
 
+def test_resume_of_a_finished_csv_solves_nothing_and_keeps_it_byte_for_byte(tmp_path, capsys, reference):
+    # issue 42 item 17: a finished run's last input was solved again by every --resume
+    out = fresh_csv(tmp_path, reference)
+    capsys.readouterr()
+    assert batch(out, "--resume") == 0
+    printed = capsys.readouterr().out
+    assert "6 input(s) were already in" in printed and "0 input(s) solved" in printed, printed
+    assert out.read_text() == reference[1]
+    # the record holds only for the file as the run left it: one row fewer, input 5 is solved again
+    lines = lines_of(reference[1])
+    assert len(lines) - first_line_of(lines, 5) >= 2
+    out.write_text("".join(lines[:-1]))
+    assert batch(out, "--resume") == 0
+    printed = capsys.readouterr().out
+    assert "5 input(s) were already in" in printed and "1 input(s) solved" in printed, printed
+    assert out.read_text() == reference[1]
+
+
+def test_rows_of_another_job_are_refused_not_dropped(tmp_path, capsys, reference):
+    # issue 42 item 8: another job's well-formed rows (two jobs through two links to one file) were
+    # deleted by a resume as "unreadable lines at its end"
+    out = fresh_csv(tmp_path, reference)
+    other = tmp_path / "other.csv"
+    assert main(["batch", GOSSELIN, "--grid", "beta1=-1:1:3", "--grid", "beta2=0.1:0.7:2", "--fix", "beta3=0.3",
+                 "--out", str(other), "--workers", "0", "--quiet"]) == 0
+    lines, theirs = lines_of(reference[1]), lines_of(other.read_text())
+    k3 = first_line_of(lines, 3)
+    for text in ("".join(lines[:1] + theirs[1:]),                       # the whole table another job's
+                 "".join(lines[:k3] + theirs[first_line_of(theirs, 3):])):  # its rows after ours
+        out.write_text(text)
+        code = batch(out, "--resume")
+        err = capsys.readouterr().err.strip()
+        line = 2 if text.startswith(lines[0] + theirs[1]) else k3 + 1
+        assert code == 2 and f"{out} line {line}: a row of other inputs (input " in err, err
+        assert "another writer" in err and out.read_text() == text
+
+
+def test_more_unreadable_lines_than_a_crash_leaves_are_refused(tmp_path, capsys, reference):
+    from spherekin.batch.sinks import RESUME_MAX_DROPPED_LINES
+
+    out = fresh_csv(tmp_path, reference)
+    lines = lines_of(reference[1])
+    k3 = first_line_of(lines, 3)
+    for extra, refused in ((RESUME_MAX_DROPPED_LINES, False), (RESUME_MAX_DROPPED_LINES + 1, True)):
+        out.write_text("".join(lines[:k3]) + "\x00\x00\n" * extra)
+        code = batch(out, "--resume")
+        err = capsys.readouterr().err.strip()
+        if refused:
+            assert code == 2 and f"{out} lines {k3 + 1}..{k3 + extra}: more than" in err, err
+        else:
+            assert code == 0 and f"dropped unreadable lines {k3 + 1}..{k3 + extra} at its end" in err, err
+            assert out.read_text() == reference[1]
+
+
 # ------------------------------------------------------------------ item 2: Parquet parts
 
 @pytest.fixture

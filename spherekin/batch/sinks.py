@@ -24,13 +24,17 @@ each once, and no two parts hold one input. What cannot be a run's cut is refuse
 and line or part. A CSV's last input is solved again (a run stopped while writing it may have cut
 its rows), together with a line cut short and unreadable lines after it (what a crash leaves at the
 end of a file): the file is truncated there, and ``Sink.note`` says so when more than whole rows
-are dropped.
+are dropped. What a crash cannot leave is refused, never deleted: another job's well-formed rows, or
+more unreadable lines than one block holds (RESUME_MAX_DROPPED_LINES). A run that wrote the last
+input records the file's length in the sidecar (COMPLETE_KEY); a resume of the file at that length
+keeps every row.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import json
 import os
 import re
 from pathlib import Path
@@ -54,6 +58,16 @@ SUFFIXES = (".parquet", ".csv")
 #: form (as pandas does, :func:`csv_fields`), so the two are equal; 1e-12 only absorbs a file written
 #: by another CSV writer.
 RESUME_MATCH = 1e-12
+#: Most unreadable lines a CSV resume drops from the end of a file. Reason: a crash cuts at most one
+#: block, the rows of one chunk (at most CHUNK_INPUTS = 256 inputs, written in order by one process,
+#: so every whole line of a cut block is a row of this job); unreadable whole lines after the rows can
+#: only be bytes a power cut left in that block. 256 inputs x 16 rows (twice the 8 assemblies of a
+#: 3-RRR) bounds one block; more lines than that are not a crash's leftovers, and a resume that
+#: deleted them would delete data (issue 42 item 8).
+RESUME_MAX_DROPPED_LINES = 256 * 16
+#: The key of a CSV sidecar that records a finished run: {"bytes": the file's length when its last
+#: input was written}. A resume of a file of that length keeps every row (nothing to solve again).
+COMPLETE_KEY = "complete"
 #: The name of a Parquet part: the chunk of inputs [first, end) it holds.
 PART_NAME = re.compile(r"part-(\d+)-(\d+)\.parquet")
 #: The statuses a solution row of the table can have.
@@ -324,8 +338,10 @@ class CsvSink(Sink):
         if resume:
             check_fingerprints(path, fingerprint)
             offset, n_done, note = self._verified_prefix()
-            with open(path, "rb+") as f:           # verified first: a refused resume leaves the file as it was
-                f.truncate(offset)
+            if n_done < len(inputs):               # a finished run's record no longer holds once rows change
+                atomic.write_text(side, fingerprint.to_json())
+                with open(path, "rb+") as f:       # verified first: a refused resume leaves the file as it was
+                    f.truncate(offset)
             if note:
                 self.note = f"--resume {path}: {note}"
             self.done[:n_done] = True
@@ -359,15 +375,26 @@ class CsvSink(Sink):
             os.ftruncate(fd, start)
             raise
 
+    def _finished_length(self) -> int | None:
+        """The file's length its sidecar records for a finished run (COMPLETE_KEY), or None."""
+        try:
+            record = json.loads(sidecar_path(self.path).read_text()).get(COMPLETE_KEY)
+            return int(record["bytes"])
+        except (OSError, ValueError, TypeError, KeyError, AttributeError):
+            return None
+
     def _verified_prefix(self) -> tuple[int, int, str]:
         """(byte length to keep, inputs it holds, what was dropped beyond whole rows: '' if nothing).
 
         The header must be this mechanism's. Every complete line after it must be a row of this
         job's table (:meth:`_parse_row`) following the one before it: inputs from 0 in order, each
         input's solutions numbered 1, 2, ... (or one row without a solution). Unreadable lines are
-        accepted only at the end, after every row (what a crash leaves); a line cut short too.
-        Anything else is a ValueError naming the line. What is kept ends before the last input
-        held: only that one can have been written in part."""
+        accepted only at the end, after every row (what a crash leaves), at most
+        RESUME_MAX_DROPPED_LINES of them and none a well-formed row of other inputs (another
+        writer's, not a crash's); a line cut short too. Anything else is a ValueError naming the
+        line. What is kept ends before the last input held: only that one can have been written in
+        part, unless the sidecar records the run as finished at this very length (the whole file
+        is kept)."""
         kept = (0, 0)                              # (byte offset, input) of the last input's first row
         prev = None                                # (input, solution) of the last row
         unreadable = None                          # (line number, why) of the first unreadable line
@@ -386,7 +413,14 @@ class CsvSink(Sink):
                     continue
                 key, error = self._parse_row(raw)
                 if error is not None:
+                    if isinstance(key, int):           # a whole row of input `key`, not this job's value
+                        raise self._refuse(f"{self.path} line {n}", f"a row of other inputs ({error}): another "
+                                           "writer's, not what a crash leaves; pass --overwrite to solve again")
                     unreadable = unreadable or (n, error)
+                    if n - unreadable[0] >= RESUME_MAX_DROPPED_LINES:
+                        raise self._refuse(f"{self.path} lines {unreadable[0]}..{n}",
+                                           f"more than {RESUME_MAX_DROPPED_LINES} unreadable lines at its end (first: "
+                                           f"{unreadable[1]}): more than a crash cuts (one chunk's rows)")
                 elif unreadable is not None:       # a row after an unreadable line: not a crash's leftovers
                     raise self._refuse(f"{self.path} line {unreadable[0]}", unreadable[1])
                 else:
@@ -411,11 +445,15 @@ class CsvSink(Sink):
         if dropped:
             again = f"; input {kept[1]} is solved again (its rows may be incomplete)" if prev is not None else ""
             note = f"dropped {' and '.join(dropped)}{again}"
+        elif prev is not None and prev[0] == len(self.inputs) - 1 and self._finished_length() == offset:
+            return offset, len(self.inputs), ""    # a finished run, untouched since: every input kept
         return kept[0], kept[1], note
 
     def _parse_row(self, raw: bytes):
         """(key, None) when the CSV line ``raw`` is a row of this job's table, key its (input,
-        solution: None when none); (None, why not) otherwise."""
+        solution: None when none); (k, why not) when it is a whole row of this table's form for
+        input number k but not with this job's input values (another job's row); (None, why not)
+        otherwise."""
         try:
             fields = raw.decode().rstrip("\r").split(",")
         except UnicodeDecodeError:
@@ -434,10 +472,10 @@ class CsvSink(Sink):
         except ValueError as exc:
             return None, f"a field is not a number ({exc})"
         if not 0 <= k < len(self.inputs):
-            return None, f"input {k} is not one of this job's {len(self.inputs)}"
+            return k, f"input {k} is not one of this job's {len(self.inputs)}"
         want = self.inputs[k].tolist()
         if not all(abs(a - b) <= RESUME_MATCH for a, b in zip(x, want)):     # NaN fails too
-            return None, f"input {k} is {fields[1:1 + n_act]} there, {want} in this job"
+            return k, f"input {k} is {fields[1:1 + n_act]} there, {want} in this job"
         if sol is None and (status or singularity or values):
             return None, "a row without a solution number has solution values"
         if sol is not None and (sol < 1 or status not in STATUSES or not singularity):
@@ -448,6 +486,10 @@ class CsvSink(Sink):
         text = io.StringIO()                       # the block formatted first: an interrupt here writes nothing
         csv.writer(text, lineterminator="\n").writerows(csv_fields(table))
         self._append(text.getvalue().encode())
+        if end == len(self.inputs):                # written in order: the last input ends the run's rows
+            record = json.loads(self.fingerprint.to_json())
+            record[COMPLETE_KEY] = {"bytes": os.fstat(self._file.fileno()).st_size}
+            atomic.write_text(sidecar_path(self.path), json.dumps(record, indent=1))
 
     def close(self) -> None:
         if not self._file.closed:
