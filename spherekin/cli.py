@@ -160,9 +160,13 @@ def _solve(args) -> int:
     values = mech.check_inputs(inputs)
     # every argument and output path is checked before the first line of output (compile checks
     # the strategy's names and numbers: --tol, --jobs)
-    problem = compile_problem(mech, jobs=args.jobs, **{**_strategy(args), "system": args.system})
     if args.json:
         _check_output_file("--json", args.json, (".json",))
+    try:
+        problem = compile_problem(mech, jobs=args.jobs, **{**_strategy(args), "system": args.system})
+    except KeyboardInterrupt as exc:
+        _write_unsearched(args.json, mech, values, exc)
+        raise
     if args.plot:
         from .plot import check_plot_path
 
@@ -174,6 +178,9 @@ def _solve(args) -> int:
     progress = _Progress(sys.stderr.isatty(), quiet=args.quiet)
     try:
         report = problem.solve(values, progress=progress)
+    except KeyboardInterrupt as exc:    # before the search could keep anything (a search keeps what it found)
+        _write_unsearched(args.json, mech, values, exc)
+        raise
     finally:
         progress.close()
     st = report.stats
@@ -215,6 +222,30 @@ def _solve(args) -> int:
         plot_solutions(mech, values, report, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return 130 if limit and limit.interrupted else 0
+
+
+def _write_unsearched(path, mech, values, exc: KeyboardInterrupt) -> None:
+    """``solve --json``'s document when Ctrl-C (or SIGTERM, ``exc``) stopped the command before its
+    search began (loading, compiling, setting up charts): nothing was searched, so no count and no
+    solution, and the JSON says so (``searched``: false) rather than not being written (issue 42 item
+    17). Nothing when no ``--json`` was asked for."""
+    if not path:
+        return
+    import json
+
+    from . import __version__
+    from .mechanism.io import dumps_mechanism
+
+    signal_name = str(exc) if isinstance(exc, Terminated) else "SIGINT"
+    data = {"schema": "spherekin.solve/2", "spherekin_version": __version__,
+            "settings": {"mechanism": mech.name, "actuated": list(mech.actuated), "inputs": [float(v) for v in values],
+                         "limit": {"error": f"stopped by {signal_name} before the search began",
+                                   "interrupted": True}},
+            "searched": False, "unknowns": list(mech.loop_unknowns),
+            "count": {"proven": None, "exact": False, "entries": 0}, "solutions": [],
+            "mechanism_toml": dumps_mechanism(mech)}
+    atomic.write_text(path, json.dumps(data, indent=2))
+    print(f"wrote {path} (nothing searched)", file=sys.stderr)
 
 
 # ------------------------------------------------------------------ families of inputs

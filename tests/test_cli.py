@@ -360,3 +360,30 @@ def test_an_output_where_nothing_can_be_written_is_refused_before_the_work(comma
     assert main(command) == 2
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and "cannot write in the directory '/proc'" in err
+
+
+@pytest.mark.parametrize("where", ["compile", "solve"])
+@pytest.mark.parametrize("signal_name", ["SIGINT", "SIGTERM"])
+def test_a_stop_before_the_search_still_writes_a_json_saying_nothing_was_searched(tmp_path, capsys, monkeypatch,
+                                                                                    where, signal_name):
+    """Issue 42 item 17: Ctrl-C (or SIGTERM) during start-up, before the search could keep anything,
+    wrote no --json: the document must exist and say nothing was searched (no count, no solution)."""
+    import spherekin.problem
+    from spherekin.cli import Terminated
+    from spherekin.mechanism import load_mechanism
+
+    def stop(*args, **kwargs):
+        raise Terminated("SIGTERM") if signal_name == "SIGTERM" else KeyboardInterrupt()
+
+    monkeypatch.setattr(spherekin.problem, "compile", stop) if where == "compile" else \
+        monkeypatch.setattr(spherekin.problem.Problem, "solve", stop)
+    out = tmp_path / "r.json"
+    code = main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--json", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 130 and "nothing searched" in err, err
+    data = json.loads(out.read_text())
+    assert data["searched"] is False and data["solutions"] == [] and data["count"]["proven"] is None
+    assert data["count"]["exact"] is False and data["settings"]["limit"]["interrupted"] is True
+    assert signal_name in data["settings"]["limit"]["error"]
+    assert data["settings"]["inputs"] == [0.3, -0.2, 0.5]
+    assert data["unknowns"] == list(load_mechanism(GOSSELIN).loop_unknowns)
