@@ -118,6 +118,11 @@ class MechanismGraph:
     link_names: tuple = field(init=False, repr=False, compare=False, default=())
     parent: dict = field(init=False, repr=False, compare=False, default_factory=dict)
     loops: tuple = field(init=False, repr=False, compare=False, default=())
+    #: link -> indices of its joints, and link -> its depth in the tree (the ground 0): built once,
+    #: so that loading and the per-link questions stay linear in the joints (issue 42 item 12: a scan
+    #: of every joint per link made an 8,000-joint file take 18 s).
+    incident: dict = field(init=False, repr=False, compare=False, default_factory=dict)
+    depth: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self):
         joints = tuple(self.joints)
@@ -151,11 +156,7 @@ class MechanismGraph:
                     "one joint): join them through a link of their own")
             seen_pairs[key] = k
         ground = check_name("ground", self.ground)
-        order = []
-        for a, b in pairs:
-            for link in (a, b):
-                if link not in order:
-                    order.append(link)
+        order = list(dict.fromkeys(link for pair in pairs for link in pair))     # first-seen order, in linear time
         if ground not in order:
             raise ValueError(f"ground: link {ground!r} is joined by no joint; links named by the joints: {order}")
         if self.output is not None:
@@ -181,6 +182,7 @@ class MechanismGraph:
         for k, (a, b) in enumerate(self.links):
             incident[a].append(k)
             incident[b].append(k)
+        object.__setattr__(self, "incident", {n: tuple(ks) for n, ks in incident.items()})
         allowed = None
         if self.tree is not None:
             wanted = tuple(self.tree)
@@ -191,7 +193,7 @@ class MechanismGraph:
             if len(allowed) != len(self.link_names) - 1:
                 raise ValueError(f"tree: expected {len(self.link_names) - 1} joints (links - 1), got {len(allowed)}")
         parent: dict = {}
-        reached = {self.ground}
+        depth = {self.ground: 0}
         queue = deque([self.ground])
         while queue:
             here = queue.popleft()
@@ -200,11 +202,13 @@ class MechanismGraph:
                     continue
                 a, b = self.links[k]
                 there, sign = (b, 1) if a == here else (a, -1)
-                if there in reached:
+                if there in depth:
                     continue
-                reached.add(there)
+                depth[there] = depth[here] + 1
                 parent[there] = (k, sign, here)
                 queue.append(there)
+        reached = depth
+        object.__setattr__(self, "depth", depth)
         missing = [n for n in self.link_names if n not in reached]
         if missing and allowed is not None and not self._unreachable():
             raise ValueError(f"tree: the joints {list(self.tree)} do not connect every link to the ground "
@@ -220,22 +224,16 @@ class MechanismGraph:
         reached, stack = {self.ground}, [self.ground]
         while stack:
             here = stack.pop()
-            for a, b in self.links:
-                for x, y in ((a, b), (b, a)):
-                    if x == here and y not in reached:
+            for k in self.incident[here]:
+                for y in self.links[k]:
+                    if y not in reached:
                         reached.add(y)
                         stack.append(y)
         return [n for n in self.link_names if n not in reached]
 
     def path(self, link: str) -> tuple[Step, ...]:
         """The tree's steps from the ground to ``link`` (ground first)."""
-        steps = []
-        here = link
-        while here != self.ground:
-            k, sign, up = self.parent[here]
-            steps.append(Step(self.joints[k].name, sign))
-            here = up
-        return tuple(reversed(steps))
+        return self._steps_between(self.ground, link)
 
     def path_links(self, link: str) -> tuple[str, ...]:
         """The links on the tree path from the ground to ``link`` (both included)."""
@@ -244,19 +242,37 @@ class MechanismGraph:
             out.append(self.parent[out[-1]][2])
         return tuple(reversed(out))
 
+    def _steps_between(self, root: str, link: str) -> tuple[Step, ...]:
+        """The tree's steps from ``root`` down to ``link`` (``root`` an ancestor of ``link``)."""
+        steps = []
+        here = link
+        while here != root:
+            k, sign, up = self.parent[here]
+            steps.append(Step(self.joints[k].name, sign))
+            here = up
+        return tuple(reversed(steps))
+
+    def _common_ancestor(self, a: str, b: str) -> str:
+        """The deepest link on both tree paths from the ground to ``a`` and ``b``: found by walking
+        up from the deeper one, so it costs the loop's length, not the depth of the tree."""
+        depth, parent = self.depth, self.parent
+        while depth[a] > depth[b]:
+            a = parent[a][2]
+        while depth[b] > depth[a]:
+            b = parent[b][2]
+        while a != b:
+            a, b = parent[a][2], parent[b][2]
+        return a
+
     def _loop_basis(self) -> tuple[GraphLoop, ...]:
         tree_joints = {k for k, _, _ in self.parent.values()}
         loops = []
         for k, (a, b) in enumerate(self.links):
             if k in tree_joints:
                 continue
-            pa, pb = self.path_links(a), self.path_links(b)
-            common = 0
-            while common < min(len(pa), len(pb)) and pa[common] == pb[common]:
-                common += 1
-            root = pa[common - 1]
-            up = self.path(a)[common - 1:] + (Step(self.joints[k].name, 1),)
-            down = self.path(b)[common - 1:]
+            root = self._common_ancestor(a, b)
+            up = self._steps_between(root, a) + (Step(self.joints[k].name, 1),)
+            down = self._steps_between(root, b)
             loops.append(GraphLoop(self.joints[k].name, root, up, down))
         return tuple(loops)
 
@@ -268,8 +284,8 @@ class MechanismGraph:
         return mobility(len(self.link_names), len(self.joints))
 
     def joints_of(self, link: str) -> tuple[int, ...]:
-        """Indices of the joints on ``link``."""
-        return tuple(k for k, pair in enumerate(self.links) if link in pair)
+        """Indices of the joints on ``link`` (in file order)."""
+        return self.incident[link]
 
     def chains(self) -> tuple[tuple[int, ...], ...] | None:
         """The graph as legs: joint indices of each chain from the ground to the output link (in the

@@ -44,6 +44,7 @@ pole is then any fixed perpendicular. Inside a leg, consecutive joints must not 
 
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import itertools
 import math
@@ -351,6 +352,30 @@ class SingularityReport:
 # The mechanism
 # --------------------------------------------------------------------------------------------
 
+class LinkPaths(collections.abc.Mapping):
+    """Link name -> its spanning tree's path from the ground (:class:`~.graph.Step` tuple,
+    :meth:`MechanismGraph.path`), each computed when first asked for and kept. Lazy because the paths
+    of all links together grow as the square of a long loop's length (a 16,000-joint loop: 128 million
+    steps, issue 42 item 12), and a solve asks for a few (the output's, the loops' links). A plain
+    class of a dict: it pickles, and mechanisms travel to Dask workers."""
+
+    def __init__(self, graph: MechanismGraph):
+        self.graph, self.cache = graph, {}
+
+    def __getitem__(self, link: str) -> tuple:
+        if link not in self.cache:
+            if link not in self.graph.depth:
+                raise KeyError(link)
+            self.cache[link] = self.graph.path(link)
+        return self.cache[link]
+
+    def __iter__(self):
+        return iter(self.graph.link_names)
+
+    def __len__(self) -> int:
+        return len(self.graph.link_names)
+
+
 @dataclass(frozen=True)
 class SphericalMechanism:
     """A spherical mechanism: a graph of links and revolute joints (see module doc and :mod:`.graph`).
@@ -430,7 +455,7 @@ class SphericalMechanism:
         object.__setattr__(self, "loop_geometry", loops)
         # plain dicts (a mappingproxy cannot be pickled, and mechanisms travel to Dask workers)
         object.__setattr__(self, "joint_map", dict(joints))
-        object.__setattr__(self, "link_paths", {link: graph.path(link) for link in graph.link_names})
+        object.__setattr__(self, "link_paths", LinkPaths(graph))
         first_link = {j.name: pair[0] for j, pair in zip(graph.joints, graph.links)}
         column = {j.name: k for k, j in enumerate(graph.joints)}
         object.__setattr__(self, "constraint_terms", tuple(
@@ -810,7 +835,7 @@ class SphericalMechanism:
         R_a Rot(axis, reading - reference) for a joint [a, b]); the ground's is I."""
         readings = {n: np.array([float(v)]) for n, v in joint_angles.items()}
         graph = self.link_graph
-        need = {st.joint for path in self.link_paths.values() for st in path}
+        need = {graph.joints[k].name for k, _, _ in graph.parent.values()}      # the tree's joints
         missing = [n for n in self.joint_names if n in need and n not in readings]
         if missing:
             raise ValueError(f"joint_angles: missing angle(s) for {missing}")
