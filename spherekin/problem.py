@@ -668,6 +668,10 @@ def compile(
     mechanism file) for a strategy (the keywords of :func:`solve`, same defaults); every name and
     number is checked here, before any input is solved. Returns a :class:`Problem`."""
     mechanism = as_mechanism(mechanism)
+    if not mechanism.passive:                  # a mechanism fact, before any system is asked (issue 42 item 12)
+        raise ValueError(f"joints: every joint ({', '.join(mechanism.actuated)}) is actuated, so the direct "
+                         "kinematics has no unknown to solve for; leave the joints the mechanism does not drive "
+                         "passive (actuated = false), or evaluate every reading with forward()")
     if formulation not in formulation_choices():
         raise ValueError(f"formulation: expected one of {list(formulation_choices())}, got {formulation!r}")
     if system not in system_choices():

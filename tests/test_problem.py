@@ -102,3 +102,19 @@ def test_the_command_line_says_both_tolerances_or_stops_with_one_line(tmp_path, 
     err = capsys.readouterr().err.strip().splitlines()
     err = [line for line in err if "boxes" not in line or "max_boxes" in line]   # progress lines aside
     assert len(err) == 1 and "max_boxes" in err[0]
+
+
+def test_a_mechanism_with_every_joint_actuated_is_one_error_in_its_own_words(tmp_path):
+    """Issue 42 item 12: a file whose every joint is actuated got the search's internal "ranges:
+    expected at least one unknown, got none"; it has nothing to solve for, and the error says so."""
+    from spherekin.mechanism import mechanism_from_dict
+
+    joints = [{"name": n, "links": list(pair), "axis": list(axis), "actuated": True} for n, pair, axis in (
+        ("A", ("ground", "crank"), (0.0, 0.0, 1.0)), ("B", ("crank", "coupler"), (0.0, 0.6, 0.8)),
+        ("C", ("coupler", "rocker"), (0.6, 0.8, 0.0)), ("D", ("ground", "rocker"), (1.0, 0.0, 0.0)))]
+    mech = mechanism_from_dict({"kind": "graph", "name": "all driven", "ground": "ground", "joints": joints})
+    with pytest.raises(ValueError, match=r"^joints: every joint \(A, B, C, D\) is actuated, so the direct "
+                                         "kinematics has no unknown"):
+        compile(mech)
+    with pytest.raises(ValueError, match="every joint"):
+        solve(mech, [0.1, 0.2, 0.3, 0.4])
