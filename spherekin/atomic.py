@@ -36,7 +36,7 @@ def replacing(path) -> Iterator[Path]:
 def write_text(path, text: str) -> None:
     """Write ``text`` to the file ``path`` whole or not at all (:func:`replacing`)."""
     with replacing(path) as tmp:
-        tmp.write_text(text)
+        tmp.write_text(text, encoding="utf-8")
 
 
 def check_writable(directory, what: str) -> None:

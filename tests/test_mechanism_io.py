@@ -7,7 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from spherekin.core.columns import RESERVED_COLUMNS
 from spherekin.mechanism import (
     PRESETS,
     MechanismFileError,
@@ -290,3 +293,54 @@ def test_huge_axis_components_are_one_error_and_no_numpy_warning(tmp_path):
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match=r"joints\[0\]\.axis: expected a unit vector .* got norm 1.414"):
             load_mechanism(path)
+
+
+_NAMES = st.text(min_size=1, max_size=12).filter(lambda s: s.strip())
+_JOINT_NAMES = st.text(st.characters(blacklist_categories=("Cs", "Cc", "Z"), blacklist_characters=',"\'=\\'),
+                       min_size=1, max_size=8).filter(str.isprintable)
+
+
+@settings(max_examples=60, deadline=None)
+@given(mech_name=_NAMES, link=_NAMES, joint_name=_JOINT_NAMES)
+def test_any_name_survives_dump_and_load(tmp_path_factory, mech_name, link, joint_name):
+    """Issue 42 item 12: a joint named with an emoji was written as a JSON surrogate pair, which TOML
+    refuses. Any name the format accepts (a mechanism's, a link's: any text; a joint's: printable,
+    no whitespace) is written so that it loads back equal, whatever its characters (beyond U+FFFF,
+    DEL, quotes, backslashes, control characters)."""
+    from spherekin.mechanism import mechanism_from_dict
+
+    names = {"A", "B", "C", joint_name}
+    if len(names) < 4 or joint_name in RESERVED_COLUMNS or link in ("ground", "crank", "rocker"):
+        return
+    joints = [{"name": n, "links": list(pair), "axis": list(axis), "actuated": n == "A"} for n, pair, axis in (
+        ("A", ("ground", "crank"), (0.0, 0.0, 1.0)), ("B", ("crank", link), (0.0, 0.6, 0.8)),
+        (joint_name, (link, "rocker"), (0.6, 0.8, 0.0)), ("C", ("ground", "rocker"), (1.0, 0.0, 0.0)))]
+    mech = mechanism_from_dict({"kind": "graph", "name": mech_name, "ground": "ground", "joints": joints})
+    path = tmp_path_factory.mktemp("names") / "m.toml"
+    path.write_bytes(dumps_mechanism(mech).encode("utf-8"))
+    back = load_mechanism(path)
+    assert back.name == mech_name and back.joint_names == mech.joint_names
+    assert back.link_graph.link_names == mech.link_graph.link_names
+
+
+def test_an_emoji_joint_name_is_written_as_itself():
+    from spherekin.mechanism import mechanism_from_dict
+    import tomllib
+
+    joints = [{"name": n, "links": list(pair), "axis": list(axis), "actuated": n == "A"} for n, pair, axis in (
+        ("A", ("ground", "crank"), (0.0, 0.0, 1.0)), ("\U0001F9BE", ("crank", "coupler"), (0.0, 0.6, 0.8)),
+        ("C", ("coupler", "rocker"), (0.6, 0.8, 0.0)), ("D", ("ground", "rocker"), (1.0, 0.0, 0.0)))]
+    text = dumps_mechanism(mechanism_from_dict({"kind": "graph", "name": "arm\x7f", "ground": "ground",
+                                                "joints": joints}))
+    assert 'name = "\U0001F9BE"' in text and 'name = "arm\\u007f"' in text
+    assert [j["name"] for j in tomllib.loads(text)["joints"]] == ["A", "\U0001F9BE", "C", "D"]
+
+
+def test_a_name_with_a_lone_surrogate_is_refused_where_it_is_given():
+    from spherekin.mechanism import mechanism_from_dict
+
+    joints = [{"name": n, "links": list(pair), "axis": list(axis), "actuated": n == "A"} for n, pair, axis in (
+        ("A", ("ground", "crank"), (0.0, 0.0, 1.0)), ("B", ("crank", "coupler"), (0.0, 0.6, 0.8)),
+        ("C", ("coupler", "rocker"), (0.6, 0.8, 0.0)), ("D", ("ground", "rocker"), (1.0, 0.0, 0.0)))]
+    with pytest.raises(ValueError, match=r"name: name '\\ud83e' is not Unicode text"):
+        mechanism_from_dict({"kind": "graph", "name": "\ud83e", "ground": "ground", "joints": joints})

@@ -121,6 +121,12 @@ def check_name(key: str, value) -> str:
     """A name (of a mechanism, a leg, a joint): non-empty text."""
     if not isinstance(value, str) or not value.strip():
         raise ValueError(f"{key}: expected a non-empty name (text), got {shown(value)}")
+    if not value.isascii():
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:             # a lone surrogate (from Python, never from a file): no file holds it
+            raise ValueError(f"{key}: name {value!r} is not Unicode text (it holds a lone surrogate, which no "
+                             "mechanism file or results table can hold)") from None
     return value
 
 

@@ -211,7 +211,10 @@ def _vec(v) -> str:
 def _str(s: str) -> str:
     import json  # only when writing a mechanism file (every import is paid by every process)
 
-    return json.dumps(s)  # a JSON string of printable text is a valid TOML basic string
+    # A JSON string is a TOML basic string but for two things: an ASCII-only JSON escapes a character
+    # beyond U+FFFF as a surrogate pair, which TOML refuses (issue 42 item 12: a joint named with an
+    # emoji did not load back), so the text is kept as it is; and DEL, which TOML requires escaped.
+    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")
 
 
 def dumps_mechanism(mech: SphericalMechanism) -> str:
