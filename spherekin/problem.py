@@ -39,7 +39,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .core.angles import RANGE_TOL, in_range_many
+from .core.angles import RANGE_TOL, check_turn, in_range_many
 from .core.groups import pad_by_owner
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
@@ -890,6 +890,8 @@ def _plane_axis(mech, key: str, spec) -> tuple:
         raise ValueError(f"{key}: expected an actuated joint ({', '.join(mech.actuated)}), got {name!r}")
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
         raise ValueError(f"{key}: expected finite lo < hi (radians), got lo = {lo:.6g}, hi = {hi:.6g}")
+    check_turn(f"{key} ({name}) lo", lo)       # what solve refuses as an input, a plane refuses too
+    check_turn(f"{key} ({name}) hi", hi)
     if hi - lo > 2 * np.pi + 1e-12:
         raise ValueError(f"{key}: expected hi - lo <= 2 pi (one turn), got {hi - lo:.6g}")
     return (str(name), lo, hi)
@@ -1117,6 +1119,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
             raise ValueError(f"fixed: {name} is an axis of the plane, it cannot also be fixed")
         if not np.isfinite(float(value)):
             raise ValueError(f"fixed: expected a finite reading (radians) for {name}, got {value!r}")
+        check_turn(f"fixed ({name})", float(value))
     missing = [n for n in mech.actuated if n not in fixed and n not in (ax[0], None if ay is None else ay[0])]
     if missing:
         raise ValueError(f"fixed: expected a reading for every actuated joint off the plane, missing {', '.join(missing)}")

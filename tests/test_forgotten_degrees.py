@@ -75,3 +75,16 @@ def test_python_solve_refuses_and_accepts_reduced_values():
     ra = sorted(np.round(s.platform_rotation, 8).ravel().tolist() for s in a.solutions)
     rb = sorted(np.round(s.platform_rotation, 8).ravel().tolist() for s in b.solutions)
     assert ra == rb and len(ra) >= 1
+
+
+@pytest.mark.parametrize("plane, names", [
+    (["--x", "beta1=100000:100000.5", "--y", "beta2=0:0.5", "--fix", "beta3=0.1"], "--x (beta1) lo"),
+    (["--x", "beta1=0:0.5", "--y", "beta2=0:0.5", "--fix", "beta3=1e5"], "--fix (beta3)"),
+    (["--x", "beta1=0:0.5", "--fix", "beta2=0.2", "--fix", "beta3=-8"], "--fix (beta3)"),
+])
+def test_singular_refuses_a_plane_beyond_a_turn_as_solve_does(capsys, plane, names):
+    """Issue 42 item 12: `singular` covered a plane at 1e5 rad that `solve` refuses as an input."""
+    line = _error(capsys, ["singular", EXAMPLE, *plane, "--tol", "0.1"])
+    assert names in line and "full turn" in line, line
+    with pytest.raises(ValueError, match="full turn"):
+        spherekin.singular(general_3rrr(), ("beta1", 1e5, 1e5 + 0.5), ("beta2", 0.0, 0.5), {"beta3": 0.1}, tol=0.1)
