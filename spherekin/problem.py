@@ -39,7 +39,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .core.angles import RANGE_TOL, check_turn, in_range_many
+from .core.angles import RANGE_TOL, check_turn, in_range, in_range_many, into_range
 from .core.groups import pad_by_owner
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
@@ -894,6 +894,11 @@ def _plane_axis(mech, key: str, spec) -> tuple:
     check_turn(f"{key} ({name}) hi", hi)
     if hi - lo > 2 * np.pi + 1e-12:
         raise ValueError(f"{key}: expected hi - lo <= 2 pi (one turn), got {hi - lo:.6g}")
+    rng = mech.ranges[name]
+    if rng is not None and not (in_range(lo, rng) and into_range(lo, rng) + (hi - lo) <= rng[1] + RANGE_TOL):
+        raise ValueError(f"{key}: the window [{lo:.6g}, {hi:.6g}] of {name} leaves its joint range "
+                         f"[{rng[0]:.6g}, {rng[1]:.6g}]; choose a window inside it (inputs outside the range are "
+                         "never solved)")
     return (str(name), lo, hi)
 
 
@@ -1120,6 +1125,9 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
         if not np.isfinite(float(value)):
             raise ValueError(f"fixed: expected a finite reading (radians) for {name}, got {value!r}")
         check_turn(f"fixed ({name})", float(value))
+        rng = mech.ranges[name]
+        if rng is not None and not in_range(float(value), rng):
+            raise ValueError(f"fixed ({name}): {float(value):.6g} is outside its joint range [{rng[0]:.6g}, {rng[1]:.6g}]")
     missing = [n for n in mech.actuated if n not in fixed and n not in (ax[0], None if ay is None else ay[0])]
     if missing:
         raise ValueError(f"fixed: expected a reading for every actuated joint off the plane, missing {', '.join(missing)}")

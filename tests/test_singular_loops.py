@@ -307,3 +307,28 @@ def test_two_loop_plane_matches_the_platform_oracle():
         u0, u1, v0, v1 = a0 - w / 2, a1 + w / 2, b0 - w / 2, b1 + w / 2
         edges = [((u0, v0), (u1, v0)), ((u1, v0), (u1, v1)), ((u1, v1), (u0, v1)), ((u0, v1), (u0, v0))]
         assert any(singular_points_on_line(p0, p1, n_samples=12, seed=1) for p0, p1 in edges), (a0, b0)
+
+
+def test_a_range_on_the_input_joint_gives_the_same_cover_and_a_window_outside_it_is_refused(tmp_path):
+    """Issue 42 item 12 (internal messages): a mechanism whose input joint has a range got "inputs (A):
+    0.0 is outside the joint range" from `singular` (the plane's joint was set up at 0.0). The window
+    inside the range is covered against the same reference as without a range; a window or a fixed
+    reading outside the range is one error naming it."""
+    text = (EXAMPLES / "watt_six_bar.toml").read_text().replace("actuated = true", "actuated = true\nrange = [0.5, 3.0]", 1)
+    path = tmp_path / "watt_ranged.toml"
+    path.write_text(text)
+    ax = graph_axes(EXAMPLES / "watt_six_bar.toml")
+    ref = count_changes(lambda a: watt_count(ax, a), -math.pi, math.pi, 1000)
+    lo, hi = 0.6, 2.9
+    assert len(ref[(ref >= lo) & (ref <= hi)])          # the window holds singular inputs
+    sset = spherekin.singular(path, x=("A", lo, hi), tol=0.05)
+    _check_cover(sset, ref, lo, hi)
+    with pytest.raises(ValueError, match=r"^x: the window \[0.2, 2.9\] of A leaves its joint range \[0.5, 3\]"):
+        spherekin.singular(path, x=("A", 0.2, hi), tol=0.05)
+
+
+def test_a_fixed_reading_outside_its_range_is_one_error(tmp_path):
+    path = tmp_path / "ranged.toml"
+    path.write_text((EXAMPLES / "general_3rrr.toml").read_text() + "\n[joint_ranges]\nbeta3 = [-1, 1]\n")
+    with pytest.raises(ValueError, match=r"^fixed \(beta3\): 2 is outside its joint range \[-1, 1\]"):
+        spherekin.singular(path, ("beta1", 0.0, 0.5), ("beta2", 0.0, 0.5), {"beta3": 2.0}, tol=0.1)

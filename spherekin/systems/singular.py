@@ -869,7 +869,8 @@ class LoopPlane:
         self.mechanism = m
         self.plane = plane
         names = [a[0] for a in plane.axes]
-        inputs = [plane.fixed.get(n, 0.0) for n in m.actuated]
+        lows = {a[0]: a[1] for a in plane.axes}       # a plane joint's entry is not used: any value in its range
+        inputs = [plane.fixed[n] if n in plane.fixed else lows[n] for n in m.actuated]
         self.plan = det_plan(m, list(m.loop_unknowns) + names)   # before any chart is built: refusals first
 
         def build(chart_ranges):
