@@ -415,10 +415,8 @@ def _map(args) -> int:
     if args.singular:
         from .problem import SINGULAR_TOL, check_singular_tol
 
-        x, y = inputs.axes
         singular_tol = check_singular_tol(SINGULAR_TOL if args.singular_tol is None else
-                                          args.singular_tol * (math.pi / 180.0 if args.degrees else 1.0), "--singular-tol",
-                                          ((x.name, x.values[0], x.values[-1]), (y.name, y.values[0], y.values[-1])))
+                                          args.singular_tol * (math.pi / 180.0 if args.degrees else 1.0), "--singular-tol")
     x, y = inputs.axes
     print(f"{mech.name or args.file}: assembly-mode map over {x.name} x {y.name} "
           f"({len(x.values)} x {len(y.values)} inputs)"

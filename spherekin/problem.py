@@ -823,9 +823,6 @@ SINGULAR_MAX_TOL = 0.5
 #: slack alone and the refinement rounds cannot shrink the cover onto the curve. So T >= 4 x 1e-9 x 32 = 1.28e-7
 #: rad (:func:`singular_min_tol`; a full turn is then 4.9e7 cells per axis, indices far inside int64).
 SLACK_MARGIN = 4
-#: A cell must also be this many float64 spacings (ulps) of the plane's largest coordinate wide, so that its
-#: edges are distinct, well separated floats (relevant only for ranges far from 0: at |x| <= 8 rad, 1.9e-9).
-CELL_ULPS = 2 ** 20
 #: Default box cap of the singular-set cover (boxes of the augmented system processed, all rounds). Reason:
 #: general_3rrr over [-pi, pi]^2 with the traced cover processes ~1.5e6 boxes at T = 0.01 and ~3e6 at 1e-3
 #: (measured; 5.7e6 at 0.01 before the tracing); the cap only stops a runaway (a continuum of singular configurations over
@@ -860,10 +857,11 @@ def singular_min_tol() -> float:
     return SLACK_MARGIN * CELL_SLACK / min(REFINE_FRACTIONS + CUSP_REFINE_FRACTIONS)
 
 
-def check_singular_tol(value, name: str = "tol", axes=()) -> float:
+def check_singular_tol(value, name: str = "tol") -> float:
     """The cell width T (radians) of a certified singular set, checked before any work: a number with
-    :func:`singular_min_tol` <= T <= SINGULAR_MAX_TOL, at least CELL_ULPS float spacings of the largest coordinate of
-    ``axes`` ((name, lo, hi), ...: radians). ValueError naming ``name`` (the keyword or option as typed)."""
+    :func:`singular_min_tol` <= T <= SINGULAR_MAX_TOL. ValueError naming ``name`` (the keyword or option as
+    typed). The plane's coordinates are within a full turn of 0 (refused beyond, as every input is), where a
+    cell of T >= singular_min_tol() is more than 1e5 float spacings wide: its edges are distinct floats."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
             or not 0 < value <= SINGULAR_MAX_TOL:
         raise ValueError(f"{name}: expected 0 < T <= {SINGULAR_MAX_TOL:g} (radians), got {value!r}")
@@ -872,10 +870,6 @@ def check_singular_tol(value, name: str = "tol", axes=()) -> float:
                          "can resolve in float64 (its finest boxes, T/32, must stay wider than the 1e-9 rad allowance "
                          "for rounding with which a box meets a cell); locate a singular input more finely with "
                          "solve or the branch map")
-    far = max((abs(float(v)) for a in axes for v in a[1:]), default=0.0)
-    if value < CELL_ULPS * float(np.spacing(far)):
-        raise ValueError(f"{name}: T = {value:g} rad is too narrow for coordinates as large as {far:g} rad (float64 "
-                         f"spacing {float(np.spacing(far)):.3g}); give the plane's ranges within a few turns of 0")
     return float(value)
 
 
@@ -1131,7 +1125,7 @@ def singular(mechanism, x, y=None, fixed: Mapping[str, float] | None = None, *, 
     missing = [n for n in mech.actuated if n not in fixed and n not in (ax[0], None if ay is None else ay[0])]
     if missing:
         raise ValueError(f"fixed: expected a reading for every actuated joint off the plane, missing {', '.join(missing)}")
-    tol = check_singular_tol(tol, "tol", (ax,) if ay is None else (ax, ay))
+    tol = check_singular_tol(tol, "tol")
     if isinstance(max_boxes, bool) or not isinstance(max_boxes, (int, np.integer)) or max_boxes < 1:
         raise ValueError(f"max_boxes: expected a positive whole number, got {max_boxes!r}")
     budget = Budget() if budget is None else budget

@@ -120,8 +120,7 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
     x, y = inputs.axes
     sset = None
     if singular_tol is not None:     # checked and computed before the map: its errors come before any long work
-        singular_tol = check_singular_tol(singular_tol, "singular_tol", ((x.name, x.values[0], x.values[-1]),
-                                                                          (y.name, y.values[0], y.values[-1])))
+        singular_tol = check_singular_tol(singular_tol, "singular_tol")
         _prepare(mechanism, inputs, strategy)          # the map's strategy checked too (milliseconds)
         caps = {} if singular_max_boxes is None else {"max_boxes": singular_max_boxes}
         sset = singular(mechanism, (x.name, x.values[0], x.values[-1]), (y.name, y.values[0], y.values[-1]),

@@ -541,7 +541,7 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
                          f"{', '.join(joints)}")
     values, full = _grid_of(mech, name, grid, samples)
     if cover_tol is not None:                       # as singular() checks it, on the grid's range: before any work
-        cover_tol = check_singular_tol(cover_tol, "cover_tol", ((name, float(values[0]), float(values[-1])),))
+        cover_tol = check_singular_tol(cover_tol, "cover_tol")
     mech = mech.without_ranges(mech.passive)        # circuits are the linkage's: a passive range cuts them, joins none
     problem = compile_problem(mech, **strategy)
     connect = connect or NearestConnector(mech, name, joints)
