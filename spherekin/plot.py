@@ -617,8 +617,9 @@ TRACK_INCHES = (8.0, 6.0)
 #: How the certified singular cells are drawn over a map's colours (:func:`plot_assembly_map`), by status:
 #: singular cells filled black (no count colour is black) and outlined, unresolved cells hatched and outlined
 #: (no fill: the colours under them stay visible). The gid of each cell's patch is "singular-cell:STATUS".
-MAP_SINGULAR_STYLE = {"singular": dict(facecolor="black", edgecolor="black", linewidth=0.4, alpha=0.85),
-                      "unresolved": dict(facecolor="none", edgecolor="black", linewidth=0.4, hatch="////")}
+#: Tinted, not filled: the count's colour under a cell stays readable (issue 42 item 15: black cells hid it).
+MAP_SINGULAR_STYLE = {"singular": dict(facecolor=(0.0, 0.0, 0.0, 0.3), edgecolor="black", linewidth=0.6),
+                      "unresolved": dict(facecolor="none", edgecolor="black", linewidth=0.6, hatch="////")}
 #: Outline of the singular set's free box on a map (its proven singularity-free region around home).
 MAP_FREE_BOX_STYLE = dict(facecolor="none", edgecolor="white", linewidth=2.0, linestyle="--")
 
@@ -668,7 +669,7 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
     if amap.singular_set is not None:
         _draw_singular_cells(ax, amap.singular_set, scale, unit)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper right", fontsize=8, framealpha=0.8)
+        _legend_below(ax)
     ax.set_xlabel(f"{amap.x.name} ({unit})")
     ax.set_ylabel(f"{amap.y.name} ({unit})")
     sset = amap.singular_set
@@ -734,7 +735,7 @@ def _draw_singular_extras(ax, sset, scale: float, free_style: dict) -> list:
     for status, style in CUSP_MARKERS.items():
         pts = [(c.x * scale, c.y * scale) for c in sset.cusps if c.status == status]
         if pts:
-            handles.append(ax.scatter(*zip(*pts), zorder=3, label=f"cusp ({len(pts)})"
+            handles.append(ax.scatter(*zip(*pts), zorder=CUSP_ZORDER, label=f"cusp ({len(pts)})"
                                       if status == "cusp" else f"unresolved cusp candidate ({len(pts)})", **style))
     mc = sset.mode_change
     if mc is not None and mc.found:
@@ -886,8 +887,17 @@ FREE_BOX_COLOUR = "tab:green"
 #: The path of a proven assembly-mode change (a closed loop of inputs around a cusp).
 MODE_CHANGE_COLOUR = "tab:blue"
 #: Cusp markers of plot_singular and the maps' overlay by status: proven cusps filled, unresolved hollow.
-CUSP_MARKERS = {"cusp": dict(marker="*", s=90, color="black"),
+CUSP_MARKERS = {"cusp": dict(marker="*", s=110, facecolors="black", edgecolors="white", linewidths=0.8),
                 "unresolved": dict(marker="o", s=40, facecolors="none", edgecolors="black")}
+#: Above the cells and the free box (patches draw at zorder 1-2): a cusp is never hidden under a cell.
+CUSP_ZORDER = 5
+
+
+def _legend_below(ax, handles=None) -> None:
+    """The legend of a plane plot under its axes, outside the data (issue 42 item 15: in the upper right
+    corner it covered cells and a cusp), two columns; the figure's layout makes room for it."""
+    kw = {} if handles is None else {"handles": handles}
+    ax.legend(**kw, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8, frameon=False)
 
 
 def plot_singular(sset, path=None, *, degrees: bool = False):
@@ -922,7 +932,7 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
     handles = [Patch(facecolor=SINGULAR_COLOURS[k], hatch="///" if k != "singular" else None,
                      label=f"{k} ({counts.get(k, 0)})") for k in SINGULAR_COLOURS]
     handles += _draw_singular_extras(ax, sset, scale, dict(facecolor="none", edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
-    ax.legend(handles=handles, loc="upper right", fontsize=8)
+    _legend_below(ax, handles)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
     ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
                  + ("" if sset.complete else ", incomplete"), fontsize=10)

@@ -443,3 +443,49 @@ def test_plot_track_takes_the_track_first_like_the_other_plots(tmp_path):
     assert (tmp_path / "old.png").stat().st_size > 0
     with pytest.raises(ValueError, match="track: expected a Track"):
         plot_track(mech)
+
+
+def _legend_clear_of_the_data(fig, ax) -> None:
+    """The legend's box lies outside the axes' data area and inside the figure."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    legend = ax.get_legend().get_window_extent(renderer)
+    assert not legend.overlaps(ax.bbox), (legend, ax.bbox)
+    assert fig.bbox.contains(legend.x0, legend.y0) and fig.bbox.contains(legend.x1, legend.y1)
+
+
+def test_plane_plots_keep_legends_off_the_data_and_cusps_on_top():
+    """Issue 42 item 15: the legends of the singular and map plots sat in the upper right corner over cells
+    (and a cusp), and the map's --singular overlay filled its cells black over the count colours."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Rectangle
+
+    from spherekin import batch
+    from spherekin.plot import plot_assembly_map, plot_singular
+    from spherekin.results import Cusp, SingularBox, SingularSet, SingularStats
+
+    stats = SingularStats(10, 2, 0, 0.1, 0.1, 0.2)
+    # cells and a cusp in the upper right corner, where the legend used to be
+    boxes = tuple(SingularBox((x, x + 0.1), (0.8, 0.9), "singular") for x in (0.5, 0.6, 0.7, 0.8))
+    cusp = Cusp(0.85, 0.85, (0.84, 0.86), (0.84, 0.86), "cusp")
+    sset = SingularSet(("beta1", -1.0, 1.0), ("beta2", -1.0, 1.0), {"beta3": 0.5}, 0.1, boxes, True, stats,
+                       "platform", cusps=(cusp,))
+    fig = plot_singular(sset)
+    FigureCanvasAgg(fig)
+    ax = fig.axes[0]
+    _legend_clear_of_the_data(fig, ax)
+    star = [c for c in ax.collections if c.get_label().startswith("cusp")][0]
+    assert star.get_zorder() > max(p.get_zorder() for p in ax.patches)
+
+    mech = presets.preset("general_3rrr")
+    amap = batch.assembly_map(mech, "beta1=-1:1:5", "beta2=-1:1:5", {"beta3": 0.5}, workers=0)
+    fig = plot_assembly_map(dataclasses.replace(amap, singular_set=sset))
+    FigureCanvasAgg(fig)
+    ax = fig.axes[0]
+    _legend_clear_of_the_data(fig, ax)
+    cells = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_gid() == "singular-cell:singular"]
+    assert len(cells) == 4 and all(p.get_facecolor()[3] <= 0.5 for p in cells)     # the count's colour shows through
+    assert all(p.get_edgecolor() == to_rgba("black") for p in cells)
+    star = [c for c in ax.collections if c.get_label().startswith("cusp")][0]
+    assert star.get_zorder() > max(p.get_zorder() for p in ax.patches)
