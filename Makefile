@@ -1,6 +1,8 @@
 # Two commands set up and run everything from a fresh clone:
 #   make run   -- create .venv, install spherekin, solve the paper's Gosselin example (full joint ranges)
 #   make test  -- create .venv, install spherekin with test extras, run the test suite
+#   make test-long -- the long tier (.ci/run runs it after make test): the slow sweeps (-m slow) and the site
+#     in headless Chromium (docs-check; installs Debian's chromium and chromium-driver when missing)
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 #   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
@@ -8,7 +10,8 @@
 #     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
 #   make singular-campaign -- every singular cover against solve_many's counts and branch_map (~30 min CPU x 2 cores)
 #   make docs -- the documentation site into docs/_build/html (installs the [docs] extra; warnings are errors)
-#   make docs-check -- the site built afresh and checked in headless Chromium (Debian: chromium chromium-driver)
+#   make docs-check -- the site built afresh and checked in headless Chromium (installs Debian's chromium and
+#     chromium-driver when missing)
 #   make mutants [ONLY=ID] -- hand-written bugs in the trust layer; fails if the tests miss one (mutation/README.md)
 # Scripts of benchmarks/, experiments/, paper_figures/ are modules: run them as python -m benchmarks.bench_solve.
 PYTHON ?= python3
@@ -20,7 +23,7 @@ DOCS_STAMP := $(VENV)/.installed-docs
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling tan_vs_sincos
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
+.PHONY: run test test-long chromium verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +45,11 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+# the long tier: what make test leaves out (pytest -m slow), then the site in a real browser
+test-long: $(STAMP)
+	$(BIN)/python -m pytest -m slow -q
+	$(MAKE) --no-print-directory docs-check
 
 verify: $(STAMP)
 	$(BIN)/python -m verification
@@ -89,10 +97,17 @@ mutants: $(STAMP)
 docs: $(DOCS_STAMP)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
+# Debian's Chromium and ChromeDriver, installed when missing (as root, or through sudo)
+chromium:
+	@command -v chromium >/dev/null && command -v chromedriver >/dev/null || { \
+	  echo "installing Chromium and ChromeDriver (Debian packages chromium, chromium-driver)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get install -y -qq chromium chromium-driver >/dev/null 2>&1 || \
+	  { $$SUDO apt-get update -qq >/dev/null && $$SUDO apt-get install -y -qq chromium chromium-driver >/dev/null; } || \
+	  { echo "could not install chromium and chromium-driver (apt-get): the site cannot be checked"; exit 2; }; }
+
 # tests/test_docs_site.py skips itself where Chromium is missing: here that is an error, not a skip
-docs-check: $(DOCS_STAMP)
-	@command -v chromium >/dev/null && command -v chromedriver >/dev/null || \
-	  { echo "make docs-check: needs Chromium and ChromeDriver (apt-get install chromium chromium-driver)"; exit 2; }
+docs-check: $(DOCS_STAMP) chromium
 	$(BIN)/python -m pytest tests/test_docs_site.py -q -rs
 
 clean:

@@ -6,6 +6,7 @@ napoleon for numpydoc-style sections); the gallery runs examples/gallery/plot_*.
 """
 
 import importlib
+import os
 import inspect
 import re
 import sys
@@ -92,10 +93,25 @@ INCLUDED_PAGES = {"verification/REPORT.md": "paper/verification", "experiments/R
 
 
 def _link_included_pages(app, relative_path, parent_docname, content):
-    """include-read: in an included repository file, a link to another included file -> its page."""
+    """include-read: in an included repository file, a link to another included file -> its page, and a
+    link to a data file beside it (``[numbers](exp_solutions.json)``) -> that file as seen from the page
+    that includes it (MyST resolves a link against the including page, where the name alone is not found)."""
     for repo_path, page in INCLUDED_PAGES.items():
         pattern = r"\]\((?:\.\./)*" + re.escape(repo_path) + r"(#[^)]*)?\)"
         content[0] = re.sub(pattern, lambda m: f"](/{page}.md{m.group(1) or ''})", content[0])
+    source = Path(app.srcdir, relative_path).resolve()
+    page = INCLUDED_PAGES.get(source.relative_to(ROOT).as_posix()) if source.is_relative_to(ROOT) else None
+    if page is None:
+        return
+    parent = Path(app.srcdir, page).parent              # the including page's folder (docs/paper)
+
+    def beside(m):
+        target = (source.parent / m.group(2)).resolve()
+        if target.suffix in (".md", ".png", ".svg", ".pdf") or not target.is_file():
+            return m.group(0)                 # pages and images are handled above and by :relative-images:
+        return f"{{download}}`{m.group(1)} <{os.path.relpath(target, parent)}>`"
+
+    content[0] = re.sub(r"\[`?([^\]`]+)`?\]\(([\w./-]+\.\w+)\)", beside, content[0])
 
 
 def setup(app):

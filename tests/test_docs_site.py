@@ -197,15 +197,31 @@ def _page_ids(browser) -> set[str]:
         "return Array.from(document.querySelectorAll('[id], a[name]')).map(e => e.id || e.name);"))
 
 
-def test_no_internal_link_of_the_site_is_broken(site, browser):
-    """Crawl every page reachable from the index in the browser; every same-site link must name a
-    page that loads (HTTP 200) and, with a ``#fragment``, an element of that id on it."""
+#: A code block that is wider than its box and neither scrolls nor wraps, or that runs past the page's
+#: body (its end hidden): the text of its first line, per page (issue 42 item 15: cut at the right edge).
+_CUT_CODE_JS = """
+const body = document.querySelector('div.body') || document.body;
+const right = body.getBoundingClientRect().right;
+return Array.from(document.querySelectorAll('pre')).filter(p => {
+    const style = getComputedStyle(p);
+    const scrolls = ['auto', 'scroll'].includes(style.overflowX);
+    const wraps = style.whiteSpace.startsWith('pre-wrap') || style.whiteSpace === 'break-spaces';
+    const cut = p.scrollWidth > p.clientWidth + 1 && !scrolls && !wraps;
+    return cut || p.getBoundingClientRect().right > right + 1;
+}).map(p => p.innerText.split('\\n')[0].slice(0, 80));
+"""
+
+
+@pytest.fixture(scope="module")
+def crawl(site, browser) -> dict:
+    """Every page reachable from the index, loaded in the browser: its ids, its same-site links, the
+    pages that did not load, and the code blocks cut at its right edge."""
     origin = urlparse(site).netloc
     pending = [urljoin(site, INDEX)]
     seen: set[str] = set()
     ids: dict[str, set[str]] = {}
     links: list[tuple[str, str]] = []  # (page, href)
-    missing: list[str] = []
+    cut: dict[str, list[str]] = {}
     while pending:
         page = pending.pop()
         if page in seen:
@@ -216,6 +232,9 @@ def test_no_internal_link_of_the_site_is_broken(site, browser):
             continue  # reported below, with the page that links to it
         _load(browser, page)
         ids[page] = _page_ids(browser)
+        blocks = browser.execute_script(_CUT_CODE_JS)
+        if blocks:
+            cut[page] = blocks
         for href in browser.execute_script(
                 "return Array.from(document.querySelectorAll('a[href]')).map(a => a.href);"):
             parsed = urlparse(href)
@@ -225,6 +244,14 @@ def test_no_internal_link_of_the_site_is_broken(site, browser):
             target, _ = urldefrag(href)
             if target.endswith(".html") and target not in seen:
                 pending.append(target)
+    return {"seen": seen, "ids": ids, "links": links, "cut": cut}
+
+
+def test_no_internal_link_of_the_site_is_broken(crawl):
+    """Crawl every page reachable from the index in the browser; every same-site link must name a
+    page that loads (HTTP 200) and, with a ``#fragment``, an element of that id on it."""
+    seen, ids, links = crawl["seen"], crawl["ids"], crawl["links"]
+    missing: list[str] = []
     for page, href in links:
         target, fragment = urldefrag(href)
         if target not in ids:
@@ -235,3 +262,11 @@ def test_no_internal_link_of_the_site_is_broken(site, browser):
             missing.append(f"{page} -> {href} (no #{fragment} there)")
     assert len(ids) > 20, f"the crawl reached only {len(ids)} pages"
     assert not missing, "broken internal links:\n" + "\n".join(sorted(set(missing))[:50])
+
+
+def test_no_code_block_is_cut_at_the_right_edge(crawl):
+    """A long command line scrolls sideways inside its block (or wraps): none of it is hidden past the
+    page's edge (issue 42 item 15)."""
+    cut = crawl["cut"]
+    assert not cut, "code blocks cut at the right edge:\n" + "\n".join(
+        f"{page}: {line!r}" for page, lines in sorted(cut.items()) for line in lines[:3])
