@@ -8,6 +8,7 @@
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
 #   make bench / bench-peers / sweep / edge -- benchmarks/README.md (speed, PHCpack comparison, never-lose-a-root
 #     sweep, the no-false-proof campaign next to branch, change and singular inputs: ~20 min)
+#   make doc-numbers -- the times and counts the pages quote, measured (benchmarks/doc_numbers.json; ~15 min)
 #   make singular-campaign -- every singular cover against solve_many's counts and branch_map (~30 min CPU x 2 cores)
 #   make docs -- the documentation site into docs/_build/html (installs the [docs] extra; warnings are errors)
 #   make docs-check -- the site built afresh and checked in headless Chromium (installs Debian's chromium and
@@ -23,7 +24,7 @@ DOCS_STAMP := $(VENV)/.installed-docs
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling tan_vs_sincos
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test test-long chromium verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
+.PHONY: run test test-long chromium doc-numbers verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -87,6 +88,9 @@ sweep: $(STAMP)
 
 edge: $(STAMP)
 	$(BIN)/python -m benchmarks.edge_campaign --jobs 2
+
+doc-numbers: $(STAMP)
+	$(BIN)/python -m benchmarks.doc_numbers
 
 singular-campaign: $(STAMP)
 	$(BIN)/python -m benchmarks.singular_campaign --jobs 2
