@@ -186,3 +186,20 @@ def test_solve_with_jobs_in_an_unguarded_script_runs_here_and_says_why(tmp_path)
     assert proc.stdout.split()[:2] == ["8", "4"]      # the paper's count at its inputs: 8, 4 of them singular
     assert proc.stdout.split()[2] == "1"              # the settings say where it ran: one process, not 2 jobs
     assert f"{tmp_path / 's.py'}:3: RuntimeWarning: spherekin runs this job in this process" in proc.stderr
+
+
+def test_embedded_workers_run_without_daskss_malloc_trim_threshold(tmp_path):
+    """Issue 42 item 2: Dask's nanny starts workers with MALLOC_TRIM_THRESHOLD_=65536, which turns off
+    glibc's adaptive mmap threshold and made each worker ~2x slower than this process on the engine's
+    arrays (cluster.WORKER_CONFIG). The embedded cluster's workers must not have it; the rest of Dask's
+    worker environment (one BLAS thread per worker) stays. A fresh interpreter: an earlier cluster of
+    this test session may have set the variable in this process's environment."""
+    script = ('import os\nfrom spherekin.cluster import connect\nif __name__ == "__main__":\n'
+              '    os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)\n'
+              '    with connect(workers=1) as c:\n'
+              '        got = c.run(lambda: (os.environ.get("MALLOC_TRIM_THRESHOLD_"), os.environ.get("OMP_NUM_THREADS")))\n'
+              '        print(list(got.values())[0])\n')
+    (tmp_path / "s.py").write_text(script)
+    proc = run_python(tmp_path, "s.py")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "(None, '1')", proc.stdout
