@@ -897,7 +897,9 @@ def _legend_below(ax, handles=None) -> None:
     """The legend of a plane plot under its axes, outside the data (issue 42 item 15: in the upper right
     corner it covered cells and a cusp), two columns; the figure's layout makes room for it."""
     kw = {} if handles is None else {"handles": handles}
-    ax.legend(**kw, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8, frameon=False)
+    # a light grey ground: the map's white dashed free-box outline must show in its own entry
+    ax.legend(**kw, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8, frameon=True,
+              facecolor="0.88", edgecolor="none", framealpha=1.0)
 
 
 def plot_singular(sset, path=None, *, degrees: bool = False):
