@@ -203,3 +203,29 @@ def test_embedded_workers_run_without_daskss_malloc_trim_threshold(tmp_path):
     proc = run_python(tmp_path, "s.py")
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip() == "(None, '1')", proc.stdout
+
+
+def test_the_families_guides_dask_config_unsets_the_trim_threshold():
+    """The YAML block docs/howto/families.md gives for workers of one's own, read as Dask reads a config
+    file, leaves MALLOC_TRIM_THRESHOLD_ out of the environment a nanny gives its worker."""
+    import re
+
+    import dask
+    import yaml
+    from distributed.nanny import _get_env_variables
+
+    page = (ROOT / "docs" / "howto" / "families.md").read_text()
+    blocks = re.findall(r"```yaml\n(.*?)```", page, flags=re.S)
+    assert len(blocks) == 1
+    config = yaml.safe_load(blocks[0])
+    merged = dask.config.merge(dask.config.config, config)     # as Dask merges a config file into its defaults
+    key = "distributed.nanny.pre-spawn-environ"
+    saved = os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)     # an earlier cluster of this session may have set it
+    try:
+        with dask.config.set({key: merged["distributed"]["nanny"]["pre-spawn-environ"]}):
+            env = _get_env_variables("distributed.nanny.pre-spawn-environ")
+        assert "MALLOC_TRIM_THRESHOLD_" not in env and env.get("OMP_NUM_THREADS") == "1"
+        assert _get_env_variables("distributed.nanny.pre-spawn-environ")["MALLOC_TRIM_THRESHOLD_"] == "65536"
+    finally:
+        if saved is not None:
+            os.environ["MALLOC_TRIM_THRESHOLD_"] = saved
