@@ -179,3 +179,23 @@ def test_an_ordered_sink_gets_the_chunks_in_input_order_whatever_order_they_fini
     assert summary.complete and summary.workers == 2
     assert [w[0] for w in sink.writes] == list(range(24))
     assert all(w[2] in ([w[0]], []) for w in sink.writes)
+
+
+def test_a_job_runs_in_this_process_while_a_cluster_of_this_machines_cores_would_not_pay(monkeypatch):
+    """Issue 42 item 2: where a job runs is chosen from the cores (spherekin.cluster.default_workers) and the
+    measured start cost: on one core no job starts a cluster (it cannot be faster); on 2 cores the threshold
+    is IN_PROCESS_MAX_INPUTS; more workers pay sooner. No cluster is started here: ``connect`` yields None."""
+    import math
+
+    from spherekin.batch import engine
+
+    monkeypatch.setattr(engine, "default_workers", lambda: 1)
+    assert engine.in_process_max_inputs(1) == math.inf
+    with engine.connect(10 ** 7) as client:
+        assert client is None
+    monkeypatch.setattr(engine, "default_workers", lambda: 2)
+    assert int(engine.in_process_max_inputs(2)) == engine.IN_PROCESS_MAX_INPUTS
+    with engine.connect(engine.IN_PROCESS_MAX_INPUTS) as client:
+        assert client is None
+    limits = [engine.in_process_max_inputs(w) for w in (2, 4, 8, 64)]
+    assert limits == sorted(limits, reverse=True) and limits[-1] > engine.CLUSTER_START_S / engine.IN_PROCESS_INPUT_S

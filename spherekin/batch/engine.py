@@ -1,7 +1,7 @@
 """The engine of a batch: chunks of inputs solved on Dask workers, each with the problem compiled once.
 
-Where a job runs (:func:`connect`): a handful of inputs (at most IN_PROCESS_MAX_INPUTS, or
-``workers=0``) in this process, no cluster; otherwise where :func:`spherekin.cluster.connect` says:
+Where a job runs (:func:`connect`): a job a cluster would not speed up (:func:`in_process_max_inputs` of
+the machine's cores: ~1,250 inputs on 2 cores, any job on 1), or ``workers=0``, in this process, no cluster; otherwise where :func:`spherekin.cluster.connect` says:
 an embedded local cluster (only where that is safe, else this process with a warning:
 :func:`spherekin.cluster.local_cluster_unsafe`), an existing one by ``scheduler`` address, or the
 caller's ``client``.
@@ -40,19 +40,40 @@ from typing import Callable, Iterator, Mapping
 import numpy as np
 
 from ..cluster import connect as cluster_connect
-from ..cluster import TASKS_PER_WORKER, ClusterLost, n_workers, result_of, scheduler_address, wait_any
+from ..cluster import TASKS_PER_WORKER, ClusterLost, default_workers, n_workers, result_of, scheduler_address, wait_any
 from ..problem import DEFAULT_CHUNK
 from .rows import report_table
 
-__all__ = ["IN_PROCESS_MAX_INPUTS", "CHUNK_INPUTS", "Job", "RunSummary",
+__all__ = ["IN_PROCESS_MAX_INPUTS", "in_process_max_inputs", "CHUNK_INPUTS", "Job", "RunSummary",
            "CompiledProblem", "solve_chunk", "default_chunk_size", "chunks", "connect", "run"]
 
-#: Jobs of at most this many inputs run in this process, without a cluster. Reason: starting an
-#: embedded cluster of 2 workers costs ~3 s (worker processes that import numpy, pandas and
-#: spherekin, each compiling the problem), and the engine solves ~2-4 ms an input in process, so
-#: 2 workers save ~1.5 ms an input at best: they pay from ~2,000 inputs on an idle 2-core machine,
-#: and not within 3,000 on a loaded one (benchmarks/bench_crossover.py, benchmarks/README.md).
-IN_PROCESS_MAX_INPUTS = 2000
+#: Seconds an embedded cluster adds to a job before its workers solve anything, and seconds per input of
+#: the engine in this process. Measured on the 2-core machine (benchmarks/bench_crossover.py --sizes 250 500
+#: 1000 2000 4000, 2026-11-29, general_3rrr over its full ranges, whole calls, medians of 3; benchmarks/README.md):
+#: least-squares lines in process -0.06 s + 2.7 ms an input, on 2 workers 1.32 s + 1.6 ms an input.
+CLUSTER_START_S = 1.38
+IN_PROCESS_INPUT_S = 2.7e-3
+#: The share of the ideal speed-up a worker gives (transfer, scheduling, the rows made on the worker):
+#: 2.7 ms / (2 x 1.6 ms), same measurement. Below one worker's worth (one core) a cluster never pays.
+WORKER_EFFICIENCY = 0.84
+
+
+def in_process_max_inputs(workers: int) -> float:
+    """The largest job that runs faster in this process than on an embedded cluster of ``workers`` workers
+    (the cores this process may use): a cluster costs CLUSTER_START_S and then solves
+    ``workers * WORKER_EFFICIENCY`` times as fast, so it pays from N = start / (t (1 - 1 / speed-up)), t =
+    IN_PROCESS_INPUT_S; never (inf) when the speed-up is at most 1 (one core). 2 workers: ~1,250 inputs (the
+    measured lines cross at 1,194); 8: ~600, where the start cost, measured with 2, is the least certain part."""
+    speedup = workers * WORKER_EFFICIENCY
+    if speedup <= 1.0:
+        return math.inf
+    return CLUSTER_START_S / (IN_PROCESS_INPUT_S * (1.0 - 1.0 / speedup))
+
+
+#: Jobs of at most this many inputs run in this process on the 2-core machine the constants were measured
+#: on (:func:`in_process_max_inputs` of 2). Issue 42 item 2: the cluster's workers ran ~2x slower than this
+#: process until their malloc setting was fixed (spherekin.cluster.WORKER_CONFIG), and 2,000 was measured then.
+IN_PROCESS_MAX_INPUTS = int(in_process_max_inputs(2))
 #: Inputs per task, at most (and per chunk of a job in this process): the chunk
 #: ``Problem.solve_many`` solves as one array program (:data:`spherekin.problem.DEFAULT_CHUNK`).
 #: Reason: the engine's throughput levels off there (benchmarks/README.md), a Dask task's ~1 ms of
@@ -147,9 +168,11 @@ def chunks(todo: np.ndarray, size: int) -> list[tuple[int, int]]:
 @contextmanager
 def connect(n_inputs: int, *, client=None, scheduler: str | None = None,
             workers: int | None = None) -> Iterator[object | None]:
-    """The Dask client a job of ``n_inputs`` runs on (None: in this process, for at most
-    IN_PROCESS_MAX_INPUTS inputs or ``workers=0``); see :func:`spherekin.cluster.connect`."""
-    small = workers is None and client is None and scheduler is None and n_inputs <= IN_PROCESS_MAX_INPUTS
+    """The Dask client a job of ``n_inputs`` runs on (None: in this process, for ``workers=0`` or, with no
+    cluster asked for, a job a cluster of this machine's cores would not speed up:
+    :func:`in_process_max_inputs`); see :func:`spherekin.cluster.connect`."""
+    small = workers is None and client is None and scheduler is None and \
+        n_inputs <= in_process_max_inputs(default_workers())
     with cluster_connect(client=client, scheduler=scheduler, workers=0 if small else workers) as c:
         yield c
 
