@@ -61,6 +61,15 @@ def first_line_of(lines, k: int) -> int:
     return next(i for i, line in enumerate(lines) if i and line.split(",")[0] == str(k))
 
 
+def refused_resume(out: Path, text: str, capsys) -> str:
+    """``out`` written as ``text``, then resumed: the one error line (exit 2), the file left as it was."""
+    out.write_text(text)
+    code = batch(out, "--resume")
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and out.read_text() == text, err
+    return err
+
+
 # ------------------------------------------------------------------ item 1: the fingerprint
 
 @pytest.mark.parametrize("change, options, names", [
@@ -148,12 +157,8 @@ def test_a_repeated_block_is_refused_naming_its_line(tmp_path, capsys, reference
     k1, k3, k5 = (first_line_of(lines, k) for k in (1, 3, 5))
     # inputs 0..2, then inputs 1..2 again (then the rest): rows a second writer appended; not a
     # crash's leftovers, so not dropped either (which copy is right is not for a resume to guess)
-    out.write_text("".join(lines[:k3] + lines[k1:k3] + ([] if at_end else lines[k3:k5])))
-    before = out.read_bytes()
-    code = batch(out, "--resume")
-    err = capsys.readouterr().err.strip()
-    assert code == 2 and f"{out} line {k3 + 1}: input 1 solution 1 after input 2 solution" in err, err
-    assert "repeated" in err and out.read_bytes() == before
+    err = refused_resume(out, "".join(lines[:k3] + lines[k1:k3] + ([] if at_end else lines[k3:k5])), capsys)
+    assert f"{out} line {k3 + 1}: input 1 solution 1 after input 2 solution" in err and "repeated" in err, err
 
 
 def test_empty_actuator_cells_are_not_an_input_without_solution(tmp_path, capsys, reference):
@@ -204,12 +209,9 @@ def test_rows_of_another_job_are_refused_not_dropped(tmp_path, capsys, reference
     k3 = first_line_of(lines, 3)
     for text in ("".join(lines[:1] + theirs[1:]),                       # the whole table another job's
                  "".join(lines[:k3] + theirs[first_line_of(theirs, 3):])):  # its rows after ours
-        out.write_text(text)
-        code = batch(out, "--resume")
-        err = capsys.readouterr().err.strip()
+        err = refused_resume(out, text, capsys)
         line = 2 if text.startswith(lines[0] + theirs[1]) else k3 + 1
-        assert code == 2 and f"{out} line {line}: a row of other inputs (input " in err, err
-        assert "another writer" in err and out.read_text() == text
+        assert f"{out} line {line}: a row of other inputs (input " in err and "another writer" in err, err
 
 
 def test_more_unreadable_lines_than_a_crash_leaves_are_refused(tmp_path, capsys, reference):
