@@ -1,7 +1,8 @@
 """The engine of a batch: chunks of inputs solved on Dask workers, each with the problem compiled once.
 
 Where a job runs (:func:`connect`): a job a cluster would not speed up (:func:`in_process_max_inputs` of
-the machine's cores: ~1,250 inputs on 2 cores, any job on 1), or ``workers=0``, in this process, no cluster; otherwise where :func:`spherekin.cluster.connect` says:
+the machine's cores: ~1,250 inputs on 2 cores, any job on 1), or ``workers=0``, in this process, no
+cluster; otherwise where :func:`spherekin.cluster.connect` says:
 an embedded local cluster (only where that is safe, else this process with a warning:
 :func:`spherekin.cluster.local_cluster_unsafe`), an existing one by ``scheduler`` address, or the
 caller's ``client``.
