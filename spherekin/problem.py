@@ -835,7 +835,7 @@ COVER_FRACTION = 0.5
 #: The cusp system's boxes are accepted below this fraction of T: small enough that a cluster of them is
 #: one root whose hull Newton and the Krawczyk test handle (a cusp is a regular root of (F, D, C_r)).
 CUSP_FRACTION = 0.25
-#: The fixed vectors r of the tangency C_r = grad D . (adj(G) r) (design31.md section 3): seeded, so that
+#: The fixed vectors r of the tangency C_r = grad D . (adj(G) r) (:meth:`PlatformPlane.cusp_charts`): seeded, so that
 #: the spurious factor l . r = 0 meets the curve only at isolated points; the second rules those points out.
 #: Cusp candidates left without a proof are searched again at these fractions of T (as REFINE_FRACTIONS).
 CUSP_REFINE_FRACTIONS = (0.03125,)

@@ -413,7 +413,7 @@ class PlatformPlane:
         return cr[:, None], c_tol[:, None], np.stack(adj, axis=1), np.stack(a_tol, axis=1)
 
     def cusp_charts(self, rs) -> tuple:
-        """The cusp systems on the cover's charts (a plane, not a line; design31.md section 3): for each
+        """The cusp systems on the cover's charts (a plane, not a line): for each
         r in ``rs`` ((3,) vectors), a :class:`ChartSet` over the cover's variables with blocks F (the legs'
         equations), D, C_r = grad_q D . (adj(G) r) (the curve's tangent projects to 0 in the plane: on the
         curve adj(G) = k l^T, so C_r = (l . r) (grad_q D . k)) and A = adj(G) r (3 rows, not pruned: the

@@ -431,7 +431,7 @@ def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
 
 
 def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, ...]:
-    """The cusps of a plane system from the box loop's cover of its cusp system (design31.md section 3).
+    """The cusps of a plane system from the box loop's cover of its cusp system (:meth:`~spherekin.systems.singular.PlatformPlane.cusp_charts`).
 
     ``closes``: None, or (charts, chart (B,), lo, hi (B, N)) -> (B,) bool, True where a root in the box is a
     closure of the mechanism (the loop equations' transversal entries also vanish at spurious half-turns:
