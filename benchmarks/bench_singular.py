@@ -2,7 +2,7 @@
 
 For general_3rrr and the Gosselin platform (the agile eye, examples/gosselin.toml) in the plane beta3 = 0.5
 over [-pi, pi]^2, :func:`spherekin.singular` at each cell width T (default 0.1 and 0.05; ``--full`` adds the
-issue's 1e-2 and 1e-3: minutes each for general_3rrr with the traced cover, spherekin.trust.singular.trace_cover).
+issue's 1e-2 and 1e-3: minutes each for general_3rrr with the traced cover, spherekin.singularities.cells.trace_cover).
 Reported per mechanism and T: cells by status, whether the cover completed (its box cap not reached), boxes
 processed, seconds (wall and this process's CPU: the machine is shared; one run each), and the ratio of
 cells between successive T against the ratio of the T (a curve's cover grows as ~1/T). For general_3rrr a
@@ -15,7 +15,7 @@ certified cells of the largest T and the free box of home (0, 0, 0.5), solution 
     python -m benchmarks.bench_singular [--full] [--max-boxes N] [--figure PATH] [--json PATH]
 
 The box cap is per mechanism (:data:`MAX_BOXES`; both keep the library's): the agile eye's crossings with its
-stationary assemblies are proven on their blow-up (spherekin.systems.blowup).
+stationary assemblies are proven on their blow-up (spherekin.singularities.blowup).
 
 JSON to benchmarks/results/singular.json.
 """
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
     plane = dict(x=("beta1", -math.pi, math.pi), y=("beta2", -math.pi, math.pi), fixed={"beta3": 0.5})
     refs = _reference_points(args.ref_lines) if args.ref_lines else np.empty((0, 2))
     rows, sets = [], {}
-    from spherekin.problem import SINGULAR_MAX_BOXES
+    from spherekin.singularities.cover import SINGULAR_MAX_BOXES
 
     caps = {name: args.max_boxes or MAX_BOXES.get(name) or SINGULAR_MAX_BOXES for name in args.mechanisms.split(",")}
     print(f"parallel singular set, plane beta3 = 0.5 over [-pi, pi]^2, box caps {caps} "
@@ -130,7 +130,7 @@ def _figure(path, sset, n: int, plane) -> None:
     import spherekin
     from spherekin import batch
     from spherekin.plot import plot_assembly_map
-    from spherekin.problem import mode_change
+    from spherekin.singularities import mode_change
 
     file = ROOT / "examples" / "general_3rrr.toml"
     if sset is None:

@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from spherekin.problem import compile
+from spherekin.systems import Passed
 from spherekin.trust.solutions import finalize, finalize_many
 
 DEFAULT_MECHANISMS = ("examples/general_3rrr.toml", "examples/four_bar.toml")
@@ -35,15 +36,12 @@ def chunk(path: str, n: int, seed: int = 0):
     inputs, clusters = [], []
     while len(inputs) < n:
         values = m.check_inputs(rng.uniform(-np.pi, np.pi, len(m.actuated)))
-        found = p._search_platform(values, None) if p.platform is not None else "loops"
-        if isinstance(found, str):
-            report, limit, _ = p._search_loops(values, p.strategy.tol, None, None)
-            if limit is not None:
-                continue                              # a covering run: another tol
-        else:
-            report = found[0]
+        found = next(f for f in (c.search_one(values, None, None) for c in p.chain)
+                     if not isinstance(f, Passed))                # the first system of the chain that answers
+        if found.limit is not None:
+            continue                                  # a covering run: another tol
         inputs.append(values)
-        clusters.append(report.clusters)
+        clusters.append(found.report.clusters)
     return m, np.array(inputs), p.names, clusters, p.strategy.tol
 
 

@@ -69,7 +69,7 @@ from benchmarks import graph_designs as gd
 from benchmarks.edge_campaign import render_table
 from spherekin.cluster import connect, map_in_order
 from spherekin.mechanism.io import mechanism_from_dict
-from spherekin.problem import SINGULAR_TOL
+from spherekin.singularities import SINGULAR_TOL
 
 __all__ = ["LINE_TOL", "PLANE_TOL", "REFINE_WIDTH", "EDGE", "ISSUE40_AXES_DEG", "SEEDS", "Line", "Plane",
            "cases", "line_reference", "branch_reference", "cover", "judge_line", "judge_plane", "table", "main"]

@@ -24,7 +24,7 @@ _LAZY = {"solve": ("spherekin.problem", "solve"), "compile": ("spherekin.problem
          "inverse_kinematics": ("spherekin.problem", "inverse_kinematics"),
          "solve_system": ("spherekin.search.boxloop", "solve_system"),
          "load_mechanism": ("spherekin.mechanism", "load_mechanism"),
-         "singular": ("spherekin.problem", "singular")}
+         "singular": ("spherekin.singularities", "singular")}
 #: Subpackages reachable as attributes once ``spherekin`` is imported (imported on first use).
 _SUBMODULES = ("batch", "plot", "mechanism")
 

@@ -413,7 +413,7 @@ def _map(args) -> int:
             raise ValueError(f"{option}: only with --singular (the certified singular cells)")
     singular_tol = None
     if args.singular:
-        from .problem import SINGULAR_TOL, check_singular_tol
+        from .singularities import SINGULAR_TOL, check_singular_tol
 
         singular_tol = check_singular_tol(SINGULAR_TOL if args.singular_tol is None else
                                           args.singular_tol * (math.pi / 180.0 if args.degrees else 1.0), "--singular-tol")
@@ -453,7 +453,7 @@ def _singular(args) -> int:
 
     from .batch.inputs import parse_fix, parse_range
     from .mechanism import load_mechanism
-    from .problem import singular
+    from .singularities import singular
 
     mech = load_mechanism(args.file)
     scale = math.pi / 180.0 if args.degrees else 1.0
@@ -509,7 +509,7 @@ def _singular(args) -> int:
                                inputs=plane_inputs if args.free == "plane" else None, shape=args.free_shape)
         sset = dataclasses.replace(sset, free_box={**box.as_dict(), "start_solution": args.start_solution})
     if args.mode_change:
-        from .problem import mode_change
+        from .singularities import mode_change
 
         sset = dataclasses.replace(sset, mode_change=mode_change(mech, sset))
     unit, show = ("deg", 180.0 / math.pi) if args.degrees else ("rad", 1.0)
@@ -1060,7 +1060,7 @@ def _add_strategy_options(so) -> None:
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     from .paper_gosselin import DEFAULT_PASSIVE_RANGE
-    from .problem import SINGULAR_TOL
+    from .singularities import SINGULAR_TOL
     from .systems.platform import MAX_ASSEMBLIES
 
     parser = _Parser(prog="spherekin", description=DESCRIPTION, formatter_class=_HelpFormatter,

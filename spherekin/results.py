@@ -22,7 +22,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "SearchLimit", "Settings",
+__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "is_proven", "SearchLimit", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -180,6 +180,11 @@ class Solution:
             ", ".join(format_number(a) for a in self.angles)
         res = "" if self.residual is None else f", residual={self.residual:.1e}"
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
+
+
+def is_proven(sol: Solution) -> bool:
+    """Whether an entry is a root proven by a certificate (it counts towards an exact count)."""
+    return sol.status == Status.CERTIFIED or (sol.status == Status.SINGULAR and bool(sol.evidence.get("krawczyk_certified")))
 
 
 def _in_order(readings: dict, mechanism) -> dict:
@@ -689,7 +694,7 @@ class SingularStats:
     """What a singular-set search cost: boxes processed by the box loop, accepted and pending boxes (in
     the augmented system's variables), seconds: ``seconds_cover`` in the box loops, ``seconds_certify``
     the rest (compiling the system, projecting, the certificates), ``seconds`` the total; ``crowded``: boxes
-    set aside in crowded cells (unresolved regions; :data:`spherekin.trust.singular.CROWDED_CELL`)."""
+    set aside in crowded cells (unresolved regions; :data:`spherekin.singularities.cells.CROWDED_CELL`)."""
 
     boxes_processed: int
     accepted: int

@@ -1,4 +1,4 @@
-"""The blow-up of the agile eye's stationary assemblies (spherekin/systems/blowup.py, issue 31).
+"""The blow-up of the agile eye's stationary assemblies (spherekin/singularities/blowup.py, issue 31).
 
 Independent references: the legs' forms q^T M q evaluated directly from the matrices (numpy), the direction w
 built here from its definition, the chart maps of the quaternion written out here, and the closed-form
@@ -17,9 +17,9 @@ import spherekin
 from spherekin.core import bernstein
 from spherekin.mechanism import load_mechanism
 from spherekin.search.isolation import SquareSystem, full_rank_proven
-from spherekin.systems.blowup import BLOWUP_RADIUS, StationaryPlane, blowup_patches, outside
+from spherekin.singularities.blowup import BLOWUP_RADIUS, StationaryPlane, blowup_patches, outside
 from spherekin.systems.platform import CHART_EXTENT
-from spherekin.systems.singular import PlatformPlane, SingularPlane
+from spherekin.singularities.planes import PlatformPlane, SingularPlane
 from singular_refs import EXAMPLES, agile_curve_points, agile_t
 
 EYE = EXAMPLES / "gosselin.toml"

@@ -134,7 +134,7 @@ def test_proven_mode_change_around_the_cusp(cusp_set):
     """Item 5: a closed loop of inputs around the proven cusp, tracked with every step proven, that comes back
     in another assembly. Checked with the oracle: start and end poses are both real roots of the degree-8
     solver at the loop's first input (to 1e-9) and different poses; the loop winds once around the cusp."""
-    from spherekin.problem import mode_change
+    from spherekin.singularities import mode_change
 
     from singular_refs import rrr_geometry, rrr_poses
 
@@ -179,7 +179,7 @@ def _clusters_by_hand(chart, lo, hi):
 def test_clusters_are_the_hull_closure_of_meeting_boxes(seed):
     """Random boxes on two charts (some touching at a face, some overlapping, some chains whose hulls meet
     though no two of their boxes do): the k-d tree clusters equal the all-pairs hull closure."""
-    from spherekin.trust.singular import _clusters
+    from spherekin.singularities.cells import _clusters
 
     rng = np.random.default_rng(seed)
     n = 60
@@ -197,9 +197,9 @@ def test_rank_candidates_keep_the_reference_cusp():
     cusp lies in a candidate's box (a box holding a cusp can never be proven cusp-free)."""
     from spherekin.budget import Budget
     from spherekin.mechanism import load_mechanism
-    from spherekin.problem import _plane_run
-    from spherekin.systems.singular import PlatformPlane, SingularPlane
-    from spherekin.trust.singular import Grid
+    from spherekin.singularities.cover import _plane_run
+    from spherekin.singularities.planes import PlatformPlane, SingularPlane
+    from spherekin.singularities.cells import Grid
 
     (x0, x1), (y0, y1) = CUSP_SQUARE
     plane = SingularPlane(("beta1", x0, x1), ("beta2", y0, y1), {"beta3": 0.5})
@@ -219,10 +219,11 @@ def test_a_cusp_on_the_whole_planes_charts_is_proven():
     (trust.singular.PROOF_LADDER; before, `spherekin singular` over the whole plane listed it unresolved).
     The proven cusp is the reference's."""
     from spherekin.mechanism import load_mechanism
-    from spherekin.problem import CUSP_FRACTION, CUSP_VECTORS, DEFAULT_PRUNER
+    from spherekin.problem import DEFAULT_PRUNER
+    from spherekin.singularities.cover import CUSP_FRACTION, CUSP_VECTORS
     from spherekin.search.boxloop import pruner_for, search_cover
-    from spherekin.systems.singular import PlatformPlane, SingularPlane
-    from spherekin.trust.singular import certify_cusps
+    from spherekin.singularities.planes import PlatformPlane, SingularPlane
+    from spherekin.singularities.cells import certify_cusps
 
     square = ((-1.95, -1.90), (0.70, 0.75))
     plane = SingularPlane(("beta1", -math.pi, math.pi), ("beta2", -math.pi, math.pi), {"beta3": 0.5})

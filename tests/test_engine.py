@@ -29,7 +29,7 @@ from benchmarks.reference_roots import reference_roots
 from spherekin import compile
 from spherekin.mechanism import five_bar, general_3rrr, gosselin
 from spherekin.mechanism.io import load_mechanism
-from spherekin.problem import DUPLICATE_POSE, first_of_duplicates
+from spherekin.systems.platform import DUPLICATE_POSE, first_of_duplicates
 from spherekin.search.boxloop import search_platform, search_platform_many
 from spherekin.search.parameterizations import stack_chart_sets
 from test_systems import elbow_actuated
@@ -175,11 +175,11 @@ def test_the_platform_search_of_a_chunk_is_each_inputs_own_search():
     mech, rows = _rows("gosselin")
     problem = compile(mech)
     s = problem.strategy
-    sets = [problem.platform.charts(row) for row in rows]
-    many = search_platform_many(stack_chart_sets(sets), len(rows), problem.platform.pruner, s.tol, s.max_boxes,
+    sets = [problem.compiled("platform").charts(row) for row in rows]
+    many = search_platform_many(stack_chart_sets(sets), len(rows), problem.compiled("platform").pruner, s.tol, s.max_boxes,
                                 s.max_depth)
     for k, (charts, got) in enumerate(zip(sets, many)):
-        alone = search_platform(charts, problem.platform.pruner, s.tol, s.max_boxes, s.max_depth)
+        alone = search_platform(charts, problem.compiled("platform").pruner, s.tol, s.max_boxes, s.max_depth)
         assert got.unresolved == alone.unresolved, k
         assert [(c, x.tolist()) for c, x in got.points] == [(c, x.tolist()) for c, x in alone.points], k
         for counter in ("boxes_processed", "discarded", "split", "reduced_again", "accepted", "isolated",

@@ -6,7 +6,7 @@ imported nor reached as ``module._name``), and the module-level import graph has
 
 output files (atomic), run control (budget) -> where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
 types (results) -> search (spherekin/search/) -> systems (spherekin/systems/) -> trust (spherekin/trust/) -> pipeline (problem) ->
-families of inputs (spherekin/batch/) -> interfaces (cli, plot).
+singular sets (spherekin/singularities/) -> families of inputs (spherekin/batch/) -> interfaces (cli, plot).
 
 Rules of issue 29 beyond the order, each its own test: the search never imports the mechanism
 package (it works on equations handed over as data), the trust layer never imports the search
@@ -34,6 +34,7 @@ LAYERS = [
     ("systems", {"systems"}),
     ("trust", {"trust"}),
     ("pipeline", {"problem"}),
+    ("singular sets", {"singularities"}),
     ("families of inputs", {"batch"}),
     ("interfaces", {"cli", "plot", "__main__"}),
 ]

@@ -50,7 +50,7 @@ def seeded_rows(p, k, seed):
 
 
 def direct(p, row) -> ChartSet:
-    return make_charts(p.strategy.parameterization, p.loops.builder(tuple(row)), p.ranges, p.loops.formulation)
+    return make_charts(p.strategy.parameterization, p.compiled("loops").builder(tuple(row)), p.ranges, p.compiled("loops").formulation)
 
 
 def chart_slice(cs: ChartSet, sl: slice) -> ChartSet:
@@ -72,8 +72,8 @@ def per_equation(err: np.ndarray, tol: np.ndarray) -> np.ndarray:
 def test_charts_many_is_the_direct_build_of_every_input_to_rounding(name):
     p = problem(name)
     rows = seeded_rows(p, 4, seed=len(name))
-    got = p.loops.charts_many(rows, p.ranges)
-    assert p.loops.compiled_charts(p.ranges).fallback is None
+    got = p.compiled("loops").charts_many(rows, p.ranges)
+    assert p.compiled("loops").compiled_charts(p.ranges).fallback is None
     sets = [direct(p, r) for r in rows]
     c = sets[0].n_charts
     assert got.n_charts == len(rows) * c
@@ -144,7 +144,7 @@ def _halves_reference(p, row, cs: ChartSet, c: int):
 def test_reconstructed_tolerances_bound_the_error_against_a_40_digit_build(name):
     mpmath.mp.dps = 40
     p = problem(name)
-    assert p.loops.formulation == "halves"
+    assert p.compiled("loops").formulation == "halves"
     m = p.mechanism
     rows = list(seeded_rows(p, 2, seed=7))
     # the inputs that put an actuated factor's angle at (float) +-pi/2, where the direct build snaps
@@ -154,7 +154,7 @@ def test_reconstructed_tolerances_bound_the_error_against_a_40_digit_build(name)
     snap = (math.pi / 2 - a0.offset) * a0.sign
     rows += [np.array([snap] + [0.1] * (len(m.actuated) - 1)), np.array([snap + 1e-15] + [0.1] * (len(m.actuated) - 1))]
     rows = np.array([[math.remainder(x, 2 * math.pi) for x in r] for r in rows])
-    got = p.loops.charts_many(rows, p.ranges)
+    got = p.compiled("loops").charts_many(rows, p.ranges)
     c_per = got.n_charts // len(rows)
     worst = 0.0
     for k, row in enumerate(rows):
@@ -188,12 +188,12 @@ def test_the_search_finds_the_same_solutions_with_the_compiled_charts(name, monk
     rows = np.array(near[name], dtype=float)
     if name in ("four_bar", "five_bar"):      # and inputs where they may not
         rows = np.vstack([rows, seeded_rows(p, 2, seed=11)])
-    many = p.loops.charts_many(rows, p.ranges)
+    many = p.compiled("loops").charts_many(rows, p.ranges)
     c = many.n_charts // len(rows)
     s = p.strategy
 
     def solve(row):
-        return boxloop.solve_system(p.loops.builder(tuple(row)), p.ranges, formulation=p.loops.formulation,
+        return boxloop.solve_system(p.compiled("loops").builder(tuple(row)), p.ranges, formulation=p.compiled("loops").formulation,
                                     pruner=s.pruner, parameterization=s.parameterization, tol=s.tol)
 
     before = [solve(r) for r in rows]
@@ -231,14 +231,14 @@ def test_stack_chart_sets_round_trips_and_names_what_differs():
     other = direct(problem("watt_six_bar"), seeded_rows(problem("watt_six_bar"), 1, seed=0)[0])
     with pytest.raises(ValueError, match=r"sets\[1\].*unknowns"):
         stack_chart_sets([sets[0], other])
-    paper = make_charts("tan-half", p.loops.builder(tuple(rows[0])), p.ranges, "paper")
+    paper = make_charts("tan-half", p.compiled("loops").builder(tuple(rows[0])), p.ranges, "paper")
     with pytest.raises(ValueError, match=r"sets\[1\].*number of blocks"):
         stack_chart_sets([sets[0], paper])
 
 
 def test_a_build_not_multilinear_in_the_inputs_falls_back_to_the_direct_build():
     p = problem("four_bar")
-    b = p.loops
+    b = p.compiled("loops")
 
     def bent(row):            # the input through a nonlinear map: not multilinear in (1, cos, sin)
         return b.builder(tuple(0.5 * np.sin(np.asarray(row, dtype=float)) ** 2))
@@ -255,33 +255,33 @@ def test_a_build_not_multilinear_in_the_inputs_falls_back_to_the_direct_build():
 def test_charts_many_refuses_rows_of_the_wrong_shape_or_outside_a_turn():
     p = problem("five_bar")
     with pytest.raises(ValueError, match=r"rows: expected a \(K, 2\) array"):
-        p.loops.charts_many(np.zeros((3, 1)), p.ranges)
+        p.compiled("loops").charts_many(np.zeros((3, 1)), p.ranges)
     with pytest.raises(ValueError, match=r"rows: expected"):
-        p.loops.charts_many(np.zeros(2), p.ranges)
+        p.compiled("loops").charts_many(np.zeros(2), p.ranges)
     with pytest.raises(ValueError, match=r"rows\[1\]: inputs"):
-        p.loops.charts_many(np.array([[0.1, 0.2], [17.0, 0.0]]), p.ranges)
+        p.compiled("loops").charts_many(np.array([[0.1, 0.2], [17.0, 0.0]]), p.ranges)
     with pytest.raises(ValueError, match=r"rows\[0\]: inputs"):
-        p.loops.charts_many(np.array([[np.nan, 0.2]]), p.ranges)
+        p.compiled("loops").charts_many(np.array([[np.nan, 0.2]]), p.ranges)
 
 
 def test_a_narrow_actuated_range_falls_back_instead_of_interpolating_ill_conditioned():
     p = problem("four_bar")
-    lc = LoopCharts(p.loops.builder, [(0.2, 0.25)], p.ranges, p.strategy.parameterization, p.loops.formulation)
+    lc = LoopCharts(p.compiled("loops").builder, [(0.2, 0.25)], p.ranges, p.strategy.parameterization, p.compiled("loops").formulation)
     assert lc.fallback is not None and "too narrow" in lc.fallback
     got = lc.charts(np.array([[0.22]]))
     want = direct(p, (0.22,))
     np.testing.assert_array_equal(got.coeffs[0], want.coeffs[0])
     # a full-circle joint interpolates, with the Lebesgue constant 5/3 of nodes 2 pi / 3 apart
-    full = LoopCharts(p.loops.builder, [None], p.ranges, p.strategy.parameterization, p.loops.formulation)
+    full = LoopCharts(p.compiled("loops").builder, [None], p.ranges, p.strategy.parameterization, p.compiled("loops").formulation)
     assert full.fallback is None
 
 
 def test_a_block_that_depends_on_joints_other_than_one_loops_falls_back():
     p = problem("five_bar")        # one loop with both actuated joints; claim it holds only the first
-    lc = LoopCharts(p.loops.builder, [None, None], p.ranges, p.strategy.parameterization, p.loops.formulation,
+    lc = LoopCharts(p.compiled("loops").builder, [None, None], p.ranges, p.strategy.parameterization, p.compiled("loops").formulation,
                     loop_joints=[{0}])
     assert lc.fallback is not None and "not on those of one loop" in lc.fallback
-    ok = LoopCharts(p.loops.builder, [None, None], p.ranges, p.strategy.parameterization, p.loops.formulation,
+    ok = LoopCharts(p.compiled("loops").builder, [None, None], p.ranges, p.strategy.parameterization, p.compiled("loops").formulation,
                     loop_joints=[{0, 1}])
     assert ok.fallback is None and [blk.axes for blk in ok.blocks] == [(0, 1), (0, 1)]
 
@@ -289,8 +289,8 @@ def test_a_block_that_depends_on_joints_other_than_one_loops_falls_back():
 def test_without_dense_coefficients_the_halves_and_tolerances_are_the_same():
     p = problem("general_3rrr_loops")
     rows = seeded_rows(p, 2, seed=9)
-    full = p.loops.charts_many(rows, p.ranges)
-    lean = p.loops.charts_many(rows, p.ranges, dense=False)
+    full = p.compiled("loops").charts_many(rows, p.ranges)
+    lean = p.compiled("loops").charts_many(rows, p.ranges, dense=False)
     for b, (f, g) in enumerate(zip(full.bilinear, lean.bilinear)):
         assert g is not None and np.all(np.isnan(lean.coeffs[b])) and lean.coeffs[b].shape == full.coeffs[b].shape
         np.testing.assert_array_equal(f.a, g.a)

@@ -260,9 +260,9 @@ def test_not_applicable_and_strategy_errors():
         compile(gosselin(), formulation="quaternion")
     # auto: the loop equations where the platform formulation does not apply, and why
     assert compile(four_bar()).strategy.formulation == "halves"
-    assert compile(four_bar()).not_platform == why
+    assert dict(compile(four_bar()).declined)["platform"] == why
     p = compile(gosselin(), parameterization="sin-cos")
-    assert p.strategy.formulation == "halves" and "sin-cos" in p.not_platform
+    assert p.strategy.formulation == "halves" and "sin-cos" in dict(p.declined)["platform"]
     assert compile(gosselin(), isolate=False).strategy.formulation == "halves"
 
 
@@ -289,7 +289,7 @@ def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
 
 
 def test_disagreement_between_platform_roots_and_finalized_solutions():
-    from spherekin.problem import disagreement
+    from spherekin.systems.platform import disagreement
     from spherekin.results import Solution
 
     r1, r2 = rot([0.1, 0.2, 0.3]), rot([-0.4, 0.0, 0.9])
@@ -311,7 +311,7 @@ def test_the_disagreements_of_a_chunk_are_each_inputs_own():
     entry proven; the distinct roots, greedily within POSE_MATCH, as many as the entries, each
     matched by one), on random cases: duplicates, a root moved, entries missing or extra, unproven
     ones, inputs without roots or entries; roots of one input never match entries of another."""
-    from spherekin.problem import POSE_MATCH, disagreements
+    from spherekin.systems.platform import POSE_MATCH, disagreements
     from spherekin.results import Solution
 
     rng = np.random.default_rng(35)
@@ -428,8 +428,8 @@ def test_no_root_is_lost_to_the_chart_cores_not_even_tied_ones():
     ties = 0
     for mech, inputs, geometry in cases:
         problem = compile(mech)
-        found = search_platform(problem.platform.charts(inputs), problem.platform.pruner, 1e-6)
-        rots = [problem.platform.pose(c, x) for c, x in found.points]
+        found = search_platform(problem.compiled("platform").charts(inputs), problem.compiled("platform").pruner, 1e-6)
+        rots = [problem.compiled("platform").pose(c, x) for c, x in found.points]
         if geometry:
             expect = reference_roots(geometry, inputs).rotations
         else:                                          # the loop equations: another formulation

@@ -100,7 +100,7 @@ def test_compile_checks_names_without_building_and_builds_the_platform_pruner_on
     spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
     assert CountingBuilds.builds == 0          # a loop formulation: the checks build nothing
     problem = spherekin.compile(gosselin(), pruner="counting-builds")
-    assert problem.platform is not None and CountingBuilds.builds == 1
+    assert problem.chain[0].system == "platform" and CountingBuilds.builds == 1
     for _ in range(2):
         report = problem.solve(GOSSELIN_INPUTS)
         assert report.settings.fallback is None and report.proven_count == 8

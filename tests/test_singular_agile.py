@@ -23,7 +23,7 @@ import sympy as sp
 import spherekin
 from spherekin.mechanism import load_mechanism
 from spherekin.systems.platform import leg_matrices, platform_legs
-from spherekin.systems.singular import stationary_quaternions
+from spherekin.singularities.planes import stationary_quaternions
 from singular_refs import EXAMPLES, _quaternion_rotations, agile_curve_points, agile_t, rrr_geometry, rrr_poses_all_frames, type2_det
 
 EYE = EXAMPLES / "gosselin.toml"

@@ -1,6 +1,6 @@
 """Certified singular inputs of mechanisms with several loops (issue 31 item 6): the spherical six-bars.
 
-D = det K_p of the loop equations (:func:`spherekin.systems.singular.det_plan`) is checked against two
+D = det K_p of the loop equations (:func:`spherekin.singularities.planes.det_plan`) is checked against two
 references written here, independent of the Bernstein code and of K_p:
 
 * Watt I six-bar (examples/watt_six_bar.toml): two four-bars in series. At crank input A, joint C lies on
@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 
 import spherekin
-from spherekin.systems.singular import MAX_DET_COEFFS, SingularPlane, det_plan, LoopPlane
+from spherekin.singularities.planes import MAX_DET_COEFFS, SingularPlane, det_plan, LoopPlane
 from singular_refs import (EXAMPLES, ISSUE40_AXES_DEG, _circle_intersections, arc, count_changes, dyad_pair_eliminant,
                            polar_axes, real_root_count, rodrigues, ternary_six_bar_count, ternary_six_bar_toml)
 
@@ -154,7 +154,7 @@ def test_a_line_cover_held_against_proven_counts_is_not_complete_when_it_misses(
     proven counts that differ inside one interval prove a missed singular input. With the defect put back (det
     K_p's terms unlifted) the cover of the J5-driven six-bar misses every branch point, and the cross-check
     finds each: not complete (the right cover's check agrees: the test above)."""
-    import spherekin.systems.singular as sing
+    import spherekin.singularities.planes as sing
 
     _, path = _ternary_six_bar(tmp_path, "J5")
     right = sing.det_plan
@@ -214,7 +214,7 @@ def test_determinant_is_det_kp_at_assemblies(name, tmp_path):
 
 def test_refuses_a_determinant_too_large(monkeypatch, capsys):
     """A det K_p over the coefficient cap is refused before any chart is built, in one line naming why."""
-    import spherekin.systems.singular as sing
+    import spherekin.singularities.planes as sing
     from spherekin.cli import main
 
     m = spherekin.load_mechanism(EXAMPLES / "watt_six_bar.toml")
@@ -252,9 +252,9 @@ def test_one_loop_five_bar_has_no_cusps(tmp_path):
     (the normal of a_C, a_D in the loop's frame link, constant on the curve) the tangency C_r = (l . r)(...)
     vanishes along the whole curve, the search keeps it, and none of its candidates is called a ``cusp`` (their
     roots are not isolated and adj(K~) r vanishes there)."""
-    from spherekin.problem import CUSP_VECTORS
+    from spherekin.singularities.cover import CUSP_VECTORS
     from spherekin.search.boxloop import pruner_for, search_cover
-    from spherekin.trust.singular import certify_cusps
+    from spherekin.singularities.cells import certify_cusps
 
     m = _five_bar_60_45(tmp_path)
     lp = LoopPlane(m, SingularPlane(("A", -math.pi, math.pi), ("E", -math.pi, math.pi), {}))
@@ -282,7 +282,7 @@ def test_two_loop_plane_matches_the_platform_oracle():
     and the reference finds a singular input on the boundary of each ``singular`` cell widened by half its
     width (as tests/test_singular.py checks the platform system)."""
     from spherekin.search.boxloop import pruner_for, search_cover
-    from spherekin.trust.singular import Grid, certify_cover
+    from spherekin.singularities.cells import Grid, certify_cover
     from singular_refs import singular_points_on_line
 
     m = spherekin.load_mechanism(EXAMPLES / "general_3rrr_graph.toml")

@@ -1,4 +1,4 @@
-"""Certified tracing of general_3rrr's singular curves (spherekin.trust.singular.trace_cover, issue 31's benchmark).
+"""Certified tracing of general_3rrr's singular curves (spherekin.singularities.cells.trace_cover, issue 31's benchmark).
 
 Checked against the independent references of tests/singular_refs.py (the degree-8 oracle's real-root count
 along segments, bisected where it changes): the traced cells and the rest of the cover hold every reference
@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 
 import spherekin
-from spherekin.problem import COVER_FRACTION, as_mechanism
+from spherekin.problem import as_mechanism
+from spherekin.singularities.cover import COVER_FRACTION
 from spherekin.search.boxloop import pruner_for
-from spherekin.systems.singular import PlatformPlane, SingularPlane
-from spherekin.trust import singular as ts
+from spherekin.singularities.planes import PlatformPlane, SingularPlane
+from spherekin.singularities import cells as ts
 from singular_refs import EXAMPLES, lines_across, singular_points_on_line
 
 RRR = EXAMPLES / "general_3rrr.toml"
@@ -253,7 +254,7 @@ def test_crowded_cells_are_those_a_count_over_every_cell_finds(seed, monkeypatch
     """trust.singular._in_crowded_cells (a coarse grid first, to skip counting the fine cells when no cell can
     be crowded) against counting every cell of the grid: the same rectangles flagged, for clusters of
     rectangles dense enough or not, wide or narrow beside the cells (the threshold made 12 for the test)."""
-    import spherekin.trust.singular as ts
+    import spherekin.singularities.cells as ts
 
     monkeypatch.setattr(ts, "CROWDED_CELL", 12)
     rng = np.random.default_rng(seed)
@@ -278,7 +279,7 @@ def test_a_crowd_split_over_four_coarse_cells_is_still_found(monkeypatch):
     """16 small rectangles around a corner of the coarse grid, 4 in each coarse cell, all in one cell of the
     grid (its edges are not the coarse grid's): that cell is crowded (threshold 12) though no coarse cell is
     met by more than 4 (plus one wide rectangle far away, which sets the coarse width)."""
-    import spherekin.trust.singular as ts
+    import spherekin.singularities.cells as ts
 
     monkeypatch.setattr(ts, "CROWDED_CELL", 12)
     grid = ts.Grid.over([("x", -1.0, 1.03), ("y", -1.0, 1.03)], 0.05)

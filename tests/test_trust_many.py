@@ -22,6 +22,7 @@ from spherekin.problem import REFINE_FACTOR, REFINE_MAX_BOXES, REFINE_MIN_TOL, c
 from spherekin.search.boxloop import SolverLimitError
 from spherekin.closure import closure_plan
 from spherekin.core.angles import RANGE_TOL
+from spherekin.systems import Passed
 from spherekin.trust import solutions
 from spherekin.trust.krawczyk import certify_many, certify_stacked, krawczyk_many, krawczyk_stacked
 from spherekin.trust.solutions import LOCAL_CHART, finalize, finalize_many, is_proven
@@ -58,13 +59,11 @@ class Chunk:
         self.inputs, self.clusters, self.tols = [], [], []
         for x in rows:
             values = self.mech.check_inputs(x)
-            found = self.problem._search_platform(values, None) if self.problem.platform is not None else "loops"
-            if isinstance(found, str):
-                report, limit, tol = self.problem._search_loops(values, self.problem.strategy.tol, None, None)
-                if limit is not None:
-                    continue                  # a covering run (another tol): not this chunk's
-            else:
-                report, tol = found[0], self.problem.strategy.tol
+            found = next(f for f in (c.search_one(values, None, None) for c in self.problem.chain)
+                         if not isinstance(f, Passed))        # the first system of the chain that answers
+            if found.limit is not None:
+                continue                      # a covering run (another tol): not this chunk's
+            report, tol = found.report, found.tol
             self.inputs.append(values)
             self.clusters.append(report.clusters)
             self.tols.append(tol)
@@ -80,8 +79,7 @@ class Chunk:
                 return None
             box = {n: (float(a) - RANGE_TOL, float(b) + RANGE_TOL) for n, a, b in zip(self.names, lo, hi)}
             try:
-                sub = self.problem.loops.search(values, box, tol=finer, jobs=1,
-                                                max_boxes=min(s.max_boxes, REFINE_MAX_BOXES))
+                sub = self.problem.compiled("loops").search_box(values, box, finer, min(s.max_boxes, REFINE_MAX_BOXES))
             except SolverLimitError:
                 return None
             return sub.clusters, finer

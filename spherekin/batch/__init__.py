@@ -111,7 +111,8 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
     map's plane (:func:`spherekin.singular` over the grid's ranges, cells no wider than singular_tol,
     ``singular_max_boxes`` its box cap), in :attr:`AssemblyMap.singular_set`. Not to be confused with
     the map's ``singular`` counts (entries the solver flagged singular) nor its ``measure``."""
-    from ..problem import as_mechanism, check_singular_tol, singular
+    from ..problem import as_mechanism
+    from ..singularities import check_singular_tol, singular
     from ..results import CrossCheck
     from .maps import aggregate, grid_cross_check
 

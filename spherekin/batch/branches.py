@@ -529,7 +529,8 @@ def branch_map(mechanism, grid: GridAxis | str | None = None, *, joint: str | No
     Islands of assemblies narrower than a grid step between two inputs of the same count are not seen
     by the sampling; the cover's cells show where they may be (step 4 of the module doc).
     """
-    from ..problem import as_mechanism, check_singular_tol, compile as compile_problem
+    from ..problem import as_mechanism, compile as compile_problem
+    from ..singularities import check_singular_tol
 
     mech = as_mechanism(mechanism)
     name = check_one_input(mech)
@@ -595,7 +596,7 @@ def _cover(mech, name: str, lo: float, hi: float, tol: float) -> CoverCheck:
     """The certified singular cover of the input ``name`` over [lo, hi] (radians) at cell width ``tol``
     (:func:`spherekin.singular`), as a :class:`CoverCheck` not yet judged (``error``: its one-line
     refusal, e.g. a mechanism whose det K_p it cannot expand)."""
-    from ..problem import singular
+    from ..singularities import singular
 
     t0 = time.perf_counter()
     try:

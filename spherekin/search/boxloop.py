@@ -660,8 +660,9 @@ def _worker(args):
 
 def check_strategy(formulation, pruner, lp_backend, parameterization, tol, jobs):
     """ValueError naming the first strategy name or number that is not valid (names: from the
-    registries); builds nothing."""
-    FORMULATIONS.lookup(formulation)
+    registries; ``formulation`` None: not a loop formulation, checked by the caller); builds nothing."""
+    if formulation is not None:
+        FORMULATIONS.lookup(formulation)
     check_pruner(pruner, lp_backend)
     PARAMETERIZATIONS.lookup(parameterization)
     if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):

@@ -5,9 +5,12 @@
 joints actuated) and the loop-equation system (:mod:`spherekin.systems.loops`: any mechanism).
 """
 
-from .base import AUTO, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAISE, SYSTEMS, Compiled, Strategy, System, choose, system_choices
+from .base import (AUTO, CONTINUUM_TOL, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAISE, SYSTEMS, CappedSearchWarning, Compiled,
+                   Found, Passed, Strategy, System, chain, choose, formulation_choices, system_choices,
+                   system_of_formulation)
 from .platform import Platform      # registered first: the fastest, where it accepts
 from .loops import LOOP_FORMULATION, Loops
 
-__all__ = ["AUTO", "ON_CAP_CHOICES", "ON_CAP_COVER", "ON_CAP_RAISE", "SYSTEMS", "Compiled", "Strategy", "System", "choose", "system_choices", "Platform", "Loops",
-           "LOOP_FORMULATION"]
+__all__ = ["AUTO", "CONTINUUM_TOL", "ON_CAP_CHOICES", "ON_CAP_COVER", "ON_CAP_RAISE", "SYSTEMS", "CappedSearchWarning",
+           "Compiled", "Found", "Passed", "Strategy", "System", "chain", "choose", "formulation_choices",
+           "system_choices", "system_of_formulation", "Platform", "Loops", "LOOP_FORMULATION"]

@@ -9,16 +9,19 @@ the mechanism's loop builder and a cache of pruners, one per chart layout, built
 
 from __future__ import annotations
 
+import dataclasses
 import time
+import warnings
 from typing import Callable
 
 import numpy as np
 
-from ..search.boxloop import solve_system, solve_system_many
+from ..results import SearchLimit, Settings
+from ..search.boxloop import SearchInterrupted, SolverLimitError, partial_report, solve_system, solve_system_many
 from ..search.parameterizations import make_charts, stack_chart_sets
 from ..search.formulations import FORMULATIONS
 from ..search.parameterizations import ChartSet
-from .base import SYSTEMS, Compiled, Strategy, System
+from .base import (CONTINUUM_TOL, ON_CAP_RAISE, SYSTEMS, CappedSearchWarning, Compiled, Found, Strategy, System)
 from .loop_charts import LoopCharts
 
 __all__ = ["LOOP_FORMULATION", "COMPILED_MAX_BUILDS", "Loops", "CompiledLoops"]
@@ -43,11 +46,14 @@ def _ranges_key(ranges) -> tuple:
 class CompiledLoops(Compiled):
     """The loop equations of one mechanism in one formulation, with their pruners (kept per chart layout)."""
 
+    system = "loops"
+
     def __init__(self, mechanism, strategy: Strategy, formulation: str):
         self.mechanism = mechanism
         self.strategy = strategy
         self.formulation = formulation
         self.names = tuple(mechanism.loop_unknowns)
+        self.ranges = {n: mechanism.ranges[n] for n in self.names}
         #: chart layout -> pruner (:func:`spherekin.search.boxloop.pruner_for`), filled at first use
         self.pruners: dict = {}
         #: ranges -> :class:`spherekin.systems.loop_charts.LoopCharts`, compiled at the first charts_many over them
@@ -112,7 +118,7 @@ class CompiledLoops(Compiled):
                             jobs=jobs, max_boxes=max_boxes, max_depth=s.max_depth, progress=progress, trace=trace,
                             pruners=self.pruners, charts=charts)
 
-    def search_many(self, rows, ranges, *, tol: float, max_boxes: int, progress=None) -> tuple:
+    def search_many_over(self, rows, ranges, *, tol: float, max_boxes: int, progress=None) -> tuple:
         """:func:`spherekin.search.boxloop.solve_system_many` at every row of ``rows`` (K, actuated;
         radians) over ``ranges``: one report per row, None where the row reached a cap."""
         s = self.strategy
@@ -132,13 +138,86 @@ class CompiledLoops(Compiled):
         """The points themselves: the unknowns are the passive joints' readings."""
         return np.asarray(points, dtype=float)
 
+    # ------------------------------------------------------------------ the pipeline's seam
+
+    def describe(self) -> str:
+        return f"{self.formulation}, {self.strategy.parameterization}"
+
+    def search_many(self, rows: list, progress) -> list:
+        """The chunk's rows in one box loop over the joint ranges: a :class:`~.base.Found` per row,
+        None where a row reached a cap. Ctrl-C in a chunk of one hands over what was found
+        (:meth:`_interrupted`); in a larger chunk it stops the chunk."""
+        s = self.strategy
+        try:
+            found = self.search_many_over(np.array(rows), self.ranges, tol=s.tol, max_boxes=s.max_boxes,
+                                          progress=progress)
+        except SearchInterrupted as exc:
+            if len(rows) > 1:
+                raise KeyboardInterrupt(*exc.args) from None
+            return [self._interrupted(exc, s.tol)]
+        return [None if report is None else Found(report, None, s.tol, True) for report in found]
+
+    def search_one(self, values, progress, trace) -> Found:
+        """One input over the joint ranges (``jobs`` Dask workers over its charts, ``trace``); a capped
+        search is re-run as a covering (``on_cap="cover"``) or raises (``"raise"``)."""
+        s = self.strategy
+        tol = s.tol
+
+        def run(t):
+            return self.search(values, self.ranges, tol=t, jobs=s.jobs, max_boxes=s.max_boxes, progress=progress,
+                               trace=trace)
+
+        try:
+            return Found(run(tol), None, tol, True)
+        except SearchInterrupted as exc:
+            return self._interrupted(exc, tol)
+        except SolverLimitError as exc:
+            if s.on_cap == ON_CAP_RAISE:
+                raise
+            # A continuum of solutions (or a cap too small for this tol): cover the solution set with
+            # boxes of CONTINUUM_TOL instead, and report what the cap stopped (the paper, Section 4: the
+            # algorithm then returns a discretization of the solution set).
+            covering = max(tol, CONTINUUM_TOL)
+            limit = SearchLimit(str(exc), tol, covering)
+            warnings.warn(CappedSearchWarning(
+                f"the search at tol {tol:g} reached max_boxes={s.max_boxes} (a continuum of solutions, or a cap "
+                f"too small for this tol): the solution set is covered at tol {covering:g} instead and the count "
+                f"is not proven (report.settings.limit; on_cap='raise' to get the error)"), stacklevel=2)
+            try:
+                report = run(covering)
+            except SolverLimitError as exc2:
+                limit = dataclasses.replace(limit, covering_error=str(exc2))
+                report = partial_report(exc2, self.ranges, self._settings(covering))
+            return Found(report, limit, covering, True)
+
+    def search_box(self, values, box, tol: float, max_boxes: int):
+        """A search of ``box`` (a cluster's hull) at ``values``, one process (the trust layer's refined search)."""
+        return self.search(values, box, tol=tol, jobs=1, max_boxes=max_boxes)
+
+    def _settings(self, tol: float) -> Settings:
+        s = self.strategy
+        return Settings(formulation=self.formulation, pruner=s.pruner, lp_backend=s.lp_backend,
+                        parameterization=s.parameterization, tol=tol, isolate=s.isolate, jobs=s.jobs, charts=0)
+
+    def _interrupted(self, exc: SearchInterrupted, tol: float) -> Found:
+        """A loop search stopped by Ctrl-C (or SIGTERM): what was accepted so far is finalized and
+        reported, marked as interrupted (the count is then never exact, nothing refined), not lost."""
+        return Found(partial_report(exc, self.ranges, self._settings(tol)),
+                     SearchLimit(str(exc), tol, tol, interrupted=True), tol, False)
+
 
 @SYSTEMS.register
 class Loops(System):
     """The closure equations of every loop (Eq. 2): any mechanism."""
 
     name = "loops"
+    default_formulation = LOOP_FORMULATION
+    traces = True
     description = "the closure equations of every loop in the passive joints' angles (any mechanism)"
+
+    @classmethod
+    def formulations(cls) -> tuple[str, ...]:
+        return tuple(FORMULATIONS)
 
     @classmethod
     def accepts(cls, mechanism, strategy=None) -> str | None:

@@ -43,24 +43,32 @@ system of the registry (:mod:`spherekin.systems.base`): what it accepts and what
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.angles import wrap
+from ..core.angles import RANGE_TOL, in_range_many, wrap
+from ..core.groups import pad_by_owner
+from ..results import SearchReport, Settings, is_proven
+from ..search.boxloop import (SearchInterrupted, SolverLimitError, clusters_in_range_many, search_platform,
+                              search_platform_many)
 from ..core.orientation import quaternion_matrices, quaternion_matrix
 from ..core.rotations import cross
 from ..mechanism.chains import angle_about, axis_rotation, axis_rotations, perpendicular
 from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 from ..search.pruners import make_pruner
-from .base import SYSTEMS, Compiled, System
+from ..search.parameterizations import stack_chart_sets
+from .base import SYSTEMS, Compiled, Found, Passed, System
 
 __all__ = ["CHARTS", "CHART_EXTENT", "CHART_CORE", "CORE_ROUNDING", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem", "leg_matrices",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
            "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_names",
-           "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform"]
+           "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform", "POSE_MATCH", "DUPLICATE_POSE",
+           "first_of_duplicates", "disagreement", "disagreements"]
 
 #: Number of quaternion charts (one per component fixed to 1).
 CHARTS = 4
@@ -524,17 +532,34 @@ class Quaternion(Parameterization):
 
 # ---------------------------------------------------------------------- the system of the registry
 
+#: A root of the platform search and a finalized solution are the same assembly when their poses
+#: agree to this (largest entry). Reason: both are Newton/Gauss-Newton limits accurate to ~1e-14 away
+#: from parallel singularities (near one, the platform search does not isolate the roots and this
+#: check is not reached), and distinct assemblies closer than 1e-8 occur only next to one.
+POSE_MATCH = 1e-8
+#: Two roots of the platform search are one (found from two overlapping charts, or on the face of
+#: two boxes) when their poses agree to this. Reason: Newton limits of one root agree to ~1e-15;
+#: two distinct roots this close could not be told apart by any float64 test downstream either.
+DUPLICATE_POSE = 1e-12
+
+
 class CompiledPlatform(Compiled):
     """Eq. (1) compiled for one mechanism (:class:`PlatformSystem`) and its pruner, built once.
 
     ``names``: the passive joints the pipeline reports (the mechanism's ``loop_unknowns`` order);
-    :meth:`readings` maps platform poses back to them.
+    :meth:`readings` maps platform poses back to them. In the chain (:mod:`.base`), an input whose
+    roots this search cannot all isolate, or whose trust-layer answer disagrees with its roots
+    (:meth:`check`), goes to the next system (the loop equations).
     """
 
-    def __init__(self, equations: PlatformSystem, pruner, names):
+    system = "platform"
+
+    def __init__(self, equations: PlatformSystem, pruner, names, ranges, strategy):
         self.equations = equations
         self.pruner = pruner
         self.names = tuple(names)
+        self.ranges = dict(ranges)
+        self.strategy = strategy
         self.order = [passive_names(equations.legs).index(n) for n in self.names]
 
     @property
@@ -566,13 +591,147 @@ class CompiledPlatform(Compiled):
         return passive_readings_many(self.legs, inputs, np.asarray(poses, dtype=float),
                                      self.platform_reference)[:, self.order]
 
+    # ------------------------------------------------------------------ the pipeline's seam
+
+    def describe(self) -> str:
+        return "platform"
+
+    def search_one(self, values, progress, trace):
+        """The platform search at one input: a :class:`~.base.Found` (its roots' poses kept for
+        :meth:`check`), or why the loop equations must answer instead (a :class:`~.base.Passed`)."""
+        if trace is not None:
+            raise ValueError("trace: only available with a loop formulation (paper, transversal, halves), "
+                             "got the platform formulation")
+        s = self.strategy
+        t0 = time.perf_counter()
+        charts = self.charts(values)
+        t_setup = time.perf_counter() - t0
+        try:
+            found = search_platform(charts, self.pruner, s.tol, s.max_boxes, s.max_depth, progress)
+        except SearchInterrupted:
+            raise KeyboardInterrupt from None            # a search of milliseconds: nothing worth keeping
+        except SolverLimitError as exc:
+            return Passed(f"the platform search reached a cap ({exc})")
+        return self._answers([found], [values], t_setup, charts.n_charts)[0]
+
+    def search_many(self, rows: list, progress) -> list:
+        """The chart sets of every row stacked, one box loop over all their boxes
+        (:func:`spherekin.search.boxloop.search_platform_many`); None where a row reached a cap."""
+        s = self.strategy
+        t0 = time.perf_counter()
+        charts = [self.charts(v) for v in rows]
+        t_setup = (time.perf_counter() - t0) / len(rows)
+        try:
+            found = search_platform_many(stack_chart_sets(charts), len(rows), self.pruner, s.tol, s.max_boxes,
+                                         s.max_depth, progress)
+        except SearchInterrupted:
+            raise KeyboardInterrupt from None        # searches of milliseconds: nothing worth keeping
+        return self._answers(list(found), rows, t_setup, charts[0].n_charts)
+
+    def _answers(self, found: list, values: list, t_setup: float, n_charts: int) -> list:
+        """The answer of each input of a chunk from what the platform search ``found`` there: the poses,
+        joint readings and range tests of all their roots as array operations, then each input's
+        :class:`~.base.Found` (None where ``found`` is: a cap), or a :class:`~.base.Passed` where
+        the search left boxes it could not isolate."""
+        s = self.strategy
+        owner = np.array([k for k, f in enumerate(found) if f is not None for _ in f.points], dtype=int)
+        points = [p for f in found if f is not None for p in f.points]
+        poses, readings, inside = np.empty((0, 3, 3)), np.empty((0, len(self.names))), np.empty(0, dtype=bool)
+        if points:
+            poses = self.poses(np.array([c for c, _ in points]), np.array([x for _, x in points]))
+            readings = self.readings(np.array(values, dtype=float)[owner], poses)
+            inside = np.ones(len(points), dtype=bool)
+            for j, rng in enumerate(self.ranges.values()):
+                inside &= in_range_many(readings[:, j], rng, s.tol + RANGE_TOL)
+        settings = Settings(formulation="platform", pruner=s.pruner, lp_backend=s.lp_backend,
+                            parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=n_charts)
+        answered = np.array([f is not None and not f.unresolved for f in found], dtype=bool)
+        kept = np.flatnonzero(first_of_duplicates(poses, owner, len(found)) & inside & answered[owner])
+        clusters = clusters_in_range_many(readings[kept], readings[kept], owner[kept], len(found), self.ranges, s.tol)
+        kept_of = np.split(kept, np.searchsorted(owner[kept], np.arange(1, len(found))))
+        out: list = []
+        for k, f in enumerate(found):
+            if f is None:
+                out.append(None)
+            elif f.unresolved:
+                out.append(Passed(f"the platform search left {f.unresolved} box(es) it could not isolate (a parallel "
+                                  "singularity or a double root nearby): solved with the loop equations"))
+            else:
+                stats = dataclasses.replace(f.stats, time_setup=t_setup, time_total=f.stats.time_total + t_setup)
+                report = SearchReport(self.names, tuple(clusters[k]), (), stats, settings)
+                # no refined searches: a root the trust layer cannot prove goes to the loop equations
+                out.append(Found(report, None, s.tol, False, list(poses[kept_of[k]])))
+        return out
+
+    def check(self, solutions: list, found: list) -> list:
+        """:func:`disagreements` of the trust layer's solutions with the roots of each input's search."""
+        return disagreements(solutions, [f.roots for f in found])
+
+
+def first_of_duplicates(poses: np.ndarray, owner: np.ndarray, n_inputs: int, within: float = DUPLICATE_POSE) -> np.ndarray:
+    """(N,) bool: which of the roots ``poses`` (N, 3, 3; ``owner`` (N,) the input of each, each
+    input's roots in the order found) to keep: a root is dropped when a root kept before it, of the
+    same input, is ``within`` it (largest entry; default DUPLICATE_POSE: the same root found on an
+    overlapping chart). One pass per place in an input's list, each over every input of the chunk."""
+    keep = np.zeros(len(poses), dtype=bool)
+    if not len(poses):
+        return keep
+    flat, pos = pad_by_owner(np.asarray(poses).reshape(len(poses), 9), owner, n_inputs)   # NaN: no root
+    near = np.abs(flat[:, :, None] - flat[:, None]).max(axis=3) <= within                  # (K, P, P)
+    kept = np.zeros(flat.shape[:2], dtype=bool)
+    for i in range(flat.shape[1]):
+        kept[:, i] = ~np.isnan(flat[:, i, 0]) & ~np.any(near[:, i, :i] & kept[:, :i], axis=1)
+    return kept[owner, pos]
+
+
+def disagreement(solutions, poses) -> str | None:
+    """Why the finalized ``solutions`` of a platform search are not its roots ``poses`` (None when
+    they are): every entry proven, one entry per distinct root, each matching one (POSE_MATCH).
+
+    The platform search proves where the roots are; the trust layer proves each assembly in the
+    loop equations. The two must agree, or the input goes to the loop equations (in the manner of
+    scipy's ``_check_result``: the fast path's answer is checked, not trusted).
+    """
+    return disagreements([solutions], [poses])[0]
+
+
+def disagreements(solutions: list, poses: list) -> list[str | None]:
+    """:func:`disagreement` of each input of a chunk (``solutions[k]``, ``poses[k]`` of input k), the
+    pose comparisons of every input as array operations (pairs within an input, every input at once)."""
+    out: list[str | None] = [None] * len(solutions)
+    roots = [np.asarray(p, dtype=float).reshape(-1, 3, 3) for p in poses]
+    owner = np.repeat(np.arange(len(roots)), [len(r) for r in roots])
+    flat = np.concatenate(roots) if roots else np.empty((0, 3, 3))
+    distinct = first_of_duplicates(flat, owner, len(roots), POSE_MATCH)
+    n_distinct = np.bincount(owner[distinct], minlength=len(roots))
+    got = [[s.platform_rotation for s in sols] for sols in solutions]
+    g_owner = np.repeat(np.arange(len(got)), [len(g) for g in got])
+    g_flat = np.array([np.full((3, 3), np.nan) if g is None else g for gs in got for g in gs]).reshape(-1, 9)
+    padded, _ = pad_by_owner(g_flat, g_owner, len(got))                    # (K, G, 9); NaN: none
+    d_flat = flat.reshape(-1, 9)[distinct]
+    matched = np.any(np.all(np.abs(padded[owner[distinct]] - d_flat[:, None]) <= POSE_MATCH, axis=2), axis=1)
+    unmatched = np.bincount(owner[distinct], weights=~matched, minlength=len(roots))
+    for k, sols in enumerate(solutions):
+        bad = [s.status for s in sols if not is_proven(s)]
+        if bad:
+            out[k] = f"the trust layer could not prove {len(bad)} root(s) of the platform search ({', '.join(bad)})"
+        elif len(got[k]) != n_distinct[k] or unmatched[k]:
+            out[k] = (f"the platform search found {n_distinct[k]} assemblies and the trust layer {len(got[k])} "
+                      "different ones")
+    return out
+
 
 @SYSTEMS.register
 class Platform(System):
     """Eq. (1): 3 unknowns (the output link's orientation, 4 quaternion charts) for three R-R-R legs."""
 
     name = "platform"
+    default_formulation = "platform"
     description = "three equations in the output link's orientation (three R-R-R legs, one joint of each actuated)"
+
+    @classmethod
+    def formulations(cls) -> tuple[str, ...]:
+        return (cls.name,)
 
     @classmethod
     def accepts(cls, mechanism, strategy=None) -> str | None:
@@ -592,4 +751,5 @@ class Platform(System):
     def compile(cls, mechanism, strategy) -> CompiledPlatform:
         equations = PlatformSystem.from_mechanism(mechanism)
         pruner = make_pruner(strategy.pruner, [(len(equations.legs), 3, 3, 3)], strategy.lp_backend)
-        return CompiledPlatform(equations, pruner, mechanism.loop_unknowns)
+        names = tuple(mechanism.loop_unknowns)
+        return CompiledPlatform(equations, pruner, names, {n: mechanism.ranges[n] for n in names}, strategy)

@@ -61,7 +61,7 @@ from .krawczyk import (ANGLE_TOLERANCE, CERTIFY_RADII, FINE_ANGLE_TOLERANCE, Box
                        krawczyk_many, krawczyk_stacked)
 from .transversal import stack_inputs, transversal_equations
 from .polish import polish, polish_many
-from ..results import Cluster, Solution, Status
+from ..results import Cluster, Solution, Status, is_proven
 
 __all__ = ["DEDUPE_TOL", "MAX_SEEDS", "MAX_RESOLVE_BOXES", "SEPARATION_FRACTION", "SOLUTION_BOUND", "STATUSES",
            "finalize", "finalize_many", "count_summary", "is_proven"]
@@ -182,11 +182,6 @@ class _Extended:
             return None
         self.left -= len(lo)
         return krawczyk_boxes_extended(self.mechanism, self.inputs, lo, hi)
-
-
-def is_proven(sol: Solution) -> bool:
-    """Whether an entry is a root proven by a certificate (it counts towards an exact count)."""
-    return sol.status == Status.CERTIFIED or (sol.status == Status.SINGULAR and bool(sol.evidence.get("krawczyk_certified")))
 
 
 def count_summary(solutions) -> tuple[int, bool]:

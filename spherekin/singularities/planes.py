@@ -41,12 +41,14 @@ from ..core.orientation import quaternions_from_rotations
 from ..search.isolation import (SquareSystem, evaluate_at, full_rank_proven, jacobian_at, krawczyk_boxes,
                                 krawczyk_parametric, newton)
 from ..search.parameterizations import CHART_MAX_WIDTH, ROUNDING_SAFETY, ChartSet, Parameterization
-from .platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
+from ..results import CuspSearch
+from ..systems import SYSTEMS
+from ..systems.platform import CHART_EXTENT, CHARTS, Quaternion, chart_control_points, leg_matrices, platform_legs
 
 __all__ = ["SingularPlane", "plane_charts", "PlaneParameterization", "PlatformPlane", "LoopPlane", "Q_VARIABLES",
            "LoopColumn", "DetPlan", "det_plan", "MAX_LAPLACE_TERMS", "MAX_DET_COEFFS",
            "SPURIOUS_BOUND", "CUSP_SQUARE",
-           "cusp_newton", "cusp_krawczyk", "stationary_quaternions"]
+           "cusp_newton", "cusp_krawczyk", "stationary_quaternions", "PLANES", "plane_system"]
 
 #: Half-width (in unit coordinates of a slice's box) of the small box around Newton's root on which the
 #: Krawczyk test is run again when it fails on the whole box: the interval Jacobian over a box of the
@@ -247,6 +249,13 @@ class PlatformPlane:
     q_b, q_c, t_x (, t_y)); blocks: the legs' equations (3) and D (1).
     """
 
+    #: The system whose equations this plane system augments (:data:`spherekin.systems.SYSTEMS`).
+    system = "platform"
+    #: How its cusps are searched: the tangency system (:meth:`cusp_charts`).
+    cusp_method = "tangency"
+    #: Passive joint ranges are not applied: the set may hold singular configurations with a passive
+    #: joint out of range (its counts too: :func:`spherekin.singularities.cover._line_cross_check`).
+    applies_ranges = False
     #: The patches are the quaternion charts (their contraction applies).
     QUATERNION_CHARTS = True
 
@@ -862,6 +871,13 @@ class LoopPlane:
     :meth:`prove` certifies. Passive joint ranges are constraints here (the mechanism's ranges).
     """
 
+    #: The system whose equations this plane system augments (:data:`spherekin.systems.SYSTEMS`).
+    system = "loops"
+    #: Cusps are not searched on the loop equations (:meth:`cusps_without_search` says what that means).
+    cusp_method = None
+    #: Passive joint ranges are constraints of the cover.
+    applies_ranges = True
+
     def __init__(self, mechanism, plane: SingularPlane, formulation: str = "transversal"):
         from ..search.parameterizations import make_charts, stack_chart_sets
 
@@ -897,6 +913,11 @@ class LoopPlane:
         self.plane_columns = tuple(list(closure.variables).index(n) for n in names)
         # the square slice: each loop's transversal entries q f21, q f31, q f32 (block b, rows 0-2) and D
         self.slice = SquareSystem(tuple((b, r) for b in range(nb) for r in range(3)) + ((nb, 0),))
+
+    def cusps_without_search(self) -> CuspSearch:
+        """What the set says of its cusps, none searched: none possible on a one-loop mechanism (a 1-DOF
+        loop has isolated singular inputs on a line and no fold curves to meet), else not searched."""
+        return CuspSearch.NONE_POSSIBLE if len(self.mechanism.link_graph.loops) == 1 else CuspSearch.NOT_SEARCHED
 
     def _determinant(self, charts: ChartSet):
         """D = det K_p (C, 1, *dims) on every chart (:func:`det_plan`), and its tolerance (C, 1):
@@ -980,7 +1001,7 @@ class LoopPlane:
 
     def cusp_charts(self, rs) -> tuple:
         """The cusp systems of a one-loop mechanism in a plane of two inputs (as
-        :meth:`PlatformPlane.cusp_charts`, same block layout, so :func:`spherekin.trust.singular.certify_cusps`
+        :meth:`PlatformPlane.cusp_charts`, same block layout, so :func:`spherekin.singularities.cells.certify_cusps`
         certifies them): per r in ``rs`` ((3,) vectors) a :class:`ChartSet` over the cover's variables with blocks
         the closure (transversal), D, the tangency C_r and A = adj(K~) r (3 rows, not pruned).
 
@@ -1153,3 +1174,18 @@ _SCALAR_ROW = 3
 #: A root of the transversal entries is a closure where Eq. (10) exceeds this on its box: at the spurious
 #: half-turns it is -2 q or -4 q with q = prod (1 + t^2) >= 1, at a closure 0; -1 is halfway.
 SPURIOUS_BOUND = -1.0
+
+
+#: The plane systems by the name of the system whose equations they augment (the systems' seam for
+#: singular sets: a system without an entry has no singular-set cover).
+PLANES = {cls.system: cls for cls in (PlatformPlane, LoopPlane)}
+
+
+def plane_system(mechanism, plane: SingularPlane):
+    """The plane system of ``mechanism`` over ``plane``: that of the first system of
+    :data:`spherekin.systems.SYSTEMS` (in order of preference) that accepts the mechanism and has
+    one in :data:`PLANES`, as a solve chooses its system."""
+    for name, cls in SYSTEMS.items():
+        if name in PLANES and cls.accepts(mechanism) is None:
+            return PLANES[name](mechanism, plane)
+    raise ValueError(f"singular: no system with a singular-set cover accepts this mechanism ({', '.join(PLANES)})")

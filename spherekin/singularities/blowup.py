@@ -1,9 +1,9 @@
 """A stationary assembly's neighbourhood blown up: the singular set near it as a regular curve (issue 31).
 
-At a stationary assembly q* (an orientation closing every input: :func:`spherekin.systems.singular.
+At a stationary assembly q* (an orientation closing every input: :func:`spherekin.singularities.planes.
 stationary_quaternions`, proven in rational arithmetic; the agile eye has four) the moving assemblies cross
 the stationary sheet {q*} x plane transversally where D(q*, beta) = 0. There the plane system (F, D) of
-:class:`spherekin.systems.singular.PlatformPlane` is degenerate: near q* the closure forms F are small on
+:class:`spherekin.singularities.planes.PlatformPlane` is degenerate: near q* the closure forms F are small on
 both sheets, the Bernstein hulls separate them only on boxes of the size of their distance (~|D(q*, beta)|),
 and the box count of a cover grows like T^-2.5 instead of 1 / T (measured: the whole plane of the agile eye
 did not finish at T = 0.1). No Krawczyk test can prove a crossing (the square slice's Jacobian is singular
@@ -37,8 +37,8 @@ import itertools
 import numpy as np
 
 from ..core import bernstein
-from .platform import CHART_EXTENT
-from .singular import OrientationPatch, PlatformPlane, SingularPlane
+from ..systems.platform import CHART_EXTENT
+from .planes import OrientationPatch, PlatformPlane, SingularPlane
 
 __all__ = ["BLOWUP_RADIUS", "blowup_patches", "StationaryPlane", "outside"]
 
@@ -66,7 +66,7 @@ def _chart_of(q: np.ndarray) -> int:
 
 
 def blowup_patches(mats: np.ndarray, q: np.ndarray, radius: float = BLOWUP_RADIUS) -> tuple:
-    """The three blow-up patches (:class:`spherekin.systems.singular.OrientationPatch`) of the stationary
+    """The three blow-up patches (:class:`spherekin.singularities.planes.OrientationPatch`) of the stationary
     quaternion ``q`` (4,; its largest component +-1, as :func:`stationary_quaternions` gives it): variables
     (rho, a, b) on [-radius, radius] x [-1, 1]^2, q = q* + rho w (q*_k = 1), w = e_c + a e_c' + b e_c'' for
     c = each component j != k (c', c'': the next ones, cyclically); ``quad`` = G_i (module doc) for the

@@ -1,6 +1,6 @@
 """Certified singular sets in a plane of inputs: the cover's projection onto cells and their statuses (issue 31).
 
-The box loop's cover of the augmented system (:mod:`spherekin.systems.singular`,
+The box loop's cover of the augmented system (:mod:`spherekin.singularities.planes`,
 :func:`spherekin.search.boxloop.search_cover`) holds every singular configuration whose inputs lie in
 the plane: each accepted (or pending) box projects to a rectangle of the plane. The plane is cut into
 a grid of cells no wider than T; a cell is in the cover when a rectangle meets it (closed, with
@@ -13,10 +13,10 @@ Each covered cell gets a status:
 * ``singular``: the Krawczyk test proves a unique root of the square slice (the closure equations and
   D with one plane input held at a value inside the cell, the other free over the cell's range) in
   the hull of the cover's boxes of one chart that meet the slice: a singular configuration at an input
-  of the cell (:meth:`spherekin.systems.singular.PlatformPlane.prove`). The slice holding x is tried
+  of the cell (:meth:`spherekin.singularities.planes.PlatformPlane.prove`). The slice holding x is tried
   first where the boxes spread more along x (the curve crosses x = const transversally), then y;
   Or, for a mechanism with stationary assemblies (orientations closing every input, e.g. the agile eye's
-  four: :func:`spherekin.systems.singular.stationary_quaternions`, proven in rational arithmetic), where
+  four: :func:`spherekin.singularities.planes.stationary_quaternions`, proven in rational arithmetic), where
   the Krawczyk test cannot apply: the interval enclosures of D at such an orientation q* have opposite
   signs at two sample points of the cell (:meth:`PlatformPlane.stationary_det`). D(q*, .) is continuous
   and (q*, p) closes at every input p, so D(q*, p) = 0 at some p of the segment between them, inside the
@@ -31,14 +31,14 @@ and the cells inside a region are not listed unless proven singular (:func:`outs
 boxes :func:`trace_cover` sets aside in *crowded* cells (CROWDED_CELL): above a continuum of singular
 configurations over one input (a self-motion input) the cover would multiply without end.
 
-A mechanism with stationary assemblies is covered twice (:func:`spherekin.problem.singular`): the plane
-system without the boxes U about them (:func:`spherekin.systems.blowup.outside`) and the blow-up patches of
-U (:class:`spherekin.systems.blowup.StationaryPlane`), where the crossings are regular roots and the
+A mechanism with stationary assemblies is covered twice (:func:`spherekin.singularities.singular`): the plane
+system without the boxes U about them (:func:`spherekin.singularities.blowup.outside`) and the blow-up patches of
+U (:class:`spherekin.singularities.blowup.StationaryPlane`), where the crossings are regular roots and the
 Krawczyk slices above prove their cells; a cell is ``singular`` when either cover proves it. The patches have
 no tangency system: their cusp candidates are the boxes :func:`rank_candidates` cannot prove cusp-free.
 
 Cusps (:func:`certify_cusps`, issue 31 item 2): the cover of the cusp system (the curve system plus the
-tangency C_r, :meth:`spherekin.systems.singular.PlatformPlane.cusp_charts`) is clustered per chart; each
+tangency C_r, :meth:`spherekin.singularities.planes.PlatformPlane.cusp_charts`) is clustered per chart; each
 Newton root proven unique by the Krawczyk test whose box also has adj(G) r enclosed away from 0 is a
 ``cusp``; clusters without such a proof are ``unresolved`` candidates. A cluster holding a proven root is
 reported by it (its other boxes are not claimed root-free).
@@ -58,7 +58,7 @@ from scipy.spatial import cKDTree
 
 from ..closure import tan_half_unit
 from ..core import bernstein
-from ..systems.singular import PROOF_RADIUS, cusp_krawczyk, cusp_newton
+from .planes import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
 __all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover",
            "trace_cover", "trace_levels", "SINGULAR", "UNRESOLVED", "CUSP", "CuspStatus", "certify_cusps",
@@ -85,7 +85,7 @@ STATIONARY_SAMPLES = 3
 
 
 #: Most cells per axis of a :class:`Grid`: cell indices are computed as floor((x - lo) / w) in float64, exact as
-#: integers up to 2^53; one bit of margin. (:func:`spherekin.problem.check_singular_tol` refuses far coarser
+#: integers up to 2^53; one bit of margin. (:func:`spherekin.singularities.cover.check_singular_tol` refuses far coarser
 #: limits first: a full turn at its narrowest T is 4.9e7 cells.)
 MAX_GRID_CELLS = 2.0 ** 52
 
@@ -191,7 +191,7 @@ def cell_pieces(system, accepted, grid: Grid, cells=None) -> tuple[np.ndarray, n
 def certify_cover(system, cover, grid: Grid, budget=None) -> tuple[CellStatus, ...]:
     """The covered cells of ``grid`` and their statuses (module doc).
 
-    ``system``: a compiled plane system (:class:`spherekin.systems.singular.PlatformPlane` or ``LoopPlane``:
+    ``system``: a compiled plane system (:class:`spherekin.singularities.planes.PlatformPlane` or ``LoopPlane``:
     ``charts``, ``plane_columns``, ``unit`` and ``prove``); ``cover``: its
     :class:`spherekin.search.boxloop.Cover`. The cells met by accepted boxes only: the pending boxes are
     the caller's unresolved regions (:func:`pending_regions`). Once ``budget`` (:class:`spherekin.budget.Budget`)
@@ -431,12 +431,12 @@ def _excludes_zero(charts, block, chart, lo, hi) -> np.ndarray:
 
 
 def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, ...]:
-    """The cusps of a plane system from the box loop's cover of its cusp system (:meth:`~spherekin.systems.singular.PlatformPlane.cusp_charts`).
+    """The cusps of a plane system from the box loop's cover of its cusp system (:meth:`~spherekin.singularities.planes.PlatformPlane.cusp_charts`).
 
     ``closes``: None, or (charts, chart (B,), lo, hi (B, N)) -> (B,) bool, True where a root in the box is a
     closure of the mechanism (the loop equations' transversal entries also vanish at spurious half-turns:
-    :meth:`spherekin.systems.singular.LoopPlane.closes`); a proven root failing it stays ``unresolved``.
-    ``system``: the :class:`spherekin.systems.singular.PlatformPlane` (or a one-loop ``LoopPlane``); ``cusp_charts``: its
+    :meth:`spherekin.singularities.planes.LoopPlane.closes`); a proven root failing it stays ``unresolved``.
+    ``system``: the :class:`spherekin.singularities.planes.PlatformPlane` (or a one-loop ``LoopPlane``); ``cusp_charts``: its
     :meth:`cusp_charts` for two vectors (r, r2); ``found``: the :class:`spherekin.search.boxloop.Cover` of
     the first (accepted: angle boxes; pending: unit boxes). Each cluster of accepted boxes on one chart is
     tested: Newton's root of the square system (F, D, C_r) in the cluster's hull, the Krawczyk test on a box
@@ -500,7 +500,7 @@ def certify_cusps(system, cusp_charts, found, closes=None) -> tuple[CuspStatus, 
 
 def rank_candidates(system, chart, lo, hi, grid: Grid) -> tuple[CuspStatus, ...]:
     """Cusp candidates of a plane system without a tangency system (the blow-up patches,
-    :class:`spherekin.systems.blowup.StationaryPlane`): the boxes (chart (B,), unit lo, hi (B, N)) that
+    :class:`spherekin.singularities.blowup.StationaryPlane`): the boxes (chart (B,), unit lo, hi (B, N)) that
     ``system.cusp_free`` does not prove cusp-free, one ``unresolved`` candidate per cell of ``grid`` holding
     such a box's plane centre (at the cell's centre; its box: the hull of their plane projections). Every
     other box of the cover holds no cusp (traced boxes never do, :func:`trace_cover`)."""
