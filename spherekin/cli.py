@@ -832,11 +832,13 @@ def _same_assembly(solution, pose) -> bool:
     CHECK_MATCH, or, without an output link, their passive angles do (modulo 2 pi)."""
     import numpy as np
 
+    from .core.angles import wrap
+
     if pose.platform_rotation is not None:
         return (solution.platform_rotation is not None
                 and np.abs(solution.platform_rotation - pose.platform_rotation).max() <= CHECK_MATCH)
     got = solution.passive_angles
-    return all(abs(math.remainder(got[n] - v, 2 * math.pi)) <= CHECK_MATCH for n, v in pose.passive_angles.items())
+    return all(abs(wrap(got[n] - v)) <= CHECK_MATCH for n, v in pose.passive_angles.items())
 
 
 def _no_names(args) -> dict[str, str]:

@@ -43,6 +43,7 @@ from typing import Sequence, Union
 import numpy as np
 
 from .core import bernstein
+from .core.angles import wrap
 from .core.rotations import normalized_closure
 
 __all__ = [
@@ -113,7 +114,7 @@ def tan_half_angle(x, shift, t_lo, t_hi) -> np.ndarray:
 def tan_half_unit(theta, shift, t_lo, t_hi) -> np.ndarray:
     """The inverse of :func:`tan_half_angle`: unit-box coordinate(s) x of angle(s) theta (radians,
     taken modulo 2 pi into [shift - pi, shift + pi)); arrays that broadcast together."""
-    rel = np.mod(np.asarray(theta, dtype=float) - shift + np.pi, 2 * np.pi) - np.pi  # in [-pi, pi)
+    rel = wrap(np.asarray(theta, dtype=float) - shift)                               # in [-pi, pi)
     return (np.tan(0.5 * rel) - t_lo) / (t_hi - t_lo)
 
 def _finite_float(name: str, value) -> float:

@@ -34,6 +34,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from . import atomic
+from .core.angles import wrap
 from .mechanism.chains import perpendicular
 from .mechanism.checks import check_unit_vector, parse_angle
 from .mechanism.model import PARALLEL_TOL, SphericalMechanism
@@ -223,7 +224,7 @@ def _check_report(mechanism: SphericalMechanism, values: tuple, report) -> list[
         raise ValueError(f"report: expected a solve of this mechanism, {mechanism.name!r}, got a report of {name!r}")
     solved = report.settings.inputs
     if solved:
-        diff = np.array([math.remainder(a - b, 2 * math.pi) for a, b in zip(values, solved)])
+        diff = np.array([wrap(a - b) for a, b in zip(values, solved)])
         if len(solved) != len(values) or np.abs(diff).max(initial=0.0) > INPUTS_TOL:
             raise ValueError(f"inputs: expected the inputs the report was solved at, {list(solved)} (radians), "
                              f"got {list(values)}")

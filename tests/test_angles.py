@@ -118,3 +118,41 @@ def test_room_in_range_of_a_full_circle_and_of_an_angle_at_an_end():
     assert below == 0.0 and above == 1.5
     below, above = room_in_range(0.5 + RANGE_TOL / 2, (-1.0, 0.5))     # within tol above the end: at it
     assert below == 1.5 and above == 0.0
+
+
+# ---------------------------------------------------------------- the one wrap (issue 43 item 2)
+
+from fractions import Fraction  # noqa: E402
+
+from spherekin.core.angles import TWO_PI, wrap  # noqa: E402
+
+
+def exact_wrap(x: float) -> Fraction:
+    """x - k TWO_PI in [-TWO_PI/2, TWO_PI/2), k whole, in exact rational arithmetic (TWO_PI the double)."""
+    X, P = Fraction(x), Fraction(TWO_PI)
+    k = math.floor((X + P / 2) / P)
+    return X - k * P
+
+
+@given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False))
+def test_wrap_is_the_exact_reduction_into_minus_pi_to_pi(x):
+    """The float wrap returns is the rational x - k TWO_PI itself (no rounding), for a scalar and in an array."""
+    r = wrap(x)
+    assert Fraction(r) == exact_wrap(x) and -math.pi <= r < math.pi
+    assert wrap(np.array([x]))[0] == r and wrap(np.float64(x)) == r
+
+
+@given(st.floats(min_value=-math.pi, max_value=math.pi, exclude_max=True))
+def test_an_angle_already_in_range_comes_back_unchanged(x):
+    """np.mod(x + pi, 2 pi) - pi, the reduction it replaces, moved such angles by an ulp."""
+    assert wrap(x) == x
+
+
+def test_wrap_at_plus_and_minus_pi_and_beyond_a_turn():
+    """One convention at +-pi for every caller (mechanism.chains' math.remainder gave +pi, core's -pi):
+    pi and -pi both go to -pi; NaN and infinities give NaN."""
+    assert wrap(math.pi) == -math.pi and wrap(-math.pi) == -math.pi
+    assert wrap(3 * math.pi) == -math.pi
+    assert np.array_equal(wrap(np.array([math.pi, -math.pi, TWO_PI, 0.0])), [-math.pi, -math.pi, 0.0, 0.0])
+    assert all(math.isnan(wrap(v)) for v in (math.nan, math.inf, -math.inf))
+    assert np.isnan(wrap(np.array([math.inf]))).all()

@@ -286,9 +286,10 @@ def test_cli_errors_are_one_line(args, words, capsys):
 def test_narrowest_tolerance_is_derived_from_the_cell_slack():
     """The floor on T is CELL_SLACK's margin over the finest box fraction, not a number of its own, and it is
     accepted exactly there (refused just below) by the API before any work."""
-    from spherekin.singularities.cover import (CUSP_REFINE_FRACTIONS, REFINE_FRACTIONS, SLACK_MARGIN, check_singular_tol,
+    from spherekin.singularities.cell_width import (CUSP_REFINE_FRACTIONS, REFINE_FRACTIONS, SLACK_MARGIN, check_singular_tol,
                                               singular_min_tol)
-    from spherekin.singularities.cells import CELL_SLACK, Grid
+    from spherekin.singularities.cell_width import CELL_SLACK
+    from spherekin.singularities.cells import Grid
 
     floor = singular_min_tol()
     assert floor == SLACK_MARGIN * CELL_SLACK / min(REFINE_FRACTIONS + CUSP_REFINE_FRACTIONS) == pytest.approx(1.28e-7)

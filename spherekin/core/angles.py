@@ -40,9 +40,17 @@ MAX_GEOMETRY_ANGLE = 1e5
 
 
 def wrap(angle):
-    """``angle`` (radians, a float or an array) modulo 2 pi, in [-pi, pi)."""
-    out = np.mod(np.asarray(angle, dtype=float) + math.pi, TWO_PI) - math.pi
-    return float(out) if out.ndim == 0 else out
+    """``angle`` (radians, a float or an array) modulo 2 pi, in [-pi, pi): the one angle reduction of
+    the package (pi itself goes to -pi). Exact: the result is angle - 2 pi k for a whole k and the
+    double TWO_PI, with no rounding (fmod is exact, and moving its remainder r, pi <= |r| < 2 pi, by
+    TWO_PI is exact by Sterbenz's lemma), so an angle already in [-pi, pi) comes back unchanged and
+    wrap(a - b) is the exact difference of a and b modulo TWO_PI. NaN and +-inf give NaN."""
+    if isinstance(angle, float | int) and not isinstance(angle, bool):
+        r = math.fmod(angle, TWO_PI) if math.isfinite(angle) else math.nan
+        return r - TWO_PI if r >= math.pi else r + TWO_PI if r < -math.pi else r
+    r = np.fmod(np.asarray(angle, dtype=float), TWO_PI)
+    r = np.where(r >= math.pi, r - TWO_PI, np.where(r < -math.pi, r + TWO_PI, r))
+    return float(r) if r.ndim == 0 else r
 
 
 def in_range(theta: float, rng, tol: float = RANGE_TOL) -> bool:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.rotations import cross
 
-__all__ = ["IK_TOL", "axis_rotation", "axis_rotations", "angle_about", "least_aligned_basis", "perpendicular", "wrap", "chain_rotation",
+__all__ = ["IK_TOL", "axis_rotation", "axis_rotations", "angle_about", "least_aligned_basis", "perpendicular", "chain_rotation",
            "current_axes", "serial_ik", "sphere_point"]
 
 #: Residual (max |entry| of the rotation mismatch) under which a leg's inverse kinematics is
@@ -23,7 +23,7 @@ __all__ = ["IK_TOL", "axis_rotation", "axis_rotations", "angle_about", "least_al
 #: rounding, while a pose off the set misses it by far more than 1e-9.
 IK_TOL = 1e-9
 
-_TWO_PI = 2.0 * math.pi
+
 
 
 def axis_rotation(axis, angle: float) -> np.ndarray:
@@ -69,11 +69,6 @@ def perpendicular(p: np.ndarray) -> np.ndarray:
     """A fixed unit vector normal to p: p x e / |.| for e = least_aligned_basis(p)."""
     n = cross(p, least_aligned_basis(p))
     return n / np.linalg.norm(n)
-
-
-def wrap(angle: float) -> float:
-    """angle modulo 2 pi in [-pi, pi]."""
-    return math.remainder(angle, _TWO_PI)
 
 
 def chain_rotation(axes: np.ndarray, displacements) -> np.ndarray:

@@ -55,9 +55,9 @@ from typing import Mapping, NamedTuple, Sequence
 import numpy as np
 
 from ..closure import ClosureLoop, Term, Unknown
-from ..core.angles import MAX_INPUT_ANGLE, check_turn, in_range, in_range_many, into_range
+from ..core.angles import MAX_INPUT_ANGLE, check_turn, in_range, in_range_many, into_range, wrap
 from ..core.rotations import cross, normalize_polygon, normalized_closure
-from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik, wrap
+from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik
 from .checks import check_name, check_range, check_rotation, parse_angle, shown
 from .graph import Joint, MechanismGraph, Step
 
@@ -812,7 +812,7 @@ class SphericalMechanism:
             for i, spec in enumerate(loop):
                 if spec.joint in self.actuated:
                     phis = spec.offset + spec.sign * values[:, self.actuated.index(spec.joint)]
-                    out[:, li, i] = [wrap(float(v)) for v in phis]      # math.remainder: scalar, exact
+                    out[:, li, i] = wrap(np.asarray(phis, dtype=float))    # exact
                 else:
                     out[:, li, i] = spec.offset
         return out

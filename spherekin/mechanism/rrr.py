@@ -38,7 +38,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..core.angles import check_geometry_angle
+from ..core.angles import check_geometry_angle, wrap
 from ..core.rotations import cross
 from .chains import angle_about, axis_rotation, least_aligned_basis
 from .checks import check_range, given_unit_vector, normalized_floats, parse_angle, shown
@@ -235,7 +235,7 @@ def _reference_beta(u, w0, v, alpha2) -> float:
     if rho < PARALLEL_TOL:  # v along u: every beta assembles (alpha1 = alpha2)
         return 0.0
     phi, dev = math.atan2(b, a), math.acos(max(-1.0, min(1.0, e / rho)))
-    roots = [math.remainder(phi + s * dev, 2 * math.pi) for s in (1.0, -1.0)]
+    roots = [wrap(phi + s * dev) for s in (1.0, -1.0)]
     return min(roots, key=abs)  # the root nearest beta = 0 (the given w^0)
 
 

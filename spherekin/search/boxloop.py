@@ -847,7 +847,7 @@ def _merge(boxes: list[AcceptedBox], tol: float) -> list[Cluster]:
         # unwrap every member next to the first one, then take the hull
         shift = np.round((mid[members] - ref) / (2 * math.pi)) * 2 * math.pi
         glo, ghi = (lo[members] - shift).min(axis=0), (hi[members] - shift).max(axis=0)
-        centre = np.mod(0.5 * (glo + ghi) + math.pi, 2 * math.pi) - math.pi
+        centre = wrap(0.5 * (glo + ghi))
         out.append(Cluster(centre, glo, ghi, len(members),
                            members=np.stack((lo[members] - shift, hi[members] - shift), axis=1)))
     out.sort(key=lambda s: tuple(np.round(s.angles, 9)))

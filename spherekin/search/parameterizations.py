@@ -31,6 +31,7 @@ from typing import ClassVar, Mapping, Sequence
 
 import numpy as np
 
+from ..core.angles import wrap
 from ..closure import ClosureLoop, Term, Unknown, snapped_cos_sin, tan_half_angle
 from .formulations import FORMULATIONS, ChartBilinear, EquationBlock, LoopPolynomials, formulate_polynomials
 from .registry import Registry
@@ -539,7 +540,7 @@ class SinCos(LoopParameterization):
         mlo, mhi = self.metric(charts, chart, lo), self.metric(charts, chart, hi)
         centre = np.arctan2(0.5 * (mlo[:, 1::2] + mhi[:, 1::2]), 0.5 * (mlo[:, 0::2] + mhi[:, 0::2]))
         corners = [np.arctan2(s[:, 1::2], c[:, 0::2]) for c in (mlo, mhi) for s in (mlo, mhi)]
-        corners = [centre + np.mod(a - centre + math.pi, 2 * math.pi) - math.pi for a in corners]
+        corners = [centre + wrap(a - centre) for a in corners]
         return np.minimum.reduce(corners), np.maximum.reduce(corners)
 
     def charts(self, build, ranges, formulation) -> ChartSet:

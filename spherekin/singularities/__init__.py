@@ -7,6 +7,7 @@ seam (:func:`spherekin.singularities.planes.plane_system`), not by naming a syst
 * :mod:`.planes`: the augmented systems (closure equations plus the Jacobian's determinant) each
   system provides, with the plane's inputs as unknowns;
 * :mod:`.blowup`: a stationary assembly's neighbourhood blown up (the agile eye);
+* :mod:`.cell_width`: the cell width T, its bounds and its check (light: no SciPy);
 * :mod:`.cells`: the cover projected onto cells of the plane, their certificates and the cusps';
 * :mod:`.cover`: :func:`singular`, the certified set (:class:`spherekin.results.SingularSet`);
 * :mod:`.mode_change`: a proven assembly-mode change around a cusp.
@@ -15,7 +16,23 @@ Free boxes (:mod:`spherekin.trust.free_box`) stay in the trust layer: a free box
 one assembly (``Problem.free_box``), a method of the pipeline, which this package sits above.
 """
 
-from .cover import SINGULAR_TOL, check_singular_tol, singular, singular_min_tol
-from .mode_change import mode_change
 
-__all__ = ["SINGULAR_TOL", "check_singular_tol", "singular", "singular_min_tol", "mode_change"]
+#: What the package offers, loaded on first use: the cover imports SciPy (~0.5 s), which a command
+#: that only checks a cell width (:mod:`.cell_width`) must not pay.
+_LAZY = {"SINGULAR_TOL": "cell_width", "check_singular_tol": "cell_width", "singular_min_tol": "cell_width",
+         "singular": "cover", "mode_change": "mode_change"}
+
+
+def __getattr__(name):
+    import importlib
+
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_LAZY})
+
+
+__all__ = list(_LAZY)

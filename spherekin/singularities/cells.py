@@ -58,6 +58,7 @@ from scipy.spatial import cKDTree
 
 from ..closure import tan_half_unit
 from ..core import bernstein
+from .cell_width import CELL_SLACK
 from .planes import PROOF_RADIUS, cusp_krawczyk, cusp_newton
 
 __all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "certify_cover", "TracedCover",
@@ -66,9 +67,6 @@ __all__ = ["CELL_SLACK", "HULL_WIDEN", "Grid", "CellStatus", "cell_pieces", "cer
 
 SINGULAR = "singular"
 UNRESOLVED = "unresolved"
-#: A rectangle meets a cell when it comes within this (radians) of it: the chart maps (tan-half angle) round
-#: by ~1e-16 rad, so adjacent charts may leave gaps of that size between their rectangles; far above it.
-CELL_SLACK = 1e-9
 #: The hull of a slice's boxes is widened by this fraction of its width on each side (unit coordinates)
 #: before the Krawczyk test: the root must lie in the interior of the box tested, and the boxes' hull can
 #: touch it at a face (accepted boxes are the pruner's tight reductions).

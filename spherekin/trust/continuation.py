@@ -61,7 +61,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import intervals as iv
-from ..core.angles import in_range_many, span_in_range_many
+from ..core.angles import in_range_many, span_in_range_many, wrap
 from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
 from ..systems.platform import (leg_constants, not_applicable, passive_names, passive_readings_many,
@@ -689,7 +689,7 @@ def _arc(x, y) -> tuple[np.ndarray, np.ndarray]:
     holds the origin (every angle)."""
     corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
     mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
-    off = np.mod(corners - mid + np.pi, 2 * np.pi) - np.pi                  # each corner next to the middle
+    off = wrap(corners - mid)                                               # each corner next to the middle
     lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
     origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
     return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
