@@ -57,14 +57,24 @@ def gosselin_report():
     return solve(gosselin(), GOSSELIN_INPUTS)
 
 
+@pytest.fixture(scope="session")
+def mech():
+    """The general 3-RRR (examples/general_3rrr.toml): the mechanism most tests of the families and the
+    tracker solve (frozen: one per session)."""
+    from spherekin.mechanism import general_3rrr
+
+    return general_3rrr()
+
+
 @pytest.fixture
 def registered():
-    """``registered(REGISTRY, cls)`` registers a test strategy; every one is unregistered after the
-    test, so that the registries are left as found (no strategy leaks into other tests)."""
+    """``registered(REGISTRY, cls)`` registers a test strategy (``first=True``: before the others); every
+    one is unregistered after the test, so that the registries are left as found (no strategy leaks into
+    other tests)."""
     added = []
 
-    def add(registry, cls):
-        registry.register(cls)
+    def add(registry, cls, first=False):
+        registry.register(cls, first=first)
         added.append((registry, cls.name))
         return cls
 

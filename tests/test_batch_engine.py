@@ -17,16 +17,10 @@ import pytest
 
 from spherekin import batch
 from spherekin.batch.engine import chunks
-from spherekin.mechanism import general_3rrr
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = str(ROOT / "examples" / "general_3rrr.toml")
 BIN = Path(sys.executable).parent
-
-
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
 
 
 def test_chunks_cover_the_unfinished_inputs_in_order():

@@ -12,11 +12,6 @@ from spherekin.batch.inputs import (MAX_INPUTS, array_inputs, grid_inputs, parse
 from spherekin.mechanism import general_3rrr
 
 
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
-
-
 def test_a_grid_spec_is_linspace_with_both_ends():
     ax = parse_grid("beta1=-pi:pi/2:4")
     assert ax.name == "beta1"

@@ -5,21 +5,14 @@ poses themselves for inputs made by inverse kinematics."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from scipy.spatial.transform import Rotation
 
 from benchmarks.peers_closed_form import direct_kinematics, geometry_of
 from spherekin import batch
-from spherekin.mechanism import general_3rrr
 
 #: Two poses of the reference closer than this (largest entry) would make its count ambiguous; such
 #: grid points (next to a parallel singularity, where two modes meet) are left out of the comparison.
 REFERENCE_SEPARATION = 1e-3
-
-
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
 
 
 def test_map_counts_are_the_real_roots_of_the_degree_8_reference(mech):

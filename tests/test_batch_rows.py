@@ -8,12 +8,6 @@ from scipy.spatial.transform import Rotation
 
 from spherekin import compile as compile_problem
 from spherekin.batch.rows import columns, empty_frame, report_rows
-from spherekin.mechanism import general_3rrr
-
-
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
 
 
 @pytest.fixture(scope="module")

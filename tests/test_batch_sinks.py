@@ -9,14 +9,8 @@ import pytest
 from spherekin import compile as compile_problem
 from spherekin.batch.rows import report_table
 from spherekin.batch.sinks import check_output_path, open_sink, read_results, temporary_path
-from spherekin.mechanism import general_3rrr
 
 INPUTS = np.array([[0.3, -0.2, 0.5], [-2.5, 2.9, 0.1], [0.1, 0.2, 0.3], [1.0, 0.0, -1.0], [0.2, 0.2, 0.2]])
-
-
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
 
 
 @pytest.fixture(scope="module")

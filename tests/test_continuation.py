@@ -14,14 +14,9 @@ from tests.conftest import singular_beta1
 from benchmarks.random_designs import random_3rrr
 from spherekin import compile as compile_problem
 from spherekin.core import intervals as iv
-from spherekin.mechanism import five_bar, general_3rrr
+from spherekin.mechanism import five_bar
 from spherekin.systems.platform import platform_legs
 from spherekin.trust.continuation import LegEquations, cayley, track
-
-
-@pytest.fixture(scope="module")
-def mech():
-    return general_3rrr()
 
 
 def test_cayley_is_the_rotation_by_twice_atan_half_the_norm():

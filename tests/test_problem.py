@@ -1,4 +1,6 @@
-"""spherekin.problem: what a solve does when its search reaches the box cap (issue 41 item 2: no silent
+"""spherekin.problem: the chain of compiled systems a problem runs (issue 43: a system of the test's own,
+registered first, answers what it accepts and passes the rest on, through solve, solve_many, batch, map,
+track and the CLI), and what a solve does when its search reaches the box cap (issue 41 item 2: no silent
 coarsening). The reference is geometric: the kite four-bar (ground = crank = 40 deg, coupler = rocker =
 60 deg) at crank input -pi/2 folds so that B meets D and C is free on a 60-degree circle: a continuum,
 which no box cap can resolve at any tolerance; a few degrees away it has two isolated assemblies."""
@@ -118,3 +120,124 @@ def test_a_mechanism_with_every_joint_actuated_is_one_error_in_its_own_words(tmp
         compile(mech)
     with pytest.raises(ValueError, match="every joint"):
         solve(mech, [0.1, 0.2, 0.3, 0.4])
+
+
+# ---------------------------------------------------------------- one seam (issue 43 item 1)
+
+import dataclasses  # noqa: E402
+
+from spherekin import batch  # noqa: E402
+from spherekin.cli import build_parser  # noqa: E402
+from spherekin.mechanism import five_bar  # noqa: E402
+from spherekin.systems import SYSTEMS, Compiled, Passed, System  # noqa: E402
+from spherekin.systems.loops import Loops  # noqa: E402
+
+#: Why the test's system passes an input on (the report's ``settings.fallback``).
+NEGATIVE = "the half-plane system answers A >= 0 only"
+
+
+class CompiledHalfPlane(Compiled):
+    """The test's own compiled system: the loop equations in the transversal formulation (not the loop
+    system's default) for the inputs with A >= 0; every other input is passed to the next system.
+    ``CALLS`` counts the inputs it was asked, over every instance (batch compiles its own)."""
+
+    system = "half-plane"
+    CALLS: list = []
+
+    def __init__(self, mechanism, strategy):
+        self.inner = Loops.compile(mechanism, dataclasses.replace(strategy, formulation="transversal"))
+        self.names, self.ranges = self.inner.names, self.inner.ranges
+
+    def readings(self, inputs, points):
+        return self.inner.readings(inputs, points)
+
+    def describe(self) -> str:
+        return "half-plane (transversal)"
+
+    def search_many(self, rows, progress):
+        CompiledHalfPlane.CALLS.extend(rows)
+        mine = [k for k, row in enumerate(rows) if row[0] >= 0]
+        found = self.inner.search_many([rows[k] for k in mine], progress) if mine else []
+        out = [Passed(NEGATIVE)] * len(rows)
+        for k, f in zip(mine, found):
+            out[k] = f
+        return out
+
+    def search_one(self, values, progress, trace):
+        CompiledHalfPlane.CALLS.append(tuple(values))
+        return self.inner.search_one(values, progress, trace) if values[0] >= 0 else Passed(NEGATIVE)
+
+    def search_box(self, values, box, tol, max_boxes):
+        return self.inner.search_box(values, box, tol, max_boxes)
+
+
+class HalfPlane(System):
+    """A system registered by this test module only: it accepts the five-bar (two actuated joints)."""
+
+    name = "half-plane"
+    default_formulation = "transversal"
+    description = "the test's system: the five-bar's loop equations for A >= 0"
+
+    @classmethod
+    def formulations(cls):
+        return ()
+
+    @classmethod
+    def accepts(cls, mechanism, strategy=None):
+        return None if mechanism.actuated == ("A", "E") else "not the five-bar"
+
+    @classmethod
+    def compile(cls, mechanism, strategy):
+        return CompiledHalfPlane(mechanism, strategy)
+
+
+@pytest.fixture
+def half_plane(registered):
+    """HalfPlane registered first (the registry's order is the chain's), unregistered after the test."""
+    registered(SYSTEMS, HalfPlane, first=True)
+    CompiledHalfPlane.CALLS.clear()
+    return HalfPlane
+
+
+ROWS = np.array([[0.4, -0.3], [-0.5, 0.2], [1.1, 0.6], [-1.2, -0.7]])
+
+
+def test_a_system_of_ones_own_is_one_file_and_the_pipeline_runs_through_it(half_plane):
+    """Registered first, it answers the inputs it accepts and passes the others down the chain to the
+    loop system (with its reason), for solve, solve_many, batch, map and track alike; the answers are
+    those of the loop system alone (the same equations, another formulation), the CLI lists it."""
+    mech = five_bar()
+    problem = compile(mech)
+    assert [c.system for c in problem.chain] == ["half-plane", "loops"]     # the platform does not accept it
+    assert problem.system == "half-plane" and problem.strategy.formulation == "transversal"
+    assert dict(problem.declined) == {}
+    alone = compile(mech, system="loops").solve_many(ROWS)
+    many = problem.solve_many(ROWS)
+    for row, got, ref in zip(ROWS, many, alone):
+        assert got.settings.system == ("half-plane" if row[0] >= 0 else "loops")
+        assert got.settings.fallback == (None if row[0] >= 0 else NEGATIVE)
+        assert (got.proven_count, got.count_exact) == (ref.proven_count, ref.count_exact) and got.proven_count
+        np.testing.assert_allclose(np.sort([s.angles for s in got.solutions], axis=0),
+                                   np.sort([s.angles for s in ref.solutions], axis=0), atol=1e-9)
+    one = problem.solve(ROWS[1])
+    assert (one.settings.system, one.settings.fallback) == ("loops", NEGATIVE)
+    assert len(CompiledHalfPlane.CALLS) == len(ROWS) + 1
+
+    CompiledHalfPlane.CALLS.clear()
+    table = batch.solve_many(mech, ROWS, workers=0)
+    assert len(CompiledHalfPlane.CALLS) == len(ROWS)
+    assert len(table) == sum(r.proven_count for r in alone)
+
+    CompiledHalfPlane.CALLS.clear()
+    amap = batch.assembly_map(mech, "A=-0.5:0.5:3", "E=-0.2:0.2:2", workers=0)
+    assert len(CompiledHalfPlane.CALLS) == 6
+    ref = compile(mech, system="loops").solve_many([[a, e] for a in (-0.5, 0.0, 0.5) for e in (-0.2, 0.2)])
+    assert amap.solutions.ravel().tolist() == [len(r.solutions) for r in ref]
+
+    CompiledHalfPlane.CALLS.clear()
+    track = problem.track([[0.4, -0.3], [0.42, -0.3], [0.44, -0.3]], start=0)
+    assert CompiledHalfPlane.CALLS == [(0.4, -0.3)] and track.proven_steps >= 2
+
+    choices = next(a for a in build_parser()._subparsers._group_actions[0].choices["solve"]._actions
+                   if a.dest == "system").choices
+    assert list(choices) == ["auto", "half-plane", "platform", "loops"]

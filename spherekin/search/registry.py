@@ -25,14 +25,15 @@ class Registry(Mapping):
         self.family = family
         self._classes: dict[str, type] = {}
 
-    def register(self, cls: type) -> type:
-        """Class decorator: add ``cls`` under ``cls.name`` (a non-empty string not yet taken)."""
+    def register(self, cls: type, *, first: bool = False) -> type:
+        """Class decorator: add ``cls`` under ``cls.name`` (a non-empty string not yet taken), last in
+        the order (``first``: before every other, where the order is a preference, as the systems')."""
         name = getattr(cls, "name", None)
         if not isinstance(name, str) or not name:
             raise ValueError(f"{self.family}: expected a class with a non-empty string attribute 'name', got {cls!r}")
         if name in self._classes:
             raise ValueError(f"{self.family}: {name!r} is already registered ({self._classes[name].__name__})")
-        self._classes[name] = cls
+        self._classes = {name: cls, **self._classes} if first else {**self._classes, name: cls}
         return cls
 
     def unregister(self, name: str) -> type:
