@@ -18,8 +18,8 @@ joint is unlimited), one core (BLAS threads set to 1; everything runs in one pro
   once (untimed) and times a loop of ``problem.solve(x)`` over the same inputs (handed over as a
   .npy file). The child stays up for the whole run, so engine and baseline repeats alternate and
   see the same machine load;
-* ``floor`` (3-RRR rows): :func:`benchmarks.peers_closed_form.real_roots_many`, the Macaulay
-  eigenproblem of the quaternion quadrics (:mod:`benchmarks.peers_closed_form`) vectorized over
+* ``floor`` (3-RRR rows): :func:`references.peers_closed_form.real_roots_many`, the Macaulay
+  eigenproblem of the quaternion quadrics (:mod:`references.peers_closed_form`) vectorized over
   every input (batched SVD, pinv, eig; the real roots polished by Newton), from the inputs to the
   real roots. For the elbow-actuated 3-RRR the quadrics are the same with w_i := u_i and
   cos(alpha2_i) := u_i . v_i, the angle the locked elbow fixes (:func:`floor_quadrics`).
@@ -61,7 +61,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.bench_process import export_tree  # noqa: E402
 from benchmarks.bench_systems import elbow_actuated_3rrr  # noqa: E402
-from benchmarks.peers_closed_form import geometry_of, quadrics_many, real_roots_many  # noqa: E402
+from references.peers_closed_form import geometry_of, quadrics_many, real_roots_many  # noqa: E402
 from spherekin.problem import DEFAULT_CHUNK as LIBRARY_CHUNK  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent

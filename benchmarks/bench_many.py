@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.random_designs import random_rotation
+from references.random_designs import random_rotation
 from spherekin.mechanism import general_3rrr, gosselin
 from spherekin.problem import compile, solve
 

@@ -43,9 +43,9 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-from benchmarks import peers_closed_form as pcf
+from references import peers_closed_form as pcf
 from benchmarks import peers_phc as pphc
-from benchmarks.random_designs import random_rotation, unit
+from references.random_designs import random_rotation, unit
 
 from spherekin.mechanism import general_3rrr, gosselin, three_rrr  # noqa: E402
 from spherekin.problem import solve  # noqa: E402
@@ -290,7 +290,7 @@ _CHILD_PEERS = r"""
 import json, sys, time
 t0 = time.perf_counter()
 import numpy as np
-import peers_closed_form as pcf  # the child runs in benchmarks/ (cwd, on sys.path for python -c)
+from references import peers_closed_form as pcf  # the repository root is on PYTHONPATH
 spec, method = json.loads(sys.argv[1]), sys.argv[2]
 g = spec["geometry"]
 geom = tuple(np.array(g[k], dtype=float) for k in ("base_axes", "elbow_axes_at_zero", "platform_axes",

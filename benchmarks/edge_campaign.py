@@ -4,7 +4,7 @@
 
 Mechanisms are solved (spherekin's defaults, :func:`solve_case`) at inputs 1e-2 ... 1e-16 rad on
 both sides of their branch points, change points and singular inputs, and every answer is judged
-against an independent 50-digit reference (:mod:`benchmarks.edge_references`) computed at the very
+against an independent 50-digit reference (:mod:`references.edge_references`) computed at the very
 float input solved (x* + d may round: at 1e-16 it can equal x*). Case families:
 
 * spherical four-bars of every Grashof class (crank-rocker, double-crank, Grashof double-rocker,
@@ -63,7 +63,7 @@ from dataclasses import dataclass
 import mpmath
 import numpy as np
 
-from benchmarks import edge_references as er
+from references import edge_references as er
 from benchmarks.near_singular import BOX_SLACK, in_box
 from spherekin import solve
 from spherekin.cluster import connect, map_in_order
@@ -182,7 +182,7 @@ def judge(mech, ref, report, inputs) -> dict:
 class Design:
     """A mechanism, its family, a name, the reference it is judged by ("two-leg" or "3-RRR" on its joint
     axes; "3-RRR file" or "six-bar file" on its file's numbers, ``source``: the file read by
-    :mod:`benchmarks.edge_references`), its edges (:class:`benchmarks.edge_references.Edge`) and, when
+    :mod:`references.edge_references`), its edges (:class:`references.edge_references.Edge`) and, when
     not the campaign's, its own distances."""
 
     family: str

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.random_designs import random_3rrr
-from benchmarks.reference_roots import reference_roots, singular_input
+from references.random_designs import random_3rrr
+from references.reference_roots import reference_roots, singular_input
 from spherekin import solve
 from spherekin.trust.solutions import is_proven
 

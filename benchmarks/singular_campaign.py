@@ -22,7 +22,7 @@ Measured, not a pass criterion: ``singular`` cells (a singular configuration pro
 that hold no count change and no branch point are checked locally: solves at LOCAL_SAMPLES inputs across
 the cell (a plane: around its boundary, for up to PLANE_LOCAL_CELLS of them per plane), the assemblies of
 consecutive inputs matched (least total distance), and the cell is confirmed when the count changes or
-det K_p of a matched assembly changes sign. det K_p there is :func:`benchmarks.graph_designs.passive_det`,
+det K_p of a matched assembly changes sign. det K_p there is :func:`references.graph_designs.passive_det`,
 the velocity closure written from the file's graph alone. A cell left unconfirmed may hold a tangential
 zero (no sign change) or a crossing the matching swapped; its smallest |det K_p| over the samples is reported
 (a column: the largest of these). With issue 40's bug planted back (mutation/mutants.toml
@@ -36,7 +36,7 @@ Cases (families):
   joint in turn;
 * ``issue-40 six-bar``: the six-bar of the issue (tests/singular_refs.py ISSUE40_AXES_DEG: a Stephenson chain,
   ground and plate ternary), every inversion (each of its six links the ground) and every joint as input;
-* ``Watt random``, ``Stephenson random``: the chains of :mod:`benchmarks.graph_designs` with seeded random
+* ``Watt random``, ``Stephenson random``: the chains of :mod:`references.graph_designs` with seeded random
   axes (SEEDS), every inversion, every joint as input;
 * ``2-DOF planes``: the five-bar (examples/five_bar.toml, kind "general", and as a graph) and a two-loop
   2-DOF chain (graph_designs.TWO_LOOP_2DOF) over [-pi, pi]^2 of A and E, against dense count maps.
@@ -65,7 +65,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks import graph_designs as gd
+from references import graph_designs as gd
 from benchmarks.edge_campaign import render_table
 from spherekin.cluster import connect, map_in_order
 from spherekin.mechanism.io import mechanism_from_dict

@@ -13,7 +13,7 @@ cos(alpha2_i), computed here independently of the solver. Prints a summary table
 ``--near-singular N``: instead, N inputs next to parallel singularities (issue 13). Seeded random
 general 3-RRR geometries; on each, a segment of inputs along which the number of real assemblies
 changes, its singular input found by bisection on the count of an independent 50-digit reference
-(benchmarks/reference_roots.py), and the inputs at 1e-2, 1e-4, ..., 1e-12 on both sides (12 per
+(references/reference_roots.py), and the inputs at 1e-2, 1e-4, ..., 1e-12 on both sides (12 per
 segment). Each input is judged by benchmarks/near_singular.py: exact and right, flagged (a lower
 bound), wrong count, lost root, invented root. Table by distance band; JSON to
 results/sweep_near_singular.json; exit 1 on any failure (a wrong or flagged-far count, a lost or
@@ -39,7 +39,7 @@ from spherekin.mechanism import gosselin
 from spherekin.search.boxloop import DEFAULT_PARAMETERIZATION, SolverLimitError
 from spherekin.problem import solve
 
-from benchmarks.random_designs import random_3rrr, random_rotation
+from references.random_designs import random_3rrr, random_rotation
 
 #: A solution matches the pose when every entry of its rotation is this close to R0's: polished
 #: solutions agree with the truth to ~1e-14; 1e-8 leaves room for ill-conditioned poses.
@@ -94,7 +94,7 @@ def trial(seed: int, parameterization: str = DEFAULT_PARAMETERIZATION) -> dict:
 def near_singular_segment(seed: int) -> list:
     """The judged near-singular inputs of one seeded segment (12 rows)."""
     from benchmarks.near_singular import judge, random_segment
-    from benchmarks.reference_roots import near_singular_inputs
+    from references.reference_roots import near_singular_inputs
 
     mech, geometry, x_star, direction = random_segment(seed)
     rows = []

@@ -16,7 +16,7 @@ Questions and how each is answered:
    its joint rotations (axes of the reference configuration) must agree across the three legs and
    with the reported platform rotation; the serial singularity (actuator free) is det[u_i, w_i, v_i]
    = 0 for some leg; the number of real poses comes from a degree-8 eigen solver of the quaternion
-   leg quadrics (benchmarks/peers_closed_form.py), which shares nothing with spherekin's loops.
+   leg quadrics (references/peers_closed_form.py), which shares nothing with spherekin's loops.
 3. *Paper-faithful run vs the default.* The paper's algorithm (formulation "paper": Eq. (10),
    pruner "lp": the Eq. (12) LPs, backend clarabel, no Krawczyk isolation) against spherekin's
    default and two intermediate configurations, on the full joint circles and on a small local
@@ -171,10 +171,10 @@ def axis_angle(rot) -> tuple[float, np.ndarray]:
 
 
 def eigen_poses(mech, inputs):
-    """Real platform poses of the degree-8 quaternion eigen solver (benchmarks/peers_closed_form.py),
+    """Real platform poses of the degree-8 quaternion eigen solver (references/peers_closed_form.py),
     or None when it is not available."""
     try:
-        from benchmarks import peers_closed_form as pc
+        from references import peers_closed_form as pc
     except ImportError:
         return None
     return pc.direct_kinematics(pc.geometry_of(mech), inputs)

@@ -104,7 +104,7 @@ def dask_client():
 def singular_beta1(geometry, lo, hi, n_lo):
     """A general_3rrr parallel singularity in closed form: bisection on beta1 (beta2 = 0, beta3 = 0.5)
     for where the degree-8 reference's real-root count drops from n_lo (tests of both trackers)."""
-    from benchmarks.peers_closed_form import direct_kinematics
+    from references.peers_closed_form import direct_kinematics
 
     for _ in range(60):
         mid = 0.5 * (lo + hi)

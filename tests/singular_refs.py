@@ -3,7 +3,7 @@
 Used by the tests of the singular-set code (``from singular_refs import ...``; pytest puts tests/ on sys.path).
 Everything here is written from the geometry of the mechanism files (read with tomllib, not with spherekin),
 closed forms and numpy, so that a test comparing spherekin's singular sets with these compares it with
-something else. The only shared code is the degree-8 / Macaulay solver of ``benchmarks/peers_closed_form.py``,
+something else. The only shared code is the degree-8 / Macaulay solver of ``references/peers_closed_form.py``,
 itself numpy only and independent of the Bernstein code (used as the root-count oracle of item 2).
 
 Conventions (docs/mechanism-format.md): angles in radians; a joint reading theta turns the link after it by
@@ -270,14 +270,14 @@ def rrr_closure(geometry, inputs, rot) -> np.ndarray:
 
 def _quaternion_of(rot) -> np.ndarray:
     """A unit quaternion (w, x, y, z) of a rotation (3, 3) (Shepperd's method, the largest diagonal term)."""
-    from benchmarks.peers_closed_form import rotation_quaternion
+    from references.peers_closed_form import rotation_quaternion
 
     return rotation_quaternion(rot)
 
 
 def _oracle():
     """(quadrics_many, real_roots_many) of the degree-8 solver (imported late: benchmarks/ is a script package)."""
-    from benchmarks.peers_closed_form import quadrics_many, real_roots_many
+    from references.peers_closed_form import quadrics_many, real_roots_many
 
     return quadrics_many, real_roots_many
 
@@ -302,7 +302,7 @@ def _random_rotation(rng) -> np.ndarray:
 
 
 def rrr_poses_all_frames(geometry, inputs) -> tuple[np.ndarray, np.ndarray]:
-    """The degree-8 oracle (``benchmarks.peers_closed_form.real_roots_many``) at inputs (K, 3), in each frame of
+    """The degree-8 oracle (``references.peers_closed_form.real_roots_many``) at inputs (K, 3), in each frame of
     FRAMES: (rotations (F, K, 8, 3, 3) in the original frame, NaN where not real; real (F, K, 8) bool).
     Raises ValueError where the oracle's Macaulay matrix has no clear null space (never met on general_3rrr)."""
     quadrics_many, real_roots_many = _oracle()
@@ -710,7 +710,7 @@ def triple_root_spread(inputs, geometry=None) -> np.ndarray:
     triple root, i.e. a cusp input; at a fold only two roots meet and the triple's diameter stays large."""
     from itertools import combinations
 
-    from benchmarks.peers_closed_form import candidate_points_many, quadrics_many
+    from references.peers_closed_form import candidate_points_many, quadrics_many
 
     geometry = rrr_geometry() if geometry is None else geometry
     _, _, v0, alpha2 = geometry

@@ -1,5 +1,5 @@
 """Families of inputs against references that are not spherekin's solver: the degree-8 eigenvalue
-solver of the 3-RRR (benchmarks/peers_closed_form.py, numpy only) for the counts of a map, and the
+solver of the 3-RRR (references/peers_closed_form.py, numpy only) for the counts of a map, and the
 poses themselves for inputs made by inverse kinematics."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from spherekin import batch
 
 #: Two poses of the reference closer than this (largest entry) would make its count ambiguous; such

@@ -1,7 +1,7 @@
 """The floor of benchmarks/bench_engine.py (the degree-8 eigen solve vectorized over inputs) against
 independent references, and smoke runs of bench_engine / bench_crossover (no time is asserted).
 
-References: the per-input eigen solver of benchmarks/peers_closed_form.py (one input at a time),
+References: the per-input eigen solver of references/peers_closed_form.py (one input at a time),
 exact real-root counts by sympy (a lex Groebner basis of the three quadrics in the chart q0 = 1,
 then Sturm counting of its univariate polynomial, in exact rationals), and poses from the inverse
 kinematics (every pose the IK places must be a root of the floor's quadrics).
@@ -17,7 +17,7 @@ import pytest
 import sympy as sp
 
 from benchmarks import bench_crossover, bench_engine
-from benchmarks.peers_closed_form import (geometry_of, leg_quadrics, quaternion_rotation, real_roots_many,
+from references.peers_closed_form import (geometry_of, leg_quadrics, quaternion_rotation, real_roots_many,
                                           rotation_quaternion, solve_quadrics)
 from spherekin.mechanism import general_3rrr, load_mechanism
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks import peers_closed_form as pcf
+from references import peers_closed_form as pcf
 from benchmarks import peers_phc as pphc
 from spherekin.closure import ClosureLoop, Unknown
 from spherekin.mechanism import axis_rotation, general_3rrr, gosselin, three_rrr

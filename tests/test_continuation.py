@@ -1,5 +1,5 @@
 """spherekin.trust.continuation: certified tracking, against the poses that generated the path, the
-degree-8 eigenvalue reference (benchmarks/peers_closed_form.py) and scipy's rotations."""
+degree-8 eigenvalue reference (references/peers_closed_form.py) and scipy's rotations."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of, leg_residuals
+from references.peers_closed_form import direct_kinematics, geometry_of, leg_residuals
 from tests.conftest import singular_beta1
-from benchmarks.random_designs import random_3rrr
+from references.random_designs import random_3rrr
 from spherekin import compile as compile_problem
 from spherekin.core import intervals as iv
 from spherekin.mechanism import five_bar

@@ -16,7 +16,7 @@ import shlex
 import numpy as np
 import pytest
 
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from doc_blocks import ROOT, blocks, command_lines, doc_pages, page_text, run_command, run_script
 from spherekin.cli import build_parser, protect_negative_values
 from spherekin.mechanism import general_3rrr, gosselin
@@ -112,7 +112,7 @@ def reference_poses(mech, inputs):
 
 
 def check_solve_json(proc, tmp_path):
-    """The JSON's poses are the degree-8 eigenvalue solver's (benchmarks/peers_closed_form.py), all of them."""
+    """The JSON's poses are the degree-8 eigenvalue solver's (references/peers_closed_form.py), all of them."""
     doc = json.loads((tmp_path / "out.json").read_text())
     refs = reference_poses(general_3rrr(), [0.3, -0.2, 0.5])
     poses = [np.array(s["platform_rotation"]) for s in doc["solutions"]]
@@ -229,7 +229,7 @@ def test_chunk_size_help_states_the_engine_default(capsys):
 def test_getting_started_python_block_runs_and_its_pose_is_a_reference_pose(tmp_path):
     """The first solve in Python: it prints the Gosselin platform's 8 solutions (the paper's count),
     and solution number 3, certified, is one of the poses of the degree-8 eigenvalue solver of
-    benchmarks/peers_closed_form.py (numpy only, not spherekin's solver) at the same inputs."""
+    references/peers_closed_form.py (numpy only, not spherekin's solver) at the same inputs."""
     code = blocks("docs/getting-started.md", "python")
     assert len(code) == 1, "a new python block in docs/getting-started.md needs a check here"
     proc = run_script(tmp_path, code[0] + "\nimport json\nprint(json.dumps(sol.platform_rotation.tolist()))\n")
@@ -249,7 +249,7 @@ def test_mechanism_format_python_blocks_run_as_scripts_from_the_repository_root(
     """docs/mechanism-format.md's blocks, each a script in a fresh interpreter (from the repository root,
     as the block sees it, where its example files are): the names it prints are those its comment shows,
     and every inverse-kinematics solution of the identity pose closes: the degree-8 eigenvalue reference
-    (benchmarks/peers_closed_form.py) has the identity among its poses at those inputs."""
+    (references/peers_closed_form.py) has the identity among its poses at those inputs."""
     code = blocks("docs/mechanism-format.md", "python")
     assert len(code) == 3, "a new python block in docs/mechanism-format.md needs a check here"
     outs = []

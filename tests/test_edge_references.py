@@ -1,4 +1,4 @@
-"""The 50-digit edge references of benchmarks/edge_references.py, checked against independent facts.
+"""The 50-digit edge references of references/edge_references.py, checked against independent facts.
 
 * Two-leg mechanisms (four-bar, five-bar): every reference assembly closes (the angles between the
   current axes equal the link angles to 1e-40, the rotation maps the reference coupler onto it and
@@ -6,7 +6,7 @@
   count agrees with a brute-force scan of the coupler circle (no discriminant), the count changes
   exactly at every computed branch input (+-1e-30) where angle(B, Q) takes its limiting value, and
   the preset crank-rocker has 2 assemblies at every input.
-* 3-RRR: the joint-axes reference agrees with benchmarks.reference_roots (built from the 3-RRR's
+* 3-RRR: the joint-axes reference agrees with references.reference_roots (built from the 3-RRR's
   description lists) at generic inputs, its poses satisfy the description's leg constraints, and
   the singular input of the issue-13 segment separates 8 from 6 assemblies at +-1e-18.
 * The campaign's judge on made-up reports: an exact wrong count, an invented root and a lost one
@@ -27,7 +27,7 @@ import mpmath
 import numpy as np
 import pytest
 
-from benchmarks import edge_references as er
+from references import edge_references as er
 
 @pytest.fixture(autouse=True)
 def fifty_digits():
@@ -210,8 +210,8 @@ def test_five_bar_references():
 
 @pytest.mark.parametrize("name", ["gosselin", "general_3rrr"])
 def test_rrr_reference_agrees_with_reference_roots(name):
-    from benchmarks.peers_closed_form import geometry_of
-    from benchmarks.reference_roots import reference_roots
+    from references.peers_closed_form import geometry_of
+    from references.reference_roots import reference_roots
     from benchmarks.sweep_roots import leg_residual
     from spherekin.mechanism import preset
 

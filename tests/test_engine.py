@@ -10,7 +10,7 @@ point. The rules checked here:
   solutions), a four-bar, a five-bar and an elbow-actuated 3-RRR, with inputs 1e-8 from a fold,
   inputs with no assembly and solutions outside the passive joints' ranges;
 * the counts agree with independent references: the 3-RRR's degree-8 quaternion reference at 50
-  digits (benchmarks/reference_roots.py), the two-leg closed form (benchmarks/edge_references.py);
+  digits (references/reference_roots.py), the two-leg closed form (references/edge_references.py);
 * an input that reaches a cap inside a chunk is reported as it is alone, and does not disturb the
   others.
 """
@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks.edge_references import four_bar as edge_four_bar, two_leg_edges, two_leg_reference
-from benchmarks.peers_closed_form import geometry_of
-from benchmarks.reference_roots import reference_roots
+from references.edge_references import four_bar as edge_four_bar, two_leg_edges, two_leg_reference
+from references.peers_closed_form import geometry_of
+from references.reference_roots import reference_roots
 from spherekin import compile
 from spherekin.mechanism import five_bar, general_3rrr, gosselin
 from spherekin.mechanism.io import load_mechanism

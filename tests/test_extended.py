@@ -41,7 +41,7 @@ from spherekin.trust.extended import (EXTENDED_RADII, certify_extended, krawczyk
 from spherekin.trust.krawczyk import FINE_ANGLE_TOLERANCE, KrawczykResult, certify
 from spherekin.trust.transversal import ANGLE_TOLERANCE
 
-from benchmarks import edge_references as er
+from references import edge_references as er
 from conftest import GOSSELIN_INPUTS, rot
 
 
@@ -254,7 +254,7 @@ def test_extended_certificate_is_about_the_given_floats():
 GENERAL_3RRR = Path(__file__).resolve().parents[1] / "examples" / "general_3rrr.toml"
 
 #: A fold of examples/general_3rrr.toml (6 assemblies on one side, 4 on the other), located to ~1e-32 on
-#: the file's numbers at 60 digits (benchmarks.edge_references: rrr_segment(read_rrr_file(...),
+#: the file's numbers at 60 digits (references.edge_references: rrr_segment(read_rrr_file(...),
 #: default_rng(12)), refined by rrr_singular_input on +-1e-12 about it with accuracy 1e-32), and the
 #: direction of the segment (max norm 1) towards 4.
 FOLD_X = (mpmath.mpf("-1.65830694578772710929222193448129612"), mpmath.mpf("2.03362956828797813827798585315481541"),

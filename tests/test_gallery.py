@@ -149,7 +149,7 @@ def test_mode_change_around_a_cusp_against_an_independent_newton_tracking():
     and end poses of the changing track among the degree-8 oracle's roots, as two different ones; a numpy
     Newton tracking (tests/singular_refs.py) of the start pose along the same closed polygon, in short steps,
     ends at the pose the proven track ends at."""
-    from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+    from references.peers_closed_form import direct_kinematics, geometry_of
     from singular_refs import cusps_in_square, rrr_tracked
 
     g = ran("plot_mode_change_cusp")

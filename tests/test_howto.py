@@ -1,6 +1,6 @@
 """The how-to guides (docs/howto/*.md) run as written: every ```python block as a script
 (tests/doc_blocks.py), with a check of what it prints (and writes) against an independent derivation:
-the degree-8 eigenvalue solver of benchmarks/peers_closed_form.py (numpy only), a four-bar's closed
+the degree-8 eigenvalue solver of references/peers_closed_form.py (numpy only), a four-bar's closed
 form (tests/test_branches.py), matrix products of scipy rotations, tests/singular_refs.py, the command
 line's parser. Their command lines: tests/test_docs_pages.py.
 

@@ -1,7 +1,7 @@
 """The package's layers, read from its source: lower layers never import higher ones, no cycles.
 
 Every ``import`` of a spherekin module is collected with ``ast`` (module level and inside
-functions). No module imports ``verification/``, no private name crosses a module boundary (neither
+functions). No module imports ``verification/``, ``references/``, ``benchmarks/`` or the experiments, no private name crosses a module boundary (neither
 imported nor reached as ``module._name``), and the module-level import graph has no cycle. Layers, lowest first (docs/layout.md):
 
 output files (atomic), run control (budget) -> where work runs (cluster: Dask) -> core (spherekin/core/) -> closure equations -> mechanism model (spherekin/mechanism/) -> hand-over
@@ -94,9 +94,13 @@ def test_every_module_has_a_layer():
     assert units <= set(LEVEL), f"modules without a layer in this test: {sorted(units - set(LEVEL))}"
 
 
+#: The folders beside the package that check or measure it: the package never imports them.
+OUTSIDE = ("verification", "references", "benchmarks", "experiments", "paper_figures")
+
+
 @pytest.mark.parametrize("module", sorted(ALL))
-def test_the_package_never_imports_the_verification(module):
-    assert not any(t == "verification" or t.startswith("verification.") for t, _, _ in imports(module, ALL[module]))
+def test_the_package_never_imports_the_verification_references_or_benchmarks(module):
+    assert not any(t.split(".")[0] in OUTSIDE for t, _, _ in imports(module, ALL[module]))
 
 
 @pytest.mark.parametrize("module", sorted(ALL))

@@ -1,7 +1,7 @@
 """Mechanisms written as graphs (kind "graph"): the loop basis, the mobility, the errors, and the answers
 against references written here, not spherekin's solver: four-bars in closed form (a six-bar as two
 four-bars in series), a five-bar as two circles on the sphere, a 3-RRR against the 3-RRR kind and the
-degree-8 eigenvalue solve of benchmarks/peers_closed_form.py."""
+degree-8 eigenvalue solve of references/peers_closed_form.py."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import spherekin as sk
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from spherekin.mechanism import MechanismFileError, general_3rrr, load_mechanism, mechanism_from_dict
 from spherekin.mechanism.graph import Step
 

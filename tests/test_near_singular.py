@@ -1,6 +1,6 @@
 """Near-singular inputs against an independent 50-digit reference (issue 13).
 
-The reference (:mod:`benchmarks.reference_roots`) solves the 3-RRR from its geometry lists alone:
+The reference (:mod:`references.reference_roots`) solves the 3-RRR from its geometry lists alone:
 quaternion quadrics, the degree-8 eigenproblem, complex Newton at 50 digits. Parallel singular
 inputs are found by bisection on its real-root count between two inputs with different counts;
 spherekin is then asked at 1e-2 ... 1e-12 on both sides. The rules of the issue:
@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.peers_closed_form import geometry_of
+from references.peers_closed_form import geometry_of
 from benchmarks.near_singular import judge, random_segment
-from benchmarks.reference_roots import near_singular_inputs, reference_roots, singular_input
+from references.reference_roots import near_singular_inputs, reference_roots, singular_input
 from spherekin.mechanism import general_3rrr
 
 #: The issue's pair of general_3rrr inputs on either side of a parallel singularity (8 and 6 roots).

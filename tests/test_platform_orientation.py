@@ -3,7 +3,7 @@
 References: Rodrigues' formula for the quaternion rotation; sympy for the chart polynomials and
 their Bernstein coefficients (exact rationals); the mechanism's own inverse kinematics (Paden-Kahan
 subproblems, an independent route) for the passive readings; the 50-digit complex-Newton reference
-of benchmarks/reference_roots.py for the solutions.
+of references/reference_roots.py for the solutions.
 """
 
 import math
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from benchmarks.reference_roots import reference_roots
-from benchmarks.random_designs import random_3rrr, random_rotation
+from references.reference_roots import reference_roots
+from references.random_designs import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
 from spherekin.mechanism import four_bar, general_3rrr, gosselin
 from spherekin.search.boxloop import search_platform
@@ -83,7 +83,7 @@ def test_charts_cover_every_rotation_with_room_to_spare():
         hits = 0
         for k in range(4):
             # the quaternion of r with q_k = 1, if |q_k| is large enough for this chart
-            from benchmarks.peers_closed_form import rotation_quaternion
+            from references.peers_closed_form import rotation_quaternion
 
             q = rotation_quaternion(r)
             if abs(q[k]) < 1e-9:

@@ -10,7 +10,7 @@ import re
 
 import numpy as np
 
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from doc_blocks import ROOT, blocks, page_text, run_script
 from spherekin.mechanism import general_3rrr, gosselin
 
@@ -33,7 +33,7 @@ def random_inputs(code: str) -> np.ndarray:
 
 def reference_counts(inputs) -> tuple[np.ndarray, np.ndarray]:
     """(real assemblies of the general 3-RRR at each input by the degree-8 eigenvalue solver of
-    benchmarks/peers_closed_form.py (numpy only, not spherekin's solver), whether that count is
+    references/peers_closed_form.py (numpy only, not spherekin's solver), whether that count is
     unambiguous there)."""
     geometry = geometry_of(general_3rrr())
     counts, clear = [], []
@@ -51,7 +51,7 @@ def test_readme_is_a_front_page():
 
 def test_readme_python_block_runs_and_prints_the_reference_poses_and_counts(tmp_path):
     """The Gosselin platform at the paper's inputs: 8 solutions (the paper's count), solution number 3
-    certified and one of the poses of the degree-8 eigenvalue solver (benchmarks/peers_closed_form.py,
+    certified and one of the poses of the degree-8 eigenvalue solver (references/peers_closed_form.py,
     numpy only); then, over the block's random inputs, the number of proven assemblies of the general
     3-RRR at each one equals that solver's count of real poses (every input far from a singularity)."""
     code = blocks("README.md", "python")

@@ -1,5 +1,5 @@
 """The singular campaign (issue 40 item 2, benchmarks/singular_campaign.py) and its generated graph files
-(benchmarks/graph_designs.py).
+(references/graph_designs.py).
 
 Fast: the generated six-bars are what they claim, checked from the file text alone (links and joints counted
 with tomllib, Kutzbach's count, the cycle rank by union-find, which links are ternary and whether they are
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import spherekin
-from benchmarks import graph_designs as gd
+from references import graph_designs as gd
 from benchmarks import singular_campaign as sc
 from singular_refs import ISSUE40_AXES_DEG, TERNARY_SIX_BAR_LINKS, polar_axes, ternary_six_bar_count
 

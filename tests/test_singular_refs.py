@@ -143,8 +143,8 @@ def test_type2_det_is_the_closure_jacobian():
 
 def _quaternion_jacobian_det(geo, beta, rot) -> float:
     """det of the Jacobian of (q^T A_i q, |q|^2 - 1) at the pose's unit quaternion: another formulation of the
-    same singularity (the quadrics of benchmarks/peers_closed_form), normalized by the norms of its rows."""
-    from benchmarks.peers_closed_form import leg_quadrics, rotation_quaternion
+    same singularity (the quadrics of references/peers_closed_form), normalized by the norms of its rows."""
+    from references.peers_closed_form import leg_quadrics, rotation_quaternion
 
     q = rotation_quaternion(rot)
     jac = np.vstack([2 * leg_quadrics(geo, beta) @ q, 2 * q])
@@ -255,7 +255,7 @@ HOME = np.array([0.0, 0.0, 0.5])
 def test_track_box_regular_box_keeps_the_assembly():
     """Small boxes around home, every assembly of general_3rrr: nothing lost, no sign change, min |det| close to
     |det| at home; the tracked pose at a far corner is one of the oracle's roots there (continuity, not a jump)."""
-    from benchmarks.peers_closed_form import direct_kinematics
+    from references.peers_closed_form import direct_kinematics
 
     geo = rrr_geometry()
     tracked = rrr_tracked(geo)

@@ -15,7 +15,7 @@ import pytest
 from conftest import GOSSELIN_INPUTS, rot
 from spherekin import solve_system
 from spherekin.trust.krawczyk import certify as real_certify
-from benchmarks import peers_closed_form as pcf
+from references import peers_closed_form as pcf
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.results import Cluster, Solution, Status
 from spherekin.trust.solutions import STATUSES, count_summary, finalize, is_proven
@@ -126,7 +126,7 @@ def test_clusters_polishing_to_one_root_give_one_solution():
 
 def test_distinct_roots_stay_distinct():
     """Two regular roots of the Gosselin platform at the same inputs, from the closed-form solver
-    (benchmarks/peers_closed_form.py) and inverse kinematics: two certified solutions, each at its own root."""
+    (references/peers_closed_form.py) and inverse kinematics: two certified solutions, each at its own root."""
     mech = gosselin()
     names = mech.loop_unknowns
     roots = [np.array([m.joint_angles[n] for n in names])

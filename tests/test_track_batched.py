@@ -1,6 +1,6 @@
 """Tracking at a normal resolution (issue 30): 0.01-rad rows proven in batches at the first try,
 and steps that fail the batched proof split and proven, against the poses that generated the path
-and the degree-8 eigenvalue reference (benchmarks/peers_closed_form.py)."""
+and the degree-8 eigenvalue reference (references/peers_closed_form.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from benchmarks.bench_track import smooth_path
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from tests.conftest import singular_beta1
 from spherekin.mechanism import general_3rrr, gosselin
 from spherekin.systems.platform import platform_legs

@@ -5,7 +5,7 @@ For every input of a chunk, finalize_many must return what finalize returns for 
 input's equations (the input-index column of the stacked stages). Independent checks: the closure
 of every returned assembly evaluated by the mechanism's forward map (not the trust layer's
 equations), and the number of real assemblies of the 3-RRRs against the degree-8 eigenvalue solve
-of benchmarks/peers_closed_form.py.
+of references/peers_closed_form.py.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.peers_closed_form import direct_kinematics, geometry_of
+from references.peers_closed_form import direct_kinematics, geometry_of
 from spherekin.mechanism import five_bar, four_bar, general_3rrr, gosselin
 from spherekin.problem import REFINE_FACTOR, REFINE_MAX_BOXES, REFINE_MIN_TOL, compile
 from spherekin.search.boxloop import SolverLimitError

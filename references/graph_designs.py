@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from benchmarks.random_designs import unit
+from references.random_designs import unit
 
 __all__ = ["WATT", "STEPHENSON", "FIVE_BAR", "TWO_LOOP_2DOF", "TOPOLOGIES", "MIN_ARC", "links_of", "random_axes",
            "graph_toml", "five_bar_graph_axes", "two_loop_axes", "mobility", "loop_count", "graph_of", "passive_det"]
@@ -40,7 +40,7 @@ TOPOLOGIES = {"Watt": WATT, "Stephenson": STEPHENSON}
 #: Random axes are redrawn until every two joints of one link are at least this far apart (radians) and this
 #: far from antipodal. Reason: a link whose joints (nearly) coincide is a degenerate design (two coaxial joints
 #: in series act as one: a continuum), which the loader refuses or which is barely conditioned; 0.2 rad is
-#: the floor benchmarks/random_designs.random_3rrr uses for its distal arcs.
+#: the floor references/random_designs.random_3rrr uses for its distal arcs.
 MIN_ARC = 0.2
 #: Redraws of a seed's axes at most (a draw passes with probability ~0.7 for the six-bars).
 MAX_DRAWS = 1000

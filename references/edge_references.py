@@ -34,7 +34,7 @@ Mechanisms of two legs (spherical four-bar and five-bar)
     u_i, w_i, v_i of the reference configuration, w_i(beta_i) = Rot(u_i, beta_i - ref_i) w_i and R'
     the platform's displacement from the reference configuration (the reported pose is R' P, P the
     platform reference), as homogeneous quadrics in the quaternion of R'. The roots are found as in
-    :mod:`benchmarks.reference_roots` (eigen-candidates of the degree-8 problem, complex Newton at
+    :mod:`references.reference_roots` (eigen-candidates of the degree-8 problem, complex Newton at
     50 digits, restarts until the 8 Bezout roots are distinct), but with the quadrics built at 50
     digits from the description's numbers as given (a 3-RRR of another kind: from its joint axes;
     reference_roots rebuilds them from the description lists normalized in floats, a design that
@@ -48,7 +48,7 @@ Mechanisms of two legs (spherical four-bar and five-bar)
     degenerate design (no 8-dimensional null space: non-isolated roots), fewer than 8 distinct
     roots, two roots closer than :data:`DECIDE_SEPARATION`, or an odd number of real roots.
     :func:`rrr_singular_input` finds where the count changes along a segment to :data:`ROOT_ACCURACY`
-    (benchmarks.reference_roots.singular_input bisects in floats, to ~1e-15).
+    (references.reference_roots.singular_input bisects in floats, to ~1e-15).
 """
 
 from __future__ import annotations
@@ -63,8 +63,8 @@ from pathlib import Path
 import mpmath
 import numpy as np
 
-from benchmarks.peers_closed_form import candidate_points, leg_quadrics
-from benchmarks.reference_roots import MAX_RESTARTS, leg_quadric_mp, quadric_system_mp, same_root
+from references.peers_closed_form import candidate_points, leg_quadrics
+from references.reference_roots import MAX_RESTARTS, leg_quadric_mp, quadric_system_mp, same_root
 from spherekin.mechanism.chains import axis_rotation, sphere_point
 from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 
@@ -562,7 +562,7 @@ def _quat_rotation_mp(q):
 
 
 def _newton(quadrics, q0, max_steps: int = NEWTON_STEPS, deflate=()):
-    """Complex Newton from q0 on F = (q^T A_i q, q . q - 1), as benchmarks.reference_roots._newton
+    """Complex Newton from q0 on F = (q^T A_i q, q . q - 1), as references.reference_roots._newton
     but with fewer steps; (q, converged: see SMALL_STEP).
 
     ``deflate``: roots already found (and their negatives, the same pose): Newton then runs on
@@ -634,7 +634,7 @@ def _pair_starts(quadrics, r) -> list:
 def _rrr_roots(g: _Rrr, inputs, seed: int = 0):
     """The 8 roots (mp complex quaternions), or (the roots found, the reason).
 
-    As benchmarks.reference_roots.reference_roots (its restarts here with deflation of the roots
+    As references.reference_roots.reference_roots (its restarts here with deflation of the roots
     found, :func:`_newton`), plus two searches for the partner of a root next
     to a fold, where the eigen-candidates (~sqrt of the distance to the fold) no longer separate
     the pair: the conjugate of every complex root (a root: the quadrics are real), and for every

@@ -2,10 +2,10 @@
 
 Independent of spherekin's loop equations and solver: the leg constraints
 w_i(beta_i) . (R(q) v_i^0) = cos(alpha2_i) as homogeneous quadrics q^T A_i q = 0 in the quaternion q
-(:mod:`benchmarks.peers_closed_form`, from the four lists u, w0, v0, alpha2 of the 3-RRR), here
+(:mod:`references.peers_closed_form`, from the four lists u, w0, v0, alpha2 of the 3-RRR), here
 rebuilt in mpmath at :data:`DIGITS` digits from the same floats. The roots:
 
-1. the degree-8 eigenproblem of :func:`benchmarks.peers_closed_form.candidate_points` gives the 8
+1. the degree-8 eigenproblem of :func:`references.peers_closed_form.candidate_points` gives the 8
    projective roots, real or complex, to ~1e-10 (worse next to a double root);
 2. each is polished by complex Newton on (q^T A_i q = 0, q . q = 1) in mpmath until the step is
    below 10^-(DIGITS - 10); a projective root is one pair +-q;
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import mpmath
 import numpy as np
 
-from benchmarks.peers_closed_form import candidate_points, leg_quadrics, quaternion_rotation
+from references.peers_closed_form import candidate_points, leg_quadrics, quaternion_rotation
 
 __all__ = ["DIGITS", "REAL_IMAG", "SAME_ROOT", "Reference", "reference_roots", "singular_input", "near_singular_inputs",
            "leg_quadric_mp", "quadric_system_mp", "same_root"]
