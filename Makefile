@@ -1,8 +1,11 @@
 # Two commands set up and run everything from a fresh clone:
 #   make run   -- create .venv, install spherekin, solve the paper's Gosselin example (full joint ranges)
-#   make test  -- create .venv, install spherekin with test extras, run the test suite
-#   make test-long -- the long tier (.ci/run runs it after make test): the slow sweeps (-m slow) and the site
-#     in headless Chromium (docs-check; installs Debian's chromium and chromium-driver when missing)
+#   make test  -- create .venv, install spherekin with test extras, run the test suite's first tier (under 5 min on
+#     2 cores: every module, one example per command; TEST_WORKERS processes, default 2)
+#   make test-long -- the long tier (tests/tiers.toml and the slow sweeps: Dask faults, the gallery, the wheel,
+#     the campaigns, the slowest tests) and the site in headless Chromium (docs-check; installs Debian's chromium
+#     and chromium-driver when missing)
+#   make test-all -- make test, then make test-long (.ci/run runs it)
 #   make verify -- symbolic verification of every claim of the paper; writes verification/REPORT.md
 #   make experiments [FULL=1] -- the experiments of experiments/README.md (quick by default)
 #   make figures -- the paper figures (paper_figures/*.png, *.pdf)
@@ -24,7 +27,7 @@ DOCS_STAMP := $(VENV)/.installed-docs
 EXPERIMENTS := reproduction convergence parameterizations lp_backends scaling tan_vs_sincos
 QUICK_FLAG := $(if $(FULL),,--quick)
 
-.PHONY: run test test-long chromium doc-numbers verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
+.PHONY: run test test-long test-all chromium doc-numbers verify install clean experiments figures bench bench-peers sweep edge singular-campaign mutants docs docs-check
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,13 +47,18 @@ $(DOCS_STAMP): $(STAMP)
 run: $(STAMP)
 	$(BIN)/spherekin solve examples/gosselin.toml --inputs 0.3,-0.2,0.5
 
-test: $(STAMP)
-	$(BIN)/python -m pytest
+# processes of the test run (pytest-xdist); the Dask tests start clusters of their own in each
+TEST_WORKERS ?= 2
 
-# the long tier: what make test leaves out (pytest -m slow), then the site in a real browser
+test: $(STAMP)
+	$(BIN)/python -m pytest -n $(TEST_WORKERS)
+
+# the long tier: what make test leaves out (pytest -m slow: tests/tiers.toml), then the site in a real browser
 test-long: $(STAMP)
-	$(BIN)/python -m pytest -m slow -q
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) -m slow -q --ignore=tests/test_docs_site.py
 	$(MAKE) --no-print-directory docs-check
+
+test-all: test test-long
 
 verify: $(STAMP)
 	$(BIN)/python -m verification
@@ -112,7 +120,7 @@ chromium:
 
 # tests/test_docs_site.py skips itself where Chromium is missing: here that is an error, not a skip
 docs-check: $(DOCS_STAMP) chromium
-	$(BIN)/python -m pytest tests/test_docs_site.py -q -rs
+	$(BIN)/python -m pytest tests/test_docs_site.py -q -rs -m "slow or not slow"
 
 clean:
 	rm -rf $(VENV) .pytest_cache *.egg-info docs/_build docs/generated docs/gallery docs/sg_execution_times.rst

@@ -11,7 +11,7 @@ copied to a temporary directory. Every mutant is checked first: its original tex
 exactly once in its file (otherwise exit 2 before any test runs). In the copy, the mutated
 ``spherekin`` must be the one imported (PYTHONPATH = the copy; checked). Each distinct test
 selection is run once unmutated (the baseline: it must pass, else exit 2). Then, one mutant at a
-time, the original text is replaced, ``python -m pytest -x -q -p no:cacheprovider <selection>``
+time, the original text is replaced, ``python -m pytest -x -q -p no:cacheprovider -m 'slow or not slow' <selection>`` (every tier)
 runs in the copy with the same interpreter, and the file is restored. A failing run (exit 1, or 2
 for a collection error) or a timeout kills the mutant; a passing run means it survived.
 Bytecode writing is off (PYTHONDONTWRITEBYTECODE), so a mutant of the same size written within
@@ -41,7 +41,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 MUTANTS_FILE = HERE / "mutants.toml"
 RESULTS_FILE = HERE / "results.json"
-PYTEST_ARGS = ["-m", "pytest", "-x", "-q", "-p", "no:cacheprovider"]
+#: Every tier: a mutant's tests may be in the long tier (tests/tiers.toml), which make test leaves out.
+PYTEST_ARGS = ["-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "slow or not slow"]
 #: Seconds allowed to one mutant's run at least; the limit is max(this, TIMEOUT_FACTOR x its baseline).
 #: Reason: a mutant of a loop's exit test may loop forever; a run that slow counts as killed.
 TIMEOUT_MIN = 120.0

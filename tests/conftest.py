@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import signal
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +23,29 @@ def pytest_configure(config):
     Python handler is reset to the default in a child (exec), where Python installs KeyboardInterrupt."""
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+#: The long tier (tests/tiers.toml): whole modules and tests (node ids below tests/) that make test leaves out.
+TIERS = tomllib.loads((Path(__file__).parent / "tiers.toml").read_text())["long"]
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Mark the long tier's tests slow (before ``-m 'not slow'`` deselects them); an entry of tests/tiers.toml
+    whose module was collected but which names no test is an error (a renamed test must not slip back)."""
+    modules, tests = set(TIERS["modules"]), set(TIERS["tests"])
+    seen, collected = set(), set()
+    for item in items:
+        nodeid = item.nodeid.removeprefix("tests/")
+        module, function = nodeid.split("::", 1)[0], nodeid.split("[", 1)[0]
+        collected.add(module)
+        hit = {e for e in (nodeid, function) if e in tests}
+        if module in modules or hit:
+            item.add_marker(pytest.mark.slow)
+        seen |= hit
+    stale = sorted(e for e in tests - seen if e.split("::", 1)[0] in collected)
+    if stale and not config.getoption("deselect"):
+        raise pytest.UsageError("tests/tiers.toml names tests that were not collected: " + "; ".join(stale))
 
 
 #: The paper's Gosselin example inputs (Section 5), radians.

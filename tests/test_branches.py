@@ -429,12 +429,12 @@ def test_a_located_branch_point_outside_the_cover_is_reported_never_silent(monke
     the report; a cover that cannot be computed says so in one line."""
     import types
 
-    import spherekin.problem
+    import spherekin.singularities.cover
 
     path = tmp_path / "non_grashof.toml"
     e0, _ = branch_inputs(write_four_bar(path, NON_GRASHOF, NON_GRASHOF_THETA0))
     grid = f"A={float(e0) - 1.3e-4!r}:{float(e0) + 2.9e-4!r}:2"     # no cell: the grid must see the count change
-    monkeypatch.setattr(spherekin.problem, "singular",
+    monkeypatch.setattr(spherekin.singularities.cover, "singular",
                         lambda *args, **kwargs: types.SimpleNamespace(boxes=(), complete=True))
     bmap = branch_map(path, grid, joint="D")
     assert bmap.counts == (0, 2) and len(bmap.branch_points) == 1 and bmap.cover.disagreements == (0,)
@@ -445,7 +445,7 @@ def test_a_located_branch_point_outside_the_cover_is_reported_never_silent(monke
     def refuse(*args, **kwargs):
         raise ValueError("det K_p: too many terms")
 
-    monkeypatch.setattr(spherekin.problem, "singular", refuse)
+    monkeypatch.setattr(spherekin.singularities.cover, "singular", refuse)
     bmap = branch_map(path, grid, joint="D")
     assert bmap.cover.error == "det K_p: too many terms" and len(bmap.branch_points) == 1
     assert "cross-check: not done (the certified singular cover failed: det K_p: too many terms)" in bmap.report()

@@ -41,6 +41,7 @@ import numpy as np
 from ..core import intervals
 from ..core.arrays import namespace_of
 from ..core.bernstein import restrict_batch_last
+from ..core.krawczyk import MIDRAD, krawczyk_operator
 from .pruners import excludes_zero
 
 __all__ = ["full_rank_proven", "KRAWCZYK_MARGIN", "KRAWCZYK_RCOND", "NEWTON_MAX_STEPS", "NEWTON_STEP_TOL", "NEWTON_STALL_STEP", "SPURIOUS_FACTOR",
@@ -203,6 +204,11 @@ def _inverses(jmid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ok, c
 
 
+def _half_unit(b, n) -> tuple[np.ndarray, np.ndarray]:
+    """X - y on the unit box around its centre, as (mid, rad) of shape (b, n): [-1/2, 1/2]."""
+    return np.zeros((int(b), n)), np.full((int(b), n), 0.5)
+
+
 def krawczyk_boxes(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequence[np.ndarray]):
     """The Krawczyk test on B boxes at once (see the module docstring).
 
@@ -228,14 +234,10 @@ def krawczyk_boxes(square: SquareSystem, cps: Sequence[np.ndarray], tols: Sequen
     ok, c_all = _inverses(jmid)
     if not ok.any():
         return isolated, lo, hi
-    c_mat = c_all[ok]                                                                        # (b, N, N)
-    ac = np.abs(c_mat)
-    centre = 0.5 - (c_mat @ f[ok][..., None])[..., 0]
-    m_mid = np.eye(n) - c_mat @ jmid[ok]
-    m_rad = ac @ jrad[ok]
-    radius = ac @ ftol[ok][..., None] + 0.5 * (np.abs(m_mid) + m_rad).sum(axis=2, keepdims=True)
-    radius = radius[..., 0] + KRAWCZYK_MARGIN
-    klo, khi = centre - radius, centre + radius
+    # K on the unit box: y = its centre, X - y = [-1/2, 1/2] (midpoint-radius floats, widened by the margin)
+    centre, radius = krawczyk_operator(MIDRAD, np.full((int(ok.sum()), n), 0.5), (f[ok], ftol[ok]), c_all[ok],
+                              (jmid[ok], jrad[ok]), _half_unit(ok.sum(), n))
+    klo, khi = centre - (radius + KRAWCZYK_MARGIN), centre + (radius + KRAWCZYK_MARGIN)
     isolated[ok] = np.all((klo > 0.0) & (khi < 1.0), axis=1)
     lo[ok] = np.maximum(klo, 0.0)
     hi[ok] = np.minimum(khi, 1.0)
@@ -270,16 +272,13 @@ def krawczyk_parametric(square: SquareSystem, cps: Sequence[np.ndarray], tols: S
     ok, c_all = _inverses(jmid[:, :, keep])
     if not ok.any():
         return proven, lo, hi
-    c_mat = c_all[ok]
-    ac = np.abs(c_mat)
-    centre = 0.5 - (c_mat @ f[ok][..., None])[..., 0]
-    m_mid = np.eye(n - 1) - c_mat @ jmid[ok][:, :, keep]
-    m_rad = ac @ jrad[ok][:, :, keep]
-    p_mid = (c_mat @ jmid[ok][:, :, param:param + 1])[..., 0]                               # C J_p: mid
-    p_rad = (ac @ jrad[ok][:, :, param:param + 1])[..., 0]                                  # and radius
-    radius = ((ac @ ftol[ok][..., None])[..., 0] + 0.5 * (np.abs(m_mid) + m_rad).sum(axis=2)
-              + 0.5 * (np.abs(p_mid) + p_rad) + KRAWCZYK_MARGIN)
-    klo, khi = centre - radius, centre + radius
+    # the parametric form on the unit box: R = J_p(X), sigma = P - m_p = [-1/2, 1/2]
+    b = int(ok.sum())
+    centre, radius = krawczyk_operator(MIDRAD, np.full((b, n - 1), 0.5), (f[ok], ftol[ok]), c_all[ok],
+                              (jmid[ok][:, :, keep], jrad[ok][:, :, keep]), _half_unit(b, n - 1),
+                              rate=(jmid[ok][:, :, param:param + 1], jrad[ok][:, :, param:param + 1]),
+                              sigma=_half_unit(b, 1))
+    klo, khi = centre - (radius + KRAWCZYK_MARGIN), centre + (radius + KRAWCZYK_MARGIN)
     proven[ok] = np.all((klo > 0.0) & (khi < 1.0), axis=1)
     lo[ok] = np.maximum(klo, 0.0)
     hi[ok] = np.minimum(khi, 1.0)

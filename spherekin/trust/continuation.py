@@ -61,6 +61,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import intervals as iv
+from ..core.krawczyk import INTERVALS, krawczyk_operator
 from ..core.angles import in_range_many, span_in_range_many, wrap
 from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
@@ -469,20 +470,14 @@ def parametric_krawczyk(w_lo, w_hi, j_mid, f_m, rate, j_box, sigma) -> tuple[np.
     (Krawczyk/Moore)."""
     if rate.ndim == 3:                                                        # one parameter (a segment)
         rate = rate[..., None]
-    n, m = w_lo.shape
     mid = 0.5 * (w_lo + w_hi)
     ok = np.isfinite(j_mid).all(axis=(1, 2)) & (np.abs(np.linalg.det(j_mid)) > 0)
     y = np.zeros_like(j_mid)
     if ok.any():
         y[ok] = np.linalg.inv(j_mid[ok])
     ok &= np.isfinite(y).all(axis=(1, 2))
-    y_f = iv.fmatmul(y, f_m[..., None])[..., 0]
-    y_rate = iv.fmatmul(y, rate)                                            # Y dF/dp (2, N, M, P)
-    spread = iv.isum(iv.mul(y_rate, sigma[..., None, :]), -1)              # (Y dF/dp) sigma (2, N, M)
-    center = iv.sub(iv.sub(iv.point(mid), y_f), spread)
-    slope = iv.sub(iv.point(np.broadcast_to(np.eye(m), (n, m, m))), iv.fmatmul(y, j_box))
     dev = iv.sub(iv.from_bounds(w_lo, w_hi), iv.point(mid))
-    k = iv.add(center, iv.matmul(slope, dev[..., None])[..., 0])
+    k = krawczyk_operator(INTERVALS, mid, f_m, y, j_box, dev, rate=rate, sigma=sigma)
     inside = np.isfinite(k).all(axis=(0, 2)) & np.all(k[0] > w_lo, axis=1) & np.all(k[1] < w_hi, axis=1)
     return ok & inside, k
 

@@ -90,6 +90,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..core.krawczyk import krawczyk_operator
+
 from ..mechanism import SphericalMechanism
 from ..mechanism.chains import axis_rotation
 from ..mechanism.rrr import ThreeRRRGeometry, rrr_joint_names
@@ -630,20 +632,41 @@ def _preconditioner(plan: _Plan, j_float: np.ndarray, sv: tuple):
     return [[plan.ctx.mpf(float(v)) for v in row] for row in c]
 
 
+class _ListIntervals:
+    """The arithmetic of :func:`spherekin.core.krawczyk.krawczyk_operator` on mpmath intervals: vectors
+    are lists of intervals, matrices lists of rows; C is a matrix of exact intervals (floats)."""
+
+    __slots__ = ("zero", "one")
+
+    def __init__(self, num: _Numbers):
+        self.zero, self.one = num.zero, num.one
+
+    def point(self, y):
+        return list(y)
+
+    def add(self, a, b):
+        return [u + v for u, v in zip(a, b)]
+
+    def sub(self, a, b):
+        return [u - v for u, v in zip(a, b)]
+
+    def eye_minus(self, a):
+        return [[(self.one - v) if i == j else -v for j, v in enumerate(row)] for i, row in enumerate(a)]
+
+    def cmatvec(self, c, v):
+        return [_sum([ci[p] * v[p] for p in range(len(v))], self.zero) for ci in c]
+
+    def cmatmat(self, c, a):
+        return [[_sum([ci[p] * a[p][j] for p in range(len(a))], self.zero) for j in range(len(a[0]))] for ci in c]
+
+    matvec = cmatvec
+
+
 def _krawczyk_operator(num: _Numbers, y, f_y, c, j_x, x):
-    """K(X) = y - C F(y) + (I - C J(X)) (X - y), every operation in intervals (lists of intervals;
-    c, j_x: m x m). Every root of F in X lies in K(X) (Krawczyk; Moore)."""
-    m = len(y)
-    dx = [xv - yv for xv, yv in zip(x, y)]
-    out = []
-    for i in range(m):
-        ci = c[i]
-        acc = y[i] - _sum([ci[p] * f_y[p] for p in range(m)], num.zero)
-        for j in range(m):
-            cj = _sum([ci[p] * j_x[p][j] for p in range(m)], num.zero)
-            acc = acc + ((num.one - cj) if i == j else -cj) * dx[j]
-        out.append(acc)
-    return out
+    """K(X) = y - C F(y) + (I - C J(X)) (X - y) in mpmath intervals (lists; c, j_x: m x m):
+    :func:`spherekin.core.krawczyk.krawczyk_operator` with :class:`_ListIntervals`. Every root of F in
+    X lies in K(X) (Krawczyk; Moore)."""
+    return krawczyk_operator(_ListIntervals(num), y, f_y, c, j_x, [xv - yv for xv, yv in zip(x, y)])
 
 
 def _sum(values, zero):

@@ -41,6 +41,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..core import intervals as iv_ops
+from ..core.krawczyk import INTERVALS, krawczyk_operator
 from ..mechanism import LoopSystem
 from .transversal import (ANGLE_TOLERANCE, SystemStack, TransversalPlan, check_system, check_theta, check_tolerance,
                           enclose, interval_eval, plan_of, transversal_equations)
@@ -503,21 +504,17 @@ def _verdicts(k_lo, k_hi, x_lo, x_hi) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 def _krawczyk_operator(y, x_lo, x_hi, f_y, j_x, c) -> tuple[np.ndarray, np.ndarray]:
-    """Floats (lo, hi), each (P, R, M), enclosing K(X) = y - C F(y) + (I - C J(X)) (X - y).
+    """Floats (lo, hi), each (P, R, M), enclosing K(X) = y - C F(y) + (I - C J(X)) (X - y)
+    (:func:`spherekin.core.krawczyk.krawczyk_operator` in outward-rounded intervals).
 
     ``y`` (P, M); X = [x_lo, x_hi] (P, R, M); ``f_y`` (2, P, M) encloses F(y); ``j_x``
     (2, P, R, M, M) encloses J over X; ``c`` (P, M, M): any float matrices. X - y is enclosed by
-    [-rho, rho] (rho = max(x_hi - y, y - x_lo) rounded up), so the last term lies in [-s, s] with
-    s = |I - C J(X)| rho (magnitudes, summed rounding up): the result contains the exact interval
-    evaluation of the expression, which keeps both conclusions of the test valid.
+    [-rho, rho] (rho = max(x_hi - y, y - x_lo) rounded up).
     """
-    cf = iv_ops.fmatmul(c, f_y[..., None])[..., 0]                                 # C F(y)
-    base = iv_ops.sub(iv_ops.point(y), cf)                                         # y - C F(y)
-    cj = iv_ops.fmatmul(c[:, None], j_x)                                           # C J(X)
-    a = iv_ops.sub(iv_ops.point(np.eye(y.shape[-1])), cj)                          # I - C J(X)
     rho = np.maximum(np.nextafter(x_hi - y[:, None], math.inf), np.nextafter(y[:, None] - x_lo, math.inf))
-    spread = iv_ops.sum_up(np.nextafter(iv_ops.magnitude(a) * rho[:, :, None, :], math.inf), axis=-1)
-    k = iv_ops.add(base[:, :, None], np.stack((-spread, spread)))                  # (2, P, R, M)
+    n_rad = x_lo.shape[1]
+    k = krawczyk_operator(INTERVALS, np.repeat(y[:, None], n_rad, axis=1), np.repeat(f_y[:, :, None], n_rad, axis=2),
+                 np.repeat(c[:, None], n_rad, axis=1), j_x, iv_ops.from_bounds(-rho, rho))
     return k[0], k[1]
 
 
