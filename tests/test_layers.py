@@ -231,3 +231,13 @@ def test_the_module_level_import_graph_has_no_cycle():
     for m in graph:
         if m not in state:
             visit(m, [])
+
+
+def test_docs_layout_names_every_module_and_no_file_outside_the_tree():
+    """docs/layout.md is the layout as built: every module of the package is named there (its file name),
+    and it points at nothing outside the repository (a design note elsewhere is not a reader's)."""
+    text = (PACKAGE.parent / "docs" / "layout.md").read_text()
+    missing = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
+                     if p.name != "__init__.py" and p.name not in text)
+    assert not missing, f"docs/layout.md does not name: {missing}"
+    assert "shared/" not in text and "../" not in text
