@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spherekin.mechanism.chains import axis_rotation, serial_ik, sphere_point, wrap
+from spherekin.core.angles import wrap
+from spherekin.mechanism.chains import axis_rotation, serial_ik, sphere_point
 from spherekin.mechanism.model import Joint, Leg, SphericalMechanism
 from spherekin.mechanism.presets import five_bar, four_bar, general_3rrr, gosselin
 

@@ -34,7 +34,8 @@ import numpy as np
 from experiments._common import Pinned, parser, pinned_solve, ran_text, spread_text, write_results
 from experiments._compare import MATCH_TOL, MECHANISMS, Case, closure_error, contains, random_cases, same_set
 
-from spherekin.mechanism.chains import axis_rotation, serial_ik, wrap  # noqa: E402
+from spherekin.core.angles import wrap  # noqa: E402
+from spherekin.mechanism.chains import axis_rotation, serial_ik  # noqa: E402
 from spherekin.search.parameterizations import make_charts  # noqa: E402
 PARAMETERIZATIONS = ("tan-half", "sin-cos")
 #: The row of the default pipeline (its "parameterization" column).

@@ -1102,7 +1102,8 @@ def passive_angles(mech: SphericalMechanism, rotation, inputs) -> list:
     (:func:`spherekin.mechanism.chains.serial_ik`). Unlike ``mech.inverse_kinematics``, this stays
     right where a leg is at a serial singularity (the agile eye's axis u_i = v_i, where the actuator
     turns freely and inverse kinematics returns an arbitrary actuator reading)."""
-    from spherekin.mechanism.chains import serial_ik, wrap
+    from spherekin.core.angles import wrap
+    from spherekin.mechanism.chains import serial_ik
 
     target = np.asarray(rotation, float) @ mech.platform_reference_matrix.T
     values = dict(zip(mech.actuated, (float(v) for v in inputs)))

@@ -152,21 +152,14 @@ def _float_above(n: int, w: int) -> float:
     return f
 
 
+@dataclass(slots=True, eq=False)
 class FixedCosSin:
     """cos a and sin a as integers in units of 2^-bits: |cos a - cos 2^-bits| <= error 2^-bits, the same for sin."""
-
-    __slots__ = ("cos", "sin", "error", "bits")
 
     cos: int
     sin: int
     error: int
     bits: int
-
-    def __init__(self, cos, sin, error, bits):
-        self.cos = cos
-        self.sin = sin
-        self.error = error
-        self.bits = bits
 
 
 def cos_sin_fixed(a: float) -> FixedCosSin:
@@ -354,6 +347,20 @@ def _dd_add(ch, cl, ph, pl):
     return _fast_two_sum(sh, sl + (cl + pl))
 
 
+def _reduced_cos_sin(rh, rl, r_err):
+    """cos r = P(x) and sin r = r Q(x), x = r^2, of the reduced argument r = rh + rl (double-double; floats or
+    arrays alike) and their error bounds (r_err: the reduction's): (ch, cl, sh, sl, cos_err, sin_err)."""
+    r_split = _split(rh)
+    xh, xl = _dd_mul(rh, rl, rh, rl, r_split)
+    x_split = _split(xh)
+    ch, cl = _horner(xh, xl, x_split, _COS_DD, _COS_PLAIN)
+    qh, ql = _horner(xh, xl, x_split, _SIN_DD, _SIN_PLAIN)
+    sh, sl = _dd_mul(rh, rl, qh, ql, r_split)
+    cos_err = (COS_ERROR + r_err) * BOUND_SLACK
+    sin_err = (abs(rh) * SIN_RELATIVE_ERROR + r_err) * BOUND_SLACK
+    return ch, cl, sh, sl, cos_err, sin_err
+
+
 def _horner(xh, xl, x_split, dd_coefs, plain_coefs):
     """Part B3: sum_i c_i x^i for the double-double x (plain double from DD_DEGREE up)."""
     t = plain_coefs[-1] + 0.0 * xh                                # (an array for an array xh)
@@ -408,14 +415,7 @@ def cos_sin_double_double(a: np.ndarray) -> DoubleDoubleCosSin:
     rh = np.where(valid, rh, 0.5)                                 # harmless values off the vector path
     rl = np.where(valid, rl, 0.0)
     # B2-B3: x = r^2, cos r = P(x), sin r = r Q(x)
-    r_split = _split(rh)
-    xh, xl = _dd_mul(rh, rl, rh, rl, r_split)
-    x_split = _split(xh)
-    ch, cl = _horner(xh, xl, x_split, _COS_DD, _COS_PLAIN)
-    qh, ql = _horner(xh, xl, x_split, _SIN_DD, _SIN_PLAIN)
-    sh, sl = _dd_mul(rh, rl, qh, ql, r_split)
-    cos_err = (COS_ERROR + r_err) * BOUND_SLACK
-    sin_err = (np.abs(rh) * SIN_RELATIVE_ERROR + r_err) * BOUND_SLACK
+    ch, cl, sh, sl, cos_err, sin_err = _reduced_cos_sin(rh, rl, r_err)
     # B4: quadrant (negation exact; the error bound follows its value)
     quadrant = np.mod(k, 4.0)
     swap = (quadrant == 1.0) | (quadrant == 3.0)
@@ -486,14 +486,7 @@ def _cos_sin_one(a: float) -> tuple[float, float, float, float]:
     r_err = ((abs(e2) + abs(e3)) + (abs(p4) + abs(p5))) * 2.0 ** -51 + abs(k) * HALF_PI_TAIL_BOUND
     if not (R_MIN <= abs(rh) <= R_MAX * (1.0 - 2.0 ** -40)):
         return cos_sin_enclosure_exact(a)
-    r_split = _split(rh)
-    xh, xl = _dd_mul(rh, rl, rh, rl, r_split)
-    x_split = _split(xh)
-    ch, cl = _horner(xh, xl, x_split, _COS_DD, _COS_PLAIN)
-    qh, ql = _horner(xh, xl, x_split, _SIN_DD, _SIN_PLAIN)
-    sh, sl = _dd_mul(rh, rl, qh, ql, r_split)
-    cos_err = (COS_ERROR + r_err) * BOUND_SLACK
-    sin_err = (abs(rh) * SIN_RELATIVE_ERROR + r_err) * BOUND_SLACK
+    ch, cl, sh, sl, cos_err, sin_err = _reduced_cos_sin(rh, rl, r_err)
     quadrant = k % 4.0
     if quadrant == 1.0 or quadrant == 3.0:
         (c_h, c_l, c_e), (s_h, s_l, s_e) = (sh, sl, sin_err), (ch, cl, cos_err)

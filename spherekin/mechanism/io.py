@@ -133,29 +133,13 @@ def _build(data) -> SphericalMechanism:
     if kind == "graph":
         return _build_graph(body)
     _check_keys("", body, _GENERAL_REQUIRED, _GENERAL_OPTIONAL)
-    legs_raw = body["legs"]
-    if not isinstance(legs_raw, list) or not legs_raw:
-        raise ValueError(f"legs: expected one or more [[legs]] tables, got {shown(legs_raw)}")
     legs = []
-    for i, leg in enumerate(legs_raw):
-        where = f"legs[{i}]"
-        if not isinstance(leg, Mapping):
-            raise ValueError(f"{where}: expected a [[legs]] table, got {shown(leg)}")
+    for i, (where, leg) in enumerate(_tables("legs", body["legs"], "legs")):
         _check_keys(where, leg, ("joints",), ("name",))
-        joints_raw = leg["joints"]
-        if not isinstance(joints_raw, list) or not joints_raw:
-            raise ValueError(f"{where}.joints: expected one or more [[legs.joints]] tables, got {shown(joints_raw)}")
         joints = []
-        for k, j in enumerate(joints_raw):
-            jwhere = f"{where}.joints[{k}]"
-            if not isinstance(j, Mapping):
-                raise ValueError(f"{jwhere}: expected a [[legs.joints]] table, got {shown(j)}")
+        for jwhere, j in _tables(f"{where}.joints", leg["joints"], "legs.joints"):
             _check_keys(jwhere, j, ("name", "axis"), ("actuated", "range", "reference_angle"))
-            try:
-                joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),
-                                    j.get("reference_angle", 0.0)))
-            except ValueError as exc:
-                raise ValueError(f"{jwhere}.{exc}") from None
+            joints.append(_joint(jwhere, j))
         try:
             legs.append(Leg(leg.get("name", f"leg{i + 1}"), tuple(joints)))
         except ValueError as exc:
@@ -168,22 +152,31 @@ def _build(data) -> SphericalMechanism:
     )
 
 
+def _tables(key: str, raw, array: str):
+    """(where, table) of each table of the TOML array of tables ``[[array]]`` read at ``key``: ValueError
+    naming the key when it is not a non-empty list of tables."""
+    if not isinstance(raw, list) or not raw:
+        raise ValueError(f"{key}: expected one or more [[{array}]] tables, got {shown(raw)}")
+    for k, table in enumerate(raw):
+        if not isinstance(table, Mapping):
+            raise ValueError(f"{key}[{k}]: expected a [[{array}]] table, got {shown(table)}")
+        yield f"{key}[{k}]", table
+
+
+def _joint(where: str, j: Mapping) -> Joint:
+    """The :class:`Joint` of a joint table (its keys checked by the caller); errors name ``where``."""
+    try:
+        return Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"), j.get("reference_angle", 0.0))
+    except ValueError as exc:
+        raise ValueError(f"{where}.{exc}") from None
+
+
 def _build_graph(body: Mapping) -> SphericalMechanism:
     _check_keys("", body, _GRAPH_REQUIRED, _GRAPH_OPTIONAL)
-    raw = body["joints"]
-    if not isinstance(raw, list) or not raw:
-        raise ValueError(f"joints: expected one or more [[joints]] tables, got {shown(raw)}")
     joints, links = [], []
-    for k, j in enumerate(raw):
-        where = f"joints[{k}]"
-        if not isinstance(j, Mapping):
-            raise ValueError(f"{where}: expected a [[joints]] table, got {shown(j)}")
+    for where, j in _tables("joints", body["joints"], "joints"):
         _check_keys(where, j, _GRAPH_JOINT_REQUIRED, _GRAPH_JOINT_OPTIONAL)
-        try:
-            joints.append(Joint(j["name"], j["axis"], j.get("actuated", False), j.get("range"),
-                                j.get("reference_angle", 0.0)))
-        except ValueError as exc:
-            raise ValueError(f"{where}.{exc}") from None
+        joints.append(_joint(where, j))
         pair = j["links"]
         if not isinstance(pair, list) or len(pair) != 2 or not all(isinstance(x, str) for x in pair):
             raise ValueError(f"{where}.links: expected two link names [a, b], got {shown(pair)}")

@@ -40,6 +40,7 @@ __all__ = ["EquationBlock", "LoopPolynomials", "Bilinear", "ChartBilinear", "For
            "TRANSVERSAL_ENTRIES", "formulate_polynomials", "embed_axes"]
 
 
+@dataclass(slots=True, eq=False)
 class EquationBlock:
     """Equations of one loop (or one side condition), each = 0 at a solution, on the unit box.
 
@@ -56,24 +57,13 @@ class EquationBlock:
     marks a block that only serves the Krawczyk test (the pruners do not see it).
     """
 
-    __slots__ = ("loop_index", "labels", "coeffs", "scale", "square", "bilinear", "prune")
-
     loop_index: int
     labels: tuple[str, ...]
     coeffs: np.ndarray
     scale: np.ndarray
-    square: tuple[int, ...]
-    bilinear: "Bilinear | None"
-    prune: bool
-
-    def __init__(self, loop_index, labels, coeffs, scale, square=(), bilinear=None, prune=True):
-        self.loop_index = loop_index
-        self.labels = labels
-        self.coeffs = coeffs
-        self.scale = scale
-        self.square = square
-        self.bilinear = bilinear
-        self.prune = prune
+    square: tuple[int, ...] = ()
+    bilinear: "Bilinear | None" = None
+    prune: bool = True
 
     @property
     def variables(self) -> tuple[int, ...]:
@@ -199,6 +189,7 @@ class Bilinear:
         return out
 
 
+@dataclass(slots=True, eq=False)
 class ChartBilinear:
     """The :class:`Bilinear` form of one block on every chart, laid out for the box loop.
 
@@ -209,22 +200,12 @@ class ChartBilinear:
     reference), tested against it.
     """
 
-    __slots__ = ("a_vars", "b_vars", "a", "b", "sums", "shape")
-
     a_vars: tuple[int, ...]
     b_vars: tuple[int, ...]
     a: np.ndarray
     b: np.ndarray
     sums: tuple
     shape: tuple[int, ...]
-
-    def __init__(self, a_vars, b_vars, a, b, sums, shape):
-        self.a_vars = a_vars
-        self.b_vars = b_vars
-        self.a = a
-        self.b = b
-        self.sums = sums
-        self.shape = shape
 
     @classmethod
     def stack(cls, forms: Sequence[Bilinear], n_vars: int) -> "ChartBilinear":

@@ -52,6 +52,8 @@ import warnings
 from itertools import product
 from typing import ClassVar, Sequence
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .registry import Registry
@@ -102,10 +104,9 @@ CLARABEL_TOL = 1e-9
 DUAL_SIMPLEX_STRATEGY = 1
 
 
+@dataclass(slots=True, eq=False)
 class BoxBounds:
     """Result of the Eq. (12) reduction of one box (bounds in the box's unit coordinates)."""
-
-    __slots__ = ("empty", "lo", "hi", "lp_count", "doubts")
 
     empty: bool
     lo: np.ndarray
@@ -113,14 +114,8 @@ class BoxBounds:
     lp_count: int
     doubts: int
 
-    def __init__(self, empty, lo, hi, lp_count, doubts):
-        self.empty = empty
-        self.lo = lo
-        self.hi = hi
-        self.lp_count = lp_count
-        self.doubts = doubts
 
-
+@dataclass(slots=True, eq=False)
 class EquationRows:
     """Where one equation of Eq. (12) sits in the matrix form: its lambda columns and its rows.
 
@@ -128,9 +123,6 @@ class EquationRows:
     ``variables``; ``abscissae`` (|S|, N) holds the integers i_k, ``degrees`` the m_k) and
     ``slab_row`` (|w . lambda| <= tol).
     """
-
-    __slots__ = ("block", "index", "variables", "abscissae", "degrees", "cols", "sum_row", "var_rows",
-                 "slab_row")
 
     block: int
     index: int
@@ -141,17 +133,6 @@ class EquationRows:
     sum_row: int
     var_rows: np.ndarray
     slab_row: int
-
-    def __init__(self, block, index, variables, abscissae, degrees, cols, sum_row, var_rows, slab_row):
-        self.block = block
-        self.index = index
-        self.variables = variables
-        self.abscissae = abscissae
-        self.degrees = degrees
-        self.cols = cols
-        self.sum_row = sum_row
-        self.var_rows = var_rows
-        self.slab_row = slab_row
 
 
 class LPStructure:

@@ -180,26 +180,17 @@ def chart_rotation(chart: int, x) -> np.ndarray:
     return chart_rotations([chart], np.asarray(x, dtype=float)[None])[0]
 
 
+@dataclass(slots=True, eq=False)
 class PlatformLeg:
     """One R-R-R leg as Eq. (1) sees it: joint names, reference axes (base frame), readings, and which
     joint (0 base, 1 elbow, 2 platform) is the actuated one."""
-
-    __slots__ = ("names", "a1", "a2", "a3", "reference", "actuated")
 
     names: tuple
     a1: np.ndarray
     a2: np.ndarray
     a3: np.ndarray
     reference: tuple
-    actuated: int
-
-    def __init__(self, names, a1, a2, a3, reference, actuated: int = 0):
-        self.names = names
-        self.a1 = a1
-        self.a2 = a2
-        self.a3 = a3
-        self.reference = reference
-        self.actuated = actuated
+    actuated: int = 0
 
     @property
     def passive(self) -> tuple[str, str]:
@@ -413,24 +404,17 @@ def leg_matrices(legs) -> np.ndarray:
     return np.array(mats)
 
 
+@dataclass(slots=True, eq=False)
 class PlatformSystem:
     """Eq. (1) of every leg compiled on the four charts: control points = cos d1 C_c + sin d1 C_s + C_0.
 
     ``parts`` (3 legs, 3 parts (c, s, 0), 4 charts, 3, 3, 3). Built by :meth:`from_mechanism`.
     """
 
-    __slots__ = ("legs", "parts", "platform_reference", "constants")
-
     legs: tuple
     parts: np.ndarray
     platform_reference: np.ndarray
-    constants: LegConstants
-
-    def __init__(self, legs, parts, platform_reference, constants=None):
-        self.legs = legs
-        self.parts = parts
-        self.platform_reference = platform_reference
-        self.constants = constants          # the tracker's form (base joints actuated), else None
+    constants: LegConstants | None = None     # the tracker's form (base joints actuated), else None
 
     @classmethod
     def from_mechanism(cls, mechanism) -> "PlatformSystem":

@@ -19,6 +19,8 @@ point, so a point polishes to the same floats alone or in a chunk.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..closure import ClosurePlan, closure_at, closure_many, closure_plan
@@ -41,21 +43,14 @@ CONVERGED_TOL = 1e-12
 STEP_RCOND = float(np.finfo(float).eps)
 
 
+@dataclass(slots=True, eq=False)
 class PolishResult:
     """Polished passive angles (radians), largest residual entry, steps taken, convergence flag."""
-
-    __slots__ = ("theta", "residual", "iterations", "converged")
 
     theta: np.ndarray
     residual: float
     iterations: int
     converged: bool
-
-    def __init__(self, theta, residual, iterations, converged):
-        self.theta = theta
-        self.residual = residual
-        self.iterations = iterations
-        self.converged = converged
 
 
 def closure_residual(loops, unknowns, theta, jacobian: bool = False):
