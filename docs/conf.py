@@ -9,6 +9,7 @@ import importlib
 import os
 import inspect
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -43,8 +44,11 @@ exclude_patterns = ["_build", "_ext", "_templates", "figures", "gallery/*.md5"]
 myst_heading_anchors = 3
 myst_enable_extensions = ["colon_fence", "dollarmath"]
 
-# The API reference: one page per public module, its names from __all__ (docs/api.md)
+# The API reference: one page per public module, its names from __all__ (docs/api.md). The stubs are
+# written anew at every build: autosummary never removes the stub of a name that left an __all__, and a
+# stale stub fails the build (-W) once the name is gone from its module.
 autosummary_generate = True
+shutil.rmtree(DOCS / "generated", ignore_errors=True)
 #: The modules of the API reference: the names listed in api.md's autosummary (the one list).
 API_MODULES = re.findall(r"^ {3}(spherekin[\w.]*)$", (DOCS / "api.md").read_text(), flags=re.M)
 

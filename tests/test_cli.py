@@ -306,7 +306,7 @@ def test_an_interrupt_raised_inside_a_finalizer_is_not_lost(signum, expected):
     import signal
     import time
 
-    from spherekin.cli import Terminated, _sigterm_as_interrupt
+    from spherekin.cli.errors import Terminated, sigterm_as_interrupt
 
     class SignalsWhileFinalized:
         def __del__(self):
@@ -315,7 +315,7 @@ def test_an_interrupt_raised_inside_a_finalizer_is_not_lost(signum, expected):
                 time.sleep(0)
 
     caught = None
-    with _sigterm_as_interrupt():
+    with sigterm_as_interrupt():
         try:
             SignalsWhileFinalized()    # unbound: finalized at once (no gc pass, which would run others' callbacks)
             for _ in range(2000):      # the command goes on: the interrupt must reach it here
@@ -337,9 +337,9 @@ def test_a_growing_job_logs_one_progress_line_not_one_per_round(capsys):
     """A branch map's total grows with its refinements and reaches done == total once per round (issue 42
     item 14: ~18 bars in a log). In a log, within one PROGRESS_INTERVAL: the first state, then nothing until
     close, then the last state once."""
-    from spherekin.cli import _BatchProgress
+    from spherekin.cli.progress import BatchProgress
 
-    progress = _BatchProgress(terminal=False)
+    progress = BatchProgress(terminal=False)
     for rounds in range(1, 19):
         for done in range(0, 10 * rounds + 1, 5):
             progress(done, 10 * rounds)

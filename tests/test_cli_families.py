@@ -277,7 +277,7 @@ def test_track_stops_where_a_joint_leaves_its_range_in_stdout_json_and_csv(tmp_p
 
 
 def test_track_check_mismatch_exits_1_and_the_json_says_so(tmp_path, capsys, monkeypatch):
-    import spherekin.cli as cli
+    import spherekin.cli.track as cli
 
     monkeypatch.setattr(cli, "CHECK_MATCH", -1.0)          # no full solve can then match a tracked pose
     path = _write_path(tmp_path, np.linspace(-3.0, -2.8, 5))

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from spherekin import __version__
-from spherekin.cli import _Progress, main
+from spherekin.cli import main
+from spherekin.cli.progress import Progress
 from spherekin.mechanism import gosselin, mechanism_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -103,13 +104,13 @@ def test_the_json_holds_the_mechanism(tmp_path, capsys):
 
 def test_progress_lines_in_a_log_and_silence_with_quiet(capsys, monkeypatch):
     counts = {"boxes_processed": 500, "pending": 3, "accepted": 1}
-    log = _Progress(terminal=False)
+    log = Progress(terminal=False)
     log.t0 -= 30.0                                  # as if the solve had run for 30 s
     log(counts)
     log(counts)                                      # the next line only PROGRESS_INTERVAL later
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "boxes      500" in err and "/s)" in err and "\r" not in err
-    quiet = _Progress(terminal=True, quiet=True)
+    quiet = Progress(terminal=True, quiet=True)
     quiet.t0 -= 30.0
     quiet(counts)
     quiet.close()
