@@ -15,7 +15,7 @@ def command(args) -> int:
     """
     import subprocess
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]          # the checkout: spherekin/cli/verify.py
     if not (root / "verification" / "__main__.py").is_file():
         print("spherekin: error: 'spherekin verify' runs the verification/ directory of a source checkout of "
               f"spherekin, and there is none next to this installation ({root}); clone the repository and run "
