@@ -21,7 +21,7 @@ from typing import Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
 
-__all__ = ["solve_many", "solve_to_file", "assembly_map", "AssemblyMap", "branch_map", "BranchMap", "GridAxis", "InputSet", "grid_inputs",
+__all__ = ["solve_many", "solve_to_file", "prepare_to_file", "run_to_file", "FileJob", "assembly_map", "AssemblyMap", "branch_map", "BranchMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]
 
 
@@ -71,6 +71,56 @@ def solve_many(mechanism, inputs, *, client=None, scheduler: str | None = None, 
     return sink.frame()
 
 
+@dataclasses.dataclass(frozen=True)
+class FileJob:
+    """A family to solve into a file, every part checked once (:func:`prepare_to_file`): the mechanism,
+    the inputs (an :class:`InputSet`), the engine's :class:`~spherekin.batch.engine.Job` and the problem
+    it compiled (the strategy checked), the output ``path`` (checked: writable, not another writer's),
+    whether to ``resume`` it, and the ``fingerprint`` the output records (checked against it on resume).
+    :func:`run_to_file` runs it and neither checks nor compiles it again (but on the workers)."""
+
+    mechanism: object
+    inputs: InputSet
+    job: object
+    problem: object
+    path: object
+    resume: bool
+    fingerprint: object
+
+
+def prepare_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bool = False, **strategy) -> FileJob:
+    """Every check of :func:`solve_to_file` before any work, in the order a reader fixes them: the mechanism,
+    the inputs, the output path, the strategy (compiled once here), then on ``resume`` the output's
+    fingerprint (another job's output is refused before a cluster starts). Returns a :class:`FileJob`."""
+    from ..problem import as_mechanism   # the pipeline: imported when a job runs, not with this package
+    from .engine import Job
+    from .fingerprint import Fingerprint, describe_inputs, strategy_of
+    from .sinks import check_fingerprints, check_output_path
+
+    mechanism = as_mechanism(mechanism)
+    inputs = array_inputs(mechanism, inputs)
+    path = check_output_path(out, resume, overwrite)
+    job = Job.of(mechanism, strategy)
+    problem = job.compile()
+    fingerprint = Fingerprint.of(mechanism, inputs.values, strategy_of(problem), describe_inputs(inputs))
+    if resume:
+        check_fingerprints(path, fingerprint)
+    return FileJob(mechanism, inputs, job, problem, path, bool(resume), fingerprint)
+
+
+def run_to_file(job: FileJob, *, client=None, scheduler: str | None = None, workers: int | None = None,
+                chunk_size: int | None = None, progress: Callable[[int, int], None] | None = None):
+    """Run a checked :class:`FileJob` (:func:`prepare_to_file`): every input it does not hold yet solved
+    and written to its path as chunks finish; returns the :class:`~spherekin.batch.engine.RunSummary`."""
+    from .engine import connect, run
+    from .sinks import open_sink
+
+    with connect(len(job.inputs), client=client, scheduler=scheduler, workers=workers) as c:
+        with open_sink(job.path, job.mechanism, job.inputs.values, job.resume, job.fingerprint) as sink:   # the output's lock, released on any exit
+            return run(job.job, job.inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress,
+                       problem=job.problem)
+
+
 def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bool = False, client=None,
                   scheduler: str | None = None, workers: int | None = None, chunk_size: int | None = None,
                   progress: Callable[[int, int], None] | None = None, **strategy):
@@ -82,20 +132,10 @@ def solve_to_file(mechanism, inputs, out, *, resume: bool = False, overwrite: bo
     was written by this job (mechanism, inputs, strategy, version: its fingerprint) and that its rows
     are whole (:mod:`spherekin.batch.sinks`); ``overwrite`` replaces it.
     On Ctrl-C the finished chunks stay written and the summary says ``interrupted``.
+    ``run_to_file(prepare_to_file(...))``: the command line checks first, then runs the checked job.
     """
-    from .engine import connect, run
-    from .fingerprint import Fingerprint, describe_inputs, strategy_of
-    from .sinks import check_fingerprints, check_output_path, open_sink
-
-    mechanism, inputs, job = _prepare(mechanism, inputs, strategy)
-    path = check_output_path(out, resume, overwrite)
-    fingerprint = Fingerprint.of(mechanism, inputs.values, strategy_of(job.compile()),
-                                   describe_inputs(inputs))
-    if resume:                                  # another job's output: refused before a cluster starts
-        check_fingerprints(path, fingerprint)
-    with connect(len(inputs), client=client, scheduler=scheduler, workers=workers) as c:
-        with open_sink(path, mechanism, inputs.values, resume, fingerprint) as sink:   # the output's lock, released on any exit
-            return run(job, inputs.values, sink, client=c, chunk_size=chunk_size, progress=progress)
+    return run_to_file(prepare_to_file(mechanism, inputs, out, resume=resume, overwrite=overwrite, **strategy),
+                       client=client, scheduler=scheduler, workers=workers, chunk_size=chunk_size, progress=progress)
 
 
 def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping[str, float] | Sequence[str] = (),

@@ -179,10 +179,11 @@ def connect(n_inputs: int, *, client=None, scheduler: str | None = None,
 
 
 def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | None = None,
-        progress: Callable[[int, int], None] | None = None) -> RunSummary:
+        progress: Callable[[int, int], None] | None = None, problem=None) -> RunSummary:
     """Solve every input of ``inputs`` (K, A) that ``sink.done`` does not mark, writing to ``sink``.
 
-    ``client`` None: in this process. ``progress(done, total)`` after each chunk written.
+    ``client`` None: in this process (with ``problem``, the job already compiled, when the caller has it).
+    ``progress(done, total)`` after each chunk written.
     """
     t0 = time.perf_counter()
     total = len(inputs)
@@ -207,7 +208,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
     interrupted = False
     try:
         if client is None:
-            _run_here(job, inputs, todo, emit)
+            _run_here(problem or job.compile(), inputs, todo, emit)
         else:
             _run_dask(job, inputs, todo, emit, client, workers, sink.ordered)
         sink.check_in_place(state["rows"])           # rows said written must be at the path
@@ -230,8 +231,7 @@ def run(job: Job, inputs: np.ndarray, sink, *, client=None, chunk_size: int | No
                       time.perf_counter() - t0, interrupted, getattr(sink, "note", ""))
 
 
-def _run_here(job: Job, inputs, todo, emit) -> None:
-    problem = job.compile()
+def _run_here(problem, inputs, todo, emit) -> None:
     for first, end in todo:
         rows = inputs[first:end]
         emit(first, end, report_table(problem.mechanism, problem.solve_many(rows), first, rows))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import math
 from collections import Counter
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -52,7 +53,9 @@ class GridAxis:
 class InputSet:
     """K actuator inputs: ``values`` (K, A) radians, columns ``names`` (the actuated joints in the
     mechanism's order). ``axes``/``fixed``: the grid it was built from (empty for a file or an array);
-    ``lines``: the CSV line of each row (None otherwise); ``source``: the file or "grid"/"array"."""
+    ``lines``: the CSV line of each row (None otherwise); ``source``: the file or "grid"/"array";
+    ``checked_for``: the mechanism :func:`check_inputs` checked the rows against (None: not checked), so
+    that the batch API does not check a set the command line built and checked again."""
 
     names: tuple[str, ...]
     values: np.ndarray = field(repr=False)
@@ -60,6 +63,7 @@ class InputSet:
     axes: tuple[GridAxis, ...] = ()
     fixed: Mapping[str, float] = field(default_factory=dict)
     lines: np.ndarray | None = field(default=None, repr=False)
+    checked_for: object = field(default=None, repr=False, compare=False)
 
     def __len__(self) -> int:
         return len(self.values)
@@ -149,9 +153,7 @@ def grid_inputs(mechanism, axes: Sequence[GridAxis | str], fixed: Mapping[str, f
     mesh = np.meshgrid(*(a.values for a in axes), indexing="ij")
     cols = {a.name: m.ravel() for a, m in zip(axes, mesh)}
     values = np.column_stack([cols[n] if n in cols else np.full(total, fixed[n]) for n in names])
-    out = InputSet(names, values, "grid", axes, dict(fixed))
-    check_inputs(mechanism, out)
-    return out
+    return check_inputs(mechanism, InputSet(names, values, "grid", axes, dict(fixed)))
 
 
 def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs") -> InputSet:
@@ -210,9 +212,7 @@ def read_inputs_csv(mechanism, path, degrees: bool = False, key: str = "--inputs
             except ValueError:
                 raise ValueError(f"{where}: expected a finite number, got {shown(cell)}") from None
         lines[k] = line
-    out = InputSet(names, values, str(path), lines=lines)
-    check_inputs(mechanism, out)
-    return out
+    return check_inputs(mechanism, InputSet(names, values, str(path), lines=lines))
 
 
 def _some(columns: Sequence[str], show=shown) -> str:
@@ -228,8 +228,7 @@ def array_inputs(mechanism, inputs) -> InputSet:
     if isinstance(inputs, InputSet):
         if inputs.names != names:
             raise ValueError(f"inputs: columns {inputs.names} are not this mechanism's actuated joints {names}")
-        check_inputs(mechanism, inputs)
-        return inputs
+        return inputs if inputs.checked_for is mechanism else check_inputs(mechanism, inputs)
     if hasattr(inputs, "columns") and hasattr(inputs, "to_numpy"):        # a DataFrame
         cols = [str(c) for c in inputs.columns]
         extra, missing = [c for c in cols if c not in names], [n for n in names if n not in cols]
@@ -247,14 +246,13 @@ def array_inputs(mechanism, inputs) -> InputSet:
                          f"{', '.join(names)}), got shape {values.shape}")
     if len(values) > MAX_INPUTS:
         raise ValueError(f"inputs: {len(values)} rows is more than one job takes ({MAX_INPUTS:,}); split the job")
-    out = InputSet(names, values.copy(), "array")
-    check_inputs(mechanism, out)
-    return out
+    return check_inputs(mechanism, InputSet(names, values.copy(), "array"))
 
 
-def check_inputs(mechanism, inputs: InputSet) -> None:
-    """ValueError naming the first row (and where it came from) that is not finite, is more than a full
-    turn from 0 (:data:`~spherekin.core.angles.MAX_INPUT_ANGLE`) or leaves a joint range."""
+def check_inputs(mechanism, inputs: InputSet) -> InputSet:
+    """``inputs`` marked as checked for ``mechanism``; ValueError naming the first row (and where it came
+    from) that is not finite, is more than a full turn from 0 (:data:`~spherekin.core.angles.MAX_INPUT_ANGLE`)
+    or leaves a joint range."""
     bad = ~np.isfinite(inputs.values)
     if bad.any():
         k, j = np.argwhere(bad)[0]
@@ -270,3 +268,4 @@ def check_inputs(mechanism, inputs: InputSet) -> None:
             k = int(np.flatnonzero(~ok)[0])
             raise ValueError(f"{inputs.where(k)}: {name} = {float(inputs.values[k, j])!r} is outside its joint range "
                              f"[{rng[0]!r}, {rng[1]!r}]")
+    return dataclasses.replace(inputs, checked_for=mechanism)

@@ -4,26 +4,25 @@ from __future__ import annotations
 
 import sys
 
-from .options import add_engine_options, add_grid_options, add_strategy_options, check_strategy, engine_note, family_inputs, strategy_keywords
+from .options import add_engine_options, add_grid_options, add_strategy_options, engine_note, family_inputs, strategy_keywords
 from .progress import BatchProgress
 
 
 def command(args) -> int:
-    from ..batch import solve_to_file
-    from ..batch.sinks import check_output_path
+    """Read the mechanism and the inputs, build one checked job (:func:`spherekin.batch.prepare_to_file`:
+    output path, strategy, fingerprint), then run it; the API neither checks nor compiles it again."""
+    from ..batch import prepare_to_file, run_to_file
     from ..mechanism import load_mechanism
 
     mech = load_mechanism(args.file)
     inputs = family_inputs(mech, args)
-    check_output_path(args.out, args.resume, args.overwrite)
-    check_strategy(mech, args)
+    job = prepare_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite, **strategy_keywords(args))
     print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}"
           + (f" (--degrees: inputs read in degrees; {args.out} holds radians)" if args.degrees else ""))
     progress = BatchProgress(sys.stderr.isatty(), quiet=args.quiet)
     try:
-        summary = solve_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite,
-                                scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
-                                progress=progress, **strategy_keywords(args))
+        summary = run_to_file(job, scheduler=args.scheduler, workers=args.workers, chunk_size=args.chunk_size,
+                              progress=progress)
     finally:
         progress.close()
     if summary.note:
