@@ -164,7 +164,7 @@ def self_motion_set():
 
 
 def test_a_self_motion_input_is_an_unresolved_region_and_the_curve_is_still_covered(self_motion_set):
-    """Around (pi/2, 0) the cover crowds (trust.singular.CROWDED_CELL): its boxes are set aside as unresolved
+    """Around (pi/2, 0) the cover crowds (singularities.cells.CROWDED_CELL): its boxes are set aside as unresolved
     regions wider than a cell, all close to the self-motion input, each a cusp candidate; the run completes,
     every closed-form point of T = 0 in the square is in a box, and every `singular` cell holds a sign change
     of T (~13 s)."""

@@ -193,7 +193,7 @@ def test_clusters_are_the_hull_closure_of_meeting_boxes(seed):
 
 def test_rank_candidates_keep_the_reference_cusp():
     """The cusp candidates without a tangency system (the blow-up's route: boxes not proven cusp-free by the rank
-    of the orientation Jacobian, trust.singular.rank_candidates) on general_3rrr's cusp square: the reference
+    of the orientation Jacobian, singularities.cells.rank_candidates) on general_3rrr's cusp square: the reference
     cusp lies in a candidate's box (a box holding a cusp can never be proven cusp-free)."""
     from spherekin.budget import Budget
     from spherekin.mechanism import load_mechanism
@@ -216,7 +216,7 @@ def test_a_cusp_on_the_whole_planes_charts_is_proven():
     """The cusp near (-1.9253, 0.7221) on the charts of the whole plane [-pi, pi]^2 at T = 0.05 (the cusp
     search started from that square only, ~2 s): there the Krawczyk box PROOF_RADIUS times the cluster's hull
     is too small for the nets' rounding, and the cusp is proven only on a wider box of the ladder
-    (trust.singular.PROOF_LADDER; before, `spherekin singular` over the whole plane listed it unresolved).
+    (singularities.cells.PROOF_LADDER; before, `spherekin singular` over the whole plane listed it unresolved).
     The proven cusp is the reference's."""
     from spherekin.mechanism import load_mechanism
     from spherekin.problem import DEFAULT_PRUNER

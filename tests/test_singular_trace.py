@@ -251,7 +251,7 @@ def test_trace_levels():
 
 @pytest.mark.parametrize("seed", range(6))
 def test_crowded_cells_are_those_a_count_over_every_cell_finds(seed, monkeypatch):
-    """trust.singular._in_crowded_cells (a coarse grid first, to skip counting the fine cells when no cell can
+    """singularities.cells._in_crowded_cells (a coarse grid first, to skip counting the fine cells when no cell can
     be crowded) against counting every cell of the grid: the same rectangles flagged, for clusters of
     rectangles dense enough or not, wide or narrow beside the cells (the threshold made 12 for the test)."""
     import spherekin.singularities.cells as ts

@@ -75,7 +75,7 @@ def _plane_axis(mech, key: str, spec) -> tuple:
 @dataclass(frozen=True)
 class _PlaneRun:
     """What one cover of a plane system hands to :func:`singular`: ``cells`` ((i, j) -> CellStatus), the
-    cusp candidates (trust.singular.CuspStatus), and the work: boxes processed (``used``), box-loop seconds,
+    cusp candidates (singularities.cells.CuspStatus), and the work: boxes processed (``used``), box-loop seconds,
     boxes accepted and pending (pending > 0: the cap was reached), the boxes set aside in crowded cells
     (``crowded``, :data:`spherekin.singularities.cells.CROWDED_CELL`), and the unresolved ``regions`` of the
     pending and crowded boxes (grid index ranges, :func:`spherekin.singularities.cells.pending_regions`)."""
@@ -105,7 +105,7 @@ def _plane_run(system, grid, tol: float, max_boxes: int, start, cusps, budget) -
     pruner = pruner_for(system.charts, DEFAULT_PRUNER, None)
     traced = None
     if hasattr(system, "trace") and len(system.plane_columns) == 2:
-        # certified tracing (trust/singular.trace_cover): boxes whose branch is proven a graph stop early
+        # certified tracing (singularities/cells.trace_cover): boxes whose branch is proven a graph stop early
         def search(width, cap, begin):
             return search_cover(system.charts, pruner, width, cap, start=start if begin is None else begin,
                                 budget=budget)
