@@ -22,7 +22,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "is_proven", "SearchLimit", "Settings",
+__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -229,18 +229,11 @@ class SearchLimit:
 
 
 @dataclass(frozen=True)
-class Settings:
-    """How a search or solve ran (the strategy names as resolved, radians for ``tol``).
-
-    The search's: ``formulation``, ``pruner``, ``lp_backend`` (None: the pruner's default),
-    ``parameterization``, ``tol``, ``isolate``, ``jobs``, ``charts``. A solve adds ``mechanism``
-    (its name), ``actuated`` and ``inputs`` (radians), and when they happened ``fallback`` (why
-    the loop equations answered instead of the platform formulation), ``limit``
-    (:class:`SearchLimit`) and ``refined_searches`` (clusters searched again at a finer tol). A
-    solve also says which ``system`` of equations solved it (:data:`spherekin.systems.SYSTEMS`) and
-    ``declined``: (system name, reason) of every faster system that did not accept the mechanism
-    or the strategy (empty when the fastest solved it, or a system was asked for by name).
-    """
+class SearchStrategy:
+    """The strategy of a search, its names as resolved (radians for ``tol``): ``formulation``, ``pruner``,
+    ``lp_backend`` (None: the pruner's default), ``parameterization``, ``tol``, ``isolate``, ``jobs``.
+    The one place these fields are written: :class:`Settings` (how a solve ran) and
+    :class:`spherekin.systems.Strategy` (how a problem is compiled) extend it."""
 
     formulation: str
     pruner: str
@@ -249,6 +242,21 @@ class Settings:
     tol: float
     isolate: bool
     jobs: int
+
+
+@dataclass(frozen=True)
+class Settings(SearchStrategy):
+    """How a search or solve ran: the :class:`SearchStrategy` as it ran, then
+
+    the search's ``charts``. A solve adds ``mechanism``
+    (its name), ``actuated`` and ``inputs`` (radians), and when they happened ``fallback`` (why
+    the loop equations answered instead of the platform formulation), ``limit``
+    (:class:`SearchLimit`) and ``refined_searches`` (clusters searched again at a finer tol). A
+    solve also says which ``system`` of equations solved it (:data:`spherekin.systems.SYSTEMS`) and
+    ``declined``: (system name, reason) of every faster system that did not accept the mechanism
+    or the strategy (empty when the fastest solved it, or a system was asked for by name).
+    """
+
     charts: int
     mechanism: str | None = None
     actuated: tuple = ()

@@ -23,7 +23,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Callable, ClassVar
 
-from ..results import SearchLimit, SearchReport
+from ..results import SearchLimit, SearchReport, SearchStrategy
 from ..search.registry import Registry
 
 __all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Found", "Passed", "Compiled", "System",
@@ -51,17 +51,11 @@ class CappedSearchWarning(UserWarning):
 
 
 @dataclass(frozen=True)
-class Strategy:
-    """How a problem is solved (see :func:`spherekin.compile`); ``formulation`` is resolved by the
-    pipeline ("platform" or a loop formulation; "auto" only while a system is being chosen)."""
+class Strategy(SearchStrategy):
+    """How a problem is solved (see :func:`spherekin.compile`): the :class:`~spherekin.results.SearchStrategy`
+    and the caps. ``formulation`` is resolved by the pipeline ("platform" or a loop formulation; "auto" only
+    while a system is being chosen)."""
 
-    formulation: str
-    pruner: str
-    lp_backend: str | None
-    parameterization: str
-    tol: float
-    isolate: bool
-    jobs: int
     max_boxes: int
     max_depth: int | None
     on_cap: str = ON_CAP_COVER
