@@ -1,30 +1,24 @@
 """The solve pipeline: a mechanism compiled once, then solved for one input or for many.
 
 ``problem = compile(mechanism, formulation=..., pruner=..., ...)`` does once what does not depend
-on the actuator inputs: the strategy checks, the unknowns and their ranges, and the system of
-equations chosen from :data:`spherekin.systems.SYSTEMS`, compiled: for the platform system
-(:mod:`spherekin.systems.platform`), Eq. (1)'s control-point tensors on the four quaternion charts
-and the pruner (for the LP pruners, the compiled LP models); for the loop system
-(:mod:`spherekin.systems.loops`, also every platform problem's fallback), the loop builder, whose
-pruner (and its LP model) is built at its first use, once per chart layout, and kept. Then
+on the actuator inputs: the strategy checks, the unknowns and their ranges, and the *chain* of
+systems of equations (:func:`spherekin.systems.chain`): the system chosen from
+:data:`spherekin.systems.SYSTEMS` (by name, or "auto": the first that accepts the mechanism and
+strategy; ``settings.declined`` says why the faster ones did not), then every later system of the
+registry that accepts it, each compiled once (its equations, charts and pruners). Then
 ``problem.solve(inputs)`` and ``problem.solve_many(rows)`` run, per input:
 
-1. the search (:mod:`spherekin.search.boxloop`): the box loop of Section 4 on the platform formulation,
-   or on the loop equations (Eq. 2) in a parameterization and formulation of their own;
-2. the trust layer (:func:`spherekin.trust.solutions.finalize`): polishing, certification, statuses and
-   the count;
-3. the report (:class:`spherekin.results.SolveReport`).
+1. the systems of the chain in turn (:meth:`spherekin.systems.Compiled.search_many`): each searches
+   the inputs still open as one array program and answers each with a ``Found`` (clusters in the
+   passive joints) or a ``Passed`` (why the next system must answer: ``settings.fallback``);
+2. the trust layer (:func:`spherekin.trust.solutions.finalize_many`): polishing, certification,
+   statuses and the count; the answering system may still pass an input on
+   (:meth:`~spherekin.systems.Compiled.check`: the platform system checks the assemblies against its
+   roots);
+3. the report (:class:`spherekin.results.SolveReport`): ``settings.system`` is the system that answered.
 
-``spherekin.solve(mechanism, inputs, ...)`` is ``compile(mechanism, ...).solve(inputs)``.
-
-System ``"auto"`` with formulation ``"auto"`` (the defaults) is the first system of the registry
-that accepts the mechanism and strategy: the platform system when it applies (three R-R-R legs with
-one joint of each actuated; the tan-half parameterization asked for; isolation on), else
-the loop system in formulation ``"halves"``; ``settings.system`` says which, ``settings.declined``
-why the faster ones did not accept. When the platform search cannot isolate every root (next to a parallel
-singularity its Jacobian is singular; a cap), the input is solved again with the loop equations
-(``settings.fallback`` says why): everything issue 13 built for the edge (cluster resolution,
-refined searches, continua) works on those.
+``spherekin.solve(mechanism, inputs, ...)`` is ``compile(mechanism, ...).solve(inputs)``. This module
+names no system: what each does is in its own file under :mod:`spherekin.systems`.
 """
 
 from __future__ import annotations
