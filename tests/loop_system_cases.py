@@ -90,14 +90,20 @@ def reference_entries(system, theta):
     return np.array(out)
 
 
-def mp_entries(system, theta, shifts=None, dps=40):
+def mp_entries(system, theta, shifts=None, dps=40, twist_shifts=None):
     """(f21, f31, f32) of every loop as a dps-digit product of Rx(phi) Z (matrices from their definition).
 
     ``shifts``: optional iterator of amounts added to each constant angle (known angle or term
-    offset), in factor order.
+    offset), in factor order. ``twist_shifts``: optional iterator of eps per factor, in the same
+    order: its Z is then the rotation by pi/2 + eps about z (a link twist off the right angle).
     """
     ctx = MPContext()
     ctx.dps = dps
+
+    def rz(eps):
+        c, s = ctx.cos(ctx.pi / 2 + eps), ctx.sin(ctx.pi / 2 + eps)
+        return ctx.matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
     z = ctx.matrix([[0, -1, 0], [1, 0, 0], [0, 0, 1]])
     out = []
     for loop, idx in zip(system.loops, system.loop_indices):
@@ -113,13 +119,15 @@ def mp_entries(system, theta, shifts=None, dps=40):
                 const += ctx.mpf(next(shifts))
             phi = const + var
             c, s = ctx.cos(phi), ctx.sin(phi)
-            f = f * ctx.matrix([[1, 0, 0], [0, c, -s], [0, s, c]]) * z
+            f = f * ctx.matrix([[1, 0, 0], [0, c, -s], [0, s, c]]) * (z if twist_shifts is None
+                                                                      else rz(ctx.mpf(next(twist_shifts))))
         out += [f[1, 0], f[2, 0], f[2, 1]]
     return out
 
 
-def mp_jacobian(system, theta, dps=50):
-    """Exact-to-~1e-40 Jacobian of the transversal entries: central differences of the dps-digit product."""
+def mp_jacobian(system, theta, dps=50, twist_shifts=None):
+    """Exact-to-~1e-40 Jacobian of the transversal entries: central differences of the dps-digit product
+    (``twist_shifts``: a list of eps per factor, as :func:`mp_entries`)."""
     ctx = MPContext()
     ctx.dps = dps
     base = [ctx.mpf(float(v)) for v in theta]
@@ -128,7 +136,8 @@ def mp_jacobian(system, theta, dps=50):
         plus, minus = list(base), list(base)
         plus[k] += MP_FD_STEP
         minus[k] -= MP_FD_STEP
-        fp, fm = mp_entries(system, plus, dps=dps), mp_entries(system, minus, dps=dps)
+        tw = (lambda: None) if twist_shifts is None else (lambda: iter(twist_shifts))
+        fp, fm = mp_entries(system, plus, dps=dps, twist_shifts=tw()), mp_entries(system, minus, dps=dps, twist_shifts=tw())
         cols.append([(a - b) / (2 * MP_FD_STEP) for a, b in zip(fp, fm)])
     return [[cols[k][e] for k in range(len(base))] for e in range(len(cols[0]))]
 

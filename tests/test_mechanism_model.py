@@ -209,6 +209,26 @@ def test_polygon_sides_are_link_twists_base_and_platform_angles():
     assert mech.link_twists()["leg2"] == pytest.approx((math.radians(50), math.radians(75)), abs=1e-14)
 
 
+def test_loop_system_twists_say_which_z_stands_for_a_side():
+    """Compact loops carry how far their sides are from pi/2 (the certificates widen by it); the
+    doubled form's Z's are exact (None); a side 1e-14 off pi/2 is no longer snapped to a right angle."""
+    x, y, z = np.eye(3)
+    eye = gosselin()
+    ranges = {n: (-3.0, 3.0) for n in eye.passive}
+    assert eye.loop_system((0.1, 0.2, 0.3), ranges).twists == (0.0, 0.0)
+    assert eye.loop_system((0.1, 0.2, 0.3), ranges, form="doubled").twists == (None, None)
+    assert general_3rrr().loop_system((0.5, 0.6, 0.4), ranges).twists == (None, None)
+    off = three_rrr([x, y, -z], [y, -z, x], [z, x, y], [math.pi / 2 + 1e-14] * 3)
+    assert max(abs(s - math.pi / 2) for g in off.loop_geometry for s in g.sides) > 5e-15
+    assert not any(g.right_angled for g in off.loop_geometry)
+    assert off.loop_system((0.1, 0.2, 0.3), ranges).twists == (None, None)
+    # within rounding of a right angle: compact, d the side's distance from pi/2
+    near = three_rrr([x, y, -z], [y, -z, x], [z, x, y], [math.pi / 2 + 2e-16] * 3)
+    twists = near.loop_system((0.1, 0.2, 0.3), ranges).twists
+    sides = [max(abs(s - math.pi / 2) for s in g.sides) for g in near.loop_geometry]
+    assert all(g.right_angled for g in near.loop_geometry) and list(twists) == sides
+
+
 def test_loop_system_structure_and_shared_unknowns():
     mech = general_3rrr()
     system = mech.loop_system((0.5, 0.6, 0.4), {n: (-3.0, 3.0) for n in mech.passive})

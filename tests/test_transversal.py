@@ -6,6 +6,8 @@ differences of them (tests/loop_system_cases.py); the fast batch form must agree
 one-box form.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from mpmath import mpf
@@ -100,6 +102,39 @@ def test_angle_tolerance_encloses_perturbed_constants(impl):
         assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
     moved = mp_entries(system, theta, shifts=iter(np.full(n_const, 0.9 * ANGLE_TOLERANCE)))
     assert not all(contains(iv_, v) for iv_, v in zip(tight, moved))  # the tolerance is what covers them
+
+
+@pytest.mark.parametrize("impl", sorted(IMPLS))
+def test_compact_form_twists_are_enclosed_off_the_right_angle(impl):
+    """The compact form's Z's are link twists (LoopSystem.twists): F and J enclose the system whose
+    every Z turns by pi/2 + eps, |eps| <= d + tol, and without the widening they do not."""
+    enclose = IMPLS[impl]["interval_transversal"]
+    mech = gosselin()
+    sol = mech.inverse_kinematics(rot([0.3, -0.2, 0.5]))[1]
+    system = system_at(mech, sol)
+    assert system.twists == (0.0, 0.0)                       # the agile eye's right angles, compact form
+    theta = theta_of(system, sol)
+    n_z = sum(len(loop.factors) for loop in system.loops)
+    rng = np.random.default_rng(12)
+    point = np.column_stack([theta, theta])
+    wide, _ = enclose(system, point, jacobian=False)
+    for eps in (np.full(n_z, 0.9 * ANGLE_TOLERANCE), -np.full(n_z, 0.9 * ANGLE_TOLERANCE),
+                rng.choice([-0.9, 0.9], n_z) * ANGLE_TOLERANCE):
+        moved = mp_entries(system, theta, twist_shifts=iter(eps))
+        assert all(contains(iv_, v) for iv_, v in zip(wide, moved))
+    # a snapped side d off pi/2 (no angle tolerance): covered by d alone; exact Z's (None) cover nothing
+    eps = rng.choice([-0.9, 0.9], n_z) * 1e-14
+    moved = mp_entries(system, theta, twist_shifts=iter(eps))
+    snapped, _ = enclose(replace(system, twists=(1e-14, 1e-14)), point, angle_tolerance=0.0, jacobian=False)
+    assert all(contains(iv_, v) for iv_, v in zip(snapped, moved))
+    exact, _ = enclose(replace(system, twists=(None, None)), point, angle_tolerance=0.0, jacobian=False)
+    assert not all(contains(iv_, v) for iv_, v in zip(exact, moved))
+    # J at the point, the Z's turned: inside with the widening, not without
+    j_turned = mp_jacobian(system, theta, twist_shifts=list(eps))
+    _, j_snapped = enclose(replace(system, twists=(1e-14, 1e-14)), point, angle_tolerance=0.0)
+    assert all(contains(j_snapped[e, k], v) for e, row in enumerate(j_turned) for k, v in enumerate(row))
+    _, j_exact = enclose(replace(system, twists=(None, None)), point, angle_tolerance=0.0)
+    assert not all(contains(j_exact[e, k], v) for e, row in enumerate(j_turned) for k, v in enumerate(row))
 
 
 def test_enclose_transversal_batches_boxes_like_interval_transversal():

@@ -87,10 +87,15 @@ __all__ = [
 PARALLEL_TOL = 1e-9
 
 #: |alpha - pi/2| below this: the side is exactly pi/2 and the compact form of Eq. (2) applies.
-#: Reason: atan2 of exact orthogonal unit vectors gives pi/2 to ~1e-16; the compact form replaces
-#: Rz(alpha) by Z, changing the equation by |alpha - pi/2|, which must stay far below the 1e-12
-#: closure tolerance of the tests.
-RIGHT_ANGLE_TOL = 1e-13
+#: Reason: atan2 of exact orthogonal unit vectors gives pi/2 to ~2e-16, so every right angle written
+#: as such passes; the compact form replaces Rz(alpha) by Z, moving each of the loop's n factors by
+#: |alpha - pi/2|, which must stay inside what the solver's equations and the certificates allow for
+#: a constant's rounding: the certificates enclose each such Z as pi/2 +- (|alpha - pi/2| + their
+#: angle tolerance) (:mod:`spherekin.trust.transversal`), and the Bernstein equations' rounding
+#: tolerance (2.2e-13 M, :data:`spherekin.closure.KNOWN_ENTRY_FLOOR`) covers n * 1e-15 with room.
+#: It was 1e-13 (a snap of up to 6e-13 per loop, not covered); next to a singularity the agile eye's
+#: count changes with a twist 6e-17 off pi/2 (benchmarks/README.md, the edge campaign).
+RIGHT_ANGLE_TOL = 1e-15
 
 #: A configuration is singular when the smallest singular value of the relevant Jacobian is below
 #: this (Jacobian columns are unit joint axes, so singular values are O(1) away from singularities
@@ -196,6 +201,16 @@ class LoopGeometry:
     up: tuple = ()
     down: tuple = ()
 
+    def compact(self, form: str = "auto") -> bool:
+        """Whether ``form`` writes this loop in the compact form (every Z of Eq. 2 one of its sides)."""
+        return form == "compact" or (form == "auto" and self.right_angled)
+
+    def twist_slack(self, form: str = "auto") -> float | None:
+        """How far (radians) the sides this loop's Z's stand for may be from pi/2 in ``form``: the
+        largest |side - pi/2| (below RIGHT_ANGLE_TOL) in the compact form; None in the doubled form,
+        whose Z's are exact rotations of the normal form (the sides are factor angles there)."""
+        return float(np.max(np.abs(np.array(self.sides) - math.pi / 2))) if self.compact(form) else None
+
     def factor_specs(self, form: str = "auto") -> tuple[FactorSpec, ...]:
         """The factors of Eq. (2) as :class:`FactorSpec` (offset, joint name or None, sign): phi = offset + sign * reading.
 
@@ -209,7 +224,7 @@ class LoopGeometry:
                 "form: 'compact' needs every side of the loop to be pi/2, got sides "
                 f"{[round(s, 6) for s in self.sides]}; use 'auto' or 'doubled'"
             )
-        if form == "compact" or (form == "auto" and self.right_angled):
+        if self.compact(form):
             return tuple(FactorSpec(v.offset, v.joint, v.sign) for v in self.vertices)
         phis = normalize_polygon(np.array(self.sides), np.array([v.offset for v in self.vertices]))
         specs = []
@@ -235,7 +250,13 @@ class LoopSystem:
       loop's tensor-axis order (so ``x[..., loop_indices[k]]`` are the loop's coordinates);
     * ``shared``: names of the unknowns that appear in more than one loop;
     * ``inputs``/``input_names``: the actuator readings (radians) substituted as known angles;
-    * ``loop_legs[k]``: (leg traversed up, reference leg traversed down) of loop k.
+    * ``loop_legs[k]``: (leg traversed up, reference leg traversed down) of loop k;
+    * ``twists[k]``: what the Z's of loop k stand for: None when they are exact (the doubled form's
+      normal-form rotations), else d >= 0: each Z is a link twist within d of pi/2 (the compact
+      form: a side of the loop, snapped to pi/2; :meth:`LoopGeometry.twist_slack`). The
+      certificates (:mod:`spherekin.trust.transversal`) enclose such a Z as a rotation by
+      pi/2 +- (d + their angle tolerance), so that they hold for the mechanism as described and
+      not only for its exact right angles. Empty (a system written by hand): every Z a twist, d = 0.
     """
 
     loops: tuple
@@ -246,6 +267,7 @@ class LoopSystem:
     input_names: tuple
     loop_legs: tuple
     form: str
+    twists: tuple = ()
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -797,6 +819,7 @@ class SphericalMechanism:
             input_names=self.actuated,
             loop_legs=tuple(g.legs for g in self.loop_geometry),
             form=form,
+            twists=tuple(g.twist_slack(form) for g in self.loop_geometry),
         )
 
     def loop_constants(self, inputs, form: str = "auto") -> np.ndarray:

@@ -36,6 +36,18 @@ each as an interval of half-width ``angle_tolerance`` (default :data:`ANGLE_TOLE
 hold for every system whose constant angles are that close to the floats -- including the snapped
 angles of the Bernstein equations (:data:`spherekin.closure.KNOWN_ANGLE_SNAP`) and the exact
 angles (pi/2, pi, ...) that the floats round.
+
+The link twists are constants too. In the doubled form they are factor angles (above); in the
+compact form (``LoopSystem.twists``) each Z of a loop is one of its sides, pi/2 only up to the
+snapping d of :meth:`spherekin.mechanism.LoopGeometry.twist_slack` and the rounding of the
+description (a distal link angle of float(pi/2) is pi/2 - 6e-17). Such a Z stands for
+Z Rz(eps), |eps| <= d + tol, and its effect is bounded rather than evaluated
+(:func:`twist_widths`): with A_k = Rx(phi_k) Z orthogonal and |Rz(eps) - I|_2 <= |eps|, the
+product F' of n perturbed factors has |F' - F|_2 <= n (d + tol) = e, and, since
+dF/dphi_i = [u_i]x F with u_i = P_i e1 for any Z's, |J' - J| <= |u' - u| + |F' - F| <= 2 e per
+entry; F and J of the loop are widened by e and 2 e. Next to a singularity this decides: on the
+agile eye 1e-8 from its singular lines a pair of roots is real for exact right angles and complex
+for float(pi/2), and only the widened enclosures refuse to prove either.
 """
 
 from __future__ import annotations
@@ -70,6 +82,7 @@ __all__ = [
     "check_angles",
     "check_tolerance",
     "check_box",
+    "twist_widths",
 ]
 
 #: Half-width (radians) of the interval that stands for each constant angle (known factor angle,
@@ -134,11 +147,14 @@ class TransversalPlan:
       ``const_cols`` (n, 1, L): column of each constant among the constants;
     * per term (T rows): ``term_loop``, ``term_pos``, ``term_var`` (T, 1): its loop, position,
       unknown; ``term_rows`` (T, 3): its rows of J; ``jac_u``, ``jac_f_col``, ``jac_f_row``
-      (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose).
+      (T, 6): the gather indices of the products of J = sign [u]x F (see _enclose);
+    * ``twist_count`` (L,): the number of Z's of each loop that stand for link twists (its factors
+      in the compact form, 0 where they are exact), ``twist_slack`` (L,): their d (module docstring).
     """
 
     __slots__ = ("n_loops", "n_factors", "const", "padding", "theta_slot", "theta_rows", "const_cols",
-                 "term_loop", "term_pos", "term_var", "term_rows", "jac_u", "jac_f_col", "jac_f_row")
+                 "term_loop", "term_pos", "term_var", "term_rows", "jac_u", "jac_f_col", "jac_f_row",
+                 "twist_count", "twist_slack")
 
     n_loops: int
     n_factors: int
@@ -154,9 +170,11 @@ class TransversalPlan:
     jac_u: np.ndarray
     jac_f_col: np.ndarray
     jac_f_row: np.ndarray
+    twist_count: np.ndarray
+    twist_slack: np.ndarray
 
     def __init__(self, n_loops, n_factors, const, padding, theta_slot, theta_rows, const_cols,
-                 term_loop, term_pos, term_var, term_rows, jac_u, jac_f_col, jac_f_row):
+                 term_loop, term_pos, term_var, term_rows, jac_u, jac_f_col, jac_f_row, twist_count, twist_slack):
         self.n_loops = n_loops
         self.n_factors = n_factors
         self.const = const
@@ -171,6 +189,8 @@ class TransversalPlan:
         self.jac_u = jac_u
         self.jac_f_col = jac_f_col
         self.jac_f_row = jac_f_row
+        self.twist_count = twist_count
+        self.twist_slack = twist_slack
 
 
 def plan_of(system: LoopSystem) -> TransversalPlan:
@@ -203,6 +223,9 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
     jac_u, jac_f_row = np.tile(_JAC_U, (n_t, 1)), np.tile(_JAC_F_ROW, (n_t, 1))
     jac_u[swap] = _JAC_U.reshape(-1, 2)[:, ::-1].ravel()
     jac_f_row[swap] = _JAC_F_ROW.reshape(-1, 2)[:, ::-1].ravel()
+    twists = system.twists or (0.0,) * n_loops
+    twist_count = np.array([0.0 if d is None else float(len(loop.factors)) for d, loop in zip(twists, system.loops)])
+    twist_slack = np.array([0.0 if d is None else float(d) for d in twists])
     sin_row = 1 + negative.T[:, None, :]                                    # (n, 1, L): 1 sin, 2 -sin
     theta_rows = np.stack((np.zeros_like(sin_row), sin_row, np.zeros_like(sin_row), sin_row))
     return TransversalPlan(n_loops=n_loops, n_factors=n, const=const, padding=padding if padding.any() else None,
@@ -210,7 +233,18 @@ def plan_of(system: LoopSystem) -> TransversalPlan:
                  const_cols=np.arange(n_loops * n).reshape(n_loops, n).T[:, None, :].copy(),
                  term_loop=t[:, :1], term_pos=t[:, 1:2], term_var=t[:, 2:3],
                  term_rows=3 * t[:, :1] + np.arange(3), jac_u=jac_u, jac_f_col=np.tile(_JAC_F_COL, (n_t, 1)),
-                 jac_f_row=jac_f_row)
+                 jac_f_row=jac_f_row, twist_count=twist_count, twist_slack=twist_slack)
+
+
+def twist_widths(plan: TransversalPlan, tol: float) -> np.ndarray:
+    """e_k >= n_k (d_k + tol) for each loop (L,), rounded up: how far the loop's transversal entries
+    may move when each of its n_k twist Z's turns by up to d_k + tol (module docstring); 0 for a
+    loop of exact Z's. Rounding: a sum and a product of floats (relative error <= 2 ulp), covered
+    by the factor 1 + 1e-15 and one step up."""
+    e = plan.twist_count * (plan.twist_slack + tol) * (1.0 + 1e-15)
+    return np.where(e > 0, np.nextafter(e, math.inf), 0.0)
+
+
 
 
 @dataclass(frozen=True, eq=False)
@@ -338,6 +372,11 @@ def enclose(plan: TransversalPlan, lo: np.ndarray, hi: np.ndarray, center: np.nd
         pt = new
     f = pt[:, _ENTRY_COLS, :, :, _ENTRY_ROWS]                            # (3, 2, B, L): advanced axes first
     f = f.transpose(1, 2, 3, 0).reshape(2, b, 3 * n_loops)
+    e = twist_widths(plan, tol)                                          # (L,): the twist Z's, module docstring
+    twisted = bool(e.any())
+    if twisted:
+        e_rows = np.repeat(e, 3)
+        f = add_unchecked(f, np.stack((-e_rows, e_rows))[:, None, :])
     if not jacobian:
         return f, None
     # dF/dtheta at term t = sign * [u_t]x F: entry (r, c) = sign (u[r+1] F[r+2, c] - u[r+2] F[r+1, c])
@@ -348,6 +387,9 @@ def enclose(plan: TransversalPlan, lo: np.ndarray, hi: np.ndarray, center: np.nd
         ft = pt[:, plan.jac_f_col, :, plan.term_loop, plan.jac_f_row]                       # (T, 6, 2, B)
         p = mul_unchecked(ut.transpose(2, 0, 1, 3), ft.transpose(2, 0, 1, 3))                       # (2, T, 6, B)
         vals = sub_unchecked(p[:, :, 0::2], p[:, :, 1::2])                                           # (2, T, 3, B)
+        if twisted:
+            e_t = 2.0 * e[plan.term_loop[:, 0]]                                                 # (T,), exact doubling
+            vals = add_unchecked(vals, np.stack((-e_t, e_t))[:, :, None, None])
         jac[:, :, plan.term_rows, plan.term_var] = vals.transpose(0, 3, 1, 2)
     return f, jac
 
@@ -496,13 +538,19 @@ def interval_eval(system: LoopSystem, xs: list, tol: float, jacobian: bool):
         return iv.mpf(a) + spread if tol else iv.mpf(a)
 
     f, j = _evaluate(system, xs, constant, iv.cos, iv.sin, jacobian)
+    # the twist Z's of the compact form (module docstring): n_k (d_k + tol), in intervals
+    twists = system.twists or (0.0,) * len(system.loops)
+    widths = [iv.mpf(0) if d is None else iv.mpf(len(loop.factors)) * (iv.mpf(d) + iv.mpf(tol))
+              for d, loop in zip(twists, system.loops)]
+    spread_f = [iv.mpf([-w.b, w.b]) for w in widths for _ in TRANSVERSAL_ENTRIES]
     f_arr = np.empty(len(f), dtype=object)
-    f_arr[:] = [iv.mpf(v) for v in f]
+    f_arr[:] = [iv.mpf(v) + sp for v, sp in zip(f, spread_f)]
     if not jacobian:
         return f_arr, None
     j_arr = np.empty((len(f), len(xs)), dtype=object)
     for e, row in enumerate(j):
-        j_arr[e, :] = [iv.mpf(v) for v in row]   # structural zeros (int 0) become point intervals
+        # structural zeros (int 0: the unknown is not in the loop) stay exact point intervals
+        j_arr[e, :] = [iv.mpf(v) if isinstance(v, int) and v == 0 else iv.mpf(v) + 2 * spread_f[e] for v in row]
     return f_arr, j_arr
 
 
