@@ -313,7 +313,7 @@ def test_inputs_euler_and_beta_read_pi_as_the_files_do(tmp_path, capsys):
 def test_the_track_stop_reason_gives_the_step_in_radians_not_a_constant(tmp_path, capsys):
     """Solution 5 of the general 3-RRR at beta1 = -3 ends at the parallel singularity near -2.7141
     (tests/test_cli_families.py): the printed reason gives the smallest step as a number of radians."""
-    from spherekin.trust.continuation import MIN_STEP
+    from spherekin.trust.stepping import MIN_STEP
 
     path = tmp_path / "p.csv"
     path.write_text("beta1,beta2,beta3\n-3.0,0,0.5\n-2.6,0,0.5\n")

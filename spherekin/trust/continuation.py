@@ -30,7 +30,7 @@ accuracy, the next step's box contains that one, and the chain of proofs is unbr
 In arrays: up to BATCH rows are predicted at once (:func:`_predict_rows`: Newton on every row within
 PREDICT_REACH of a block's first pose in one call), and every step between consecutive rows is proven
 in one call (:func:`_certify_steps`); the margin of W (MARGIN_RELATIVE) lets 0.01-rad rows pass as
-they are. The segments whose step is not proven are walked together (:func:`_walk_segments`): each
+they are. The segments whose step is not proven are walked together (:func:`spherekin.trust.stepping.walk`): each
 round proves the next step of every walk in one call, a failed step halved, a proven one followed by
 one STEP_GROWTH times longer; a walk's end must agree with its row's predicted pose (AGREE_TOL) for
 the batch's later steps, proven from that pose, to follow on, else the batch ends at that row.
@@ -67,8 +67,9 @@ from ..mechanism.chains import perpendicular
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
 from ..systems.platform import (leg_constants, not_applicable, passive_names, passive_readings_many,
                                 platform_legs)
+from .stepping import MAX_STEPS, MIN_STEP, STEPS_PER_INPUT, walk
 
-__all__ = ["POINT_RADIUS", "MIN_STEP", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "MAX_STEPS", "TrackedPose",
+__all__ = ["POINT_RADIUS", "LOCATE_TOL", "MARGIN", "NEWTON_TOL", "TrackedPose",
            "SingularStop", "RangeStop", "Track", "JointRanges", "LegEquations", "cayley", "cayley_coordinates",
            "krawczyk_step", "krawczyk_steps", "krawczyk_input_boxes", "predict_many", "parametric_krawczyk", "track",
            "not_tracked"]
@@ -85,12 +86,6 @@ POINT_RADIUS = 1e-10
 #: none did at 5%). The joint ranges are tested on the Krawczyk image, not on W (_certify_steps).
 MARGIN = 10 * POINT_RADIUS
 MARGIN_RELATIVE = 0.5
-#: A step (largest input change, radians) below this that still cannot be proven ends the track.
-#: Reason: next to a fold the provable step shrinks like the distance d to it, while the two modes
-#: that meet there are ~sqrt(d) apart; 1e-13 follows a mode to within ~1e-12 of its end (the modes
-#: then ~1e-6 apart, the Jacobian's condition ~1e6, still well inside double precision), so two
-#: modes that only come close (1e-4 apart: d ~ 1e-9) are followed through, never stopped at.
-MIN_STEP = 1e-13
 #: Width (radians of input) to which the bisection locates the singular input where a track stops.
 LOCATE_TOL = 1e-12
 #: Newton on h(w, beta) = 0: stop after a step below this (|w| ~ radians). Reason: convergence is
@@ -99,13 +94,8 @@ LOCATE_TOL = 1e-12
 NEWTON_TOL = 1e-9
 #: ... or after this many iterations (quadratic convergence from the predictor needs ~4).
 NEWTON_ITERATIONS = 12
-#: Largest number of steps (proven or rejected) of one track. Reason: a smooth path of N inputs
-#: needs a few steps per input; 200 per input plus 10,000 covers folds approached geometrically.
-STEPS_PER_INPUT = 200
-MAX_STEPS = 10_000
-#: The first step of a segment tries the whole segment when its largest input change is below this
-#: (radians), else this much; later steps grow by STEP_GROWTH after a success and halve after a failure.
-FIRST_STEP = 0.1
+#: A proven step is followed by one this many times longer (a rejected one by one half as long):
+#: the batched steps here are cheap, so the walk reaches long steps fast.
 STEP_GROWTH = 1.5
 
 
@@ -649,7 +639,7 @@ def _certify_steps(eqs: LegEquations, dcs, w1, beta0, beta1) -> tuple[np.ndarray
 #: interval arithmetic over many steps costs little more than over one (numpy's per-call overhead
 #: dominates a 3 x 3 system); a prediction that goes wrong wastes at most this many steps' work.
 BATCH = 256
-#: A walked segment (its step not proven at once, :func:`_walk_segments`) ends at a displacement
+#: A walked segment (its step not proven at once, :func:`spherekin.trust.stepping.walk`) ends at a displacement
 #: that must agree with the one predicted for its row to this (largest entry) for the batch's later
 #: steps, proven from the predicted one, to follow on. Reason: both are Newton's roots (~1e-15 apart
 #: when they are the same root); the walk's last step proves the mode's root within POINT_RADIUS of
@@ -949,28 +939,28 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                                                      path[k:k + m][proven], path[k + 1:k + m + 1][proven])
         # every segment whose step is not proven (and the one Newton failed on) walked together
         walked = [j for j in range(m) if not proven[j]] + ([m] if m < last - k else [])
-        walks = dict(zip(walked, _walk_segments(eqs, pose[walked], path[k + np.array(walked, dtype=int)],
-                                                path[k + 1 + np.array(walked, dtype=int)],
-                                                budget - n_steps - rejected))) if walked else {}
+        walks = dict(zip(walked, walk(_LegStepper(eqs), pose[walked], path[k + np.array(walked, dtype=int)],
+                                      path[k + 1 + np.array(walked, dtype=int)],
+                                      budget - n_steps - rejected))) if walked else {}
         rejected += sum(1 for j in walked if j < m)   # the batch's first proof of each failed
         for j in range(m + (m < last - k)):          # the batch's segments in order, up to an end
             r = k + j
             if j in walks:
-                walk = walks[j]
-                n_steps += walk.steps
-                rejected += walk.rejected
-                found = _segment_exit(eqs, joints, path[r], path[r + 1], pose[j], walk.record)
+                walked_j = walks[j]
+                n_steps += walked_j.steps
+                rejected += walked_j.rejected
+                found = _segment_exit(eqs, joints, path[r], path[r + 1], pose[j], walked_j.record)
                 if found is not None:                # before the singularity, if any: the range ends the track
                     leaves = (r, found)
                     break
-                if walk.stop is not None:
-                    stop = dict(walk.stop, row=r)
+                if walked_j.stop is not None:
+                    stop = (r, walked_j.stop)
                     break
-                steps_of[r + 1] = walk.steps
-                if j + 1 < len(pose) and np.abs(walk.end - pose[j + 1]).max() > AGREE_TOL:
-                    dcs[r + 1] = walk.end            # not the predicted pose: the later steps start elsewhere
+                steps_of[r + 1] = walked_j.steps
+                if j + 1 < len(pose) and np.abs(walked_j.end - pose[j + 1]).max() > AGREE_TOL:
+                    dcs[r + 1] = walked_j.end            # not the predicted pose: the later steps start elsewhere
                     break
-                dcs[r + 1] = pose[j + 1] if j + 1 < len(pose) else walk.end
+                dcs[r + 1] = pose[j + 1] if j + 1 < len(pose) else walked_j.end
             else:
                 if not inside[j]:
                     found = _segment_exit(eqs, joints, path[r], path[r + 1], pose[j],
@@ -1011,14 +1001,14 @@ def track(mechanism, path, start_rotation, *, start_tol: float = 1e-6) -> Track:
                          f"{name} leaves its joint range {[float(v) for v in mechanism.ranges[name]]} (radians): "
                          "no pose beyond is reported")
     elif stop is not None:
-        row = stop["row"]
+        row, at = stop
         x0, direction = path[row], path[row + 1] - path[row]
-        here = x0 + stop["s"] * direction
-        singular = stop["b0"] + 0.5 * (stop["lo"] + stop["hi"]) * direction
-        stop = SingularStop((row, row + 1), float(stop["s"]), _named(act, here), _named(act, singular),
+        here = x0 + at.s * direction
+        singular = x0 + 0.5 * (at.lo + at.hi) * direction
+        stop = SingularStop((row, row + 1), float(at.s), _named(act, here), _named(act, singular),
                             float(np.abs(singular - here).max()),
-                            float((stop["hi"] - stop["lo"]) * np.abs(direction).max()),
-                            float(joints.measures(joints.angles(here, stop["dc"]))[0]),
+                            float((at.hi - at.lo) * np.abs(direction).max()),
+                            float(joints.measures(joints.angles(here, at.state))[0]),
                             f"no step longer than {MIN_STEP:g} rad of input could be proven: the assembly mode "
                             "meets another (a parallel singularity) and ends")
     return Track(mechanism.name, act, pas, n, poses, stop, n_steps, rejected)
@@ -1030,68 +1020,27 @@ def _exit_pose(eqs: LegEquations, d_in, here, there):
     return d_in if w is None else d_in @ cayley(w)
 
 
-@dataclass(frozen=True)
-class _Walk:
-    """One segment walked in adaptive proven steps (:func:`_walk_segments`): ``end`` (the
-    displacement at x1; None when the walk stopped or was abandoned), ``steps`` and ``rejected``
-    (steps tried), ``stop`` (where it stopped at a singularity: s, b0, lo, hi, dc; else None),
-    ``record``: (s, D, w, lo, hi) at the end of every proven step (s along the segment, D the
-    displacement there, w its Cayley step, lo/hi a box holding the root of every input of the step)."""
+class _LegStepper:
+    """The platform's leg equations as a :class:`~spherekin.trust.stepping.Stepper`: the state a
+    displacement D (3, 3), a proposal its Cayley step w (3,); the joint ranges are tested after the
+    walk, on its record (:func:`_segment_exit`)."""
 
-    end: np.ndarray | None
-    steps: int
-    rejected: int
-    stop: dict | None
-    record: list
+    growth = STEP_GROWTH
 
+    def __init__(self, eqs: LegEquations):
+        self.eqs = eqs
 
-def _walk_segments(eqs: LegEquations, dcs, x0, x1, budget: int) -> list:
-    """Walk M segments x0 -> x1 (M, 3 each; in path order) from the displacements ``dcs`` (M, 3, 3)
-    in proven steps, halved on failure and grown after success; each round predicts
-    (:func:`predict_many`) and proves (:func:`_certify_steps`) the next step of every walk still
-    going in one array call, whatever M: a :class:`_Walk` per segment. A walk ends at x1, or where no
-    step of MIN_STEP can be proven (module doc); the walks after one that stopped are abandoned
-    (the track ends there). ``budget``: steps (proven and rejected) of all walks before RuntimeError."""
-    m = len(dcs)
-    direction = x1 - x0
-    span = np.abs(direction).max(axis=1)
-    s = np.zeros(m)
-    h = np.where(span <= FIRST_STEP, 1.0, FIRST_STEP / np.maximum(span, FIRST_STEP))
-    dc = np.array(dcs, dtype=float)
-    steps, rejected = np.zeros(m, dtype=int), np.zeros(m, dtype=int)
-    records: list = [[] for _ in range(m)]
-    stops: list = [None] * m
-    active = np.ones(m, dtype=bool)
-    while active.any():
-        if steps.sum() + rejected.sum() > budget:
-            raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
-                               "(proven and rejected): the path is too long or too close to a singularity for "
-                               "one track; split it into shorter paths")
-        idx = np.flatnonzero(active)
-        t = np.minimum(1.0, s[idx] + h[idx])
-        b0 = x0[idx] + s[idx, None] * direction[idx]
-        b1 = np.where((t == 1.0)[:, None], x1[idx], x0[idx] + t[:, None] * direction[idx])
-        w, found = predict_many(eqs, dc[idx], b0, b1)
-        ok = np.zeros(len(idx), dtype=bool)
-        lo, hi = np.zeros((len(idx), 3)), np.zeros((len(idx), 3))
-        if found.any():
-            ok[found], lo[found], hi[found] = _certify_steps(eqs, dc[idx[found]], w[found], b0[found], b1[found])
-        good = idx[ok]
-        if len(good):
-            dc[good] = dc[good] @ cayley(w[ok])
-            s[good] = t[ok]
-            h[good] *= STEP_GROWTH
-            steps[good] += 1
-            for i, g in zip(np.flatnonzero(ok), good):
-                records[g].append((float(s[g]), dc[g].copy(), w[i], lo[i], hi[i]))
-            active[good[s[good] == 1.0]] = False
-        bad = idx[~ok]
-        rejected[bad] += 1
-        h[bad] *= 0.5
-        for g in bad[h[bad] * span[bad] < MIN_STEP][:1]:          # the first in path order ends the track
-            b0_g = x0[g] + s[g] * direction[g]
-            lo_s, hi_s = _locate(eqs, dc[g], b0_g, direction[g], 0.0, 1.0 - s[g])
-            stops[g] = {"s": float(s[g]), "b0": b0_g, "lo": lo_s, "hi": hi_s, "dc": dc[g].copy()}
-            active[g:] = False
-    return [_Walk(dc[i] if s[i] == 1.0 else None, int(steps[i]), int(rejected[i]), stops[i], records[i])
-            for i in range(m)]
+    def predict(self, dcs, b0, b1):
+        return predict_many(self.eqs, dcs, b0, b1)
+
+    def certify(self, dcs, w, b0, b1):
+        return _certify_steps(self.eqs, dcs, w, b0, b1)
+
+    def advance(self, dc, w):
+        return dc @ cayley(w)
+
+    def locate(self, dc, b0, direction, t_max: float):
+        return _locate(self.eqs, dc, b0, direction, 0.0, t_max)
+
+    def check(self, *step) -> None:
+        return None

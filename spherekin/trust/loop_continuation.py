@@ -31,13 +31,14 @@ entries also vanish where F_n is a half turn about a coordinate axis; a continuo
 from a closure stays one, since those matrices are isolated from I, and every Newton root is
 checked against the whole F_n.) Up to BATCH rows are predicted (Newton from row to row) and their
 steps proven in one Krawczyk call; the segments whose step is not proven, or not proven inside the
-ranges, are walked together (:func:`_walks`, one Krawczyk call a round): failed steps are halved,
+ranges, are walked together (:func:`spherekin.trust.stepping.walk`, one Krawczyk call a round): failed steps are halved,
 successful ones grow by STEP_GROWTH, and a walk's first step is the previous segment's last one (or
 the whole segment); where a walk does not end at the predicted root (AGREE_TOL) the batch ends there. A step below MIN_STEP that cannot be proven ends the track at a
 parallel singularity, located by bisection (Newton from the last proven pose converging with the
-sign of det J_p kept: the branch exists) to LOCATE_TOL. The constants (POINT_RADIUS, MIN_STEP,
-LOCATE_TOL, MARGIN, Newton's, FIRST_STEP) are those of the platform tracker, for the
-reasons given there.
+sign of det J_p kept: the branch exists) to LOCATE_TOL. The stepping loop is the platform
+tracker's (:mod:`spherekin.trust.stepping`: MIN_STEP, FIRST_STEP, the step budget); these equations
+are its :class:`_LoopStepper`. The constants POINT_RADIUS, LOCATE_TOL, MARGIN and Newton's are
+the platform tracker's, for the reasons given there.
 
 Joint ranges: every joint's angle over a proven step is enclosed directly (a passive joint by W, an
 input by the hull of x0 and x1) and tested as a solve tests it (:func:`spherekin.core.angles.span_in_range_many`);
@@ -60,9 +61,9 @@ import numpy as np
 from ..closure import ClosureLoop, Term, Unknown, closure_at
 from ..core import intervals as iv
 from ..core.angles import in_range_many, into_range, span_in_range_many, wrap
-from .continuation import (AGREE_TOL, BATCH, FIRST_STEP, LOCATE_TOL, MARGIN, MAX_STEPS, MIN_STEP, NEWTON_ITERATIONS,
-                           NEWTON_TOL, POINT_RADIUS, SIGMA, STEPS_PER_INPUT, RangeStop, SingularStop,
-                           Track, TrackedPose, parametric_krawczyk)
+from .continuation import (AGREE_TOL, BATCH, LOCATE_TOL, MARGIN, NEWTON_ITERATIONS, NEWTON_TOL, POINT_RADIUS, SIGMA,
+                           RangeStop, SingularStop, Track, TrackedPose, parametric_krawczyk)
+from .stepping import FIRST_STEP, MAX_STEPS, MIN_STEP, STEPS_PER_INPUT, Stop, walk
 from .transversal import enclose, plan_of
 
 __all__ = ["LoopEquations", "track_loops"]
@@ -324,93 +325,47 @@ class _Ranges:
         return all(bool(span_in_range_many(a, b, rng)) for a, b, rng in zip(lo, hi, self.ranges))
 
 
-@dataclasses.dataclass(frozen=True)
-class _Segment:
-    """A walked segment: ``theta`` at its end (None when the track stopped in it), ``steps``,
-    ``rejected``; where it stopped: ``kind`` ("singular" or "range"), ``s`` the last proven fraction,
-    ``theta_s`` the pose there, ``lo``/``hi`` the bisection bracket (fractions of the segment),
-    ``joint`` (a range stop's joint); ``last_step``: the input change (radians, largest over the
-    inputs) of its last proven step, the first one the next segment tries."""
+class _LoopStepper:
+    """The loop equations as a :class:`~spherekin.trust.stepping.Stepper`: the state and a proposal
+    the passive angles theta (M,); a proven step is tested against the joint ranges at once
+    (:meth:`check`)."""
 
-    theta: np.ndarray | None
-    steps: int
-    rejected: int
-    last_step: float = FIRST_STEP
-    kind: str | None = None
-    s: float = 0.0
-    theta_s: np.ndarray | None = None
-    lo: float = 0.0
-    hi: float = 0.0
-    joint: str | None = None
+    growth = STEP_GROWTH
 
+    def __init__(self, eqs: LoopEquations, ranges: "_Ranges"):
+        self.eqs, self.ranges = eqs, ranges
 
-def _walks(eqs: LoopEquations, ranges: _Ranges, thetas, x0, x1, budget: int, firsts) -> list:
-    """Walk W segments x0 -> x1 (W, A each; in path order) from the proven roots ``thetas`` (W, M)
-    in proven steps (module doc), the next step of every walk still going proven in one Krawczyk call
-    a round (:meth:`LoopEquations.certify_steps`): a :class:`_Segment` each. A walk's first step is
-    min(``firsts``[i], FIRST_STEP) radians of input (the previous segment's last proven step: where
-    the provable steps are short, e.g. an elbow-actuated 3-RRR, the whole segment is not tried and
-    rejected at every row) or the whole segment when shorter. The walks after one that stops (a
-    singularity or a range) are abandoned (None): the track ends there. ``budget``: steps (proven and
-    rejected) of all walks before RuntimeError."""
-    n = len(thetas)
-    direction = x1 - x0
-    span = np.abs(direction).max(axis=1, initial=0.0)
-    last = np.minimum(np.asarray(firsts, dtype=float), FIRST_STEP)
-    s = np.zeros(n)
-    h = np.where(span <= last, 1.0, last / np.maximum(span, last))
-    theta = np.array(thetas, dtype=float)
-    steps, rejected = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
-    out: list = [None] * n
-    active = np.ones(n, dtype=bool)
-    while active.any():
-        if steps.sum() + rejected.sum() > budget:
-            raise RuntimeError(f"track: gave up after {MAX_STEPS:,} steps plus {STEPS_PER_INPUT} per path row "
-                               "(proven and rejected): the path is too long or too close to a singularity for "
-                               "one track; split it into shorter paths")
-        idx = np.flatnonzero(active)
-        t = np.minimum(1.0, s[idx] + h[idx])
-        b0 = x0[idx] + s[idx, None] * direction[idx]
-        b1 = np.where((t == 1.0)[:, None], x1[idx], x0[idx] + t[:, None] * direction[idx])
-        new = [eqs.predict(theta[i], b0[q], b1[q]) for q, i in enumerate(idx)]
-        found = np.array([th is not None for th in new])
-        ok = np.zeros(len(idx), dtype=bool)
-        w_lo, w_hi = np.zeros((len(idx), eqs.m)), np.zeros((len(idx), eqs.m))
+    def predict(self, thetas, b0, b1):
+        new = [self.eqs.predict(th, x0, x1) for th, x0, x1 in zip(thetas, b0, b1)]
+        found = np.array([th is not None for th in new], dtype=bool)
+        out = np.full((len(new), self.eqs.m), np.nan)
         if found.any():
-            theta1 = np.array([th for th in new if th is not None]).reshape(-1, eqs.m)
-            ok[found], w_lo[found], w_hi[found] = eqs.certify_steps(theta[idx[found]], theta1, b0[found], b1[found])
-        for q, i in enumerate(idx):
-            if not active[i]:                       # abandoned this round: a walk before it stopped
-                continue
-            if ok[q]:                               # every root of the step lies in [w_lo, w_hi]
-                if ranges.limited and ranges.outside(b1[q], new[q]) is not None:
-                    lo, hi, theta_in, joint = _locate_exit(eqs, ranges, theta[i], new[q], x0[i], direction[i],
-                                                           s[i], t[q], w_lo[q], w_hi[q])
-                    out[i] = _Segment(None, int(steps[i]), int(rejected[i]), float(last[i]), "range", lo, theta_in,
-                                      lo, hi, joint)
-                    active[i:] = False
-                    continue
-                if (ranges.limited and (t[q] - s[i]) * span[i] > LOCATE_TOL
-                        and not ranges.step_inside(w_lo[q], w_hi[q], b0[q], b1[q])):
-                    rejected[i] += 1                # proven, but not inside the ranges: walked again in halves
-                    h[i] *= 0.5
-                    continue
-                if span[i]:
-                    last[i] = h[i] * span[i]        # the step tried (not cut at the segment end) was proven
-                theta[i], s[i], h[i] = new[q], t[q], h[i] * STEP_GROWTH
-                steps[i] += 1
-                if s[i] == 1.0:
-                    out[i] = _Segment(theta[i].copy(), int(steps[i]), int(rejected[i]), float(last[i]))
-                    active[i] = False
-                continue
-            rejected[i] += 1
-            h[i] *= 0.5
-            if h[i] * span[i] < MIN_STEP:
-                lo, hi = _locate_singular(eqs, theta[i], b0[q], direction[i], 1.0 - s[i])
-                out[i] = _Segment(None, int(steps[i]), int(rejected[i]), float(last[i]), "singular", float(s[i]),
-                                  theta[i].copy(), s[i] + lo, s[i] + hi)
-                active[i:] = False
-    return out
+            out[found] = np.array([th for th in new if th is not None]).reshape(-1, self.eqs.m)
+        return out, found
+
+    def certify(self, thetas, new, b0, b1):
+        return self.eqs.certify_steps(thetas, new, b0, b1)
+
+    def advance(self, theta, new):
+        return new
+
+    def locate(self, theta, b0, direction, t_max: float):
+        return _locate_singular(self.eqs, theta, b0, direction, t_max)
+
+    def check(self, theta, new, x0, direction, s: float, t: float, b0, b1, w_lo, w_hi):
+        """None (the step stands), a range :class:`~spherekin.trust.stepping.Stop` where a joint leaves
+        its range at the step's end, or "finer" when the step is proven but not proven inside the
+        ranges (walked again in halves)."""
+        ranges = self.ranges
+        if not ranges.limited:
+            return None
+        if ranges.outside(b1, new) is not None:
+            lo, hi, theta_in, joint = _locate_exit(self.eqs, ranges, theta, new, x0, direction, s, t, w_lo, w_hi)
+            return Stop("range", lo, theta_in, lo, hi, joint)
+        span = float(np.abs(direction).max(initial=0.0))
+        if (t - s) * span > LOCATE_TOL and not ranges.step_inside(w_lo, w_hi, b0, b1):
+            return "finer"
+        return None
 
 
 def _locate_exit(eqs, ranges, theta, theta1, x0, direction, s0, s1, w_lo, w_hi):
@@ -513,7 +468,7 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
     seg = None
     last = FIRST_STEP                             # the input change of the last proven step (radians)
     k = 0
-    while k < n - 1 and (seg is None or seg.theta is not None):
+    while k < n - 1 and (seg is None or seg.end is not None):
         # predict up to BATCH rows (Newton, in floats), prove every step in one Krawczyk call, walk
         # the segments whose step is not proven (or not proven inside the ranges) together
         end = min(n - 1, k + BATCH)
@@ -538,8 +493,8 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
         spans = np.abs(np.diff(path[k:k + m + 2], axis=0)).max(axis=1, initial=0.0)
         firsts = [spans[j - 1] if j and good[j - 1] and spans[j - 1] else last for j in walked]
         idx = k + np.array(walked, dtype=int)
-        walks = dict(zip(walked, _walks(eqs, ranges, pred[walked], path[idx], path[idx + 1],
-                                        budget - n_steps - rejected, firsts))) if walked else {}
+        walks = dict(zip(walked, walk(_LoopStepper(eqs, ranges), pred[walked], path[idx], path[idx + 1],
+                                      budget - n_steps - rejected, firsts))) if walked else {}
         for j in range(m + (m < end - k)):        # the batch's segments in order (and the one Newton failed on)
             r = k + j
             if j not in walks:
@@ -551,16 +506,16 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
             seg = walks[j]
             n_steps += seg.steps
             rejected += seg.rejected
-            if seg.theta is None:
+            if seg.end is None:
                 k = r
                 break
             last = seg.last_step
-            thetas.append(seg.theta)
+            thetas.append(seg.end)
             steps_of.append(seg.steps)
-            if j + 1 < len(pred) and np.abs(seg.theta - pred[j + 1]).max() > AGREE_TOL:
+            if j + 1 < len(pred) and np.abs(seg.end - pred[j + 1]).max() > AGREE_TOL:
                 k = r + 1                          # not the predicted root: the later steps start elsewhere
                 break
-            thetas[-1] = pred[j + 1] if j + 1 < len(pred) else seg.theta
+            thetas[-1] = pred[j + 1] if j + 1 < len(pred) else seg.end
         else:
             k = k + j + 1
     reached = len(thetas)
@@ -581,10 +536,11 @@ def track_loops(mechanism, path, start_angles, *, start_tol: float = 1e-6) -> Tr
                               _named(names, readings[r]), residuals[r], float(measures[r]), int(steps_of[r]))
                   for r in range(reached))
     stop = None
-    if seg is not None and seg.theta is None:
+    if seg is not None and seg.end is None:
+        seg = seg.stop
         x0, direction = path[k], path[k + 1] - path[k]
         here = x0 + seg.s * direction
-        (reading,), _, _, (measure,) = pose_data(here[None], seg.theta_s[None])
+        (reading,), _, _, (measure,) = pose_data(here[None], seg.state[None])
         if seg.kind == "range":
             there = x0 + seg.hi * direction
             rng = tuple(float(v) for v in mechanism.ranges[seg.joint])
