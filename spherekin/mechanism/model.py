@@ -207,7 +207,7 @@ class LoopGeometry:
 
     def twist_slack(self, form: str = "auto") -> float | None:
         """How far (radians) the sides this loop's Z's stand for may be from pi/2 in ``form``: the
-        largest |side - pi/2| (below RIGHT_ANGLE_TOL) in the compact form; None in the doubled form,
+        largest ``|side - pi/2|`` (below RIGHT_ANGLE_TOL) in the compact form; None in the doubled form,
         whose Z's are exact rotations of the normal form (the sides are factor angles there)."""
         return float(np.max(np.abs(np.array(self.sides) - math.pi / 2))) if self.compact(form) else None
 

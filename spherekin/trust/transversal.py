@@ -41,10 +41,10 @@ The link twists are constants too. In the doubled form they are factor angles (a
 compact form (``LoopSystem.twists``) each Z of a loop is one of its sides, pi/2 only up to the
 snapping d of :meth:`spherekin.mechanism.LoopGeometry.twist_slack` and the rounding of the
 description (a distal link angle of float(pi/2) is pi/2 - 6e-17). Such a Z stands for
-Z Rz(eps), |eps| <= d + tol, and its effect is bounded rather than evaluated
-(:func:`twist_widths`): with A_k = Rx(phi_k) Z orthogonal and |Rz(eps) - I|_2 <= |eps|, the
-product F' of n perturbed factors has |F' - F|_2 <= n (d + tol) = e, and, since
-dF/dphi_i = [u_i]x F with u_i = P_i e1 for any Z's, |J' - J| <= |u' - u| + |F' - F| <= 2 e per
+Z Rz(eps), ``|eps| <= d + tol``, and its effect is bounded rather than evaluated
+(:func:`twist_widths`): with A_k = Rx(phi_k) Z orthogonal and ``||Rz(eps) - I||_2 <= |eps|``, the
+product F' of n perturbed factors has ``||F' - F||_2 <= n (d + tol) = e``, and, since
+dF/dphi_i = [u_i]x F with u_i = P_i e1 for any Z's, ``|J' - J| <= |u' - u| + ||F' - F|| <= 2 e`` per
 entry; F and J of the loop are widened by e and 2 e. Next to a singularity this decides: on the
 agile eye 1e-8 from its singular lines a pair of roots is real for exact right angles and complex
 for float(pi/2), and only the widened enclosures refuse to prove either.
