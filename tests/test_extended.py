@@ -36,7 +36,7 @@ import spherekin
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.mechanism.chains import axis_rotation, sphere_point
 from spherekin.trust import extended
-from spherekin.trust.extended import (EXTENDED_RADII, certify_extended, krawczyk_boxes_extended,
+from spherekin.trust.extended import (ARITHMETICS, EXTENDED_RADII, certify_extended, krawczyk_boxes_extended,
                                       leg_rotations_extended, polish_extended)
 from spherekin.trust.krawczyk import FINE_ANGLE_TOLERANCE, KrawczykResult, certify
 from spherekin.trust.transversal import ANGLE_TOLERANCE
@@ -191,12 +191,13 @@ def test_brief_roots_match_the_issue():
 # Close roots: certified in extended precision, not in float
 # --------------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("arithmetic", sorted(ARITHMETICS))
 @pytest.mark.parametrize("make, theta, sep", CLOSE_CASES)
-def test_close_roots_certified_separately(make, theta, sep):
+def test_close_roots_certified_separately(make, theta, sep, arithmetic):
     mech = make()
     roots = closed_form_roots(mech, theta)
     sep = separation(roots)
-    results = [certify_extended(mech, [theta], float_point(r)) for r in roots]
+    results = [certify_extended(mech, [theta], float_point(r), arithmetic=arithmetic) for r in roots]
     for res, root in zip(results, roots):
         assert isinstance(res, KrawczykResult)
         assert res.certified, res.reason
@@ -353,14 +354,15 @@ def test_three_rrr_offsets_move_the_readings_only():
         assert np.all(k_lo - 1e-13 < y) and np.all(y < k_hi + 1e-13)
 
 
-def test_shifted_box_is_never_certified():
+@pytest.mark.parametrize("arithmetic", sorted(ARITHMETICS))
+def test_shifted_box_is_never_certified(arithmetic):
     mech = brief_four_bar()
     theta = math.pi / 2 + 1e-6
     for root in closed_form_roots(mech, theta):
         y = np.array(float_point(root))
         for r in (1e-12, 1e-10, 1e-9):
             for direction in (np.ones(3), np.array([1.0, -1.0, 0.5])):
-                res = certify_extended(mech, [theta], y + 10 * r * direction, radii=[r])
+                res = certify_extended(mech, [theta], y + 10 * r * direction, radii=[r], arithmetic=arithmetic)
                 assert not res.certified
                 assert res.no_solution, res.reason
 
@@ -373,11 +375,12 @@ def both_roots_box(mech, theta):
     return roots, y, r
 
 
+@pytest.mark.parametrize("arithmetic", sorted(ARITHMETICS))
 @pytest.mark.parametrize("make, theta", [(brief_four_bar, math.pi / 2 + 1e-6), (change_point_four_bar, 1e-10)])
-def test_box_with_both_roots_is_not_certified(make, theta):
+def test_box_with_both_roots_is_not_certified(make, theta, arithmetic):
     mech = make()
     roots, y, r = both_roots_box(mech, theta)
-    res = certify_extended(mech, [theta], y, radii=[r])
+    res = certify_extended(mech, [theta], y, radii=[r], arithmetic=arithmetic)
     assert all(contains(res.box, root) for root in roots)
     assert res.krawczyk_box is not None           # K(X) was computed (J(y) regular) ...
     assert not res.certified and not res.no_solution
@@ -562,7 +565,42 @@ def test_arguments_checked():
 
 
 def test_global_mpmath_state_untouched():
-    before = (mpmath.mp.prec, mpmath.iv.prec)
+    import flint
+
+    before = (mpmath.mp.prec, mpmath.iv.prec, flint.ctx.prec)
     mech = brief_four_bar()
-    certify_extended(mech, [0.3], float_point(closed_form_roots(mech, 0.3)[0]))
-    assert (mpmath.mp.prec, mpmath.iv.prec) == before
+    for arithmetic in ARITHMETICS:
+        certify_extended(mech, [0.3], float_point(closed_form_roots(mech, 0.3)[0]), arithmetic=arithmetic)
+    assert (mpmath.mp.prec, mpmath.iv.prec, flint.ctx.prec) == before
+
+
+def test_an_unknown_arithmetic_is_refused_with_the_valid_names():
+    mech = brief_four_bar()
+    with pytest.raises(ValueError, match="arithmetic: expected one of arb, mpmath"):
+        certify_extended(mech, [0.3], [1.0, 2.0, 3.0], arithmetic="double")
+
+
+def test_the_arithmetics_never_contradict_each_other():
+    """Boxes around and between the two roots next to the change point, and shifted off them: a box one
+    arithmetic certifies the other never calls empty (and conversely); both enclose the same roots."""
+    mech = change_point_four_bar()
+    theta = 1e-10
+    roots = closed_form_roots(mech, theta)
+    sep = separation(roots)
+    rng = np.random.default_rng(4)
+    centres = [np.array(float_point(r)) for r in roots]
+    lo, hi = [], []
+    for c in centres:
+        for r in (0.05 * sep, 0.3 * sep, 2 * sep):
+            for shift in (0.0, 0.5, 3.0):
+                d = rng.normal(size=3) * r * shift
+                lo.append(c + d - r)
+                hi.append(c + d + r)
+    lo, hi = np.array(lo), np.array(hi)
+    arb, ref = (krawczyk_boxes_extended(mech, [theta], lo, hi, arithmetic=a) for a in ("arb", "mpmath"))
+    assert not np.any(arb.certified & ref.no_solution) and not np.any(ref.certified & arb.no_solution)
+    assert arb.certified.any() and arb.no_solution.any()              # the boxes decide both ways
+    for tests in (arb, ref):
+        for i in np.flatnonzero(tests.certified):
+            inside = [r for r in roots if contains(tuple(zip(lo[i], hi[i])), r)]
+            assert len(inside) == 1 and contains(tuple(zip(tests.krawczyk_lo[i], tests.krawczyk_hi[i])), inside[0])

@@ -64,8 +64,13 @@ d(M_k)_ij / d(reading) = +w . (v x u) for a joint of leg k and -w . (v x u) for 
 
 Krawczyk's test (as in :mod:`spherekin.trust.krawczyk`): for X = [lo, hi], y in X, a float matrix C
 (the inverse of the float J(y)) and J(X) enclosing the Jacobian over X,
-K(X) = y - C F(y) + (I - C J(X)) (X - y), every operation in mpmath's ``iv`` interval arithmetic at
-EXTENDED_DIGITS digits (a private context per call: no global mpmath state is touched). Proven:
+K(X) = y - C F(y) + (I - C J(X)) (X - y), every operation in interval arithmetic at EXTENDED_DIGITS
+digits (EXTENDED_BITS bits): by default FLINT/Arb balls (python-flint's ``arb``, its working precision
+set for the call and restored), or mpmath's ``iv`` intervals in a private context, the reference
+(``arithmetic="mpmath"``, :data:`ARITHMETICS`). A ball holds every number of its interval, so the
+two prove the same things; the balls come out slightly wider (a product of ranges that straddle 0)
+and are computed several times faster (benchmarks/bench_extended.py measures both, same run). A
+3-RRR's leg constants are written once in mpmath and read by either. Proven:
 
 * K(X) in the interior of X and every diag(M_k) > 0 on X: X holds exactly one root of F, and it
   is an assembly of the mechanism given by its floats (``certified``);
@@ -83,6 +88,7 @@ tested (redundant actuation is out of scope: "not certified: not square").
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 from dataclasses import replace
@@ -100,6 +106,8 @@ from .transversal import check_angles
 
 __all__ = [
     "EXTENDED_DIGITS",
+    "EXTENDED_BITS",
+    "ARITHMETICS",
     "EXTENDED_RADII",
     "EXTENDED_RCOND_MIN",
     "LOOP_ENTRIES",
@@ -119,6 +127,8 @@ __all__ = [
 #: for |J^-1| ~ 1e15 (roots ~1e-15 apart); the float point y (ulp ~4e-16 for angles ~ 2 pi) limits
 #: the test long before the arithmetic does, and 50 digits keep every call within milliseconds.
 EXTENDED_DIGITS = 50
+#: The same precision in bits (FLINT/Arb works in bits): 50 digits need 167; 169 is mpmath's choice.
+EXTENDED_BITS = 169
 
 #: Box radii (radians) tried by :func:`certify_extended`, smallest first. Reason: the smallest
 #: exceeds the distance from a polished float point to its root (a few ulps of the angle times
@@ -150,7 +160,8 @@ LOOP_ENTRIES = ((1, 0), (2, 0), (2, 1))
 # Public API
 # --------------------------------------------------------------------------------------------
 
-def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED_RADII) -> KrawczykResult:
+def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED_RADII, *,
+                     arithmetic: str = "arb") -> KrawczykResult:
     """Krawczyk tests of X = theta +- r (radians) for r in ``radii``, ascending: the first success or the last failure.
 
     ``mechanism``: a :class:`~spherekin.mechanism.SphericalMechanism`; ``inputs``: one reading per
@@ -164,9 +175,15 @@ def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED
     at once ("not certified: not square" for redundant actuation). The result is a
     :class:`~spherekin.trust.krawczyk.KrawczykResult`: ``box``/``krawczyk_box`` as float (lo, hi)
     rounded outward from the extended values, ``residual`` a bound on max |F(y)|,
-    ``singular_values`` of the float J(y), ``angle_tolerance`` 0.0 (exact constants).
+    ``singular_values`` of the float J(y), ``angle_tolerance`` 0.0 (exact constants). ``arithmetic``:
+    a name of :data:`ARITHMETICS` (the numbers the test is computed in; the verdicts agree).
     """
-    plan = _Plan(mechanism, inputs)
+    arith = _arithmetic(arithmetic)
+    with arith.precision():
+        return _certify(_Plan(mechanism, inputs, arith=arith), theta, radii)
+
+
+def _certify(plan: "_Plan", theta, radii) -> KrawczykResult:
     y = check_angles(plan.names, theta)
     rs = check_radii(radii)
     ctx = plan.ctx
@@ -178,7 +195,7 @@ def certify_extended(mechanism, inputs, theta, radii: Sequence[float] = EXTENDED
     tried, res = [], None
     for r in rs:
         tried.append(r)
-        x = [ctx.make_mpf(((yv - r)._mpi_[0], (yv + r)._mpi_[1])) for yv in y_iv]   # [y - r, y + r] outward
+        x = [ctx.make_mpf((_raw(yv - r)[0], _raw(yv + r)[1])) for yv in y_iv]   # [y - r, y + r] outward
         res = _test_box(plan, base, r, x, y_iv, f_y, c)
         if res.certified or res.krawczyk_box is None:
             break
@@ -201,7 +218,8 @@ EXTENDED_NEWTON_TOL = 1e-30
 EXTENDED_NEWTON_STALL = 8
 
 
-def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS) -> np.ndarray | None:
+def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS, *,
+                    arithmetic: str = "arb") -> np.ndarray | None:
     """Newton's method on this module's equations F in extended precision from ``theta`` (passive
     readings, ``mechanism.loop_unknowns`` order): the root it converges to, rounded to floats, or
     None (no convergence within ``steps``, a smallest step not halved within EXTENDED_NEWTON_STALL
@@ -212,16 +230,21 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
     ~5e-8 apart); the Krawczyk test at radii below their separation needs a point ~1e-16 from the
     root. Nothing is proven here: the point is only a candidate for :func:`certify_extended`.
     """
+    arith = _arithmetic(arithmetic)
+    with arith.precision():
+        return _polish(_Plan(mechanism, inputs, arith=arith), theta, steps)
+
+
+def _polish(plan: "_Plan", theta, steps: int) -> np.ndarray | None:
     import mpmath
 
-    plan = _Plan(mechanism, inputs)
     y0 = check_angles(plan.names, theta)
     if not plan.square or plan.m == 0:
         return None
     ctx = plan.ctx
 
     def mid(v):
-        return mpmath.mp.make_mpf(v.mid._mpi_[0])
+        return mpmath.mp.make_mpf(_mid_raw(v))
 
     with mpmath.workdps(EXTENDED_DIGITS):
         y = [mpmath.mpf(float(v)) for v in y0]
@@ -248,7 +271,7 @@ def polish_extended(mechanism, inputs, theta, steps: int = EXTENDED_NEWTON_STEPS
     return None
 
 
-def krawczyk_boxes_extended(mechanism, inputs, lo, hi) -> BoxTests:
+def krawczyk_boxes_extended(mechanism, inputs, lo, hi, *, arithmetic: str = "arb") -> BoxTests:
     """Krawczyk tests of B boxes [lo, hi] (arrays (B, M), radians, ``mechanism.loop_unknowns`` order).
 
     The meaning of :func:`spherekin.trust.krawczyk.krawczyk_many`, in extended precision on the
@@ -257,9 +280,14 @@ def krawczyk_boxes_extended(mechanism, inputs, lo, hi) -> BoxTests:
     assembly in X_b); ``no_solution`` (B,): K(X_b) misses X_b or an equation's enclosure over X_b
     excludes 0 (no assembly in X_b); ``krawczyk_lo``/``krawczyk_hi`` (B, M): floats enclosing K(X_b),
     rounded outward (nan where the system is not square or J(y_b) is singular: then no_solution
-    may still hold from the enclosures of F).
+    may still hold from the enclosures of F). ``arithmetic``: a name of :data:`ARITHMETICS`.
     """
-    plan = _Plan(mechanism, inputs)
+    arith = _arithmetic(arithmetic)
+    with arith.precision():
+        return _boxes(_Plan(mechanism, inputs, arith=arith), lo, hi)
+
+
+def _boxes(plan: "_Plan", lo, hi) -> BoxTests:
     m = plan.m
     lo = np.asarray(lo, dtype=float)
     hi = np.asarray(hi, dtype=float)
@@ -273,9 +301,9 @@ def krawczyk_boxes_extended(mechanism, inputs, lo, hi) -> BoxTests:
     ctx = plan.ctx
     for i in range(b):
         x = [ctx.mpf([float(a), float(c)]) for a, c in zip(lo[i], hi[i])]
-        y_iv = [(ctx.mpf(float(a)) + ctx.mpf(float(c))) / 2 for a, c in zip(lo[i], hi[i])]   # the exact midpoint
+        y_iv = [(ctx.mpf(float(a)) + ctx.mpf(float(c))) / 2 for a, c in zip(lo[i], hi[i])]   # the midpoint, enclosed
         f_y, _, c = _at_point(plan, y_iv, 0.5 * (lo[i] + hi[i]))
-        out = _box_core(plan, x, y_iv, f_y, c)
+        out = _box_core(plan, x, y_iv, f_y, c, bounds=(lo[i], hi[i]))
         no_solution[i] = out["disjoint"] or out["excluded"]
         if out["k"] is not None:
             k_lo[i], k_hi[i] = zip(*(_outward(v) for v in out["k"]))
@@ -292,21 +320,28 @@ def leg_rotations_extended(mechanism, joint_angles: Mapping[str, float]) -> dict
     R_ref enters as its floats; the certified equations do not use it (module docstring).
     """
     readings = _check_readings(mechanism, joint_angles)
-    plan = _Plan(mechanism, [readings[n] for n in mechanism.actuated], check_ranges=False)
+    arith = _arithmetic("arb")
+    with arith.precision():
+        return _leg_rotations(mechanism, readings, arith)
+
+
+def _leg_rotations(mechanism, readings: dict, arith) -> dict:
+    plan = _Plan(mechanism, [readings[n] for n in mechanism.actuated], check_ranges=False, arith=arith)
     ctx = plan.ctx
     x = [ctx.mpf(readings[n]) for n in plan.names]
     ref = [[ctx.mpf(float(v)) for v in row] for row in mechanism.platform_reference]
     if plan.tails[0][0] is not None:
         # a 3-RRR's legs give the pose P(x) of its description: D = P(x) P(x_ref)^T, x_ref the
         # joints' reference readings (both P exact rotations, enclosed)
-        at_ref = _Plan(mechanism, [j.reference_angle for j in mechanism.joints if j.actuated], check_ranges=False)
+        at_ref = _Plan(mechanism, [j.reference_angle for j in mechanism.joints if j.actuated], check_ranges=False,
+                       arith=arith)
         x_ref = [at_ref.ctx.mpf(float(mechanism.joint(n).reference_angle)) for n in at_ref.names]
     out = {}
     for k, name in enumerate(plan.chain_names[:plan.n_legs]):
         d, _ = plan.leg_rotation(k, x, jacobian=False)
         if plan.tails[0][k] is not None:
             p_ref, _ = at_ref.leg_rotation(k, x_ref, jacobian=False)
-            d = _matmul(d, [[ctx.make_mpf(p_ref[j][i]._mpi_) for j in range(3)] for i in range(3)])     # P(x_ref)^T
+            d = _matmul(d, [[p_ref[j][i] for j in range(3)] for i in range(3)])     # P(x_ref)^T
         bounds = [[_outward(v) for v in row] for row in _matmul(d, ref)]
         out[name] = (np.array([[b[0] for b in row] for row in bounds]),
                      np.array([[b[1] for b in row] for row in bounds]))
@@ -347,8 +382,9 @@ class _JointPlan:
 
 
 class _Plan:
-    """Everything one call needs, built per call: the equations in a private mpmath ``iv`` context
-    at EXTENDED_DIGITS (``exact``) and in floats (``approx``, for C and the singular values only).
+    """Everything one call needs, built per call: the equations in interval arithmetic at
+    EXTENDED_BITS (``exact``; ``ctx`` one of :data:`ARITHMETICS`) and in floats (``approx``, for C
+    and the singular values only).
 
     ``names``: the unknowns (``mechanism.loop_unknowns``); ``chain_names``: a label per chain (the
     legs first, for legs, then each loop's chains from its root link: ``mechanism.loop_geometry``'s
@@ -356,16 +392,13 @@ class _Plan:
     ``n_eq`` = 3 * loops, ``m`` = unknowns, ``square``.
     """
 
-    def __init__(self, mechanism, inputs, check_ranges: bool = True):
-        from mpmath.ctx_iv import MPIntervalContext
-
+    def __init__(self, mechanism, inputs, check_ranges: bool = True, arith=None):
         if not isinstance(mechanism, SphericalMechanism):
             raise ValueError(f"mechanism: expected a SphericalMechanism, got {type(mechanism).__name__}")
         values = mechanism.check_inputs(inputs) if check_ranges else tuple(float(v) for v in inputs)
-        ctx = MPIntervalContext()       # private: the shared mpmath.iv keeps its precision
-        ctx.dps = EXTENDED_DIGITS
+        ctx = _arithmetic("arb") if arith is None else arith      # its numbers; built inside its precision()
         self.ctx = ctx
-        self.exact_numbers = _Numbers(lambda d: _interval_cos_sin(ctx, d), ctx.mpf(0), ctx.mpf(1))
+        self.exact_numbers = _Numbers(ctx.cos_sin, ctx.mpf(0), ctx.mpf(1))
         self.float_numbers = _Numbers(lambda d: (math.cos(d), math.sin(d)), 0.0, 1.0)
         self.names = tuple(mechanism.loop_unknowns)
         known = dict(zip(mechanism.actuated, values))
@@ -510,22 +543,19 @@ def _rrr_leg_constants(g, legs) -> dict:
     """Chain key -> (per joint (axis, reference reading), tail T) of each leg of a 3-RRR, written in
     extended precision from its description's floats as given (``g``: its
     :class:`~spherekin.mechanism.rrr.ThreeRRRGeometry`; ``legs``: its legs; module docstring,
-    "3-RRR"), as raw interval endpoints (``_mpi_``, EXTENDED_DIGITS; any context at that precision
-    reads them with ``make_mpf``), then the same as floats next to them. ValueError unless the legs
+    "3-RRR"), as raw interval endpoints (mpmath's, EXTENDED_DIGITS; every arithmetic of
+    :data:`ARITHMETICS` reads them with ``make_mpf``), then the same as floats next to them. ValueError unless the legs
     are those the description gives: at the joints' reference readings, each joint's current axis
     within RECORD_MATCH_TOL of its float axis (the platform reference, which only names the pose,
     does not enter the equations)."""
-    from mpmath.ctx_iv import MPIntervalContext
-
-    ctx = MPIntervalContext()
-    ctx.dps = EXTENDED_DIGITS
+    ctx = _MpmathIntervals()
     offsets = g.offsets
     u_all, w_all, v_all = g.given_axes
     out = {}
     for i, leg in enumerate(legs):
         u, w0, v0 = (_unit_exact(ctx, vs[i]) for vs in (u_all, w_all, v_all))
         r0 = _unit_exact(ctx, g.given_platform_directions[i])
-        ca, sa = _interval_cos_sin(ctx, ctx.mpf(float(g.distal_link_angles[i])))
+        ca, sa = ctx.cos_sin(ctx.mpf(float(g.distal_link_angles[i])))
         p = _unit_of(ctx, [a - _dot(u, w0) * b for a, b in zip(u, w0)])      # u's direction normal to w0
         v_ref = [ca * a + sa * b for a, b in zip(w0, p)]                       # gamma = 0: v on u's side
         q = [sa * a - ca * b for a, b in zip(w0, p)]                           # w0's direction normal to v_ref
@@ -543,8 +573,8 @@ def _rrr_leg_constants(g, legs) -> dict:
                                  "description (geometry) gives")
             rot = rot @ axis_rotation(a, float(j.reference_angle) - _mid(ref))
         out[tuple((j.name, 1) for j in leg.joints)] = (
-            tuple((tuple(v._mpi_ for v in axis), ref._mpi_) for axis, ref in zip(axes, refs)),
-            tuple(tuple(v._mpi_ for v in row) for row in tail),
+            tuple((tuple(_raw(v) for v in axis), _raw(ref)) for axis, ref in zip(axes, refs)),
+            tuple(tuple(_raw(v) for v in row) for row in tail),
             tuple((tuple(_mid(v) for v in axis), _mid(ref)) for axis, ref in zip(axes, refs)),
             tuple(tuple(_mid(v) for v in row) for row in tail))
     return out
@@ -570,7 +600,8 @@ def _mid(v) -> float:
     """A float next to the midpoint of an interval (a float is returned as is)."""
     if isinstance(v, float):
         return v
-    return float(v.mid)
+    m = v.mid
+    return float(m() if callable(m) else m)
 
 
 def _rodrigues(num: _Numbers, a, outer, d):
@@ -583,11 +614,77 @@ def _rodrigues(num: _Numbers, a, outer, d):
             [v * outer[2][0] - sa[1], v * outer[2][1] + sa[0], c + v * outer[2][2]]]
 
 
-def _interval_cos_sin(ctx, d):
-    """Enclosures of (cos d, sin d) for an interval d, in one range reduction (mpmath's mpi_cos_sin)."""
-    from mpmath.libmp.libmpi import mpi_cos_sin
-    c, s = mpi_cos_sin(d._mpi_, ctx.prec)
-    return ctx.make_mpf(c), ctx.make_mpf(s)
+class _MpmathIntervals:
+    """mpmath's ``iv`` intervals at EXTENDED_DIGITS, in a private context (the shared ``mpmath.iv``
+    keeps its precision): the reference arithmetic, slow and obviously correct. ``mpf`` makes an
+    interval of a float, an mpmath number or a pair [lo, hi] (exact), ``make_mpf`` of raw endpoints."""
+
+    name = "mpmath"
+
+    def __init__(self):
+        from mpmath.ctx_iv import MPIntervalContext
+
+        self.ctx = MPIntervalContext()
+        self.ctx.dps = EXTENDED_DIGITS
+        self.mpf, self.make_mpf, self.sqrt = self.ctx.mpf, self.ctx.make_mpf, self.ctx.sqrt
+
+    def cos_sin(self, d):
+        """Enclosures of (cos d, sin d) for an interval d, in one range reduction (mpmath's mpi_cos_sin)."""
+        from mpmath.libmp.libmpi import mpi_cos_sin
+        c, s = mpi_cos_sin(d._mpi_, self.ctx.prec)
+        return self.ctx.make_mpf(c), self.ctx.make_mpf(s)
+
+    def precision(self):
+        return contextlib.nullcontext()
+
+
+class _ArbIntervals:
+    """FLINT/Arb balls (python-flint's ``arb``) at EXTENDED_BITS: the default arithmetic, enclosures
+    as rigorous as mpmath's intervals and several times faster (benchmarks/bench_extended.py). A pair
+    [lo, hi] becomes the ball union of its ends (its radius rounded up: a little wider, never less).
+    Its numbers are made and combined inside :meth:`precision` (python-flint's working precision is
+    process-wide: it is set for the call and restored after)."""
+
+    name = "arb"
+
+    def __init__(self):
+        import flint
+
+        self._arb = flint.arb
+        self._flint = flint
+
+    def mpf(self, x):
+        if isinstance(x, (list, tuple)):
+            return self._arb(x[0]).union(self._arb(x[1]))
+        return self._arb(x)                      # a float, an int or an mpmath number (its _mpf_): exact
+
+    def make_mpf(self, raw):
+        import mpmath
+
+        lo, hi = raw
+        a = self._arb(mpmath.mp.make_mpf(lo))
+        return a if lo == hi else a.union(self._arb(mpmath.mp.make_mpf(hi)))
+
+    def sqrt(self, v):
+        return v.sqrt()
+
+    def cos_sin(self, d):
+        s, c = d.sin_cos()
+        return c, s
+
+    def precision(self):
+        return self._flint.ctx.workprec(EXTENDED_BITS)
+
+
+#: The interval arithmetics of the extended-precision test, by name (``arithmetic=`` of the public
+#: functions): "arb" (python-flint, the default) and "mpmath" (the reference).
+ARITHMETICS = {"arb": _ArbIntervals, "mpmath": _MpmathIntervals}
+
+
+def _arithmetic(name: str):
+    if name not in ARITHMETICS:
+        raise ValueError(f"arithmetic: expected one of {', '.join(ARITHMETICS)}, got {name!r}")
+    return ARITHMETICS[name]()
 
 
 def _matmul(p, q):
@@ -676,8 +773,12 @@ def _sum(values, zero):
     return acc
 
 
-def _box_core(plan: _Plan, x, y, f_y, c) -> dict:
-    """One box X (intervals) around y: F, diag(M), J over X, K(X) (None when c is None), and the verdicts."""
+def _box_core(plan: _Plan, x, y, f_y, c, bounds=None) -> dict:
+    """One box X (intervals) around y: F, diag(M), J over X, K(X) (None when c is None), and the verdicts.
+
+    ``bounds``: the floats (lo, hi) X was made from, when X may be wider (a ball around them): K(X) is
+    then held against them, so that the verdicts are about the box the caller gave (the roots of F in
+    that box lie in X, hence in K(X))."""
     f_x, diag_x, j_x = plan.evaluate(x, jacobian=c is not None)
     excluded = any(_lo(v) > 0 or _hi(v) < 0 for v in f_x)
     bad_diag = [(i, v) for i, v in enumerate(diag_x) if not _lo(v) > 0]
@@ -687,8 +788,9 @@ def _box_core(plan: _Plan, x, y, f_y, c) -> dict:
         return out
     k = _krawczyk_operator(plan.exact_numbers, y, f_y, c, j_x, x)
     out["k"] = k
-    out["inside"] = all(_lo(kv) > _lo(xv) and _hi(kv) < _hi(xv) for kv, xv in zip(k, x))
-    out["disjoint"] = any(_hi(kv) < _lo(xv) or _lo(kv) > _hi(xv) for kv, xv in zip(k, x))
+    ends = [(_lo(xv), _hi(xv)) for xv in x] if bounds is None else list(zip(*bounds))
+    out["inside"] = all(_lo(kv) > a and _hi(kv) < b for kv, (a, b) in zip(k, ends))
+    out["disjoint"] = any(_hi(kv) < a or _lo(kv) > b for kv, (a, b) in zip(k, ends))
     return out
 
 
@@ -743,14 +845,27 @@ def _test_box(plan: _Plan, base: dict, r: float, x, y, f_y, c) -> KrawczykResult
 # Helpers: interval endpoints, outward rounding, checks
 # --------------------------------------------------------------------------------------------
 
+def _raw(v):
+    """The endpoints (lo, hi) of an interval (mpmath's) or a ball (arb's: rounded outward at the
+    working precision), as raw mpmath numbers (libmp tuples)."""
+    mpi = getattr(v, "_mpi_", None)
+    return mpi if mpi is not None else (v.lower()._mpf_, v.upper()._mpf_)
+
+
+def _mid_raw(v):
+    """The midpoint of an interval or a ball, as a raw mpmath number (for Newton's floats-free steps)."""
+    mpi = getattr(v, "_mpi_", None)
+    return v.mid._mpi_[0] if mpi is not None else v.mid()._mpf_
+
+
 def _lo(v):
     """The lower endpoint of an interval, exactly (a :class:`_Raw`, comparable with floats and other endpoints)."""
-    return _Raw(v._mpi_[0])
+    return _Raw(_raw(v)[0])
 
 
 def _hi(v):
     """The upper endpoint of an interval, exactly."""
-    return _Raw(v._mpi_[1])
+    return _Raw(_raw(v)[1])
 
 
 class _Raw:
@@ -789,7 +904,7 @@ def _round(raw, up: bool) -> float:
 
 def _outward(v) -> tuple[float, float]:
     """Floats (lo, hi) enclosing the interval v."""
-    a, b = v._mpi_
+    a, b = _raw(v)
     return _round(a, up=False), _round(b, up=True)
 
 
@@ -806,8 +921,9 @@ def _width_ratio(k, x) -> float:
     """width(k) / width(x) for intervals, to float (computed in extended precision: the widths
     can be far below the float spacing of the angles)."""
     from mpmath.libmp import mpf_div, mpf_sub, round_ceiling, round_floor, to_float
-    kw = mpf_sub(k._mpi_[1], k._mpi_[0], 64, round_ceiling)
-    xw = mpf_sub(x._mpi_[1], x._mpi_[0], 64, round_floor)
+    (k_lo, k_hi), (x_lo, x_hi) = _raw(k), _raw(x)
+    kw = mpf_sub(k_hi, k_lo, 64, round_ceiling)
+    xw = mpf_sub(x_hi, x_lo, 64, round_floor)
     if not to_float(xw) > 0:
         return math.inf
     return to_float(mpf_div(kw, xw, 64, round_ceiling))
