@@ -242,19 +242,13 @@ def _polish(plan: "_Plan", theta, steps: int) -> np.ndarray | None:
     if not plan.square or plan.m == 0:
         return None
     ctx = plan.ctx
-
-    def mid(v):
-        return mpmath.mp.make_mpf(_mid_raw(v))
-
     with mpmath.workdps(EXTENDED_DIGITS):
         y = [mpmath.mpf(float(v)) for v in y0]
         smallest, since = math.inf, 0
         for _ in range(steps):
             f, _, jac = plan.evaluate([ctx.mpf(v) for v in y], jacobian=True)
-            try:
-                step = mpmath.lu_solve(mpmath.matrix([[mid(v) for v in row] for row in jac]),
-                                       mpmath.matrix([mid(v) for v in f]))
-            except ZeroDivisionError:
+            step = ctx.newton_step(jac, f)
+            if step is None:
                 return None
             y = [a - b for a, b in zip(y, step)]
             if not all(mpmath.isfinite(v) for v in y):
@@ -628,6 +622,20 @@ class _MpmathIntervals:
         self.ctx.dps = EXTENDED_DIGITS
         self.mpf, self.make_mpf, self.sqrt = self.ctx.mpf, self.ctx.make_mpf, self.ctx.sqrt
 
+    def newton_step(self, jac, f):
+        """The solution (mpmath numbers) of mid(J) s = mid(F), by mpmath's LU; None when singular."""
+        import mpmath
+
+        def mid(v):
+            return mpmath.mp.make_mpf(_mid_raw(v))
+
+        try:
+            step = mpmath.lu_solve(mpmath.matrix([[mid(v) for v in row] for row in jac]),
+                                   mpmath.matrix([mid(v) for v in f]))
+        except ZeroDivisionError:
+            return None
+        return [step[i] for i in range(len(f))]
+
     def cos_sin(self, d):
         """Enclosures of (cos d, sin d) for an interval d, in one range reduction (mpmath's mpi_cos_sin)."""
         from mpmath.libmp.libmpi import mpi_cos_sin
@@ -671,6 +679,19 @@ class _ArbIntervals:
     def cos_sin(self, d):
         s, c = d.sin_cos()
         return c, s
+
+    def newton_step(self, jac, f):
+        """The solution (mpmath numbers, the balls' midpoints) of mid(J) s = mid(F), by FLINT's
+        ``arb_mat.solve`` at the working precision; None when it finds mid(J) singular."""
+        import mpmath
+
+        mat = self._flint.arb_mat([[v.mid() for v in row] for row in jac])
+        rhs = self._flint.arb_mat([[v.mid()] for v in f])
+        try:
+            sol = mat.solve(rhs)
+        except (ZeroDivisionError, ValueError):
+            return None
+        return [mpmath.mp.make_mpf(sol[i, 0].mid()._mpf_) for i in range(len(f))]
 
     def precision(self):
         return self._flint.ctx.workprec(EXTENDED_BITS)
