@@ -59,6 +59,10 @@ class Reference:
     quaternions: tuple
     n_roots: int
     min_separation: float
+    #: every root, real or complex, as complex128 (n_roots, 4), q . q = 1 (each one of a pair +-q)
+    roots: np.ndarray = None
+    #: which of ``roots`` are real (REAL_IMAG)
+    real: np.ndarray = None
 
     @property
     def count(self) -> int:
@@ -159,7 +163,9 @@ def reference_roots(geometry, inputs, seed: int = 0) -> Reference:
     quats = tuple(np.array([float(mpmath.re(x)) for x in r]) for r in real)
     sep = min(float(min(max(abs(a[j] - s * b[j]) for j in range(4)) for s in (1, -1)))
               for i, a in enumerate(roots) for b in roots[i + 1:])
-    return Reference(tuple(quaternion_rotation(q) for q in quats), quats, len(roots), sep)
+    every = np.array([[complex(x) for x in r] for r in roots])
+    is_real = np.array([max(abs(mpmath.im(x)) for x in r) < REAL_IMAG for r in roots])
+    return Reference(tuple(quaternion_rotation(q) for q in quats), quats, len(roots), sep, every, is_real)
 
 
 def singular_input(geometry, x_a, x_b, rel_tol: float = 1e-15):

@@ -10,7 +10,8 @@ registry that accepts it, each compiled once (its equations, charts and pruners)
 
 1. the systems of the chain in turn (:meth:`spherekin.systems.Compiled.search_many`): each searches
    the inputs still open as one array program and answers each with a ``Found`` (clusters in the
-   passive joints) or a ``Passed`` (why the next system must answer: ``settings.fallback``);
+   passive joints), a ``Proven`` (solutions its own certificate proves, reported as they are: the
+   complete count) or a ``Passed`` (why the next system must answer: ``settings.fallback``);
 2. the trust layer (:func:`spherekin.trust.solutions.finalize_many`): polishing, certification,
    statuses and the count; the answering system may still pass an input on
    (:meth:`~spherekin.systems.Compiled.check`: the platform system checks the assemblies against its
@@ -36,7 +37,7 @@ from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
 from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_CAP_COVER, SYSTEMS, CappedSearchWarning,
-                      Passed, Strategy, chain, choose, formulation_choices, system_choices, system_of_formulation)
+                      Passed, Proven, Strategy, chain, choose, formulation_choices, system_choices, system_of_formulation)
 from .results import (EmptyReason, SolveReport, SolverStats, EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES,
                       EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many
@@ -59,6 +60,11 @@ DEFAULT_SYSTEM = AUTO
 #: Longest mechanism name ``repr(problem)`` shows (longer ones are cut with "..."). Reason: keeps the
 #: repr on one line of ~200 characters whatever the file calls its mechanism.
 REPR_NAME_CHARS = 60
+
+
+def _then(before: str | None, reason: str) -> str:
+    """``settings.fallback`` after one more system passed an input on: every reason, in the chain's order."""
+    return reason if before is None else f"{before}; then {reason}"
 
 
 def as_mechanism(mechanism) -> SphericalMechanism:
@@ -191,13 +197,15 @@ class Problem:
         for system in self.chain:
             found = system.search_one(values, progress, trace)
             if isinstance(found, Passed):
-                fallback = found.reason
+                fallback = _then(fallback, found.reason)
                 continue
+            if isinstance(found, Proven):            # its own certificate: no trust layer, no check
+                return self._report(system, values, found, list(found.solutions), [], 0.0, fallback)
             solutions, refined, t_final = self._trust_many(system, [values], [found])[0]
             why = system.check([solutions], [found])[0]
             if why is None or system is self.chain[-1]:
                 return self._report(system, values, found, solutions, refined, t_final, fallback)
-            fallback = why
+            fallback = _then(fallback, why)
         raise RuntimeError(f"the last system of the chain ({self.chain[-1].system}) passed an input on")
 
     def _refiner(self, system, values, refined: list):
@@ -319,9 +327,11 @@ class Problem:
             passed = []
             for k, a in zip(todo, answers):
                 if isinstance(a, Passed):
-                    fallback[k] = a.reason
+                    fallback[k] = _then(fallback[k], a.reason)
                     passed.append(k)
-            found = [(k, a) for k, a in zip(todo, answers) if not isinstance(a, Passed)]
+                elif isinstance(a, Proven):          # its own certificate: no trust layer, no check
+                    out[k] = self._report(system, values[k], a, list(a.solutions), [], 0.0, fallback[k])
+            found = [(k, a) for k, a in zip(todo, answers) if not isinstance(a, (Passed, Proven))]
             trusted = self._trust_many(system, [values[k] for k, _ in found], [a for _, a in found])
             checks = system.check([sols for sols, _, _ in trusted], [a for _, a in found])
             last = system is self.chain[-1]
@@ -329,7 +339,7 @@ class Problem:
                 if why is None or last:
                     out[k] = self._report(system, values[k], a, solutions, refined, t_final, fallback[k])
                 else:
-                    fallback[k] = why
+                    fallback[k] = _then(fallback[k], why)
                     passed.append(k)
             todo = sorted(passed)
         if todo:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.sparse.csgraph import connected_components
 
-from spherekin.core.angles import near_groups
+from spherekin.core.angles import RANGE_TOL, in_range_many, near_groups, span_outside_range_many
 
 
 def _reference_groups(lo, hi, gap):
@@ -92,7 +92,7 @@ def test_into_range_many_is_into_range_entry_by_entry():
 
 from hypothesis import given, strategies as st  # noqa: E402
 
-from spherekin.core.angles import RANGE_TOL, in_range, room_in_range  # noqa: E402
+from spherekin.core.angles import in_range, room_in_range  # noqa: E402
 
 
 @given(lo=st.floats(-math.pi, math.pi), span=st.floats(1e-3, 2 * math.pi - 1e-3), frac=st.floats(0.0, 1.0),
@@ -156,3 +156,27 @@ def test_wrap_at_plus_and_minus_pi_and_beyond_a_turn():
     assert np.array_equal(wrap(np.array([math.pi, -math.pi, TWO_PI, 0.0])), [-math.pi, -math.pi, 0.0, 0.0])
     assert all(math.isnan(wrap(v)) for v in (math.nan, math.inf, -math.inf))
     assert np.isnan(wrap(np.array([math.inf]))).all()
+
+
+def test_an_arc_is_outside_a_range_only_when_no_angle_of_it_is_in_the_range():
+    """span_outside_range_many against sampling: 3,000 random arcs and ranges (on both sides of +-pi); an
+    arc called outside has no sampled angle in the range (by in_range_many, which widens it by RANGE_TOL),
+    and an arc with a sampled angle in the range is never outside; arcs well clear of it are outside."""
+    rng = np.random.default_rng(12)
+    called = 0
+    for _ in range(3000):
+        a = rng.uniform(-4.0, 4.0)
+        rng_ = (a, a + rng.uniform(0.01, 6.0))
+        lo = rng.uniform(-4.0, 4.0)
+        hi = lo + rng.uniform(0.0, 3.0)
+        samples = np.linspace(lo, hi, 200)
+        inside_any = in_range_many(samples, rng_).any()
+        outside = bool(span_outside_range_many(np.array([lo]), np.array([hi]), rng_)[0])
+        assert not (outside and inside_any), (lo, hi, rng_)
+        called += outside
+    assert called > 300
+    assert not span_outside_range_many(np.array([0.0]), np.array([0.1]), None)[0]            # the full circle
+    assert not span_outside_range_many(np.array([np.nan]), np.array([0.1]), (1.0, 2.0))[0]   # unknown arc
+    # an arc ending RANGE_TOL / 2 short of the range: inside the widened range, so not outside
+    assert not span_outside_range_many(np.array([0.5]), np.array([1.0 - RANGE_TOL / 2]), (1.0, 2.0))[0]
+    assert span_outside_range_many(np.array([0.5]), np.array([1.0 - 1e-9]), (1.0, 2.0))[0]

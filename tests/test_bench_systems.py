@@ -10,10 +10,10 @@ def test_bench_systems_runs_and_auto_chooses_the_fastest_that_accepts():
     for mech in ("four-bar", "five-bar"):
         assert not rows[(mech, "platform")]["accepts"] and "got 2" in rows[(mech, "platform")]["reason"]
         assert rows[(mech, "loops")]["chosen_by_auto"] and rows[(mech, "loops")]["solutions"] >= 1
-    # general_3rrr: both accept, auto takes the platform system; both find the same proven assemblies
-    fast, loops = rows[("general_3rrr", "platform")], rows[("general_3rrr", "loops")]
-    assert fast["chosen_by_auto"] and not loops["chosen_by_auto"]
-    assert fast["proven"] == loops["proven"] == fast["solutions"] >= 1
+    # general_3rrr: all three accept, auto takes the complete count; all find the same proven assemblies
+    first, fast, loops = (rows[("general_3rrr", name)] for name in ("complete", "platform", "loops"))
+    assert first["chosen_by_auto"] and not fast["chosen_by_auto"] and not loops["chosen_by_auto"]
+    assert first["proven"] == fast["proven"] == loops["proven"] == fast["solutions"] >= 1
 
 
 def test_the_elbow_actuated_3rrr_actuates_the_elbows():

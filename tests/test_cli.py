@@ -31,11 +31,12 @@ def test_solve_prints_table_and_writes_json(tmp_path, capsys):
         r = np.array(sol["platform_rotation"])
         np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
         assert set(sol["passive_angles"]) == set(data["unknowns"])
-    assert data["statistics"]["boxes_processed"] > 0
-    # the default ("auto") resolves to the platform formulation for a 3-RRR, and the JSON says so
+    assert data["statistics"]["boxes_processed"] == 0          # the complete count searches no box
+    # the default ("auto") resolves to the complete count for a base-actuated 3-RRR, and the JSON says so
     assert DEFAULT_FORMULATION == "auto"
-    assert (data["settings"]["formulation"], data["settings"]["parameterization"]) == ("platform", "quaternion")
-    assert "quaternion, formulation platform" in text
+    assert (data["settings"]["formulation"], data["settings"]["parameterization"]) == ("complete", "quaternion")
+    assert "quaternion, formulation complete" in text
+    assert all(sol["evidence"]["bezout"]["roots_proven"] == 8 for sol in data["solutions"])
 
 
 def test_loop_formulation_fallback_is_reported(capsys):
@@ -221,7 +222,8 @@ def _modules_after(argv, cwd=None) -> set[str]:
 
 
 def test_the_default_solve_imports_only_what_it_uses():
-    """spherekin solve with the defaults (platform formulation, pp pruner) imports no LP solver, no
+    """spherekin solve with the defaults (the complete count, then the platform formulation and the pp
+    pruner it falls back to) imports no LP solver, no
     plotting, no exact arithmetic and no JSON: each import is paid by every process (issue 14:
     import time counts). Checked in a fresh process, by the modules it holds at the end."""
     loaded = _modules_after(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5"])
@@ -292,7 +294,7 @@ def test_a_notes_python_keywords_are_given_as_options(monkeypatch, capsys):
     import spherekin.problem
 
     monkeypatch.setattr(spherekin.problem, "compile", functools.partial(spherekin.problem.compile, max_boxes=100))
-    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--quiet"]) == 0
+    assert main(["solve", GOSSELIN, "--inputs", "0.3,-0.2,0.5", "--quiet", "--system", "platform"]) == 0
     notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
     assert notes and any("max_boxes=100" in n for n in notes)
     assert all("formulation='" not in n for n in notes) and any("try --formulation transversal" in n for n in notes)

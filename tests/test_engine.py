@@ -190,8 +190,8 @@ def test_the_platform_search_of_a_chunk_is_each_inputs_own_search():
 def test_an_input_that_reaches_a_cap_in_a_chunk_is_reported_as_alone_and_the_others_are_not_disturbed():
     mech = general_3rrr()
     rows = np.array(_uniform(mech, 12, 7))
-    capped = compile(mech, max_boxes=180)           # some inputs need more boxes than this (129-269), some fewer
-    free = compile(mech)
+    capped = compile(mech, max_boxes=180, system="platform")   # some inputs need more boxes than this (129-269), some fewer
+    free = compile(mech, system="platform")
     reports = capped.solve_many(rows)
     hit = [r.settings.fallback is not None and "cap" in r.settings.fallback for r in reports]
     assert any(hit) and not all(hit)

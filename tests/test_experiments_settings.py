@@ -57,11 +57,11 @@ def test_a_row_records_what_the_report_says_ran():
 
 
 def test_the_default_pipeline_row_records_what_the_library_chose():
-    """On a 3-RRR "auto" is the platform system (quaternion charts): recorded as such, not as asked."""
+    """On a 3-RRR "auto" is the complete count (quaternion charts): recorded as such, not as asked."""
     pinned = parameterizations.VARIANTS[parameterizations.DEFAULT_ROW]
     assert (pinned.system, pinned.formulation) == ("auto", "auto")
     row = _common.pinned_solve(gosselin(), reproduction.INPUTS, pinned).settings_row()
-    assert row["ran"]["system"] == "platform" and row["ran"]["parameterization"] == "quaternion"
+    assert row["ran"]["system"] == "complete" and row["ran"]["parameterization"] == "quaternion"
 
 
 def test_a_strategy_with_lps_names_its_backend():

@@ -224,13 +224,13 @@ def test_a_five_bar_as_a_graph_meets_two_circles_on_the_sphere():
     assert legs
 
 
-def test_a_3rrr_as_a_graph_uses_the_platform_system_and_gives_the_3rrr_kinds_answers():
+def test_a_3rrr_as_a_graph_uses_the_complete_count_and_gives_the_3rrr_kinds_answers():
     kind, as_graph = general_3rrr(), load_mechanism(EXAMPLES / "general_3rrr_graph.toml")
     assert as_graph.kind == "graph" and [leg.name for leg in as_graph.legs] == ["leg1", "leg2", "leg3"]
     geometry = geometry_of(kind)
     for inputs in [(0.1, 0.2, -0.3), (1.0, -0.5, 0.7), (-2.0, 0.4, 1.1)]:
         a, b = sk.solve(kind, inputs), sk.solve(as_graph, inputs)
-        assert b.settings.formulation == "platform"
+        assert b.settings.formulation == "complete"
         assert a.proven_count == b.proven_count and b.count_exact
         ref = direct_kinematics(geometry, inputs)           # the degree-8 eigenvalue solve
         assert len(ref) == b.proven_count

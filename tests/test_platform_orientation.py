@@ -189,26 +189,27 @@ def _same_poses(report, reference):
         assert min(np.abs(g - q).max() for g in got) < 1e-9
 
 
+@pytest.mark.parametrize("system", ["complete", "platform"])
 @pytest.mark.parametrize("seed", range(6))
-def test_platform_solve_equals_the_50_digit_reference_on_random_geometries(seed):
+def test_platform_solve_equals_the_50_digit_reference_on_random_geometries(seed, system):
     rng = np.random.default_rng(100 + seed)
     mech, data = random_3rrr(rng)
     geometry = tuple(np.array(v, dtype=float) for v in data)
     inputs = rng.uniform(-math.pi, math.pi, 3)
-    rep = solve(mech, tuple(inputs))
+    rep = solve(mech, tuple(inputs), system=system)
     ref = reference_roots(geometry, inputs)
     assert rep.count_exact and rep.proven_count == ref.count
     _same_poses(rep, ref)
-    if rep.settings.formulation == "platform":
+    if rep.settings.formulation in ("platform", "complete"):
         assert rep.settings.parameterization == "quaternion" and rep.stats.charts == 4
     else:   # the loop equations answered: the report says why
         assert "platform search" in rep.settings.fallback
 
 
-def test_gosselin_by_the_platform_formulation(gosselin_report):
+def test_gosselin_by_the_platform_formulation():
     from tests.conftest import GOSSELIN_INPUTS
 
-    rep = gosselin_report
+    rep = solve(gosselin(), GOSSELIN_INPUTS, system="platform")
     assert rep.settings.formulation == "platform" and rep.settings.fallback is None
     assert sorted(s.status for s in rep.solutions) == ["certified"] * 4 + ["singular"] * 4
     assert rep.stats.isolated >= 8 and rep.stats.accepted == 0
@@ -226,7 +227,7 @@ def test_platform_roots_outside_passive_ranges_are_dropped():
         r = random_rotation(rng)
         modes = mech.inverse_kinematics(r)
     mode = modes[0]
-    full = solve(mech, mode.inputs)
+    full = solve(mech, mode.inputs, system="platform")
     assert full.settings.formulation == "platform"
     target = next(s for s in full.solutions if np.abs(s.platform_rotation - r).max() < 1e-9)
     # limit gamma1 to a range of 0.02 rad around this solution's gamma1: only the solutions with
@@ -242,10 +243,11 @@ def test_platform_roots_outside_passive_ranges_are_dropped():
         legs.append(Leg(leg.name, joints))
     narrow = SphericalMechanism(legs, mech.name, mech.reference_leg, mech.platform_reference, mech.kind,
                                 mech.geometry)
-    rep = solve(narrow, mode.inputs)
     expected = [s for s in full.solutions if abs(wrap(s.angles[g] - centre)) <= 0.01]
-    assert rep.settings.formulation == "platform"
-    assert len(rep.solutions) == len(expected) >= 1
+    for system in ("platform", "complete"):
+        rep = solve(narrow, mode.inputs, system=system)
+        assert rep.settings.formulation == system
+        assert len(rep.solutions) == len(expected) >= 1
 
 
 def test_not_applicable_and_strategy_errors():
@@ -256,13 +258,14 @@ def test_not_applicable_and_strategy_errors():
         compile(four_bar(), formulation="platform")
     with pytest.raises(ValueError, match="isolate"):
         compile(gosselin(), formulation="platform", isolate=False)
-    with pytest.raises(ValueError, match="expected one of .*'auto', 'platform'"):
+    with pytest.raises(ValueError, match="expected one of .*'auto', 'complete', 'platform'"):
         compile(gosselin(), formulation="quaternion")
     # auto: the loop equations where the platform formulation does not apply, and why
     assert compile(four_bar()).strategy.formulation == "halves"
     assert dict(compile(four_bar()).declined)["platform"] == why
     p = compile(gosselin(), parameterization="sin-cos")
     assert p.strategy.formulation == "halves" and "sin-cos" in dict(p.declined)["platform"]
+    assert "sin-cos" in dict(p.declined)["complete"]
     assert compile(gosselin(), isolate=False).strategy.formulation == "halves"
 
 
@@ -270,12 +273,12 @@ def test_solve_many_equals_one_solve_per_row_and_checks_rows_first():
     mech = general_3rrr()
     rng = np.random.default_rng(9)
     rows = rng.uniform(-math.pi, math.pi, (4, 3))
-    problem = compile(mech)
+    problem = compile(mech, system="platform")
     seen = []
     many = problem.solve_many(rows, progress=lambda done, total: seen.append((done, total)), chunk=3)
     assert seen == [(3, 4), (4, 4)]                   # after each chunk
     for row, rep in zip(rows, many):
-        one = solve(mech, tuple(row))
+        one = solve(mech, tuple(row), system="platform")
         assert list(rep.settings.inputs) == list(row)
         assert [s.angles.tolist() for s in rep.solutions] == [s.angles.tolist() for s in one.solutions]
     with pytest.raises(ValueError, match=r"shape \(K, 3\)"):
@@ -371,7 +374,7 @@ def test_a_platform_answer_the_trust_layer_disagrees_with_goes_to_the_loop_equat
         return [out[0][1:]] if len(calls) == 1 else out
 
     monkeypatch.setattr(pipeline, "finalize_many", lossy)
-    rep = pipeline.solve(gosselin(), GOSSELIN_INPUTS)
+    rep = pipeline.solve(gosselin(), GOSSELIN_INPUTS, system="platform")
     assert calls == [8, 8]
     assert "found 8 assemblies and the trust layer 7" in rep.settings.fallback
     assert rep.settings.formulation == "halves" and len(rep.solutions) == 8 and rep.count_exact

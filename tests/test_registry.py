@@ -56,7 +56,7 @@ def test_the_command_line_choices_are_the_registries():
     assert _choices(parser, "solve", "--parameterization") == list(PARAMETERIZATIONS)
     assert _choices(parser, "solve", "--pruner") == list(PRUNERS)
     assert _choices(parser, "solve", "--lp-backend") == list(LP_BACKENDS)
-    assert _choices(parser, "solve", "--formulation") == ["auto", "platform", *FORMULATIONS]
+    assert _choices(parser, "solve", "--formulation") == ["auto", "complete", "platform", *FORMULATIONS]
 
 
 def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):
@@ -100,7 +100,7 @@ def test_compile_checks_names_without_building_and_builds_the_platform_pruner_on
     spherekin.compile(gosselin(), pruner="counting-builds", formulation="halves")
     assert CountingBuilds.builds == 0          # a loop formulation: the checks build nothing
     problem = spherekin.compile(gosselin(), pruner="counting-builds")
-    assert problem.chain[0].system == "platform" and CountingBuilds.builds == 1
+    assert [c.system for c in problem.chain[:2]] == ["complete", "platform"] and CountingBuilds.builds == 1
     for _ in range(2):
         report = problem.solve(GOSSELIN_INPUTS)
         assert report.settings.fallback is None and report.proven_count == 8

@@ -18,6 +18,7 @@ from spherekin.mechanism import five_bar, four_bar, general_3rrr, gosselin
 from spherekin.problem import compile
 from spherekin.results import Settings
 from spherekin.systems import SYSTEMS, Strategy, System, choose, system_choices
+from spherekin.systems.complete import Complete
 from spherekin.systems.loops import Loops
 from spherekin.systems.platform import Platform, PlatformSystem, leg_constants, platform_legs
 from spherekin.trust.continuation import LegEquations
@@ -47,22 +48,22 @@ def elbow_actuated(mech):
 # ---------------------------------------------------------------- the registry
 
 def test_the_registry_lists_the_systems_fastest_first():
-    assert list(SYSTEMS) == ["platform", "loops"]
-    assert system_choices() == ("auto", "platform", "loops")
+    assert list(SYSTEMS) == ["complete", "platform", "loops"]
+    assert system_choices() == ("auto", "complete", "platform", "loops")
     assert all(issubclass(cls, System) and cls.description and "\n" not in cls.description
                for cls in SYSTEMS.values())
 
 
 def test_an_unknown_system_is_an_error_listing_the_valid_ones():
-    with pytest.raises(ValueError, match=r"^system: expected one of \['platform', 'loops'\], got 'bogus'$"):
+    with pytest.raises(ValueError, match=r"^system: expected one of \['complete', 'platform', 'loops'\], got 'bogus'$"):
         SYSTEMS.lookup("bogus")
-    with pytest.raises(ValueError, match=r"^system: expected one of \['auto', 'platform', 'loops'\], got 'bogus'$"):
+    with pytest.raises(ValueError, match=r"^system: expected one of \['auto', 'complete', 'platform', 'loops'\], got 'bogus'$"):
         compile(gosselin(), system="bogus")
 
 
 def test_the_cli_rejects_an_unknown_system(capsys):
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--system", "bogus"]) == 2
-    assert "--system: expected one of auto, platform, loops, got 'bogus'" in capsys.readouterr().err
+    assert "--system: expected one of auto, complete, platform, loops, got 'bogus'" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------- accepts()
@@ -104,19 +105,29 @@ def test_the_platform_formulation_asked_for_by_name_keeps_its_own_variables():
 
 # ---------------------------------------------------------------- auto
 
-@pytest.mark.parametrize("make", [gosselin, general_3rrr, lambda: elbow_actuated(general_3rrr()),
-                                  lambda: actuated_at(gosselin(), 2, name="platform-joint-actuated ")])
-def test_auto_chooses_the_platform_system_for_a_3rrr(make):
+@pytest.mark.parametrize("make", [gosselin, general_3rrr])
+def test_auto_chooses_the_complete_count_for_a_base_actuated_3rrr(make):
     cls, declined = choose(make(), strategy())
-    assert cls is Platform and declined == ()
+    assert cls is Complete and declined == ()
     problem = compile(make())
-    assert (problem.system, problem.declined, problem.strategy.formulation) == ("platform", (), "platform")
+    assert (problem.system, problem.declined, problem.strategy.formulation) == ("complete", (), "complete")
+    assert [c.system for c in problem.chain] == ["complete", "platform", "loops"]
+
+
+@pytest.mark.parametrize("make", [lambda: elbow_actuated(general_3rrr()),
+                                  lambda: actuated_at(gosselin(), 2, name="platform-joint-actuated ")])
+def test_auto_chooses_the_platform_system_for_a_3rrr_driven_elsewhere(make):
+    cls, declined = choose(make(), strategy())
+    assert cls is Platform and [name for name, _ in declined] == ["complete"]
+    assert "base-actuated" in declined[0][1]
+    problem = compile(make())
+    assert (problem.system, problem.strategy.formulation) == ("platform", "platform")
 
 
 @pytest.mark.parametrize("make", [four_bar, five_bar, lambda: actuated_at(general_3rrr(), 0, 1, name="redundant ")])
 def test_auto_chooses_the_loops_system_with_the_platforms_reason(make):
     cls, declined = choose(make(), strategy())
-    assert cls is Loops and declined == (("platform", Platform.accepts(make())),)
+    assert cls is Loops and declined == (("complete", Complete.accepts(make())), ("platform", Platform.accepts(make())))
     problem = compile(make())
     assert (problem.system, problem.strategy.formulation) == ("loops", "halves")
     assert problem.declined == declined
@@ -191,9 +202,10 @@ def test_settings_json_has_the_system_and_the_declined_ones():
     report = spherekin.solve(four_bar(), [0.3])
     out = report.settings.as_dict()
     assert out["system"] == "loops"
-    assert out["declined"] == [{"system": "platform", "reason": Platform.accepts(four_bar())}]
+    assert out["declined"] == [{"system": "complete", "reason": Complete.accepts(four_bar())},
+                               {"system": "platform", "reason": Platform.accepts(four_bar())}]
     fast = spherekin.solve(gosselin(), GOSSELIN_INPUTS).settings.as_dict()
-    assert (fast["system"], fast["declined"]) == ("platform", [])
+    assert (fast["system"], fast["declined"]) == ("complete", [])
     # a search's settings (no solve, no system) have neither key
     search = Settings("halves", "pp", None, "tan-half", 1e-6, True, 1, 1).as_dict()
     assert "system" not in search and "declined" not in search
@@ -204,18 +216,18 @@ def test_solve_json_and_text_say_which_system_solved_and_why_not_the_fastest(tmp
     assert main(["solve", str(EXAMPLES / "four_bar.toml"), "--inputs", "0.3", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     settings = json.loads(out.read_text())["settings"]
-    assert settings["system"] == "loops" and settings["declined"][0]["system"] == "platform"
+    assert settings["system"] == "loops" and [d["system"] for d in settings["declined"]] == ["complete", "platform"]
     lines = [line for line in text.splitlines() if line.startswith("solved by")]
     assert lines == ["solved by the loops system"]          # a four-bar never had legs: no platform talk by default
     assert "leg" not in text
     assert main(["solve", str(EXAMPLES / "four_bar.toml"), "--inputs", "0.3", "-v"]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("solved by")]
-    assert lines == ["solved by the loops system (platform did not accept it: "
-                     + settings["declined"][0]["reason"] + ")"]
+    assert lines == ["solved by the loops system (" + "; ".join(f"{d['system']} did not accept it: {d['reason']}"
+                                                               for d in settings["declined"]) + ")"]
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5"]) == 0
-    assert "\nsolved by the platform system\n" in capsys.readouterr().out
+    assert "\nsolved by the complete system\n" in capsys.readouterr().out
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--no-isolate", "-v"]) == 0
-    assert "solved by the loops system (platform did not accept it: --no-isolate asked for" in capsys.readouterr().out
+    assert "platform did not accept it: --no-isolate asked for" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("position", [1, 2])

@@ -150,11 +150,14 @@ def test_coarse_tolerances_below_the_cap_keep_every_gosselin_assembly(tol):
     """The Gosselin platform at (0.3, -0.2, 0.5) has 8 assemblies (the paper, Section 5): any
     tolerance up to the cap gives 8 distinct, IK-consistent, proven ones."""
     mech = gosselin()
-    report = solve(mech, (0.3, -0.2, 0.5), tol=tol)
+    report = solve(mech, (0.3, -0.2, 0.5), tol=tol, system="platform")     # the box search's tolerance
     assert len(report.solutions) == 8 and report.count_exact and _distinct_rotations(report)
     _assert_poses_are_assemblies(mech, (0.3, -0.2, 0.5), report)
     for s in report.solutions:
         assert s.evidence["moved"] <= 2 * tol + 1e-9
+    complete = solve(mech, (0.3, -0.2, 0.5), tol=tol)                        # no boxes: the tolerance is unused
+    assert complete.settings.system == "complete" and complete.count_exact
+    assert np.abs(np.array([s.angles for s in complete.solutions]) - [s.angles for s in report.solutions]).max() < 1e-9
 
 
 def _gosselin_with_ranges(ranges: dict):

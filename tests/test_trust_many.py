@@ -22,7 +22,7 @@ from spherekin.problem import REFINE_FACTOR, REFINE_MAX_BOXES, REFINE_MIN_TOL, c
 from spherekin.search.boxloop import SolverLimitError
 from spherekin.closure import closure_plan
 from spherekin.core.angles import RANGE_TOL
-from spherekin.systems import Passed
+from spherekin.systems import Passed, Proven
 from spherekin.trust import solutions
 from spherekin.trust.krawczyk import certify_many, certify_stacked, krawczyk_many, krawczyk_stacked
 from spherekin.trust.solutions import LOCAL_CHART, finalize, finalize_many, is_proven
@@ -49,7 +49,8 @@ def rocker_driven_four_bar():
 
 class Chunk:
     """A compiled mechanism and, per input, the clusters and tol its solve hands to the trust layer
-    (the platform search where it applies and isolates every root, else the loop equations'), with
+    (the platform search where it applies and isolates every root, else the loop equations': not the
+    complete count, whose answers need no trust layer), with
     the refine callable of Problem._trust for that input."""
 
     def __init__(self, mech, rows):
@@ -60,7 +61,7 @@ class Chunk:
         for x in rows:
             values = self.mech.check_inputs(x)
             found = next(f for f in (c.search_one(values, None, None) for c in self.problem.chain)
-                         if not isinstance(f, Passed))        # the first system of the chain that answers
+                         if not isinstance(f, (Passed, Proven)))   # the first search whose clusters the trust layer proves
             if found.limit is not None:
                 continue                      # a covering run (another tol): not this chunk's
             report, tol = found.report, found.tol

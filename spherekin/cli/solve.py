@@ -50,11 +50,15 @@ def command(args) -> int:
     print(f"{report.count_text()}; passive joint angles in {'degrees' if args.degrees else 'radians'}:")
     print(report.table(degrees=args.degrees))
     used = report.settings
-    print(f"{used.parameterization}, formulation {used.formulation}, pruner {used.pruner}"
-          + (f" ({used.lp_backend or 'default backend'})" if used.pruner != "pp" else "")
-          + f", tol {used.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
-          f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
-          f"{st.lps_solved} LPs, {st.time_total:.3f} s")
+    if used.system == "complete":         # no box search: what was proven, and its time
+        print(f"{used.parameterization}, formulation complete: {st.isolated} complex roots proven, the count complete "
+              f"by Bezout's bound (no box search), {st.time_total:.3f} s")
+    else:
+        print(f"{used.parameterization}, formulation {used.formulation}, pruner {used.pruner}"
+              + (f" ({used.lp_backend or 'default backend'})" if used.pruner != "pp" else "")
+              + f", tol {used.tol:g} rad: {st.charts} chart(s), {st.boxes_processed} boxes "
+              f"({st.discarded} discarded, {st.split} split, {st.accepted} accepted, {st.isolated} isolated), "
+              f"{st.lps_solved} LPs, {st.time_total:.3f} s")
     print(as_options(used.system_text(verbose=args.verbose)))
     if used.fallback:
         print(f"note: {as_options(used.fallback)}")

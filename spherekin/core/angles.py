@@ -16,10 +16,15 @@ import numpy as np
 from .groups import connected_groups
 
 __all__ = ["TWO_PI", "RANGE_TOL", "MAX_INPUT_ANGLE", "wrap", "in_range", "in_range_many", "near", "span_in_range_many",
+           "span_outside_range_many", "SPAN_ROUNDING",
            "into_range", "into_range_many", "room_in_range", "beyond_turn", "turn_error", "check_turn", "MAX_GEOMETRY_ANGLE",
            "check_geometry_angle", "near_groups", "PAIRWISE_MAX"]
 
 TWO_PI = 2.0 * math.pi
+#: Margin of :func:`span_outside_range_many` for its own rounding (the reduction modulo 2 pi and the
+#: sums, a few ulps of 2 pi ~ 1e-15): an arc is called outside only when it is outside by this much
+#: more. Reason: 1e-12 covers those roundings with room and is far below RANGE_TOL.
+SPAN_ROUNDING = 1e-12
 #: Tolerance (radians) of the range ends, applied to both ends alike. Reason: a range end written
 #: in decimal or degrees and an angle computed from it (an input, a polished root ~1e-15 accurate,
 #: an angle reduced modulo 2 pi: a few ulps of 2 pi ~ 1e-15) may differ by rounding alone; 1e-10
@@ -100,6 +105,21 @@ def span_in_range_many(lo, hi, rng, tol: float = RANGE_TOL) -> np.ndarray:
         start = np.mod(lo - (a - tol), TWO_PI)           # from the widened start of the range
         return np.isfinite(lo) & np.isfinite(hi) & (start + (hi - lo) <= (b - a) + 2.0 * tol)
 
+
+
+def span_outside_range_many(lo, hi, rng, tol: float = RANGE_TOL) -> np.ndarray:
+    """Whether no angle of the arcs [lo, hi] (radians, arrays of one shape, hi - lo < 2 pi; NaN or
+    infinite: an unknown arc, never outside) lies in ``rng`` widened by ``tol`` at both ends (the
+    rule of :func:`in_range`): the arc starts after the widened range's end and ends before its
+    start comes round again. False everywhere for ``rng`` None (the full circle)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if rng is None:
+        return np.zeros(np.broadcast_shapes(lo.shape, hi.shape), dtype=bool)
+    a, b = float(rng[0]), float(rng[1])
+    with np.errstate(invalid="ignore"):
+        start = np.mod(lo - (a - tol), TWO_PI)           # from the widened start of the range
+        return (np.isfinite(lo) & np.isfinite(hi) & (start > (b - a) + 2.0 * tol + SPAN_ROUNDING)
+                & (start + (hi - lo) < TWO_PI - SPAN_ROUNDING))
 
 def into_range(theta: float, rng, tol: float = RANGE_TOL) -> float:
     """The representative of ``theta`` modulo 2 pi that lies in ``rng`` (see :func:`in_range`); theta if none."""

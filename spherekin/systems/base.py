@@ -10,7 +10,8 @@ The seam the pipeline talks through (:mod:`spherekin.problem` names no system): 
 holds a *chain*, the accepting systems in registry order from the one chosen (:func:`chain`). Each
 :class:`Compiled` searches a chunk of inputs (:meth:`Compiled.search_many`) or one input
 (:meth:`Compiled.search_one`) and answers each with a :class:`Found` (clusters in the passive
-joints, for the trust layer) or a :class:`Passed` (why the next system must answer); after the
+joints, for the trust layer), a :class:`Proven` (solutions the system's own certificate proves:
+no trust layer) or a :class:`Passed` (why the next system must answer); after the
 trust layer, :meth:`Compiled.check` may still hand an input over (the platform system checks the
 trust layer's assemblies against its roots). The last system of every chain answers every input.
 
@@ -19,6 +20,7 @@ Nothing here imports the trust layer or the pipeline.
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Callable, ClassVar
@@ -26,7 +28,7 @@ from typing import Callable, ClassVar
 from ..results import SearchLimit, SearchReport, SearchStrategy
 from ..search.registry import Registry
 
-__all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Found", "Passed", "Compiled", "System",
+__all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Found", "Proven", "Passed", "Compiled", "System",
            "SYSTEMS", "system_choices", "formulation_choices", "system_of_formulation", "choose", "chain"]
 
 #: The name that lets the registry choose: the first system (in order of preference) that accepts.
@@ -78,6 +80,19 @@ class Found:
 
 
 @dataclass(frozen=True)
+class Proven:
+    """A system's answer at one input whose solutions its own certificate already proves (the
+    complete count, :mod:`spherekin.systems.complete`): the pipeline reports them as they are, with
+    no trust layer and no :meth:`Compiled.check`. ``report``: the search report (names, stats,
+    settings); ``solutions``: the :class:`~spherekin.results.Solution` entries, in the joint ranges,
+    each certified or singular with its evidence; ``limit``: None (a proof has no cap)."""
+
+    report: SearchReport
+    solutions: tuple
+    limit: SearchLimit | None = None
+
+
+@dataclass(frozen=True)
 class Passed:
     """A system hands an input to the next one in the chain: ``reason`` (one line, for the report's
     ``settings.fallback``)."""
@@ -105,7 +120,8 @@ class Compiled(ABC):
     @abstractmethod
     def search_many(self, rows: list, progress: Callable[[dict], None] | None) -> list:
         """One answer per checked input row of ``rows`` (tuples of radians, one per actuated joint),
-        the chunk searched as one array program: a :class:`Found`, a :class:`Passed`, or None where
+        the chunk searched as one array program: a :class:`Found`, a :class:`Proven`, a
+        :class:`Passed`, or None where
         the row reached a cap in the chunk (the pipeline then calls :meth:`search_one` for it).
         Ctrl-C (:class:`~spherekin.search.boxloop.SearchInterrupted`) in a chunk of more than one
         row raises KeyboardInterrupt."""
@@ -188,8 +204,10 @@ def chain(mechanism, strategy: Strategy, first: type[System]) -> tuple[Compiled,
     answers the inputs the one before it passed on; the last must answer every input."""
     names = list(SYSTEMS)
     later = [SYSTEMS[n] for n in names[names.index(first.name) + 1:]]
+    # a formulation that names the first system selects it, not its fallbacks: they are asked as "auto"
+    rest = dataclasses.replace(strategy, formulation=AUTO) if strategy.formulation in first.formulations() else strategy
     return (first.compile(mechanism, strategy),
-            *(cls.compile(mechanism, strategy) for cls in later if cls.accepts(mechanism, strategy) is None))
+            *(cls.compile(mechanism, rest) for cls in later if cls.accepts(mechanism, rest) is None))
 
 
 def choose(mechanism, strategy: Strategy) -> tuple[type[System], tuple[tuple[str, str], ...]]:

@@ -62,10 +62,9 @@ import numpy as np
 
 from ..core import intervals as iv
 from ..core.krawczyk import INTERVALS, krawczyk_operator
-from ..core.angles import in_range_many, span_in_range_many, wrap
-from ..mechanism.chains import perpendicular
+from ..core.angles import in_range_many, span_in_range_many
 from ..core.orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS, quaternions_from_rotations
-from ..systems.platform import (leg_constants, not_applicable, passive_names, passive_readings_many,
+from ..systems.platform import (leg_constants, passive_reading_enclosures, not_applicable, passive_names, passive_readings_many,
                                 platform_legs)
 from .stepping import MAX_STEPS, MIN_STEP, STEPS_PER_INPUT, walk
 
@@ -649,37 +648,6 @@ BATCH = 256
 AGREE_TOL = POINT_RADIUS
 
 
-#: Width (radians) added to each side of an enclosed joint angle (:meth:`JointRanges.steps_inside`):
-#: the arc's ends are atan2 of outward-rounded corners, each rounded (~1e-16); 1e-12 covers that
-#: with room and is far below RANGE_TOL, so an angle proven inside is inside.
-ARC_PAD = 1e-12
-
-
-def _cross_float(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """a x v for a float vector a (3,) and interval vectors v (2, ..., 3), outward-rounded."""
-    comps = [iv.sub(iv.scale(a[j], v[..., k]), iv.scale(a[k], v[..., j])) for j, k in ((1, 2), (2, 0), (0, 1))]
-    return np.stack(comps, axis=-1)
-
-
-def _rotate(axis: np.ndarray, c, s, v) -> np.ndarray:
-    """Rot(axis, theta) v (Rodrigues) for intervals c, s (2, N) of cos and sin theta and v (2, N, 3)."""
-    along = iv.isum(iv.scale(axis, v), -1)                                  # axis . v (2, N)
-    one_minus = iv.sub(iv.point(np.ones(c.shape[1:])), c)
-    out = iv.add(iv.mul(c[..., None], v), iv.mul(s[..., None], _cross_float(axis, v)))
-    return iv.add(out, iv.scale(axis, iv.mul(one_minus, along)[..., None]))
-
-
-def _arc(x, y) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) (N,) enclosing atan2(Y, X) over the boxes X x Y (intervals (2, N)); NaN where a box
-    holds the origin (every angle)."""
-    corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
-    mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
-    off = wrap(corners - mid)                                               # each corner next to the middle
-    lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
-    origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
-    return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
-
-
 class JointRanges:
     """Every joint's angle at tracked poses and the range test of a solve (module doc): the actuated
     joints (the inputs) then the passive ones, names in ``names``."""
@@ -740,27 +708,13 @@ class JointRanges:
         cay = iv.add(iv.point(np.broadcast_to(np.eye(3), (n, 3, 3))),
                      iv.mul(f[..., None, None], iv.add(kx, iv.scale(0.5, iv.matmul(kx, kx)))))
         d = iv.fmatmul(dcs, cay)                                                 # D = D_c C(w) (2, N, 3, 3)
-        beta = iv.from_bounds(lo_b, hi_b)
         pas = {nm: r for nm, r in zip(self.passive, self.ranges[len(self.actuated):])}
-        for i, leg in enumerate(self.legs):
-            c1, s1 = iv.cos_sin(iv.sub(beta[..., i], iv.point(leg.reference[0])))
-            m3 = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(leg.a3, d), -1))          # Rot(a1, -d1) D a3
-            xp = leg.a3 - (leg.a3 @ leg.a2) * leg.a2
-            d2_lo, d2_hi = _arc(iv.isum(iv.scale(xp, m3), -1), iv.isum(iv.scale(np.cross(leg.a2, xp), m3), -1))
-            g_name, e_name = leg.names[1], leg.names[2]
-            ok &= span_in_range_many(leg.reference[1] + d2_lo, leg.reference[1] + d2_hi, pas.get(g_name))
-            if pas.get(e_name) is None:
-                continue
-            known = np.isfinite(d2_lo)
-            ok &= known
-            if not known.any():
-                continue
-            p = perpendicular(leg.a3)
-            mp = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(p, d), -1))              # Rot(a1, -d1) D p
-            c2, s2 = iv.cos_sin(iv.from_bounds(np.where(known, d2_lo, 0.0), np.where(known, d2_hi, 0.0)))
-            n_p = _rotate(leg.a2, c2, iv.neg(s2), mp)                                     # Rot(a2, -d2) M p
-            d3_lo, d3_hi = _arc(iv.isum(iv.scale(p, n_p), -1), iv.isum(iv.scale(np.cross(leg.a3, p), n_p), -1))
-            ok &= span_in_range_many(leg.reference[2] + d3_lo, leg.reference[2] + d3_hi, pas[e_name])
+        names = passive_names(self.legs)
+        lo, hi = passive_reading_enclosures(self.legs, iv.from_bounds(lo_b, hi_b), d,
+                                            [pas.get(leg.names[2]) is not None for leg in self.legs])
+        for j, nm in enumerate(names):
+            if pas.get(nm) is not None:
+                ok &= span_in_range_many(lo[:, j], hi[:, j], pas[nm])
         return ok
 
     def measures(self, angles) -> np.ndarray:
