@@ -200,7 +200,7 @@ class Problem:
                 fallback = _then(fallback, found.reason)
                 continue
             if isinstance(found, Proven):            # its own certificate: no trust layer, no check
-                return self._report(system, values, found, list(found.solutions), [], 0.0, fallback)
+                return self._proven_report(system, values, found, fallback)
             solutions, refined, t_final = self._trust_many(system, [values], [found])[0]
             why = system.check([solutions], [found])[0]
             if why is None or system is self.chain[-1]:
@@ -271,6 +271,17 @@ class Problem:
         return SolveReport(report.unknowns, named, report.boxes, stats, settings, proven, exact,
                            mechanism=self.mechanism)
 
+    def _proven_report(self, system, values, proven, fallback) -> SolveReport:
+        """The :class:`SolveReport` of ``values`` answered by ``system`` with a
+        :class:`~spherekin.systems.Proven` (its solutions as they are, perhaps not built yet)."""
+        report = proven.report
+        settings = dataclasses.replace(report.settings, mechanism=self.mechanism.name,
+                                       actuated=tuple(self.mechanism.actuated), inputs=tuple(float(v) for v in values),
+                                       fallback=fallback, limit=None, refined_searches=0, system=system.system,
+                                       declined=self.declined)
+        return SolveReport(report.unknowns, proven.solutions, report.boxes, report.stats, settings, proven.proven,
+                           proven.exact, mechanism=self.mechanism)
+
     # ------------------------------------------------------------------ many inputs
 
     def solve_many(self, inputs, *, progress: Callable[[int, int], None] | None = None,
@@ -330,7 +341,7 @@ class Problem:
                     fallback[k] = _then(fallback[k], a.reason)
                     passed.append(k)
                 elif isinstance(a, Proven):          # its own certificate: no trust layer, no check
-                    out[k] = self._report(system, values[k], a, list(a.solutions), [], 0.0, fallback[k])
+                    out[k] = self._proven_report(system, values[k], a, fallback[k])
             found = [(k, a) for k, a in zip(todo, answers) if not isinstance(a, (Passed, Proven))]
             trusted = self._trust_many(system, [values[k] for k, _ in found], [a for _, a in found])
             checks = system.check([sols for sols, _, _ in trusted], [a for _, a in found])

@@ -12,6 +12,7 @@ and the number format of printed tables (:func:`format_number`).
 
 from __future__ import annotations
 
+import collections.abc
 from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
 from typing import Mapping, Sequence
@@ -22,7 +23,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
+__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "LazySolutions", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -180,6 +181,49 @@ class Solution:
             ", ".join(format_number(a) for a in self.angles)
         res = "" if self.residual is None else f", residual={self.residual:.1e}"
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
+
+
+class LazySolutions(collections.abc.Sequence):
+    """The entries of one report, built only when read (issue 44: results for many inputs without an
+    object per solution until someone asks for one): ``count`` entries, ``build()`` makes them all (a
+    tuple of :class:`Solution`), called once, on the first access other than ``len``. Equal to a
+    tuple of the same entries; pickled as that tuple."""
+
+    def __init__(self, count: int, build):
+        self._count = int(count)
+        self._build = build
+        self._items: tuple | None = None
+
+    def _all(self) -> tuple:
+        if self._items is None:
+            self._items = tuple(self._build())
+            self._build = None
+            if len(self._items) != self._count:
+                raise RuntimeError(f"LazySolutions: built {len(self._items)} entries, expected {self._count}")
+        return self._items
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __getitem__(self, index):
+        return self._all()[index]
+
+    def __iter__(self):
+        return iter(self._all())
+
+    def __eq__(self, other) -> bool:
+        if isinstance(other, (tuple, list, LazySolutions)):
+            return self._all() == tuple(other)
+        return NotImplemented
+
+    def __hash__(self):
+        return hash(self._all())
+
+    def __repr__(self) -> str:
+        return repr(self._all())
+
+    def __reduce__(self):
+        return (tuple, (self._all(),))
 
 
 def is_proven(sol: Solution) -> bool:
@@ -484,7 +528,7 @@ class SolveReport:
     """
 
     unknowns: tuple[str, ...]
-    solutions: tuple[Solution, ...]
+    solutions: Sequence[Solution]          # a tuple, or LazySolutions (built when read)
     boxes: tuple[AcceptedBox, ...]
     stats: SolverStats
     settings: Settings

@@ -252,3 +252,30 @@ def test_what_it_accepts():
         spherekin.compile(spherekin.mechanism.four_bar(), formulation="complete")
     strategy = dataclasses.replace(spherekin.compile(gosselin()).strategy, formulation="auto", isolate=False)
     assert "isolate=False" in Complete.accepts(gosselin(), strategy)
+
+
+def test_entries_are_built_when_read_once_for_the_whole_chunk(monkeypatch):
+    """A chunk's counts need no Solution object; the first entry read builds every entry of the chunk
+    (once); a report pickles and compares as one holding a tuple."""
+    import pickle
+
+    from spherekin.results import LazySolutions
+    from spherekin.systems.complete import RealRoots
+
+    calls = []
+    real = RealRoots._build
+    monkeypatch.setattr(RealRoots, "_build", lambda self: calls.append(1) or real(self))
+    rows = np.random.default_rng(13).uniform(-math.pi, math.pi, (10, 3))
+    reports = spherekin.compile(general_3rrr()).solve_many(rows)
+    counts = [(r.proven_count, r.count_exact, len(r.solutions)) for r in reports]
+    assert calls == [] and all(isinstance(r.solutions, LazySolutions) for r in reports)
+    assert reports[3].solutions[0].status in ("certified", "singular") and calls == [1]
+    assert [len(r.solutions) for r in reports[5:]] == [c[2] for c in counts[5:]] and list(reports[5].solutions)
+    assert calls == [1]
+    again = pickle.loads(pickle.dumps(reports[3]))
+    assert isinstance(again.solutions, tuple) and len(again.solutions) == len(reports[3].solutions)
+    assert all(np.array_equal(a.angles, b.angles) for a, b in zip(again.solutions, reports[3].solutions))
+    assert reports[3].solutions == tuple(reports[3].solutions)              # compares as the tuple it holds
+    assert [c[0] for c in counts] == [len(r.solutions) for r in reports]
+    assert all(r.solutions[0].actuated == dict(zip(("beta1", "beta2", "beta3"), row))
+               for r, row in zip(reports, rows) if len(r.solutions))

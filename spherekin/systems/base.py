@@ -23,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, Sequence
 
 from ..results import SearchLimit, SearchReport, SearchStrategy
 from ..search.registry import Registry
@@ -88,7 +88,9 @@ class Proven:
     each certified or singular with its evidence; ``limit``: None (a proof has no cap)."""
 
     report: SearchReport
-    solutions: tuple
+    solutions: Sequence
+    proven: int
+    exact: bool
     limit: SearchLimit | None = None
 
 

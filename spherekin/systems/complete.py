@@ -38,6 +38,7 @@ search, which reports it by the float rule).
 
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -48,13 +49,13 @@ from ..core.angles import TWO_PI, into_range_many, span_in_range_many, span_outs
 from ..core.orientation import quaternion_matrices
 from ..core.rotations import cross
 from ..mechanism.chains import axis_rotations
-from ..results import SearchReport, Settings, Solution, SolverStats, Status
+from ..results import LazySolutions, SearchReport, Settings, Solution, SolverStats, Status
 from .base import SYSTEMS, Compiled, Passed, Proven, System
 from .platform import (QUADRATIC_TENSOR as _T, CHARTS, PlatformSystem, leg_terms, not_applicable, passive_names, passive_reading_enclosures,
                        passive_readings_many, platform_legs)
 
 __all__ = ["MODEL_TOLERANCE", "FORMULATION", "interval_leg_parts", "circle_candidates", "quaternions_of_rotations",
-           "CompiledComplete", "Complete"]
+           "RealRoots", "CompiledComplete", "Complete"]
 
 #: The formulation name that selects this system (``formulation="complete"``).
 FORMULATION = "complete"
@@ -210,6 +211,90 @@ def _partners(f, g, t1) -> np.ndarray:
     return np.take_along_axis(roots, pick[..., None], axis=-1)[..., 0]
 
 
+class RealRoots:
+    """The real roots of a chunk's complete inputs as arrays (one row per root: ``owner``, its input;
+    ``slot``, its place among the 8), and what its reports read, computed for the whole chunk at once
+    when first needed: the joint readings and their enclosures (:meth:`decide_ranges` needs them at
+    once), the singularity classification, the poses and residuals, then each input's entries."""
+
+    def __init__(self, compiled: "CompiledComplete", values, proof):
+        self.compiled, self.values, self.proof = compiled, values, proof
+        self.owner, self.slot = np.nonzero(proof.real & proof.complete[:, None])
+        q = proof.roots[self.owner, self.slot].real                           # (R, 4), chart component 1
+        self.displacements = quaternion_matrices(q) / (q * q).sum(axis=1)[:, None, None]
+        self.keep = np.ones(len(self.owner), dtype=bool)
+        self._built: dict | None = None
+
+    @functools.cached_property
+    def readings(self):
+        """(angles, lo, hi) (R, M): the passive readings (in their ranges) and their enclosures."""
+        c = self.compiled
+        at = self.values[self.owner]
+        if not len(at):
+            empty = np.zeros((0, len(c.names)))
+            return empty, empty, empty
+        angles = c.readings(at, self.displacements @ c.equations.platform_reference)
+        lo, hi = c._enclosures(at, self.proof.re_lo[self.owner, self.slot], self.proof.re_hi[self.owner, self.slot])
+        for j, name in enumerate(c.names):
+            if c.ranges[name] is not None:
+                angles[:, j] = into_range_many(angles[:, j], c.ranges[name])
+        return angles, lo, hi
+
+    def decide_ranges(self) -> np.ndarray:
+        """Keep the roots whose every reading is proven in its range; (K,) how many of each input's
+        are undecided (a reading whose enclosure straddles a range end: the input is passed on)."""
+        c = self.compiled
+        _, lo, hi = self.readings
+        inside = np.ones(len(self.owner), dtype=bool)
+        outside = np.zeros(len(self.owner), dtype=bool)
+        for j, name in enumerate(c.names):
+            rng = c.ranges[name]
+            if rng is not None:
+                inside &= span_in_range_many(lo[:, j], hi[:, j], rng)
+                outside |= span_outside_range_many(lo[:, j], hi[:, j], rng)
+        self.keep = inside
+        return np.bincount(self.owner[~inside & ~outside], minlength=len(self.values))
+
+    def entries(self, k: int) -> tuple:
+        """Input k's :class:`~spherekin.results.Solution` entries, in the trust layer's order (by angles)."""
+        if self._built is None:
+            self._built = self._build()
+        return self._built.get(k, ())
+
+    def _build(self) -> dict:
+        """Every kept root's entry, by input: classified, posed and checked for the whole chunk at once."""
+        c, proof = self.compiled, self.proof
+        kept = np.flatnonzero(self.keep)
+        angles, lo, hi = (x[kept] for x in self.readings)
+        at = self.values[self.owner[kept]]
+        joints = {**{nm: at[:, i] for i, nm in enumerate(c.mechanism.actuated)},
+                  **{nm: angles[:, j] for j, nm in enumerate(c.names)}}
+        sing = c.mechanism.singularities(joints) if len(kept) else []
+        poses = self.displacements[kept] @ c.equations.platform_reference
+        closure = c._closure(at, angles, poses)
+        shift = TWO_PI * np.round((angles - 0.5 * (lo + hi)) / TWO_PI)
+        lo, hi = lo + shift, hi + shift
+        out: dict = {}
+        for r, idx in enumerate(kept):
+            k, m = int(self.owner[idx]), int(self.slot[idx])
+            rep = sing[r]
+            ev = {"serial_margin": float(rep.serial_margin), "parallel_margin": float(rep.parallel_margin),
+                  "singularity": rep.kind, "krawczyk_certified": True,
+                  "bezout": {"bound": bezout.BEZOUT_BOUND, "roots_proven": int(proof.certified[k].sum()),
+                             "real_roots": int(proof.real[k].sum()), "chart": int(proof.chart[k, m]),
+                             "radius": float(proof.radius[k, m]), "model_tolerance": MODEL_TOLERANCE,
+                             "quaternion_lo": proof.re_lo[k, m].tolist(), "quaternion_hi": proof.re_hi[k, m].tolist()},
+                  "root_enclosure": {"lo": lo[r].tolist(), "hi": hi[r].tolist()}}
+            status = Status.CERTIFIED if rep.kind == "regular" else Status.SINGULAR
+            out.setdefault(k, []).append(Solution(
+                angles[r], lo[r], hi[r], 1, platform_rotation=poses[r], residual=float(closure[r]), singularity=rep.kind,
+                status=status, evidence=ev, unknowns=c.names,
+                actuated=dict(zip(c.mechanism.actuated, (float(v) for v in self.values[k])))))
+        for entries in out.values():
+            entries.sort(key=lambda sol: tuple(np.round(sol.angles, 9)))       # the trust layer's order
+        return {k: tuple(v) for k, v in out.items()}
+
+
 class CompiledComplete(Compiled):
     """Eq. (1) compiled for the complete count: the float leg terms (the candidates), the interval
     parts of M (the proof), and the readings of :class:`~spherekin.systems.platform.PlatformSystem`."""
@@ -264,60 +349,25 @@ class CompiledComplete(Compiled):
     def search_many(self, rows: list, progress) -> list:
         """Every input's roots proven at once (:func:`spherekin.core.bezout.certify_roots`): a
         :class:`~.base.Proven` where the count is complete and every reading decided against its
-        range, else a :class:`~.base.Passed` saying what was missing."""
+        range, else a :class:`~.base.Passed` saying what was missing. The entries of a chunk are
+        arrays (:class:`RealRoots`); each report's :class:`~spherekin.results.Solution` objects are
+        built when first read (:class:`~spherekin.results.LazySolutions`), for the whole chunk at once."""
         t0 = time.perf_counter()
         values = np.asarray(rows, dtype=float).reshape(len(rows), len(self.legs))
         proof = bezout.certify_roots(self.matrices(values), self.candidates(values))
-        # the real roots: poses, readings, their enclosures over the proven boxes, the ranges
-        kk, n = proof.chart.shape
-        owner, slot = np.nonzero(proof.real & proof.complete[:, None])
-        q = proof.roots[owner, slot].real                                     # (R, 4), chart component 1
-        d = quaternion_matrices(q) / (q * q).sum(axis=1)[:, None, None]
-        ref = self.equations.platform_reference
-        at = values[owner]
-        angles = self.readings(at, d @ ref) if len(owner) else np.zeros((0, len(self.names)))   # (R, M)
-        enc_lo, enc_hi = self._enclosures(at, proof.re_lo[owner, slot], proof.re_hi[owner, slot])
-        inside = np.ones(len(owner), dtype=bool)
-        outside = np.zeros(len(owner), dtype=bool)
-        for j, name in enumerate(self.names):
-            rng = self.ranges[name]
-            if rng is not None:
-                inside &= span_in_range_many(enc_lo[:, j], enc_hi[:, j], rng)
-                outside |= span_outside_range_many(enc_lo[:, j], enc_hi[:, j], rng)
-                angles[:, j] = into_range_many(angles[:, j], rng)
-        undecided = np.bincount(owner[~inside & ~outside], minlength=kk)
-        keep = inside
-        # the entries: singularity classification of every kept root at once
-        kept = np.flatnonzero(keep)
-        joints = {**{nm: at[kept, i] for i, nm in enumerate(self.mechanism.actuated)},
-                  **{nm: angles[kept, j] for j, nm in enumerate(self.names)}}
-        sing = self.mechanism.singularities(joints) if len(kept) else []
-        poses = d[kept] @ ref
-        closure = self._closure(at[kept], angles[kept], poses)
-        t_share = (time.perf_counter() - t0) / max(kk, 1)
+        roots = RealRoots(self, values, proof)
+        undecided = np.zeros(len(values), dtype=int)
+        if self.limited:                         # the ranges decide which roots are kept, now
+            undecided = roots.decide_ranges()
+        counts = np.bincount(roots.owner[roots.keep], minlength=len(values))
         s = self.strategy
         settings = Settings(formulation=FORMULATION, pruner=s.pruner, lp_backend=s.lp_backend,
                             parameterization="quaternion", tol=s.tol, isolate=True, jobs=1, charts=CHARTS)
-        stats = SolverStats(charts=CHARTS, isolated=bezout.BEZOUT_BOUND, time_total=t_share)   # roots proven
-        entries: list[list] = [[] for _ in range(kk)]
-        for r, idx in enumerate(kept):
-            k, m = owner[idx], slot[idx]
-            theta = angles[idx]
-            shift = TWO_PI * np.round((theta - 0.5 * (enc_lo[idx] + enc_hi[idx])) / TWO_PI)
-            rep = sing[r]
-            ev = {"serial_margin": float(rep.serial_margin), "parallel_margin": float(rep.parallel_margin),
-                  "singularity": rep.kind, "krawczyk_certified": True,
-                  "bezout": {"bound": bezout.BEZOUT_BOUND, "roots_proven": int(proof.certified[k].sum()),
-                             "real_roots": int(proof.real[k].sum()), "chart": int(proof.chart[k, m]),
-                             "radius": float(proof.radius[k, m]), "model_tolerance": MODEL_TOLERANCE,
-                             "quaternion_lo": proof.re_lo[k, m].tolist(), "quaternion_hi": proof.re_hi[k, m].tolist()},
-                  "root_enclosure": {"lo": (enc_lo[idx] + shift).tolist(), "hi": (enc_hi[idx] + shift).tolist()}}
-            status = Status.CERTIFIED if rep.kind == "regular" else Status.SINGULAR
-            entries[k].append(Solution(theta, enc_lo[idx] + shift, enc_hi[idx] + shift, 1, platform_rotation=poses[r],
-                                       residual=float(closure[r]), singularity=rep.kind, status=status, evidence=ev))
+        stats = SolverStats(charts=CHARTS, isolated=bezout.BEZOUT_BOUND,             # roots proven
+                            time_total=(time.perf_counter() - t0) / max(len(values), 1))
+        report = SearchReport(self.names, (), (), stats, settings)
         out: list = []
-        for k in range(kk):
-            entries[k].sort(key=lambda sol: tuple(np.round(sol.angles, 9)))       # the trust layer's order
+        for k in range(len(values)):
             if not proof.complete[k]:
                 out.append(Passed(self._why(proof, k)))
             elif undecided[k]:
@@ -325,7 +375,8 @@ class CompiledComplete(Compiled):
                                   "real one(s) could not be proven inside or outside the joint ranges (a reading "
                                   "next to a range end): searched with the platform equations"))
             else:
-                out.append(Proven(SearchReport(self.names, (), (), stats, settings), tuple(entries[k])))
+                out.append(Proven(report, LazySolutions(counts[k], functools.partial(roots.entries, k)),
+                                  int(counts[k]), True))
         return out
 
     def _enclosures(self, at, q_lo, q_hi):
