@@ -123,7 +123,11 @@ def test_bench_engine_tiny_run(tmp_path):
     rows = {r["mechanism"]: r for r in json.loads(out.read_text())["rows"]}
     assert set(rows) == {"four-bar", "general_3rrr"}
     assert rows["general_3rrr"]["count_mismatches"] == 0 and rows["general_3rrr"]["floor_mismatches"] == 0
+    assert rows["general_3rrr"]["system"] == "complete" and rows["general_3rrr"]["boxes_mismatches"] == 0
+    assert rows["general_3rrr"]["answered_by"] == {"complete": 2} and rows["general_3rrr"]["eigvals_per_s"] > 0
+    assert rows["general_3rrr"]["strategy"]["formulation"] == "complete"
     assert rows["four-bar"]["floor_per_s"] is None and rows["four-bar"]["system"] == "loops"
+    assert rows["four-bar"]["boxes_per_s"] is None
 
 
 def test_bench_crossover_help_and_line_crossing(capsys):
