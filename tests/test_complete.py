@@ -24,7 +24,7 @@ from references.reference_roots import near_singular_inputs, reference_roots, si
 from spherekin.core.angles import RANGE_TOL
 from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
 from spherekin.systems import Passed, Proven
-from spherekin.systems.complete import MODEL_TOLERANCE, Complete, interval_leg_parts
+from spherekin.systems.complete import MODEL_TOLERANCE, Complete, interval_leg_parts, model_gap
 from spherekin.systems.platform import QUADRATIC_TENSOR, platform_legs
 
 from test_systems import actuated_at
@@ -252,6 +252,13 @@ def test_what_it_accepts():
         spherekin.compile(spherekin.mechanism.four_bar(), formulation="complete")
     strategy = dataclasses.replace(spherekin.compile(gosselin()).strategy, formulation="auto", isolate=False)
     assert "isolate=False" in Complete.accepts(gosselin(), strategy)
+    # a description whose distal link angles the model's axes do not give (1e-12 off): not proven about it
+    mech = general_3rrr()
+    assert model_gap(mech) < 1e-15
+    off = dataclasses.replace(mech, geometry=dataclasses.replace(
+        mech.geometry, distal_link_angles=tuple(a + 1e-12 for a in mech.geometry.distal_link_angles)))
+    assert model_gap(off) > 9e-13 and "distal link angles" in Complete.accepts(off)
+    assert spherekin.compile(off).system == "platform"
 
 
 def test_entries_are_built_when_read_once_for_the_whole_chunk(monkeypatch):

@@ -39,6 +39,7 @@ search, which reports it by the float rule).
 from __future__ import annotations
 
 import functools
+import math
 import time
 
 import numpy as np
@@ -54,7 +55,7 @@ from .base import SYSTEMS, Compiled, Passed, Proven, System
 from .platform import (QUADRATIC_TENSOR as _T, CHARTS, PlatformSystem, leg_terms, not_applicable, passive_names, passive_reading_enclosures,
                        passive_readings_many, platform_legs)
 
-__all__ = ["MODEL_TOLERANCE", "FORMULATION", "interval_leg_parts", "circle_candidates", "quaternions_of_rotations",
+__all__ = ["MODEL_TOLERANCE", "FORMULATION", "interval_leg_parts", "model_gap", "circle_candidates", "quaternions_of_rotations",
            "RealRoots", "CompiledComplete", "Complete"]
 
 #: The formulation name that selects this system (``formulation="complete"``).
@@ -103,6 +104,18 @@ def interval_leg_parts(legs) -> np.ndarray:
         parts = [iv.add(form(e[p], b[2], c[p]), form(e[2], b[p], nil)) for p in (0, 1)] + [form(e[2], b[2], c[2])]
         out[:, li] = np.stack(parts, axis=1)
     return out
+
+
+def model_gap(mechanism) -> float:
+    """For a 3-RRR written as its description (kind "3-RRR"): the largest |a2 . a3 - cos(alpha2)| over
+    the legs, how far the model's distal link angles (its joint axes at the reference pose) are from
+    the description's (cosines); 0 for a mechanism whose axes are given directly (they are its own)."""
+    geometry = getattr(mechanism, "geometry", None)
+    alpha2 = getattr(geometry, "distal_link_angles", None)
+    if alpha2 is None:
+        return 0.0
+    return max(abs(float(np.dot(leg.joints[1].axis, leg.joints[2].axis)) - math.cos(a))
+               for leg, a in zip(mechanism.legs, alpha2))
 
 
 def _perpendiculars(v) -> np.ndarray:
@@ -454,6 +467,10 @@ class Complete(System):
         if driven:
             return (f"the complete count reads the passive joints by interval formulas written for base-actuated "
                     f"legs, got {', '.join(driven)} actuated")
+        gap = model_gap(mechanism)
+        if gap > MODEL_TOLERANCE / 16:
+            return (f"the model's distal link angles are {gap:.1e} from the description's (cosines), beyond what the "
+                    f"complete count's model tolerance ({MODEL_TOLERANCE:g}) covers with room")
         if strategy is None:
             return None
         if strategy.formulation not in ("auto", FORMULATION):
