@@ -68,6 +68,8 @@ from spherekin.problem import DEFAULT_CHUNK as LIBRARY_CHUNK  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 #: The last commit before issue 30: its solve is the per-input loop the engine replaces.
 BASELINE = "b4386ee"
+#: ``--baseline none``: no baseline tree (the columns of the engine, the box engine and the floor only).
+NO_BASELINE = "none"
 #: Throughput targets (engine / baseline, per core) of issue 30, by the system the engine runs.
 TARGETS = {"platform": 10.0, "loops": 5.0}
 #: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2.5 min in all on
@@ -270,7 +272,7 @@ def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -
     out = []
     with tempfile.TemporaryDirectory(prefix="spherekin-engine-") as tmp:
         tmp = Path(tmp)
-        base = Baseline(export_tree(baseline_rev, tmp / "baseline"), tmp)
+        base = Baseline(export_tree(baseline_rev, tmp / "baseline"), tmp) if baseline_rev != NO_BASELINE else None
         try:
             for index, case in enumerate(cases(tmp)):
                 if only is not None and case.label not in only:
@@ -292,7 +294,7 @@ def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -
                             t, c = engine_run(problem, rows, chunk, systems if rep == 0 else None)
                         elif name == "boxes" and boxes is not None:
                             t, c = engine_run(boxes, rows, chunk)
-                        elif name == "baseline":
+                        elif name == "baseline" and base is not None:
                             t, c = base.solve(case.file, npy)
                         elif name == "floor" and has_floor:
                             t, c = floor_run(mech, rows)
@@ -305,12 +307,12 @@ def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -
                             raise SystemExit(f"{case.label}: {name} gave other solution counts on a repeat")
                 rate = {k: n_inputs / statistics.median(v) for k, v in times.items() if v}
                 target = TARGETS.get(problem.system, TARGETS["loops"])
-                n_bad, listed = mismatches(rows, counts["engine"], counts["baseline"])
+                n_bad, listed = mismatches(rows, counts["engine"], counts["baseline"]) if base else (0, [])
                 first = sum(name == problem.system for name in systems) / n_inputs
                 row = dict(mechanism=case.label, system=problem.system, strategy=problem.strategy_keywords(),
                            inputs=n_inputs, chunk=chunk, mean_solutions=float(np.mean(counts["engine"])),
-                           engine_per_s=rate["engine"], baseline_per_s=rate["baseline"],
-                           ratio=rate["engine"] / rate["baseline"], target=target,
+                           engine_per_s=rate["engine"], baseline_per_s=rate.get("baseline"),
+                           ratio=rate["engine"] / rate["baseline"] if base else None, target=target,
                            answered_by_first_system=first, answered_by=dict(collections.Counter(systems)),
                            count_mismatches=n_bad, mismatched_inputs=listed,
                            boxes_per_s=rate.get("boxes"), engine_over_boxes=None, boxes_mismatches=None,
@@ -328,16 +330,19 @@ def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -
                 ok = n_bad == 0 and not row["boxes_mismatches"]
                 if problem.system == "complete":       # issue 44: at or above the degree-8 floor
                     row["verdict"] = "PASS" if ok and row["engine_over_floor"] >= 1.0 else "FAIL"
+                elif base is None:
+                    row["verdict"] = "-"                  # no baseline run: its target is not judged
                 else:
                     row["verdict"] = "PASS" if row["ratio"] >= target and ok else "FAIL"
                 out.append(row)
                 print(f"{case.label}: engine {rate['engine']:.1f}/s"
                       + (f", box engine {rate['boxes']:.1f}/s" if boxes is not None else "")
-                      + f", baseline {rate['baseline']:.1f}/s"
+                      + (f", baseline {rate['baseline']:.1f}/s" if base else "")
                       + (f", floor {rate['floor']:.0f}/s, eigvals {rate['eigvals']:.0f}/s" if has_floor else ""),
                       flush=True)
         finally:
-            base.close()
+            if base is not None:
+                base.close()
     return out
 
 
@@ -354,9 +359,9 @@ def print_table(rows, baseline_rev: str) -> None:
                  f"{r['engine_over_eigvals']:7.4f}" if r["floor_per_s"] else f"{'-':>8s} {'-':>7s} {'-':>7s} {'-':>7s}")
         bad = r["count_mismatches"] + (r.get("boxes_mismatches") or 0)
         agree = "agree" if bad == 0 else f"{bad} differ"
+        base = (f"{r['baseline_per_s']:8.1f} {r['ratio']:6.2f}" if r["baseline_per_s"] else f"{'-':>8s} {'-':>6s}")
         print(f"{r['mechanism']:21s} {r['system']:8s} {r['answered_by_first_system']:5.0%} {r['mean_solutions']:5.2f} "
-              f"{r['engine_per_s']:9.1f} {boxes} {r['baseline_per_s']:8.1f} {r['ratio']:6.2f} {floor} {agree:>9s}  "
-              f"{r['verdict']}")
+              f"{r['engine_per_s']:9.1f} {boxes} {base} {floor} {agree:>9s}  {r['verdict']}")
     print(f"certified solves per second per core (medians), read as callers read them (proven_count, count_exact); "
           f"first: the share of inputs the chosen system answered itself (the rest fell back); boxes: the box "
           f"engine (the next system of the chain: the platform search) in this tree; base: a loop of solve at "
@@ -381,7 +386,8 @@ def main(argv=None) -> int:
     parser.add_argument("--inputs", type=int, default=DEFAULT_INPUTS, help="seeded inputs per mechanism")
     parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, help="timed runs; medians are shown")
     parser.add_argument("--chunk", type=int, default=DEFAULT_CHUNK, help="rows per solve_many call")
-    parser.add_argument("--baseline", default=BASELINE, help="git revision of the baseline (default %(default)s)")
+    parser.add_argument("--baseline", default=BASELINE, help=f"git revision of the baseline (default %(default)s; "
+                        f"{NO_BASELINE!r}: no baseline column)")
     parser.add_argument("--only", nargs="+", metavar="LABEL", help="these mechanisms only (labels of the table)")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "engine.json")
     args = parser.parse_args(argv)

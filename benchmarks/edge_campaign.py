@@ -419,6 +419,7 @@ def run_case(design: Design, edge_index: int, distance: float) -> dict:
                    seconds=time.perf_counter() - t0, kinds={})
         return row
     row["seconds"] = time.perf_counter() - t0
+    row["system"] = report.settings.system           # which system of the chain answered (issue 44)
     row.update(judge(design.mech, ref, report, inputs))
     return row
 
@@ -439,10 +440,19 @@ def _fmt_kinds(rows) -> str:
     return ", ".join(f"{k} {v}" for k, v in sorted(total.items())) or "-"
 
 
+def _fmt_systems(rows) -> str:
+    """How many of the inputs each system of the chain answered (the complete count, the platform
+    search, the loop equations), in the registry's order."""
+    from spherekin.systems import SYSTEMS
+
+    got = [r.get("system") for r in rows if r.get("system")]
+    return ", ".join(f"{name} {got.count(name)}" for name in SYSTEMS if got.count(name)) or "-"
+
+
 def table(rows) -> tuple[list, list]:
     """(headers, lines) of the summary per (family, distance), then per distance over all families."""
     headers = ["family", "distance", "inputs", "exact & right", "flagged", "wrong", "wrong kinds (inputs)",
-               "undecided", "errors", "median s", "max s"]
+               "undecided", "errors", "answered by", "median s", "max s"]
     fams = list(dict.fromkeys(r["family"] for r in rows))
     dists = sorted({abs(r["distance"]) for r in rows}, reverse=True)
 
@@ -452,7 +462,8 @@ def table(rows) -> tuple[list, list]:
                 sum(r["verdict"] == "exact_right" for r in group), sum(r["verdict"] == "flagged" for r in group),
                 sum(r["verdict"] == "wrong" for r in group), _fmt_kinds(r for r in group if r["verdict"] == "wrong"),
                 sum(r["verdict"] == "undecided" for r in group), sum(r["verdict"] == "error" for r in group),
-                f"{statistics.median(secs):.2f}" if secs else "-", f"{max(secs):.2f}" if secs else "-"]
+                _fmt_systems(group), f"{statistics.median(secs):.2f}" if secs else "-",
+                f"{max(secs):.2f}" if secs else "-"]
 
     lines = []
     for f in fams:
@@ -474,7 +485,7 @@ def render_table(headers, lines) -> str:
     except ImportError:
         cols = list(zip(*([headers] + [[str(c) for c in ln] for ln in lines])))
         widths = [max(len(str(c)) for c in col) for col in cols]
-        fmt = lambda row: "  ".join(str(c).ljust(w) if k in (0, 6) else str(c).rjust(w)   # noqa: E731
+        fmt = lambda row: "  ".join(str(c).ljust(w) if k in (0, 6, 9) else str(c).rjust(w)   # noqa: E731
                                     for k, (c, w) in enumerate(zip(row, widths)))
         return "\n".join([fmt(headers), "  ".join("-" * w for w in widths)] + [fmt(ln) for ln in lines])
 
