@@ -140,3 +140,15 @@ def test_bench_crossover_help_and_line_crossing(capsys):
     cross = bench_crossover.crossover(sizes, here, cluster)
     assert cross["first_size_where_cluster_wins"] == 300
     assert cross["fit"]["crossover_n"] == pytest.approx(3.0 / 0.015)
+
+
+def test_bench_engine_without_baseline_and_with_an_agreement_run(tmp_path):
+    out = tmp_path / "engine.json"
+    assert bench_engine.main(["--inputs", "2", "--repeats", "1", "--baseline", "none", "--agree", "3", "--only",
+                              "gosselin", "four-bar", "--out", str(out)]) == 0
+    data = json.loads(out.read_text())
+    rows = {r["mechanism"]: r for r in data["rows"]}
+    assert rows["gosselin"]["baseline_per_s"] is None and rows["gosselin"]["ratio"] is None
+    assert rows["four-bar"]["verdict"] == "-"
+    (agreed,) = data["agreement"]                   # the complete count's mechanisms only
+    assert agreed["mechanism"] == "gosselin" and agreed["inputs"] == 3 and agreed["count_mismatches"] == 0
