@@ -58,10 +58,23 @@ def _mode_change_facts(report: dict) -> dict:
             "system": report.get("system"), "tol": report.get("tol")}
 
 
+def _engine_facts(report: dict) -> dict:
+    """The certified throughput of ``bench_engine`` (issue 44) the README quotes: per mechanism the
+    engine's, the box engine's and the floor's solves per second, the share the chosen system
+    answered, and the strategy (read back from the compiled problem)."""
+    return {"engine": {r["mechanism"]: {"system": r["system"], "engine_per_s": r["engine_per_s"],
+                                        "boxes_per_s": r["boxes_per_s"], "floor_per_s": r["floor_per_s"],
+                                        "engine_over_floor": r["engine_over_floor"],
+                                        "engine_over_boxes": r["engine_over_boxes"],
+                                        "answered_by_first_system": r["answered_by_first_system"],
+                                        "strategy": r["strategy"], "inputs": r["inputs"], "repeats": report["repeats"]}
+                       for r in report["rows"]}}
+
+
 @dataclass(frozen=True)
 class Run:
-    """One documented command: ``argv`` after ``spherekin`` (``{json}``: where its report goes), and
-    ``facts(report)``: what the pages quote from its JSON."""
+    """One documented command: ``argv`` after ``program`` (default ``spherekin``; ``{json}``: where its
+    report goes), and ``facts(report)``: what the pages quote from its JSON."""
 
     id: str
     argv: tuple[str, ...]
@@ -70,6 +83,11 @@ class Run:
     #: Timed without ``--json`` (as the page shows it), the facts read from one more, untimed run.
     #: For a command of a fraction of a second, where writing the report is part of the time.
     json_apart: bool = False
+    #: The program the command runs (a benchmark's module for a throughput: its rates are the facts,
+    #: measured inside it; the process's own time is then of no interest, but recorded).
+    program: tuple[str, ...] = ("spherekin",)
+    #: Processes of the command (None: --repeats); a benchmark repeats inside itself.
+    processes: int | None = None
 
 
 RUNS = (
@@ -86,6 +104,9 @@ RUNS = (
     Run("mode-change", ("singular", "examples/general_3rrr.toml", "--x", "beta1=1.5:1.7", "--y", "beta2=0:0.2", "--fix",
                         "beta3=0.5", "--tol", "0.1", "--mode-change", "--json", "{json}"),
         _mode_change_facts, "docs/howto/maps-singularities.md"),
+    Run("engine-throughput", ("--inputs", "1024", "--repeats", "3", "--baseline", "none", "--only", "general_3rrr",
+                              "gosselin", "--out", "{json}"),
+        _engine_facts, "README.md", program=("python", "-m", "benchmarks.bench_engine"), processes=1),
 )
 
 
@@ -106,7 +127,8 @@ def machine() -> dict:
 def run_once(run: Run, workdir: Path, report: bool = True) -> tuple[float, float, dict | None]:
     """(wall seconds, CPU seconds, facts: None without ``report``) of one process of ``run``."""
     path = workdir / f"{run.id}.json"
-    argv = [*SPHEREKIN, *(a.replace("{json}", str(path)) for a in run.argv)]
+    program = SPHEREKIN if run.program == ("spherekin",) else [sys.executable, *run.program[1:]]
+    argv = [*program, *(a.replace("{json}", str(path)) for a in run.argv)]
     if not report:
         argv = [a for k, a in enumerate(argv) if a != "--json" and (k == 0 or argv[k - 1] != "--json")]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -123,6 +145,7 @@ def run_once(run: Run, workdir: Path, report: bool = True) -> tuple[float, float
 def measure(run: Run, repeats: int, workdir: Path) -> dict:
     """The medians of ``repeats`` processes of ``run``; its counts must be the same in every run."""
     walls, cpus, solves, facts = [], [], [], None
+    repeats = run.processes or repeats
     for k in range(repeats + run.json_apart):
         timed = not run.json_apart or k > 0
         wall, cpu, got = run_once(run, workdir, report=not (run.json_apart and timed))
@@ -136,8 +159,8 @@ def measure(run: Run, repeats: int, workdir: Path) -> dict:
         if facts is not None and got != facts:
             raise SystemExit(f"{run.id}: the counts differ between runs ({facts} then {got})")
         facts = got
-    shown = [a for a in run.argv if a not in ("--json", "{json}")]
-    return {"command": "spherekin " + " ".join(shown), "quoted_in": run.where, "repeats": repeats,
+    shown = [a for k, a in enumerate(run.argv) if a not in ("--json", "--out", "{json}")]
+    return {"command": " ".join(run.program) + " " + " ".join(shown), "quoted_in": run.where, "repeats": repeats,
             "wall_median_s": statistics.median(walls), "cpu_median_s": statistics.median(cpus),
             "wall_s": walls, "cpu_s": cpus, **({"solve_median_s": statistics.median(solves)} if solves else {}),
             **facts}
@@ -158,7 +181,8 @@ def main(argv=None) -> int:
         for run in runs:
             got = measure(run, args.repeats, Path(tmp))
             data["runs"][run.id] = got
-            counts = {k: got[k] for k in ("solutions", "boxes", "lps") if k in got} or got.get("mode_change")
+            counts = ({k: got[k] for k in ("solutions", "boxes", "lps") if k in got} or got.get("mode_change")
+                      or {m: round(e["engine_per_s"]) for m, e in got.get("engine", {}).items()})
             print(f"{run.id:<22} {got['wall_median_s']:>12.2f} s {got['cpu_median_s']:>11.2f} s  {counts}", flush=True)
     data["machine"] = machine()
     data["generated_by"] = "python -m benchmarks.doc_numbers"

@@ -29,6 +29,16 @@ def count(value: int) -> str:
     return f"{value:,}"
 
 
+def rate(value: float) -> str:
+    """A rate as the pages write it: two significant digits, thousands separated (5249.9 -> "5,200")."""
+    return f"{float(f'{value:.2g}'):,.0f}"
+
+
+def ratio(value: float) -> str:
+    """A ratio with two significant digits (1.239 -> "1.2", 12.15 -> "12")."""
+    return f"{float(f'{value:.2g}'):g}"
+
+
 #: (page, pattern with named groups, {group: (run id, key path, formatter)}). The pattern is searched
 #: with whitespace runs matching any whitespace (a quote may wrap).
 QUOTES = [
@@ -45,6 +55,13 @@ QUOTES = [
      {"cpu": ("paper-chart-clarabel", "cpu_median_s", seconds), "boxes": ("paper-chart-clarabel", "boxes", count),
       "lps": ("paper-chart-clarabel", "lps", count), "boxes_h": ("paper-chart-highspy", "boxes", count),
       "lps_h": ("paper-chart-highspy", "lps", count)}),
+    ("README.md", r"about (?P<g>[\d,]+) certified solves per second for general_3rrr \((?P<gf>[\d.]+) times the "
+     r"uncertified degree-8 eigen solve, (?P<gb>[\d.]+) times the box search it falls back to next to singularities\) "
+     r"and (?P<e>[\d,]+) per second for the agile eye",
+     {"g": ("engine-throughput", "engine.general_3rrr.engine_per_s", rate),
+      "gf": ("engine-throughput", "engine.general_3rrr.engine_over_floor", ratio),
+      "gb": ("engine-throughput", "engine.general_3rrr.engine_over_boxes", ratio),
+      "e": ("engine-throughput", "engine.gosselin.engine_per_s", rate)}),
     ("docs/howto/maps-singularities.md", r"solution (?P<a>\d+) comes back as solution (?P<b>\d+) after (?P<steps>\d+) "
      r"proven steps, without crossing a singularity \((?P<cpu>[\d.]+) s of CPU time in all",
      {"a": ("mode-change", "mode_change.start_solution", str), "b": ("mode-change", "mode_change.end_solution", str),
@@ -83,6 +100,10 @@ def test_the_file_says_what_ran_and_where(numbers):
         assert got["strategy"]["tol"] and got["strategy"]["system"], run
     assert numbers["runs"]["paper-chart-clarabel"]["strategy"]["lp_backend"] == "clarabel"
     assert numbers["runs"]["paper-chart-highspy"]["strategy"]["formulation"] == "paper"
+    engine = numbers["runs"]["engine-throughput"]["engine"]
+    for mech in ("general_3rrr", "gosselin"):                  # the throughput quoted: the complete count's
+        assert engine[mech]["system"] == "complete" and engine[mech]["strategy"]["formulation"] == "complete"
+        assert engine[mech]["inputs"] == 1024 and engine[mech]["repeats"] == 3
 
 
 def test_seconds_are_shown_with_two_significant_digits():
