@@ -104,7 +104,7 @@ RUNS = (
     Run("mode-change", ("singular", "examples/general_3rrr.toml", "--x", "beta1=1.5:1.7", "--y", "beta2=0:0.2", "--fix",
                         "beta3=0.5", "--tol", "0.1", "--mode-change", "--json", "{json}"),
         _mode_change_facts, "docs/howto/maps-singularities.md"),
-    Run("engine-throughput", ("--inputs", "1024", "--repeats", "3", "--baseline", "none", "--only", "general_3rrr",
+    Run("engine-throughput", ("--inputs", "4096", "--repeats", "3", "--baseline", "none", "--only", "general_3rrr",
                               "gosselin", "--out", "{json}"),
         _engine_facts, "README.md", program=("python", "-m", "benchmarks.bench_engine"), processes=1),
 )

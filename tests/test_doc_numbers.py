@@ -103,7 +103,7 @@ def test_the_file_says_what_ran_and_where(numbers):
     engine = numbers["runs"]["engine-throughput"]["engine"]
     for mech in ("general_3rrr", "gosselin"):                  # the throughput quoted: the complete count's
         assert engine[mech]["system"] == "complete" and engine[mech]["strategy"]["formulation"] == "complete"
-        assert engine[mech]["inputs"] == 1024 and engine[mech]["repeats"] == 3
+        assert engine[mech]["inputs"] == 4096 and engine[mech]["repeats"] == 3
 
 
 def test_seconds_are_shown_with_two_significant_digits():

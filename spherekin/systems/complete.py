@@ -178,7 +178,13 @@ def circle_candidates(e, b, c) -> np.ndarray:
         comp[:, 4:, :4] = -np.linalg.solve(lead, sylvester[:, 0])
         comp[:, 4:, 4:] = -np.linalg.solve(lead, sylvester[:, 1])
         comp[~ok] = np.eye(8)
-        t1 = np.linalg.eigvals(comp)                                           # (K, 8)
+        # real pencils (every |c| <= 1: the usual case) by the real eigensolver, about twice as fast
+        real = np.all(comp.imag == 0.0, axis=(1, 2))
+        t1 = np.empty((kk, 8), dtype=complex)
+        if real.any():
+            t1[real] = np.linalg.eigvals(comp[real].real)
+        if (~real).any():
+            t1[~real] = np.linalg.eigvals(comp[~real])                          # (K, 8)
         t2 = _partners(f, g, t1)
 
         def on_conic(coef, t):
