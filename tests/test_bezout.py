@@ -176,3 +176,18 @@ def test_wide_matrices_prove_nothing_and_a_bad_arithmetic_is_refused():
     assert not proof.certified.any() and not proof.complete.any()
     with pytest.raises(ValueError, match=r"arithmetic: expected one of \['fast', 'intervals'\], got 'arb'"):
         bezout.certify_roots(interval(a), cands, "arb")
+
+
+def test_a_point_on_its_chart_has_its_component_exactly_one():
+    """x / x in complex floats is not always 1 (a fifth of random points here): the chart, the realness
+    argument (a real chart) and the distinctness test take the component as exact."""
+    rng = np.random.default_rng(9)
+    q = rng.normal(size=(2000, 4)) + 1j * rng.normal(size=(2000, 4))
+    chart = bezout.charts_of(q)
+    assert np.any(np.take_along_axis(q / np.take_along_axis(q, chart[:, None], 1), chart[:, None], 1) != 1)
+    on = bezout.on_chart(q, chart)
+    assert np.all(np.take_along_axis(on, chart[:, None], 1) == 1)
+    g, x, ref = case(63)
+    proof = bezout.certify_roots(interval([leg_quadrics(g, x)]), np.array([[on_its_chart(r) for r in ref.roots]]))
+    assert np.all(np.take_along_axis(proof.roots[0], proof.chart[0][:, None], 1) == 1)
+    assert proof.complete[0]

@@ -114,10 +114,14 @@ def charts_of(q) -> np.ndarray:
 
 
 def on_chart(q, chart) -> np.ndarray:
-    """The points q (..., 4) scaled so that component ``chart`` (...) is 1 (complex)."""
+    """The points q (..., 4) scaled so that component ``chart`` (...) is 1 (complex; exactly 1 + 0i: a
+    complex division x / x need not round to 1, and the chart, the realness argument and the
+    distinctness test all take it as exact)."""
     q = np.asarray(q, dtype=complex)
-    lead = np.take_along_axis(q, np.asarray(chart)[..., None], axis=-1)
-    return q / lead
+    index = np.asarray(chart)[..., None]
+    out = q / np.take_along_axis(q, index, axis=-1)
+    np.put_along_axis(out, index, 1.0 + 0.0j, axis=-1)
+    return out
 
 
 def _free(x, chart):
