@@ -40,13 +40,15 @@ def test_solve_prints_table_and_writes_json(tmp_path, capsys):
 
 
 def test_loop_formulation_fallback_is_reported(capsys):
-    # 3e-9 from a parallel singularity of general_3rrr (tests/test_trust_edge.py, repro 1): the
-    # platform search cannot isolate the two nearby roots and the loop equations answer
+    # 3e-9 from a parallel singularity of general_3rrr (tests/test_trust_edge.py, repro 1): the complete
+    # count cannot prove all 8 roots, the platform search cannot isolate the two nearby roots, and the
+    # loop equations answer; the note gives both reasons, in the chain's order
     path = str(Path(GOSSELIN).parent / "general_3rrr.toml")
     assert main(["solve", path, "--inputs=0.18613171226800826,-0.15119930525771785,0.6382686351031328"]) == 0
     text = capsys.readouterr().out
     assert "8 solutions (count proven" in text
-    assert "tan-half, formulation halves" in text and "note: the platform search left" in text
+    assert "tan-half, formulation halves" in text and "note: the complete count proved" in text
+    assert "; then the platform search left" in text
 
 
 def test_strategy_options_reach_the_solver(tmp_path, capsys):

@@ -147,8 +147,8 @@ def check_singular(proc, code, tmp_path):
 
 def check_strategies(proc, code, tmp_path):
     """Each strategy of the block finds the reference's number of assemblies at (0.3, -0.2, 0.5), by
-    the system, parameterization and pruner it asked for; `auto` formulation is the platform one on
-    the platform system and `halves` on the loop equations (the documented rule)."""
+    the system, parameterization and pruner it asked for; `auto` is the complete count (no box searched)
+    for this 3-RRR, and its formulation `halves` on the loop equations (the documented rule)."""
     strategies = ast.literal_eval(re.search(r"for strategy in (\(.*?\)):", code, re.S)[1])
     lines = proc.stdout.strip().splitlines()
     assert len(lines) == len(strategies) == 4, proc.stdout
@@ -156,9 +156,9 @@ def check_strategies(proc, code, tmp_path):
     assert clear.all()
     for strategy, line in zip(strategies, lines):
         count, system, formulation, parameterization, pruner, boxes = line.split()
-        assert int(count) == counts[0] and int(boxes) > 0
-        assert system == strategy.get("system", "platform")
-        assert formulation == {"platform": "platform", "loops": "halves"}[system]
+        assert system == strategy.get("system", "complete")
+        assert int(count) == counts[0] and (int(boxes) == 0 if system == "complete" else int(boxes) > 0)
+        assert formulation == {"complete": "complete", "platform": "platform", "loops": "halves"}[system]
         if system == "loops":
             assert parameterization == strategy.get("parameterization", "tan-half")
         assert pruner == strategy.get("pruner", "pp")
