@@ -30,6 +30,7 @@ import math
 
 import numpy as np
 
+from .angles import wrap
 from .trig_enclosure import cos_sin_enclosure, cos_sin_enclosure_many
 
 __all__ = [
@@ -59,6 +60,10 @@ __all__ = [
     "scale_unchecked",
     "isum_unchecked",
     "cos_sin_table_unchecked",
+    "ARC_PAD",
+    "cross_float",
+    "rotate_about",
+    "arc",
 ]
 
 #: Entries kept by the cache of :func:`point_cos_sin`. Reason: the constant angles of a
@@ -371,6 +376,45 @@ def cos_sin(a, center=None) -> tuple[np.ndarray, np.ndarray]:
             raise ValueError("center: expected points inside the intervals (lo <= center <= hi)")
     radius = np.maximum(np.nextafter(center - a[0], _INF), np.nextafter(a[1] - center, _INF))
     return cos_sin_ball(center, radius)
+
+
+# --------------------------------------------------------------------------------------------
+# Rotations and angles of interval vectors (the joint readings' enclosures)
+# --------------------------------------------------------------------------------------------
+
+#: Width (radians) added to each side of an enclosed angle (:func:`arc`): the arc's ends are atan2 of
+#: outward-rounded corners, each rounded (~1e-16); 1e-12 covers that with room and is far below the
+#: joint ranges' tolerance (RANGE_TOL, 1e-10), so an angle proven inside is inside.
+ARC_PAD = 1e-12
+
+
+def cross_float(a, v) -> np.ndarray:
+    """a x v for a float vector a (3,) and interval vectors v (2, ..., 3), outward-rounded."""
+    a = np.asarray(a, dtype=float)
+    comps = [sub(scale(a[j], v[..., k]), scale(a[k], v[..., j])) for j, k in ((1, 2), (2, 0), (0, 1))]
+    return np.stack(comps, axis=-1)
+
+
+def rotate_about(axis, c, s, v) -> np.ndarray:
+    """Rot(axis, theta) v (Rodrigues) for a float unit ``axis`` (3,), intervals c, s (2, N) of cos and
+    sin theta and interval vectors v (2, N, 3)."""
+    axis = np.asarray(axis, dtype=float)
+    along = isum(scale(axis, v), -1)                                        # axis . v (2, N)
+    one_minus = sub(point(np.ones(c.shape[1:])), c)
+    out = add(mul(c[..., None], v), mul(s[..., None], cross_float(axis, v)))
+    return add(out, scale(axis, mul(one_minus, along)[..., None]))
+
+
+def arc(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (N,) enclosing atan2(Y, X) over the boxes X x Y (intervals (2, N)), padded by
+    :data:`ARC_PAD`; NaN where a box holds the origin (every angle). The extremes of the angle over a
+    box that misses the origin are at its corners."""
+    corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
+    mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
+    off = wrap(corners - mid)                                               # each corner next to the middle
+    lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
+    origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
+    return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
 
 
 # --------------------------------------------------------------------------------------------

@@ -67,7 +67,7 @@ from .base import SYSTEMS, Compiled, Found, Passed, System
 __all__ = ["QUADRATIC_TENSOR", "CHARTS", "CHART_EXTENT", "CHART_CORE", "CORE_ROUNDING", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem", "leg_matrices",
            "platform_legs", "not_applicable", "quaternion_matrix", "form_matrix", "chart_control_points", "chart_rotations",
-           "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_reading_enclosures", "ARC_PAD", "passive_names",
+           "chart_quaternion", "chart_rotation", "passive_readings", "passive_readings_many", "passive_reading_enclosures", "passive_names",
            "Quaternion", "MAX_ASSEMBLIES", "Platform", "CompiledPlatform", "POSE_MATCH", "DUPLICATE_POSE",
            "first_of_duplicates", "disagreement", "disagreements"]
 
@@ -395,36 +395,6 @@ def passive_readings_many(legs, inputs, rotations, platform_reference) -> np.nda
     return np.stack(cols, axis=1).reshape(n, -1)
 
 
-#: Width (radians) added to each side of an enclosed joint angle (:func:`passive_reading_enclosures`):
-#: the arc's ends are atan2 of outward-rounded corners, each rounded (~1e-16); 1e-12 covers that
-#: with room and is far below RANGE_TOL, so an angle proven inside is inside.
-ARC_PAD = 1e-12
-
-
-def _cross_float(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """a x v for a float vector a (3,) and interval vectors v (2, ..., 3), outward-rounded."""
-    comps = [iv.sub(iv.scale(a[j], v[..., k]), iv.scale(a[k], v[..., j])) for j, k in ((1, 2), (2, 0), (0, 1))]
-    return np.stack(comps, axis=-1)
-
-
-def _rotate(axis: np.ndarray, c, s, v) -> np.ndarray:
-    """Rot(axis, theta) v (Rodrigues) for intervals c, s (2, N) of cos and sin theta and v (2, N, 3)."""
-    along = iv.isum(iv.scale(axis, v), -1)                                  # axis . v (2, N)
-    one_minus = iv.sub(iv.point(np.ones(c.shape[1:])), c)
-    out = iv.add(iv.mul(c[..., None], v), iv.mul(s[..., None], _cross_float(axis, v)))
-    return iv.add(out, iv.scale(axis, iv.mul(one_minus, along)[..., None]))
-
-
-def _arc(x, y) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) (N,) enclosing atan2(Y, X) over the boxes X x Y (intervals (2, N)); NaN where a box
-    holds the origin (every angle)."""
-    corners = np.arctan2(np.stack([y[0], y[0], y[1], y[1]]), np.stack([x[0], x[1], x[0], x[1]]))
-    mid = np.arctan2(0.5 * (y[0] + y[1]), 0.5 * (x[0] + x[1]))
-    off = wrap(corners - mid)                                               # each corner next to the middle
-    lo, hi = mid + off.min(axis=0) - ARC_PAD, mid + off.max(axis=0) + ARC_PAD
-    origin = (x[0] <= 0) & (x[1] >= 0) & (y[0] <= 0) & (y[1] >= 0)
-    return np.where(origin, np.nan, lo), np.where(origin, np.nan, hi)
-
 def passive_reading_enclosures(legs, beta, d, platform_joints=None) -> tuple[np.ndarray, np.ndarray]:
     """(lo, hi) (N, 2 x legs; radians, the columns of :func:`passive_names`): arcs enclosing each
     passive joint's reading over every displacement D in the intervals ``d`` (2, N, 3, 3) and every
@@ -440,9 +410,9 @@ def passive_reading_enclosures(legs, beta, d, platform_joints=None) -> tuple[np.
     lo, hi = np.full((n, 2 * len(legs)), np.nan), np.full((n, 2 * len(legs)), np.nan)
     for i, leg in enumerate(legs):
         c1, s1 = iv.cos_sin(iv.sub(beta[..., i], iv.point(leg.reference[0])))
-        m3 = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(leg.a3, d), -1))          # Rot(a1, -d1) D a3
+        m3 = iv.rotate_about(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(leg.a3, d), -1))          # Rot(a1, -d1) D a3
         xp = leg.a3 - (leg.a3 @ leg.a2) * leg.a2
-        d2_lo, d2_hi = _arc(iv.isum(iv.scale(xp, m3), -1), iv.isum(iv.scale(np.cross(leg.a2, xp), m3), -1))
+        d2_lo, d2_hi = iv.arc(iv.isum(iv.scale(xp, m3), -1), iv.isum(iv.scale(np.cross(leg.a2, xp), m3), -1))
         lo[:, 2 * i], hi[:, 2 * i] = leg.reference[1] + d2_lo, leg.reference[1] + d2_hi
         if platform_joints is not None and not platform_joints[i]:
             continue
@@ -450,10 +420,10 @@ def passive_reading_enclosures(legs, beta, d, platform_joints=None) -> tuple[np.
         if not known.any():
             continue
         p = perpendicular(leg.a3)
-        mp = _rotate(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(p, d), -1))              # Rot(a1, -d1) D p
+        mp = iv.rotate_about(leg.a1, c1, iv.neg(s1), iv.isum(iv.scale(p, d), -1))              # Rot(a1, -d1) D p
         c2, s2 = iv.cos_sin(iv.from_bounds(np.where(known, d2_lo, 0.0), np.where(known, d2_hi, 0.0)))
-        n_p = _rotate(leg.a2, c2, iv.neg(s2), mp)                                     # Rot(a2, -d2) M p
-        d3_lo, d3_hi = _arc(iv.isum(iv.scale(p, n_p), -1), iv.isum(iv.scale(np.cross(leg.a3, p), n_p), -1))
+        n_p = iv.rotate_about(leg.a2, c2, iv.neg(s2), mp)                                     # Rot(a2, -d2) M p
+        d3_lo, d3_hi = iv.arc(iv.isum(iv.scale(p, n_p), -1), iv.isum(iv.scale(np.cross(leg.a3, p), n_p), -1))
         lo[:, 2 * i + 1] = np.where(known, leg.reference[2] + d3_lo, np.nan)
         hi[:, 2 * i + 1] = np.where(known, leg.reference[2] + d3_hi, np.nan)
     return lo, hi
