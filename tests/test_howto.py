@@ -185,7 +185,7 @@ def check_registries(proc, code, tmp_path):
     rows = {m[1]: m[2] for m in re.finditer(r"^\| `(--[\w-]+)[^`]*` \|(.*)$", page_text("docs/howto/strategy.md"), re.M)}
     for family, names in printed.items():
         option = FAMILY_OPTION[family]
-        own = {"platform", "complete"} if family == "formulation" else set()     # the systems' own formulations
+        own = {"platform", "complete", "complete-loop"} if family == "formulation" else set()   # the systems' own
         assert set(names) == choices[option] - {"auto"} - own
         assert all(f"`{name}`" in rows[option] for name in names), (option, names)
 

@@ -7,6 +7,7 @@ of references/reference_roots.py for the solutions.
 """
 
 import math
+from pathlib import Path
 from fractions import Fraction
 
 import dataclasses
@@ -18,7 +19,7 @@ import sympy as sp
 from references.reference_roots import reference_roots
 from references.random_designs import random_3rrr, random_rotation
 from spherekin.problem import compile, solve
-from spherekin.mechanism import four_bar, general_3rrr, gosselin
+from spherekin.mechanism import four_bar, general_3rrr, gosselin, load_mechanism
 from spherekin.search.boxloop import search_platform
 from spherekin.search.parameterizations import stack_chart_sets
 from spherekin.systems.platform import (CHART_CORE, CHART_EXTENT, PlatformSystem, Quaternion, chart_control_points, chart_quaternion,
@@ -258,11 +259,14 @@ def test_not_applicable_and_strategy_errors():
         compile(four_bar(), formulation="platform")
     with pytest.raises(ValueError, match="isolate"):
         compile(gosselin(), formulation="platform", isolate=False)
-    with pytest.raises(ValueError, match="expected one of .*'auto', 'complete', 'platform'"):
+    with pytest.raises(ValueError, match="expected one of .*'auto', 'complete', 'complete-loop', 'platform'"):
         compile(gosselin(), formulation="quaternion")
-    # auto: the loop equations where the platform formulation does not apply, and why
-    assert compile(four_bar()).strategy.formulation == "halves"
-    assert dict(compile(four_bar()).declined)["platform"] == why
+    # auto: the loop equations where the platform formulation does not apply, and why (a four-bar written
+    # as a graph: as legs, the one-loop count takes it first)
+    graph = load_mechanism(Path(__file__).resolve().parent.parent / "examples" / "four_bar_graph.toml")
+    assert compile(graph).strategy.formulation == "halves"
+    assert "the platform formulation needs three legs" in dict(compile(graph).declined)["platform"]
+    assert compile(four_bar(), system="loops").strategy.formulation == "halves"
     p = compile(gosselin(), parameterization="sin-cos")
     assert p.strategy.formulation == "halves" and "sin-cos" in dict(p.declined)["platform"]
     assert "sin-cos" in dict(p.declined)["complete"]

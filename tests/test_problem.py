@@ -240,4 +240,4 @@ def test_a_system_of_ones_own_is_one_file_and_the_pipeline_runs_through_it(half_
 
     choices = next(a for a in build_parser()._subparsers._group_actions[0].choices["solve"]._actions
                    if a.dest == "system").choices
-    assert list(choices) == ["auto", "half-plane", "complete", "platform", "loops"]
+    assert list(choices) == ["auto", "half-plane", "complete", "complete-loop", "platform", "loops"]

@@ -56,7 +56,7 @@ def test_the_command_line_choices_are_the_registries():
     assert _choices(parser, "solve", "--parameterization") == list(PARAMETERIZATIONS)
     assert _choices(parser, "solve", "--pruner") == list(PRUNERS)
     assert _choices(parser, "solve", "--lp-backend") == list(LP_BACKENDS)
-    assert _choices(parser, "solve", "--formulation") == ["auto", "complete", "platform", *FORMULATIONS]
+    assert _choices(parser, "solve", "--formulation") == ["auto", "complete", "complete-loop", "platform", *FORMULATIONS]
 
 
 def test_a_registered_strategy_is_accepted_everywhere(registered, capsys):

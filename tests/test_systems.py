@@ -14,11 +14,12 @@ from scipy.spatial.transform import Rotation
 
 import spherekin
 from spherekin.cli import main
-from spherekin.mechanism import five_bar, four_bar, general_3rrr, gosselin
+from spherekin.mechanism import five_bar, four_bar, general_3rrr, gosselin, load_mechanism
 from spherekin.problem import compile
 from spherekin.results import Settings
 from spherekin.systems import SYSTEMS, Strategy, System, choose, system_choices
 from spherekin.systems.complete import Complete
+from spherekin.systems.one_loop import OneLoop
 from spherekin.systems.loops import Loops
 from spherekin.systems.platform import Platform, PlatformSystem, leg_constants, platform_legs
 from spherekin.trust.continuation import LegEquations
@@ -48,22 +49,24 @@ def elbow_actuated(mech):
 # ---------------------------------------------------------------- the registry
 
 def test_the_registry_lists_the_systems_fastest_first():
-    assert list(SYSTEMS) == ["complete", "platform", "loops"]
-    assert system_choices() == ("auto", "complete", "platform", "loops")
+    assert list(SYSTEMS) == ["complete", "complete-loop", "platform", "loops"]
+    assert system_choices() == ("auto", "complete", "complete-loop", "platform", "loops")
     assert all(issubclass(cls, System) and cls.description and "\n" not in cls.description
                for cls in SYSTEMS.values())
 
 
 def test_an_unknown_system_is_an_error_listing_the_valid_ones():
-    with pytest.raises(ValueError, match=r"^system: expected one of \['complete', 'platform', 'loops'\], got 'bogus'$"):
+    with pytest.raises(ValueError, match=r"^system: expected one of \['complete', 'complete-loop', 'platform', 'loops'\], "
+                                         r"got 'bogus'$"):
         SYSTEMS.lookup("bogus")
-    with pytest.raises(ValueError, match=r"^system: expected one of \['auto', 'complete', 'platform', 'loops'\], got 'bogus'$"):
+    with pytest.raises(ValueError, match=r"^system: expected one of \['auto', 'complete', 'complete-loop', 'platform', "
+                                         r"'loops'\], got 'bogus'$"):
         compile(gosselin(), system="bogus")
 
 
 def test_the_cli_rejects_an_unknown_system(capsys):
     assert main(["solve", str(EXAMPLES / "gosselin.toml"), "--inputs", "0.3,-0.2,0.5", "--system", "bogus"]) == 2
-    assert "--system: expected one of auto, complete, platform, loops, got 'bogus'" in capsys.readouterr().err
+    assert "--system: expected one of auto, complete, complete-loop, platform, loops, got 'bogus'" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------- accepts()
@@ -118,16 +121,27 @@ def test_auto_chooses_the_complete_count_for_a_base_actuated_3rrr(make):
                                   lambda: actuated_at(gosselin(), 2, name="platform-joint-actuated ")])
 def test_auto_chooses_the_platform_system_for_a_3rrr_driven_elsewhere(make):
     cls, declined = choose(make(), strategy())
-    assert cls is Platform and [name for name, _ in declined] == ["complete"]
+    assert cls is Platform and [name for name, _ in declined] == ["complete", "complete-loop"]
     assert "base-actuated" in declined[0][1]
     problem = compile(make())
     assert (problem.system, problem.strategy.formulation) == ("platform", "platform")
 
 
-@pytest.mark.parametrize("make", [four_bar, five_bar, lambda: actuated_at(general_3rrr(), 0, 1, name="redundant ")])
-def test_auto_chooses_the_loops_system_with_the_platforms_reason(make):
+@pytest.mark.parametrize("make", [four_bar, five_bar])
+def test_auto_chooses_the_one_loop_count_for_a_linkage_of_two_legs(make):
     cls, declined = choose(make(), strategy())
-    assert cls is Loops and declined == (("complete", Complete.accepts(make())), ("platform", Platform.accepts(make())))
+    assert cls is OneLoop and declined == (("complete", Complete.accepts(make())),)
+    problem = compile(make())
+    assert (problem.system, problem.strategy.formulation) == ("complete-loop", "complete-loop")
+    assert [c.system for c in problem.chain] == ["complete-loop", "loops"]
+
+
+@pytest.mark.parametrize("make", [lambda: actuated_at(general_3rrr(), 0, 1, name="redundant "),
+                                  lambda: load_mechanism(EXAMPLES / "four_bar_graph.toml")])
+def test_auto_chooses_the_loops_system_with_the_faster_ones_reasons(make):
+    cls, declined = choose(make(), strategy())
+    assert cls is Loops and declined == (("complete", Complete.accepts(make())), ("complete-loop", OneLoop.accepts(make())),
+                                         ("platform", Platform.accepts(make())))
     problem = compile(make())
     assert (problem.system, problem.strategy.formulation) == ("loops", "halves")
     assert problem.declined == declined
@@ -199,11 +213,15 @@ def test_the_tracker_reads_the_platform_systems_constants():
 # ---------------------------------------------------------------- Settings, JSON, text
 
 def test_settings_json_has_the_system_and_the_declined_ones():
-    report = spherekin.solve(four_bar(), [0.3])
+    report = spherekin.solve(four_bar(), [0.3], system="loops")
+    assert report.settings.as_dict()["declined"] == []          # asked for by name: nothing passed over
+    report = spherekin.solve(load_mechanism(EXAMPLES / "four_bar_graph.toml"), [0.3])
     out = report.settings.as_dict()
     assert out["system"] == "loops"
-    assert out["declined"] == [{"system": "complete", "reason": Complete.accepts(four_bar())},
-                               {"system": "platform", "reason": Platform.accepts(four_bar())}]
+    graph = load_mechanism(EXAMPLES / "four_bar_graph.toml")
+    assert out["declined"] == [{"system": "complete", "reason": Complete.accepts(graph)},
+                               {"system": "complete-loop", "reason": OneLoop.accepts(graph)},
+                               {"system": "platform", "reason": Platform.accepts(graph)}]
     fast = spherekin.solve(gosselin(), GOSSELIN_INPUTS).settings.as_dict()
     assert (fast["system"], fast["declined"]) == ("complete", [])
     # a search's settings (no solve, no system) have neither key
@@ -213,14 +231,16 @@ def test_settings_json_has_the_system_and_the_declined_ones():
 
 def test_solve_json_and_text_say_which_system_solved_and_why_not_the_fastest(tmp_path, capsys):
     out = tmp_path / "fb.json"
-    assert main(["solve", str(EXAMPLES / "four_bar.toml"), "--inputs", "0.3", "--json", str(out)]) == 0
+    graph = str(EXAMPLES / "four_bar_graph.toml")
+    assert main(["solve", graph, "--inputs", "0.3", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     settings = json.loads(out.read_text())["settings"]
-    assert settings["system"] == "loops" and [d["system"] for d in settings["declined"]] == ["complete", "platform"]
+    assert settings["system"] == "loops"
+    assert [d["system"] for d in settings["declined"]] == ["complete", "complete-loop", "platform"]
     lines = [line for line in text.splitlines() if line.startswith("solved by")]
-    assert lines == ["solved by the loops system"]          # a four-bar never had legs: no platform talk by default
+    assert lines == ["solved by the loops system"]          # a graph has no legs: no platform talk by default
     assert "leg" not in text
-    assert main(["solve", str(EXAMPLES / "four_bar.toml"), "--inputs", "0.3", "-v"]) == 0
+    assert main(["solve", graph, "--inputs", "0.3", "-v"]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("solved by")]
     assert lines == ["solved by the loops system (" + "; ".join(f"{d['system']} did not accept it: {d['reason']}"
                                                                for d in settings["declined"]) + ")"]

@@ -11,9 +11,10 @@ from .base import (AUTO, CONTINUUM_TOL, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAI
                    Found, Passed, Proven, Strategy, System, chain, choose, formulation_choices, system_choices,
                    system_of_formulation)
 from .platform import Platform
-from .complete import Complete      # registered first (first=True): the fastest, where it accepts
+from .one_loop import OneLoop       # registered first (first=True), then the complete count before it:
+from .complete import Complete      # the fastest first, where they accept (they accept different mechanisms)
 from .loops import LOOP_FORMULATION, Loops
 
 __all__ = ["AUTO", "CONTINUUM_TOL", "ON_CAP_CHOICES", "ON_CAP_COVER", "ON_CAP_RAISE", "SYSTEMS", "CappedSearchWarning",
            "Compiled", "Found", "Passed", "Proven", "Strategy", "System", "chain", "choose", "formulation_choices",
-           "system_choices", "system_of_formulation", "Complete", "Platform", "Loops", "LOOP_FORMULATION"]
+           "system_choices", "system_of_formulation", "Complete", "OneLoop", "Platform", "Loops", "LOOP_FORMULATION"]
