@@ -274,8 +274,10 @@ def main(argv=None):
                         ("boxes", "boxes", "d"), ("time", "time (s)", ".3f")]))
     notes = ("tan-half and sin-cos: the loop equations (system loops), formulation halves, pruner pp, tol 1e-6, "
              "isolation on, every keyword pinned; 'default pipeline': every choice left to the library (auto), "
-             "what ran read from the reports (on a 3-RRR the platform system: quaternion charts, so its boxes "
-             "are not comparable with the loop rows'). A capped run is counted under 'capped', never in a median. A solution matches another (or the start configuration) when every angle "
+             "what ran read from the reports (since issue 44 the complete counts where they apply: the 3-RRR's, "
+             "on the platform's quaternion, and the one-loop count of the four-bar and five-bar, neither with "
+             "any box; the platform system's quaternion charts elsewhere: boxes not comparable with the loop "
+             "rows'). A capped run is counted under 'capped', never in a median. A solution matches another (or the start configuration) when every angle "
              f"agrees within {MATCH_TOL:g} rad modulo 2 pi. The closure error is the largest entry of the "
              "difference between the platform poses of the legs, each a plain product of Rodrigues rotations.")
     write_results("parameterizations", args, data, tables, notes)
