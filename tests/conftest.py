@@ -155,3 +155,13 @@ def kite():
     c = sphere_point(b, d, math.radians(60.0), math.radians(60.0), 1.0)
     return SphericalMechanism(legs=(Leg("crank", (Joint("A", a, actuated=True), Joint("B", b))),
                                     Leg("rocker", (Joint("D", d), Joint("C", c)))), name="kite")
+
+
+def with_range(mech, name: str, rng):
+    """``mech`` (a mechanism of legs) with joint ``name``'s range set to ``rng`` (lo, hi; radians)."""
+    from spherekin.mechanism import Joint, Leg, SphericalMechanism
+
+    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, j.actuated, rng if j.name == name else j.range,
+                                           j.reference_angle) for j in leg.joints)) for leg in mech.legs)
+    return SphericalMechanism(legs, name="ranged " + mech.name, reference_leg=mech.reference_leg,
+                              platform_reference=mech.platform_reference)

@@ -22,11 +22,12 @@ from references.peers_closed_form import geometry_of
 from references.random_designs import random_3rrr
 from references.reference_roots import near_singular_inputs, reference_roots, singular_input
 from spherekin.core.angles import RANGE_TOL
-from spherekin.mechanism import Joint, Leg, SphericalMechanism, general_3rrr, gosselin
+from spherekin.mechanism import general_3rrr, gosselin
 from spherekin.systems import Passed, Proven
 from spherekin.systems.complete import MODEL_TOLERANCE, Complete, interval_leg_parts, model_gap
 from spherekin.systems.platform import QUADRATIC_TENSOR, platform_legs
 
+from conftest import with_range
 from test_systems import actuated_at
 
 
@@ -217,13 +218,6 @@ def test_the_agile_eyes_self_motion_input_is_passed_on():
         assert isinstance(answer, Passed) and "complete count" in answer.reason
 
 
-def _with_range(mech, name, rng):
-    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, j.actuated, rng if j.name == name else j.range,
-                                           j.reference_angle) for j in leg.joints)) for leg in mech.legs)
-    return SphericalMechanism(legs, name="ranged " + mech.name, reference_leg=mech.reference_leg,
-                              platform_reference=mech.platform_reference)
-
-
 def test_a_root_at_a_range_end_is_passed_on_and_ranges_a_hair_away_are_decided():
     mech, x = general_3rrr(), (0.3, -0.2, 0.5)
     full = spherekin.solve(mech, x)
@@ -233,13 +227,13 @@ def test_a_root_at_a_range_end_is_passed_on_and_ranges_a_hair_away_are_decided()
     assert min(abs(math.remainder(o - g, 2 * math.pi)) for o in others) > 0.1
     # a range whose end, widened by RANGE_TOL, is exactly the root's reading: the enclosure straddles it,
     # and the box search answers by its rule
-    at_end = _with_range(mech, "gamma1", (g - 0.05, g - RANGE_TOL))
+    at_end = with_range(mech, "gamma1", (g - 0.05, g - RANGE_TOL))
     rep = spherekin.solve(at_end, x)
     assert rep.settings.system != "complete" and "range" in rep.settings.fallback
     assert rep.proven_count == spherekin.solve(at_end, x, system="platform").proven_count and rep.count_exact
     # ends 1e-6 inside or outside the reading: decided by the complete count, as the box search decides
     for end, kept in ((g + 1e-6, 1), (g - 1e-6, 0)):
-        ranged = _with_range(mech, "gamma1", (g - 0.05, end))
+        ranged = with_range(mech, "gamma1", (g - 0.05, end))
         rep, boxes = spherekin.solve(ranged, x), spherekin.solve(ranged, x, system="platform")
         assert rep.settings.system == "complete" and rep.proven_count == boxes.proven_count == kept
 

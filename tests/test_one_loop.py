@@ -19,6 +19,7 @@ from spherekin.mechanism import Joint, Leg, SphericalMechanism, five_bar, four_b
 from spherekin.systems import Passed, Proven
 from spherekin.systems.one_loop import OneLoop, not_one_loop
 
+from conftest import with_range
 from test_trust_many import rocker_driven_four_bar
 
 
@@ -86,13 +87,6 @@ def test_next_to_branch_and_change_points_it_is_right_or_passes():
     assert proven and passed
 
 
-def _with_range(mech, name, rng):
-    legs = tuple(Leg(leg.name, tuple(Joint(j.name, j.axis, j.actuated, rng if j.name == name else j.range,
-                                           j.reference_angle) for j in leg.joints)) for leg in mech.legs)
-    return SphericalMechanism(legs, name="ranged " + mech.name, reference_leg=mech.reference_leg,
-                              platform_reference=mech.platform_reference)
-
-
 def test_a_reading_at_a_range_end_is_passed_on_and_ends_a_hair_away_are_decided():
     mech, x = four_bar(), (0.7,)
     full = spherekin.solve(mech, x)
@@ -100,11 +94,11 @@ def test_a_reading_at_a_range_end_is_passed_on_and_ends_a_hair_away_are_decided(
     c = full.solutions[0].passive_angles["C"]
     other = full.solutions[1].passive_angles["C"]
     assert abs(math.remainder(other - c, 2 * math.pi)) > 0.1
-    at_end = _with_range(mech, "C", (c - 0.05, c - RANGE_TOL))
+    at_end = with_range(mech, "C", (c - 0.05, c - RANGE_TOL))
     rep = spherekin.solve(at_end, x)
     assert rep.settings.system != "complete-loop" and "joint ranges" in rep.settings.fallback
     for end, kept in ((c + 1e-6, 1), (c - 1e-6, 0)):
-        ranged = _with_range(mech, "C", (c - 0.05, end))
+        ranged = with_range(mech, "C", (c - 0.05, end))
         rep, boxes = spherekin.solve(ranged, x), spherekin.solve(ranged, x, system="loops")
         assert rep.settings.system == "complete-loop" and rep.proven_count == boxes.proven_count == kept
 

@@ -29,7 +29,7 @@ from ..results import SearchLimit, SearchReport, SearchStrategy
 from ..search.registry import Registry
 
 __all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Found", "Proven", "Passed", "Compiled", "System",
-           "SYSTEMS", "system_choices", "formulation_choices", "system_of_formulation", "choose", "chain"]
+           "SYSTEMS", "own_variables_declined", "system_choices", "formulation_choices", "system_of_formulation", "choose", "chain"]
 
 #: The name that lets the registry choose: the first system (in order of preference) that accepts.
 AUTO = "auto"
@@ -176,6 +176,20 @@ class System(ABC):
     @abstractmethod
     def compile(cls, mechanism, strategy: Strategy) -> Compiled:
         """What this system needs for every input of ``mechanism``, built once (it accepts it)."""
+
+
+def own_variables_declined(strategy: Strategy, formulation: str, what: str, proof: str = "") -> str | None:
+    """Why a system with variables of its own (the formulation named ``formulation``; ``what``: how its
+    reasons name it) declines ``strategy``: another formulation asked for; a loop parameterization asked
+    for while the formulation is "auto"; isolate=False (it proves its roots; ``proof``: by what). None
+    when it accepts it. The check the platform system and the complete counts share."""
+    if strategy.formulation not in (AUTO, formulation):
+        return f"formulation {strategy.formulation!r} asked for"
+    if strategy.formulation != formulation and strategy.parameterization != "tan-half":
+        return f"parameterization {strategy.parameterization!r} asked for ({what} has its own variables)"
+    if not strategy.isolate:
+        return f"isolate=False asked for ({what} proves its roots{proof})"
+    return None
 
 
 #: The systems by name, in order of preference (fastest first; registered by their modules).

@@ -51,7 +51,7 @@ from ..core.orientation import quaternion_matrices
 from ..core.rotations import cross
 from ..mechanism.chains import axis_rotations
 from ..results import LazySolutions, SearchReport, Settings, Solution, SolverStats, Status
-from .base import SYSTEMS, Compiled, Passed, Proven, System
+from .base import SYSTEMS, Compiled, Passed, Proven, System, own_variables_declined
 from .platform import (QUADRATIC_TENSOR as _T, CHARTS, PlatformSystem, leg_terms, not_applicable, passive_names, passive_reading_enclosures,
                        passive_readings_many, platform_legs)
 
@@ -479,14 +479,7 @@ class Complete(System):
                     f"complete count's model tolerance ({MODEL_TOLERANCE:g}) covers with room")
         if strategy is None:
             return None
-        if strategy.formulation not in ("auto", FORMULATION):
-            return f"formulation {strategy.formulation!r} asked for"
-        if strategy.formulation != FORMULATION and strategy.parameterization != "tan-half":
-            return (f"parameterization {strategy.parameterization!r} asked for "
-                    "(the complete count has its own variables)")
-        if not strategy.isolate:
-            return "isolate=False asked for (the complete count proves its roots)"
-        return None
+        return own_variables_declined(strategy, FORMULATION, "the complete count")
 
     @classmethod
     def compile(cls, mechanism, strategy) -> CompiledComplete:

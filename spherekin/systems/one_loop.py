@@ -35,7 +35,7 @@ from ..core.angles import TWO_PI, into_range_many, span_in_range_many, span_outs
 from ..core.rotations import cross
 from ..mechanism.chains import axis_rotations
 from ..results import LazySolutions, SearchReport, Settings, Solution, SolverStats, Status
-from .base import SYSTEMS, Compiled, Passed, Proven, System
+from .base import SYSTEMS, Compiled, Passed, Proven, System, own_variables_declined
 
 __all__ = ["FORMULATION", "BOUND", "LOOP_TOLERANCE", "not_one_loop", "LoopCycle", "CompiledOneLoop", "OneLoop"]
 
@@ -405,13 +405,7 @@ class OneLoop(System):
         why = not_one_loop(mechanism)
         if why is not None or strategy is None:
             return why
-        if strategy.formulation not in ("auto", FORMULATION):
-            return f"formulation {strategy.formulation!r} asked for"
-        if strategy.formulation != FORMULATION and strategy.parameterization != "tan-half":
-            return f"parameterization {strategy.parameterization!r} asked for"
-        if not strategy.isolate:
-            return "isolate=False asked for (the one-loop count proves its roots)"
-        return None
+        return own_variables_declined(strategy, FORMULATION, "the one-loop count")
 
     @classmethod
     def compile(cls, mechanism, strategy) -> CompiledOneLoop:

@@ -62,7 +62,7 @@ from ..mechanism.chains import angle_about, axis_rotation, axis_rotations, perpe
 from ..search.parameterizations import ROUNDING_SAFETY, ChartSet, Parameterization
 from ..search.pruners import make_pruner
 from ..search.parameterizations import stack_chart_sets
-from .base import SYSTEMS, Compiled, Found, Passed, System
+from .base import SYSTEMS, Compiled, Found, Passed, System, own_variables_declined
 
 __all__ = ["QUADRATIC_TENSOR", "CHARTS", "CHART_EXTENT", "CHART_CORE", "CORE_ROUNDING", "ACCEPT_WIDTH", "PlatformLeg", "LegTerms", "leg_terms", "LegConstants", "leg_constants",
            "PlatformSystem", "leg_matrices",
@@ -759,14 +759,7 @@ class Platform(System):
         why = not_applicable(mechanism)
         if why is not None or strategy is None:
             return why
-        if strategy.formulation not in ("auto", cls.name):
-            return f"formulation {strategy.formulation!r} asked for (a loop formulation)"
-        if strategy.formulation != cls.name and strategy.parameterization != "tan-half":
-            return (f"parameterization {strategy.parameterization!r} asked for "
-                    "(the platform formulation has its own variables)")
-        if not strategy.isolate:
-            return "isolate=False asked for (the platform formulation proves its roots by the Krawczyk test)"
-        return None
+        return own_variables_declined(strategy, cls.name, "the platform formulation", " by the Krawczyk test")
 
     @classmethod
     def compile(cls, mechanism, strategy) -> CompiledPlatform:
