@@ -10,8 +10,8 @@ of the 3-RRR: the ratio to it says how much the proofs still cost.
 Timed, on the same seeded inputs (uniform over each actuated joint's range; the full circle where a
 joint is unlimited), one core (BLAS threads set to 1; everything runs in one process at a time):
 
-* ``engine``: ``problem = spherekin.compile(mech)`` once (untimed), then ``problem.solve_many(rows)``
-  over consecutive chunks of ``--chunk`` rows, each report read as callers read it (``proven_count``,
+* ``engine``: ``problem = spherekin.compile(mech)`` once (untimed), then ``problem.solve_many(rows,
+  chunk=--chunk)`` (default: the problem's own chunk, ``problem.chunk``, recorded), each report read as callers read it (``proven_count``,
   ``count_exact``): this checkout's public API, whatever solve_many is (for the 3-RRRs driven at the
   base: the complete count of issue 44); the share of inputs the chosen system answered itself;
 * ``boxes`` (where the engine is the complete count): the same with ``system=`` the next system of the
@@ -44,7 +44,7 @@ issue-30 target against the baseline. ``--baseline none`` leaves the baseline ou
 compares the complete count with the box engine on N more inputs per mechanism (issue 44: 10,000),
 untimed. JSON to benchmarks/results/engine.json (with each row's strategy, read back from the problem).
 
-    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk 256] [--baseline b4386ee|none]
+    python -m benchmarks.bench_engine [--inputs 128] [--repeats 3] [--chunk N] [--baseline b4386ee|none]
                                       [--agree N]
 """
 
@@ -74,7 +74,6 @@ import numpy as np  # noqa: E402
 from benchmarks.bench_process import export_tree  # noqa: E402
 from benchmarks.bench_systems import elbow_actuated_3rrr  # noqa: E402
 from references.peers_closed_form import geometry_of, quadrics_many, real_roots_many  # noqa: E402
-from spherekin.problem import DEFAULT_CHUNK as LIBRARY_CHUNK  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The last commit before issue 30: its solve is the per-input loop the engine replaces.
@@ -88,9 +87,9 @@ NO_BASELINE = "none"
 TARGETS = {"platform": 10.0, "loops": 5.0}
 #: Input rows per mechanism, timed runs and rows per solve_many call by default: ~2.5 min in all on
 #: a quiet 2-core machine before the engine (25-50 ms a solve, ~130 ms the baseline's elbow-actuated
-#: 3-RRR; ~5 min at load average 5), less once the engine is faster. Rows a chunk: the library's
-#: (spherekin.problem.DEFAULT_CHUNK, batch's too), so the 128 rows are one chunk.
-DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, LIBRARY_CHUNK
+#: 3-RRR; ~5 min at load average 5), less once the engine is faster. Inputs a chunk: each problem's
+#: own (None: ``Problem.chunk``, its first system's; read back into the JSON).
+DEFAULT_INPUTS, DEFAULT_REPEATS, DEFAULT_CHUNK = 128, 3, None
 SEED = 30
 #: Mismatching inputs listed per row in the JSON (all are counted).
 MISMATCHES_LISTED = 10
@@ -241,16 +240,14 @@ class Baseline:
 
 # ---------------------------------------------------------------- the run
 
-def engine_run(problem, rows, chunk: int, systems: list | None = None) -> tuple[float, list[int]]:
-    """Seconds of ``solve_many`` over consecutive chunks of ``rows``, read as callers read it (each
-    report's ``proven_count`` and ``count_exact``: the count, -1 where it is not exact), and the
-    counts; ``systems``, when given, receives the system that answered each row (after the timing)."""
-    counts, reports = [], []
+def engine_run(problem, rows, chunk: int | None, systems: list | None = None) -> tuple[float, list[int]]:
+    """Seconds of one ``solve_many`` of ``rows`` (``chunk``: its chunk; None: the problem's own),
+    read as callers read it (each report's ``proven_count`` and ``count_exact``: the count, -1 where it
+    is not exact), and the counts; ``systems``, when given, receives the system that answered each
+    row (after the timing)."""
     t0 = time.perf_counter()
-    for a in range(0, len(rows), chunk):
-        got = problem.solve_many(rows[a:a + chunk])
-        counts += [r.proven_count if r.count_exact else -1 for r in got]
-        reports += got
+    reports = problem.solve_many(rows, chunk=chunk)
+    counts = [r.proven_count if r.count_exact else -1 for r in reports]
     seconds = time.perf_counter() - t0
     if systems is not None:
         systems[:] = [r.settings.system for r in reports]
@@ -324,7 +321,8 @@ def run(n_inputs: int, repeats: int, chunk: int, baseline_rev: str, only=None) -
                 n_bad, listed = mismatches(rows, counts["engine"], counts["baseline"]) if base else (0, [])
                 first = sum(name == problem.system for name in systems) / n_inputs
                 row = dict(mechanism=case.label, system=problem.system, strategy=problem.strategy_keywords(),
-                           inputs=n_inputs, chunk=chunk, mean_solutions=float(np.mean(counts["engine"])),
+                           inputs=n_inputs, chunk=chunk or problem.chunk,
+                           boxes_chunk=None if boxes is None else chunk or boxes.chunk, mean_solutions=float(np.mean(counts["engine"])),
                            engine_per_s=rate["engine"], baseline_per_s=rate.get("baseline"),
                            ratio=rate["engine"] / rate["baseline"] if base else None, target=target,
                            answered_by_first_system=first, answered_by=dict(collections.Counter(systems)),
@@ -431,7 +429,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--inputs", type=int, default=DEFAULT_INPUTS, help="seeded inputs per mechanism")
     parser.add_argument("--repeats", type=int, default=DEFAULT_REPEATS, help="timed runs; medians are shown")
-    parser.add_argument("--chunk", type=int, default=DEFAULT_CHUNK, help="rows per solve_many call")
+    parser.add_argument("--chunk", type=int, default=DEFAULT_CHUNK,
+                        help="inputs per array program (solve_many's chunk; default: each problem's own, "
+                             "Problem.chunk, recorded in the JSON)")
     parser.add_argument("--baseline", default=BASELINE, help=f"git revision of the baseline (default %(default)s; "
                         f"{NO_BASELINE!r}: no baseline column)")
     parser.add_argument("--only", nargs="+", metavar="LABEL", help="these mechanisms only (labels of the table)")
@@ -441,7 +441,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "engine.json")
     args = parser.parse_args(argv)
     for key in ("inputs", "repeats", "chunk"):
-        if getattr(args, key) < 1:
+        if getattr(args, key) is not None and getattr(args, key) < 1:
             parser.error(f"--{key}: expected a whole number >= 1, got {getattr(args, key)}")
     unknown = [label for label in args.only or () if label not in LABELS]
     if unknown:
@@ -450,7 +450,8 @@ def main(argv=None) -> int:
         args.out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         parser.error(f"--out: cannot create {args.out.parent}: {exc}")
-    print(f"{args.inputs} inputs per mechanism (seed {SEED}), chunks of {args.chunk}, medians of {args.repeats} "
+    per_chunk = args.chunk or "each problem's own"
+    print(f"{args.inputs} inputs per mechanism (seed {SEED}), chunks of {per_chunk}, medians of {args.repeats} "
           f"runs; one core; Python {platform.python_version()}, numpy {np.__version__}; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
     rows = run(args.inputs, args.repeats, args.chunk, args.baseline, args.only)

@@ -67,7 +67,8 @@ def _engine_facts(report: dict) -> dict:
                                         "engine_over_floor": r["engine_over_floor"],
                                         "engine_over_boxes": r["engine_over_boxes"],
                                         "answered_by_first_system": r["answered_by_first_system"],
-                                        "strategy": r["strategy"], "inputs": r["inputs"], "repeats": report["repeats"]}
+                                        "strategy": r["strategy"], "inputs": r["inputs"], "chunk": r.get("chunk"),
+                                        "repeats": report["repeats"]}
                        for r in report["rows"]}}
 
 
@@ -105,7 +106,7 @@ RUNS = (
                         "beta3=0.5", "--tol", "0.1", "--mode-change", "--json", "{json}"),
         _mode_change_facts, "docs/howto/maps-singularities.md"),
     Run("engine-throughput", ("--inputs", "4096", "--repeats", "3", "--baseline", "none", "--only", "general_3rrr",
-                              "gosselin", "--out", "{json}"),
+                              "gosselin", "four-bar", "five-bar", "--out", "{json}"),
         _engine_facts, "README.md", program=("python", "-m", "benchmarks.bench_engine"), processes=1),
 )
 

@@ -36,8 +36,8 @@ from .core.angles import RANGE_TOL, in_range, into_range
 from .mechanism.io import load_mechanism
 from .mechanism.model import SphericalMechanism
 from .search.formulations import FORMULATIONS
-from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_CAP_COVER, SYSTEMS, CappedSearchWarning,
-                      Passed, Proven, Strategy, chain, choose, formulation_choices, system_choices, system_of_formulation)
+from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_CAP_COVER, SEARCH_CHUNK, SYSTEMS,
+                      CappedSearchWarning, Passed, Proven, Strategy, chain, choose, formulation_choices, system_choices, system_of_formulation)
 from .results import (EmptyReason, SolveReport, SolverStats, EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES,
                       EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many
@@ -79,11 +79,10 @@ def as_mechanism(mechanism) -> SphericalMechanism:
                      f"got {type(mechanism).__name__}")
 
 
-#: Inputs :meth:`Problem.solve_many` solves as one array program. Reason: measured
-#: (benchmarks/bench_engine.py) the throughput per input levels off past ~100 inputs a chunk (the
-#: fixed cost of each box-loop iteration is then spread thin), and a chunk of 256 holds at most a
-#: few MB of boxes.
-DEFAULT_CHUNK = 256
+#: Inputs :meth:`Problem.solve_many` solves as one array program when asked for a box search: the
+#: box systems' own chunk (:data:`spherekin.systems.base.SEARCH_CHUNK`, with its reason). By default
+#: each problem uses its first system's (:attr:`Problem.chunk`: 1,024 for the complete counts).
+DEFAULT_CHUNK = SEARCH_CHUNK
 #: A cluster that :mod:`spherekin.trust.solutions` cannot resolve at tol (two roots closer than the
 #: boxes can separate, next to a fold) is searched again, its hull only, at tol * REFINE_FACTOR,
 #: down to REFINE_MIN_TOL: roots 1e-5 apart separate at 1e-6, ~1e-8 apart (within ~1e-16 of a
@@ -116,6 +115,13 @@ class Problem:
     system: str
     chain: tuple
     declined: tuple = ()
+
+    @property
+    def chunk(self) -> int:
+        """Inputs :meth:`solve_many` solves as one array program by default: its first system's
+        (:attr:`spherekin.systems.base.Compiled.chunk`); what a later system is passed it searches in
+        chunks of its own."""
+        return int(self.chain[0].chunk)
 
     def compiled(self, system: str):
         """The compiled system named ``system`` in this problem's chain; ValueError naming the chain otherwise."""
@@ -293,11 +299,12 @@ class Problem:
     # ------------------------------------------------------------------ many inputs
 
     def solve_many(self, inputs, *, progress: Callable[[int, int], None] | None = None,
-                   chunk: int = DEFAULT_CHUNK) -> tuple[SolveReport, ...]:
+                   chunk: int | None = None) -> tuple[SolveReport, ...]:
         """One report per row of ``inputs`` (shape (K, number of actuated joints), radians), in order:
         for each row the report :meth:`solve` gives for it (``solve(x)`` is this on a chunk of one).
 
-        The rows are solved ``chunk`` at a time, each chunk as one array program
+        The rows are solved ``chunk`` at a time (None: :attr:`chunk`, the first system's), each chunk
+        as one array program
         (:meth:`_solve_chunk`): the boxes of all its inputs in one box loop, with the input as a
         column, then the trust layer over all their points. Every row is checked before the first
         solve (one error naming the row); ``progress(done, total)`` is called after each chunk. An
@@ -305,6 +312,7 @@ class Problem:
         :meth:`explain_empty` for the rows that need it).
         """
         rows = self._checked_rows("inputs", inputs)
+        chunk = self.chunk if chunk is None else chunk
         if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
             raise ValueError(f"chunk: expected a positive number of inputs, got {chunk!r}")
         out: list[SolveReport] = []
@@ -340,7 +348,8 @@ class Problem:
         for system in self.chain:
             if not todo:
                 break
-            answers = system.search_many([values[k] for k in todo], progress)
+            answers = [a for first in range(0, len(todo), system.chunk)
+                       for a in system.search_many([values[k] for k in todo[first:first + system.chunk]], progress)]
             answers = [system.search_one(values[k], progress, None) if a is None else a
                        for k, a in zip(todo, answers)]                # None: a cap, searched on its own
             passed, common = [], {}

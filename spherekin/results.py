@@ -23,7 +23,7 @@ from .core.orientation import (QUATERNION_COLUMNS, ROTATION_COLUMNS, check_euler
                                quaternions_from_rotations)
 from .core.columns import table_columns
 
-__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "LazySolutions", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
+__all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "SolutionArrays", "solution_arrays", "LazySolutions", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
            "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
@@ -183,15 +183,62 @@ class Solution:
         return f"Solution({self.status}, {angles}{res}, {self.singularity or 'unclassified'})"
 
 
+@dataclass(frozen=True, eq=False)
+class SolutionArrays:
+    """The columns of a report's entries that the results table reads (docs/results-format.md), one
+    row per entry, in the entries' order: ``angles`` (R, M) radians in the order of the report's
+    unknowns; ``status`` and ``singularity`` (R,) strings (objects; None where unclassified);
+    ``residual`` (R,) (NaN where none); ``rotations`` (R, 3, 3) platform rotations (NaN where none).
+    What :class:`LazySolutions` hands a table without building a :class:`Solution` per entry."""
+
+    angles: np.ndarray
+    status: np.ndarray
+    singularity: np.ndarray
+    residual: np.ndarray
+    rotations: np.ndarray
+
+    @classmethod
+    def of(cls, solutions: Sequence[Solution], width: int) -> "SolutionArrays":
+        """The columns of ``solutions`` (Solution objects with ``width`` angles each)."""
+        nan_rot = np.full((3, 3), np.nan)
+        return cls(np.array([np.asarray(s.angles, dtype=float) for s in solutions], dtype=float).reshape(-1, width),
+                   _objects([str(s.status) for s in solutions]), _objects([s.singularity for s in solutions]),
+                   np.array([np.nan if s.residual is None else float(s.residual) for s in solutions], dtype=float),
+                   np.array([nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float)
+                             for s in solutions], dtype=float).reshape(-1, 3, 3))
+
+    def take(self, index) -> "SolutionArrays":
+        """The rows ``index`` (a slice or an index array), in that order."""
+        return SolutionArrays(self.angles[index], self.status[index], self.singularity[index], self.residual[index],
+                              self.rotations[index])
+
+
+def _objects(values) -> np.ndarray:
+    """``values`` as a 1-D object array (strings and None stay Python objects)."""
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
+
+
+def solution_arrays(solutions: Sequence[Solution], width: int) -> SolutionArrays:
+    """The table columns of a report's entries: read from the arrays behind :class:`LazySolutions`
+    (no Solution built), else from the Solution objects (``width``: angles per entry)."""
+    if isinstance(solutions, LazySolutions) and solutions.arrays is not None:
+        return solutions.arrays()
+    return SolutionArrays.of(solutions, width)
+
+
 class LazySolutions(collections.abc.Sequence):
     """The entries of one report, built only when read (issue 44: results for many inputs without an
     object per solution until someone asks for one): ``count`` entries, ``build()`` makes them all (a
     tuple of :class:`Solution`), called once, on the first access other than ``len``. Equal to a
-    tuple of the same entries; pickled as that tuple."""
+    tuple of the same entries; pickled as that tuple. ``arrays()``, when given: their table columns
+    (:class:`SolutionArrays`, the same entries in the same order) without building them."""
 
-    def __init__(self, count: int, build):
+    def __init__(self, count: int, build, arrays=None):
         self._count = int(count)
         self._build = build
+        self.arrays = arrays
         self._items: tuple | None = None
 
     def _all(self) -> tuple:
@@ -445,36 +492,31 @@ def solution_columns(actuated, unknowns, items, measures=None) -> ResultsTable:
     without it or where it raises ValueError). Built here once for :meth:`SolveReport.frame` and every batch table
     (:mod:`spherekin.batch.rows`), so the columns cannot drift apart."""
     names, actuated = list(unknowns), list(actuated)
-    idx, sol, status, sing, resid, solved, angles, rots, inp = [], [], [], [], [], [], [], [], []
-    nan_rot = np.full((3, 3), np.nan)
+    idx, sol, has, inp, blocks = [], [], [], [], []
     for index, row, their_names, solutions in items:
         row = np.asarray(row, dtype=float)
-        order = None if tuple(their_names) == tuple(names) else [list(their_names).index(n) for n in names]
-        for j, s in enumerate(solutions or (None,)):
-            idx.append(index)
-            inp.append(row)
-            if s is None:
-                sol.append(None)
-                status.append(None)
-                sing.append(None)
-                resid.append(np.nan)
-                solved.append(False)
-                angles.append(np.full(len(names), np.nan))
-                rots.append(nan_rot)
-                continue
-            a = np.asarray(s.angles, dtype=float)
-            a = a if order is None else a[order]
-            sol.append(j + 1)                  # numbered from 1, as printed tables and the JSON
-            status.append(str(s.status))
-            sing.append(s.singularity)
-            resid.append(np.nan if s.residual is None else float(s.residual))
-            angles.append(a)
-            rots.append(nan_rot if s.platform_rotation is None else np.asarray(s.platform_rotation, dtype=float))
-            solved.append(True)
-    rots = np.array(rots).reshape(-1, 3, 3)
-    inp = np.array(inp, dtype=float).reshape(-1, len(actuated))
-    angles = np.array(angles, dtype=float).reshape(-1, len(names))
-    has = np.array(solved, dtype=bool)
+        arr = solution_arrays(solutions or (), len(their_names))
+        if tuple(their_names) != tuple(names):
+            arr = SolutionArrays(arr.angles[:, [list(their_names).index(n) for n in names]], arr.status,
+                                 arr.singularity, arr.residual, arr.rotations)
+        r = len(arr.residual)
+        if not r:                              # no solution: one row, its solution columns empty
+            arr = SolutionArrays(np.full((1, len(names)), np.nan), _objects([None]), _objects([None]),
+                                 np.full(1, np.nan), np.full((1, 3, 3), np.nan))
+        idx.append(np.full(max(r, 1), index, dtype=np.int64))
+        sol += list(range(1, r + 1)) if r else [None]          # numbered from 1, as printed tables and the JSON
+        has.append(np.full(max(r, 1), r > 0))
+        inp.append(np.broadcast_to(row, (max(r, 1), len(actuated))))
+        blocks.append(arr)
+    has = np.concatenate(has) if has else np.zeros(0, dtype=bool)
+    idx = np.concatenate(idx) if idx else np.zeros(0, dtype=np.int64)
+    sol = _objects(sol)
+    inp = np.concatenate(inp).astype(float) if inp else np.zeros((0, len(actuated)))
+    angles = np.concatenate([b.angles for b in blocks]) if blocks else np.zeros((0, len(names)))
+    status = np.concatenate([b.status for b in blocks]) if blocks else _objects([])
+    sing = np.concatenate([b.singularity for b in blocks]) if blocks else _objects([])
+    resid = np.concatenate([b.residual for b in blocks]) if blocks else np.zeros(0)
+    rots = np.concatenate([b.rotations for b in blocks]) if blocks else np.zeros((0, 3, 3))
     meas = np.full(len(has), np.nan)
     if measures is not None and has.any():
         joints = {**{n: inp[has, j] for j, n in enumerate(actuated)}, **{n: angles[has, j] for j, n in enumerate(names)}}
@@ -487,21 +529,16 @@ def solution_columns(actuated, unknowns, items, measures=None) -> ResultsTable:
     if known.any():
         quats[known] = quaternions_from_rotations(rots[known])
 
-    def objects(values):
-        out = np.empty(len(values), dtype=object)
-        out[:] = values
-        return out
-
     flat = rots.reshape(-1, 9)
-    data = {"input": (np.array(idx, dtype=np.int64), "int64")}
-    data.update({n: (inp[:, j], "float64") for j, n in enumerate(actuated)})
-    data["solution"] = (objects(sol), "Int64")
-    data["status"] = (objects(status), "string")
+    data = {"input": (idx, "int64")}
+    data.update({n: (inp[:, j].copy(), "float64") for j, n in enumerate(actuated)})
+    data["solution"] = (sol, "Int64")
+    data["status"] = (status, "string")
     data.update({n: (angles[:, j], "float64") for j, n in enumerate(names)})
     data.update({c: (quats[:, j], "float64") for j, c in enumerate(QUATERNION_COLUMNS)})
     data.update({c: (flat[:, j], "float64") for j, c in enumerate(ROTATION_COLUMNS)})
-    data["residual"] = (np.array(resid, dtype=float), "float64")
-    data["singularity"] = (objects(sing), "string")
+    data["residual"] = (resid, "float64")
+    data["singularity"] = (sing, "string")
     data["parallel_measure"] = (np.array(meas, dtype=float), "float64")
     cols = table_columns(actuated, names)
     return ResultsTable(tuple(cols), tuple(data[c][0] for c in cols), tuple(data[c][1] for c in cols))

@@ -260,17 +260,28 @@ def test_entries_are_built_when_read_once_for_the_whole_chunk(monkeypatch):
     (once); a report pickles and compares as one holding a tuple."""
     import pickle
 
-    from spherekin.results import LazySolutions
-    from spherekin.systems.complete import RealRoots
+    from spherekin.results import LazySolutions, SolutionArrays
+    from spherekin.systems.proven_roots import ChunkRoots
 
     calls = []
-    real = RealRoots._build
-    monkeypatch.setattr(RealRoots, "_build", lambda self: calls.append(1) or real(self))
+    real = ChunkRoots._build
+    monkeypatch.setattr(ChunkRoots, "_build", lambda self: calls.append(1) or real(self))
     rows = np.random.default_rng(13).uniform(-math.pi, math.pi, (10, 3))
     reports = spherekin.compile(general_3rrr()).solve_many(rows)
     counts = [(r.proven_count, r.count_exact, len(r.solutions)) for r in reports]
     assert calls == [] and all(isinstance(r.solutions, LazySolutions) for r in reports)
+    # the results table reads the arrays: still no Solution built
+    frames = [r.frame() for r in reports]
+    assert calls == [] and [len(f) for f in frames] == [max(c[2], 1) for c in counts]
     assert reports[3].solutions[0].status in ("certified", "singular") and calls == [1]
+    # the arrays are the entries' own columns, in their order
+    for r in reports:
+        a, b = r.solutions.arrays(), SolutionArrays.of(tuple(r.solutions), len(r.unknowns))
+        assert np.array_equal(a.angles, b.angles) and list(a.status) == list(b.status)
+        assert list(a.singularity) == list(b.singularity) and np.array_equal(a.residual, b.residual)
+        assert np.array_equal(a.rotations, b.rotations)
+        keys = [tuple(np.round(sol.angles, 9)) for sol in r.solutions]
+        assert keys == sorted(keys)                                           # the trust layer's order
     assert [len(r.solutions) for r in reports[5:]] == [c[2] for c in counts[5:]] and list(reports[5].solutions)
     assert calls == [1]
     again = pickle.loads(pickle.dumps(reports[3]))

@@ -244,3 +244,38 @@ def test_roots_found_twice_on_overlapping_charts_are_kept_once_per_input():
     assert got.tolist() == expect
     assert 0 < sum(expect) < len(expect) and got[-1]
     assert got[np.flatnonzero(owner == 7)[-3:]].tolist() == [True, False, True]
+
+
+
+def test_each_system_searches_in_chunks_of_its_own_size(monkeypatch):
+    """``solve_many``'s chunk defaults to the first system's (the complete count's PROVEN_CHUNK, the box
+    search's SEARCH_CHUNK); what a system passes on, the next one searches in chunks of its own size,
+    and those inputs get the box search's answers."""
+    from spherekin.systems import SEARCH_CHUNK, Passed
+    from spherekin.systems.complete import CompiledComplete
+    from spherekin.systems.platform import CompiledPlatform
+    from spherekin.systems.proven_roots import PROVEN_CHUNK
+
+    assert SEARCH_CHUNK < PROVEN_CHUNK
+    problem = compile(general_3rrr())
+    assert problem.chunk == PROVEN_CHUNK and compile(general_3rrr(), system="platform").chunk == SEARCH_CHUNK
+    rows = np.random.default_rng(44).uniform(-math.pi, math.pi, (600, 3))
+    sizes = {"complete": [], "platform": []}
+    proven, searched = CompiledComplete.search_many, CompiledPlatform.search_many
+
+    def spy_complete(self, values, progress):
+        sizes["complete"].append(len(values))
+        return [Passed("test: passed on") if k % 2 else a for k, a in enumerate(proven(self, values, progress))]
+
+    def spy_platform(self, values, progress):
+        sizes["platform"].append(len(values))
+        return searched(self, values, progress)
+
+    monkeypatch.setattr(CompiledComplete, "search_many", spy_complete)
+    monkeypatch.setattr(CompiledPlatform, "search_many", spy_platform)
+    reports = problem.solve_many(rows)
+    assert sizes == {"complete": [600], "platform": [SEARCH_CHUNK, 300 - SEARCH_CHUNK]}
+    assert [r.settings.system for r in reports] == ["platform" if k % 2 else "complete" for k in range(600)]
+    sizes["platform"].clear()
+    assert problem.solve_many(rows[:300], chunk=100) and sizes["complete"][1:] == [100, 100, 100]
+    assert sizes["platform"] == [50, 50, 50]                     # an explicit chunk bounds every system's

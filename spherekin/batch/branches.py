@@ -62,6 +62,7 @@ import numpy as np
 from ..core.groups import connected_groups
 
 from ..core.angles import TWO_PI, wrap
+from ..results import solution_arrays
 from .inputs import GridAxis, grid_inputs
 
 __all__ = ["BRANCHES_SCHEMA", "COVER_TOL", "DEFAULT_SAMPLES", "Branch", "BranchPoint", "Circuit", "BranchMap",
@@ -504,8 +505,7 @@ class _Samples:
             rows = np.array([[wrap(u) if self.wraps else u] for u in part])
             for u, rep in zip(part, self.problem.solve_many(rows)):
                 cols = [rep.unknowns.index(n) for n in self.joints]
-                q = np.array([wrap(np.asarray(s.angles, dtype=float)[cols]) for s in rep.solutions]).reshape(-1, len(cols))
-                self.at[u] = q
+                self.at[u] = wrap(solution_arrays(rep.solutions, len(rep.unknowns)).angles[:, cols])
             if self.progress is not None:     # refinements add inputs: the total grows with them
                 self.progress(len(self.at), self.planned)
 

@@ -7,7 +7,7 @@ bound reached, no subdivision; base-actuated 3-RRR), the platform system
 of each actuated) and the loop-equation system (:mod:`spherekin.systems.loops`: any mechanism).
 """
 
-from .base import (AUTO, CONTINUUM_TOL, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAISE, SYSTEMS, CappedSearchWarning, Compiled,
+from .base import (AUTO, CONTINUUM_TOL, ON_CAP_CHOICES, ON_CAP_COVER, ON_CAP_RAISE, SEARCH_CHUNK, SYSTEMS, CappedSearchWarning, Compiled,
                    Found, Passed, Proven, Strategy, System, chain, choose, formulation_choices, system_choices,
                    system_of_formulation)
 from .platform import Platform
@@ -15,6 +15,6 @@ from .one_loop import OneLoop       # registered first (first=True), then the co
 from .complete import Complete      # the fastest first, where they accept (they accept different mechanisms)
 from .loops import LOOP_FORMULATION, Loops
 
-__all__ = ["AUTO", "CONTINUUM_TOL", "ON_CAP_CHOICES", "ON_CAP_COVER", "ON_CAP_RAISE", "SYSTEMS", "CappedSearchWarning",
+__all__ = ["AUTO", "CONTINUUM_TOL", "ON_CAP_CHOICES", "ON_CAP_COVER", "ON_CAP_RAISE", "SEARCH_CHUNK", "SYSTEMS", "CappedSearchWarning",
            "Compiled", "Found", "Passed", "Proven", "Strategy", "System", "chain", "choose", "formulation_choices",
            "system_choices", "system_of_formulation", "Complete", "OneLoop", "Platform", "Loops", "LOOP_FORMULATION"]

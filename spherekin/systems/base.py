@@ -28,7 +28,7 @@ from typing import Callable, ClassVar, Sequence
 from ..results import SearchLimit, SearchReport, SearchStrategy
 from ..search.registry import Registry
 
-__all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "Strategy", "Found", "Proven", "Passed", "Compiled", "System",
+__all__ = ["AUTO", "CONTINUUM_TOL", "CappedSearchWarning", "ON_CAP_COVER", "ON_CAP_RAISE", "ON_CAP_CHOICES", "SEARCH_CHUNK", "Strategy", "Found", "Proven", "Passed", "Compiled", "System",
            "SYSTEMS", "own_variables_declined", "system_choices", "formulation_choices", "system_of_formulation", "choose", "chain"]
 
 #: The name that lets the registry choose: the first system (in order of preference) that accepts.
@@ -102,6 +102,13 @@ class Passed:
     reason: str
 
 
+#: Inputs a box search takes as one array program by default (:attr:`Compiled.chunk`). Reason:
+#: measured (benchmarks/bench_engine.py) its throughput per input levels off past ~100 inputs a chunk
+#: (the fixed cost of each box-loop iteration is then spread thin), and a chunk of 256 holds at most
+#: a few MB of boxes.
+SEARCH_CHUNK = 256
+
+
 class Compiled(ABC):
     """A system compiled for one mechanism and strategy: what the pipeline asks of it.
 
@@ -111,6 +118,9 @@ class Compiled(ABC):
     """
 
     system: ClassVar[str]
+    #: Inputs its :meth:`search_many` takes as one array program when the caller does not say
+    #: (:meth:`spherekin.problem.Problem.solve_many`'s ``chunk``).
+    chunk: ClassVar[int] = SEARCH_CHUNK
     names: tuple
     ranges: dict
 

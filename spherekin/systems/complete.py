@@ -50,7 +50,8 @@ from ..core.angles import TWO_PI, into_range_many, span_in_range_many, span_outs
 from ..core.orientation import quaternion_matrices
 from ..core.rotations import cross
 from ..mechanism.chains import axis_rotations
-from ..results import LazySolutions, SearchReport, Settings, Solution, SolverStats, Status
+from .proven_roots import PROVEN_CHUNK, ChunkRoots
+from ..results import LazySolutions, SearchReport, Settings, SolverStats
 from .base import SYSTEMS, Compiled, Passed, Proven, System, own_variables_declined
 from .platform import (QUADRATIC_TENSOR as _T, CHARTS, PlatformSystem, leg_terms, not_applicable, passive_names, passive_reading_enclosures,
                        passive_readings_many, platform_legs)
@@ -242,28 +243,39 @@ class RealRoots:
         q = proof.roots[self.owner, self.slot].real                           # (R, 4), chart component 1
         self.displacements = quaternion_matrices(q) / (q * q).sum(axis=1)[:, None, None]
         self.keep = np.ones(len(self.owner), dtype=bool)
-        self._built: dict | None = None
 
     @functools.cached_property
-    def readings(self):
-        """(angles, lo, hi) (R, M): the passive readings (in their ranges) and their enclosures."""
+    def angles(self) -> np.ndarray:
+        """(R, M): the passive readings of every root (radians, moved into their ranges)."""
         c = self.compiled
         at = self.values[self.owner]
         if not len(at):
-            empty = np.zeros((0, len(c.names)))
-            return empty, empty, empty
+            return np.zeros((0, len(c.names)))
         angles = c.readings(at, self.displacements @ c.equations.platform_reference)
-        lo, hi = c._enclosures(at, self.proof.re_lo[self.owner, self.slot], self.proof.re_hi[self.owner, self.slot])
         for j, name in enumerate(c.names):
             if c.ranges[name] is not None:
                 angles[:, j] = into_range_many(angles[:, j], c.ranges[name])
-        return angles, lo, hi
+        return angles
+
+    @functools.cached_property
+    def enclosures(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (R, M): the passive readings enclosed over each root's proven box (radians), next
+        to :attr:`angles` (whole turns); needed by :meth:`decide_ranges` and each entry's evidence,
+        not by the results table."""
+        c = self.compiled
+        if not len(self.owner):
+            empty = np.zeros((0, len(c.names)))
+            return empty, empty
+        lo, hi = c._enclosures(self.values[self.owner], self.proof.re_lo[self.owner, self.slot],
+                               self.proof.re_hi[self.owner, self.slot])
+        shift = TWO_PI * np.round((self.angles - 0.5 * (lo + hi)) / TWO_PI)
+        return lo + shift, hi + shift
 
     def decide_ranges(self) -> np.ndarray:
         """Keep the roots whose every reading is proven in its range; (K,) how many of each input's
         are undecided (a reading whose enclosure straddles a range end: the input is passed on)."""
         c = self.compiled
-        _, lo, hi = self.readings
+        lo, hi = self.enclosures
         inside = np.ones(len(self.owner), dtype=bool)
         outside = np.zeros(len(self.owner), dtype=bool)
         for j, name in enumerate(c.names):
@@ -274,44 +286,28 @@ class RealRoots:
         self.keep = inside
         return np.bincount(self.owner[~inside & ~outside], minlength=len(self.values))
 
-    def entries(self, k: int) -> tuple:
-        """Input k's :class:`~spherekin.results.Solution` entries, in the trust layer's order (by angles)."""
-        if self._built is None:
-            self._built = self._build()
-        return self._built.get(k, ())
-
-    def _build(self) -> dict:
-        """Every kept root's entry, by input: classified, posed and checked for the whole chunk at once."""
+    @functools.cached_property
+    def table(self) -> ChunkRoots:
+        """Every kept root, in the reports' order, classified and posed for the whole chunk at once."""
         c, proof = self.compiled, self.proof
         kept = np.flatnonzero(self.keep)
-        angles, lo, hi = (x[kept] for x in self.readings)
+        angles = self.angles[kept]
         at = self.values[self.owner[kept]]
-        joints = {**{nm: at[:, i] for i, nm in enumerate(c.mechanism.actuated)},
-                  **{nm: angles[:, j] for j, nm in enumerate(c.names)}}
-        sing = c.mechanism.singularities(joints) if len(kept) else []
         poses = self.displacements[kept] @ c.equations.platform_reference
-        closure = c._closure(at, angles, poses)
-        shift = TWO_PI * np.round((angles - 0.5 * (lo + hi)) / TWO_PI)
-        lo, hi = lo + shift, hi + shift
-        out: dict = {}
-        for r, idx in enumerate(kept):
-            k, m = int(self.owner[idx]), int(self.slot[idx])
-            rep = sing[r]
-            ev = {"serial_margin": float(rep.serial_margin), "parallel_margin": float(rep.parallel_margin),
-                  "singularity": rep.kind, "krawczyk_certified": True,
-                  "bezout": {"bound": bezout.BEZOUT_BOUND, "roots_proven": int(proof.certified[k].sum()),
-                             "real_roots": int(proof.real[k].sum()), "chart": int(proof.chart[k, m]),
-                             "radius": float(proof.radius[k, m]), "model_tolerance": MODEL_TOLERANCE,
-                             "quaternion_lo": proof.re_lo[k, m].tolist(), "quaternion_hi": proof.re_hi[k, m].tolist()},
-                  "root_enclosure": {"lo": lo[r].tolist(), "hi": hi[r].tolist()}}
-            status = Status.CERTIFIED if rep.kind == "regular" else Status.SINGULAR
-            out.setdefault(k, []).append(Solution(
-                angles[r], lo[r], hi[r], 1, platform_rotation=poses[r], residual=float(closure[r]), singularity=rep.kind,
-                status=status, evidence=ev, unknowns=c.names,
-                actuated=dict(zip(c.mechanism.actuated, (float(v) for v in self.values[k])))))
-        for entries in out.values():
-            entries.sort(key=lambda sol: tuple(np.round(sol.angles, 9)))       # the trust layer's order
-        return {k: tuple(v) for k, v in out.items()}
+
+        def evidence(r: int) -> dict:
+            k, m = int(self.owner[kept[r]]), int(self.slot[kept[r]])
+            return {"bezout": {"bound": bezout.BEZOUT_BOUND, "roots_proven": int(proof.certified[k].sum()),
+                               "real_roots": int(proof.real[k].sum()), "chart": int(proof.chart[k, m]),
+                               "radius": float(proof.radius[k, m]), "model_tolerance": MODEL_TOLERANCE,
+                               "quaternion_lo": proof.re_lo[k, m].tolist(), "quaternion_hi": proof.re_hi[k, m].tolist()}}
+
+        return ChunkRoots(c.mechanism, c.names, self.values, self.owner[kept], angles,
+                          lambda: tuple(x[kept] for x in self.enclosures), poses, c._closure(at, angles, poses), evidence)
+
+    def solutions(self, k: int, count: int) -> LazySolutions:
+        """Input k's ``count`` entries (:class:`~spherekin.results.LazySolutions` over :attr:`table`)."""
+        return LazySolutions(count, lambda: self.table.entries(k), lambda: self.table.arrays(k))
 
 
 class CompiledComplete(Compiled):
@@ -319,6 +315,7 @@ class CompiledComplete(Compiled):
     parts of M (the proof), and the readings of :class:`~spherekin.systems.platform.PlatformSystem`."""
 
     system = "complete"
+    chunk = PROVEN_CHUNK
 
     def __init__(self, mechanism, strategy):
         self.mechanism = mechanism
@@ -394,8 +391,7 @@ class CompiledComplete(Compiled):
                                   "real one(s) could not be proven inside or outside the joint ranges (a reading "
                                   "next to a range end): searched with the platform equations"))
             else:
-                out.append(Proven(report, LazySolutions(counts[k], functools.partial(roots.entries, k)),
-                                  int(counts[k]), True))
+                out.append(Proven(report, roots.solutions(k, int(counts[k])), int(counts[k]), True))
         return out
 
     def _enclosures(self, at, q_lo, q_hi):

@@ -34,7 +34,8 @@ from ..core import intervals as iv
 from ..core.angles import TWO_PI, into_range_many, span_in_range_many, span_outside_range_many, wrap
 from ..core.rotations import cross
 from ..mechanism.chains import axis_rotations
-from ..results import LazySolutions, SearchReport, Settings, Solution, SolverStats, Status
+from .proven_roots import PROVEN_CHUNK, ChunkRoots
+from ..results import LazySolutions, SearchReport, Settings, SolverStats
 from .base import SYSTEMS, Compiled, Passed, Proven, System, own_variables_declined
 
 __all__ = ["FORMULATION", "BOUND", "LOOP_TOLERANCE", "not_one_loop", "LoopCycle", "CompiledOneLoop", "OneLoop"]
@@ -178,6 +179,7 @@ class CompiledOneLoop(Compiled):
     """A one-loop mechanism compiled for its complete count: the cycle and the ranges."""
 
     system = "complete-loop"
+    chunk = PROVEN_CHUNK
 
     def __init__(self, mechanism, strategy):
         self.mechanism, self.strategy = mechanism, strategy
@@ -228,7 +230,7 @@ class CompiledOneLoop(Compiled):
                                   "not be proven inside or outside the joint ranges, or their readings not enclosed: "
                                   "searched with the loop equations"))
             else:
-                out.append(Proven(report, LazySolutions(counts[k], functools.partial(roots.entries, k)),
+                out.append(Proven(report, roots.solutions(k, int(counts[k])),
                                   int(counts[k]), True))
         return out
 
@@ -259,7 +261,6 @@ class LoopRoots:
         # intervals: y, x, z over everything the proof covers
         self.lo, self.hi = self._enclosures(inputs, abc_iv, terms_iv)
         self.keep = np.ones(m, dtype=bool)
-        self._built: dict | None = None
 
     def _enclosures(self, inputs, abc_iv, terms_iv):
         c = self.compiled
@@ -319,39 +320,25 @@ class LoopRoots:
         self.keep = inside
         return np.bincount(self.owner[~inside & ~outside], minlength=len(self.values))
 
-    def entries(self, k: int) -> tuple:
-        if self._built is None:
-            self._built = self._build()
-        return self._built.get(k, ())
-
-    def _build(self) -> dict:
+    @functools.cached_property
+    def table(self) -> ChunkRoots:
+        """Every kept root, in the reports' order, classified and posed for the whole chunk at once."""
         c = self.compiled
         mech = c.mechanism
         kept = np.flatnonzero(self.keep)
         at = self.values[self.owner[kept]]
-        angles, lo, hi = self.angles[kept], self.lo[kept], self.hi[kept]
-        passive = {nm: angles[:, j] for j, nm in enumerate(c.names)}
-        joints = {**{nm: at[:, i] for i, nm in enumerate(mech.actuated)}, **passive}
-        sing = mech.singularities(joints) if len(kept) else []
-        poses = mech.poses_from_passive(at, passive) if len(kept) else None
+        angles = self.angles[kept]
+        poses = mech.poses_from_passive(at, {nm: angles[:, j] for j, nm in enumerate(c.names)}) if len(kept) else None
         closure = _closure(mech, at, angles, c.names) if len(kept) else np.zeros(0)
-        out: dict = {}
-        for r, idx in enumerate(kept):
-            k = int(self.owner[idx])
-            rep = sing[r]
-            ev = {"serial_margin": float(rep.serial_margin), "parallel_margin": float(rep.parallel_margin),
-                  "singularity": rep.kind, "krawczyk_certified": True,
-                  "bezout": {"bound": BOUND, "roots_proven": BOUND, "real_roots": BOUND,
-                             "discriminant_positive": True, "model_tolerance": LOOP_TOLERANCE},
-                  "root_enclosure": {"lo": lo[r].tolist(), "hi": hi[r].tolist()}}
-            status = Status.CERTIFIED if rep.kind == "regular" else Status.SINGULAR
-            out.setdefault(k, []).append(Solution(
-                angles[r], lo[r], hi[r], 1, platform_rotation=None if poses is None else poses[r],
-                residual=float(closure[r]), singularity=rep.kind, status=status, evidence=ev, unknowns=c.names,
-                actuated=dict(zip(mech.actuated, (float(v) for v in self.values[k])))))
-        for entries in out.values():
-            entries.sort(key=lambda sol: tuple(np.round(sol.angles, 9)))
-        return {k: tuple(v) for k, v in out.items()}
+        evidence = {"bezout": {"bound": BOUND, "roots_proven": BOUND, "real_roots": BOUND,
+                               "discriminant_positive": True, "model_tolerance": LOOP_TOLERANCE}}
+        return ChunkRoots(mech, c.names, self.values, self.owner[kept], angles,
+                          lambda: (self.lo[kept], self.hi[kept]), poses,
+                          closure, lambda r: {"bezout": dict(evidence["bezout"])})
+
+    def solutions(self, k: int, count: int) -> LazySolutions:
+        """Input k's ``count`` entries (:class:`~spherekin.results.LazySolutions` over :attr:`table`)."""
+        return LazySolutions(count, lambda: self.table.entries(k), lambda: self.table.arrays(k))
 
 
 def _rotations_cs(axis, c, s) -> np.ndarray:
