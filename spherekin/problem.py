@@ -41,6 +41,7 @@ from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_
 from .results import (EmptyReason, SolveReport, SolverStats, EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES,
                       EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many
+from .trust.tolerances import analyse as analyse_tolerances
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                              check_strategy)
 
@@ -162,7 +163,15 @@ class Problem:
             report = self._solve_chunk([values], progress)[0]     # the engine, on a chunk of one
         else:
             report = self._solve(values, progress, trace)
-        return self._explained(report, values)
+        return self._with_tolerances(self._explained(report, values), values)
+
+    def _with_tolerances(self, report: SolveReport, values) -> SolveReport:
+        """``report`` with ``tolerances`` set (:func:`spherekin.trust.tolerances.analyse`: each assembly
+        under the mechanism's tolerances, and whether the count stays) when the mechanism has them."""
+        tolerances = self.mechanism.tolerances
+        if tolerances is None:
+            return report
+        return dataclasses.replace(report, tolerances=analyse_tolerances(self.mechanism, tolerances, values, report))
 
     def _explained(self, report: SolveReport, values) -> SolveReport:
         """``report`` with ``empty_reason`` set where it has no solution (and no cap or Ctrl-C)."""
@@ -325,6 +334,8 @@ class Problem:
                 out += [self._solve(v, None, None) for v in values]
             if progress is not None:
                 progress(len(out), len(rows))
+        if self.mechanism.tolerances is not None:
+            out = [self._with_tolerances(r, tuple(float(v) for v in row)) for r, row in zip(out, rows)]
         return tuple(out)
 
     def _solve_chunk(self, values: list, progress) -> list[SolveReport]:

@@ -13,6 +13,7 @@ and the number format of printed tables (:func:`format_number`).
 from __future__ import annotations
 
 import collections.abc
+import math
 from dataclasses import asdict, dataclass, field, fields
 from enum import StrEnum
 from typing import Mapping, Sequence
@@ -26,7 +27,7 @@ from .core.columns import table_columns
 __all__ = ["Cusp", "ModeChange", "Status", "SolverStats", "AcceptedBox", "Cluster", "Solution", "SolutionArrays", "solution_arrays", "LazySolutions", "box_near", "is_proven", "SearchLimit", "SearchStrategy", "Settings",
            "SearchReport", "SolveReport", "EmptyReason", "EMPTY_OUTSIDE_RANGES", "EMPTY_INCONSISTENT",
            "EMPTY_OUTSIDE_WORKSPACE", "format_number", "QUATERNION_COLUMNS", "ROTATION_COLUMNS", "table_columns",
-           "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SingularBox",
+           "solution_table", "solution_columns", "ResultsTable", "TABLE_DTYPES", "SINGULAR_SCHEMA", "SOLVE_SCHEMA", "AssemblyTolerance", "ToleranceReport", "SingularBox",
            "SingularStats", "SingularSet", "CrossCheck"]
 
 
@@ -439,6 +440,89 @@ class EmptyReason:
                 "assemblies_without_ranges": self.assemblies_without_ranges, "note": self.text()}
 
 
+@dataclass(frozen=True)
+class AssemblyTolerance:
+    """What the tolerances do to one assembly of the nominal input (:mod:`spherekin.trust.tolerances`;
+    the JSON's ``tolerances.assemblies``, the same names). Radians.
+
+    ``solution``: its number among the report's entries (from 1, as printed);
+    ``worst_case_rotation_error``: a proven upper bound on the rotation angle between the nominal
+    platform rotation and this assembly's, for every geometry and input within the tolerances (None:
+    not proven, ``reason`` says why); ``worst_case_rotation_error_lower_bound``: the error of one
+    geometry within the tolerances, solved (the linearized worst case: every axis tilted to its rim in
+    the direction that moves the platform most), so the truth lies between the two;
+    ``linear_worst_case``: the linearized maximum itself; ``enclosure_radius``: the radius (tan of
+    half the rotation angle, per component) of the box proven to hold this assembly, and no other
+    root, for every geometry within the tolerances; ``worst_case_geometry``: the geometry that reaches
+    the lower bound (``axes``: joint name -> axis, base frame at the reference configuration;
+    ``inputs``: actuated joint -> radians), to build and check.
+    """
+
+    solution: int
+    worst_case_rotation_error: float | None
+    worst_case_rotation_error_lower_bound: float | None = None
+    linear_worst_case: float | None = None
+    enclosure_radius: tuple | None = None
+    reason: str | None = None
+    worst_case_geometry: Mapping | None = None
+
+    @property
+    def tightness(self) -> float | None:
+        """Certified bound / searched lower bound (>= 1; None when either is missing or the lower is 0)."""
+        up, lo = self.worst_case_rotation_error, self.worst_case_rotation_error_lower_bound
+        return None if up is None or not lo else up / lo
+
+    def as_dict(self) -> dict:
+        return {"solution": self.solution, "worst_case_rotation_error": self.worst_case_rotation_error,
+                "worst_case_rotation_error_lower_bound": self.worst_case_rotation_error_lower_bound,
+                "linear_worst_case": self.linear_worst_case,
+                "enclosure_radius": None if self.enclosure_radius is None else list(self.enclosure_radius),
+                "tightness": self.tightness, "reason": self.reason, "worst_case_geometry": self.worst_case_geometry}
+
+
+@dataclass(frozen=True)
+class ToleranceReport:
+    """The mechanism as built at one input (:mod:`spherekin.trust.tolerances`; the JSON's
+    ``tolerances``, the same names): ``tolerances`` the tolerances analysed (``axes_deg``,
+    ``inputs_deg``, ``joints``); ``count_constant_over_tolerances``: True only when proven (no assembly
+    appears, vanishes or meets another for any geometry and input within them), False when a singular
+    configuration is proven within them, None when undecided; ``count_reason`` says how, or why not;
+    ``assemblies``: one :class:`AssemblyTolerance` per entry of the report, in its order."""
+
+    tolerances: Mapping
+    count_constant_over_tolerances: bool | None
+    count_reason: str
+    assemblies: tuple = ()
+
+    @property
+    def worst_case_rotation_error(self) -> float | None:
+        """The largest proven bound over the assemblies (radians; None when one is not proven or there are none)."""
+        values = [a.worst_case_rotation_error for a in self.assemblies]
+        return None if not values or any(v is None for v in values) else max(values)
+
+    def text(self) -> str:
+        """The lines the CLI prints under the solutions' table."""
+        t = self.tolerances
+        joints = "".join(f", {n} {v:g} deg" for n, v in dict(t.get("joints", {})).items())
+        head = f"under tolerances (axes {t['axes_deg']:g} deg{joints}, inputs {t['inputs_deg']:g} deg): "
+        verdict = {True: "count constant (proven)", False: "count NOT constant (a singular configuration within "
+                   "the tolerances is proven)", None: "count not proven constant"}[self.count_constant_over_tolerances]
+        lines = [head + verdict + f": {self.count_reason}"]
+        for a in self.assemblies:
+            if a.worst_case_rotation_error is None:
+                lines.append(f"  solution {a.solution}: worst-case rotation error not proven ({a.reason})")
+            else:
+                lines.append(f"  solution {a.solution}: worst-case rotation error <= {a.worst_case_rotation_error:.3e} rad "
+                             f"({math.degrees(a.worst_case_rotation_error):.4f} deg; a geometry within the tolerances "
+                             f"reaches {a.worst_case_rotation_error_lower_bound:.3e} rad)")
+        return "\n".join(lines)
+
+    def as_dict(self) -> dict:
+        return {"tolerances": dict(self.tolerances), "count_constant_over_tolerances": self.count_constant_over_tolerances,
+                "count_reason": self.count_reason, "worst_case_rotation_error": self.worst_case_rotation_error,
+                "assemblies": [a.as_dict() for a in self.assemblies]}
+
+
 #: The pandas dtype of each kind of column of a results table (:class:`ResultsTable`): ``int64``
 #: (``input``), ``float64`` (NaN: empty), ``Int64`` (``solution``: whole numbers, None empty) and
 #: ``string`` (``status``, ``singularity``: None empty).
@@ -573,6 +657,7 @@ class SolveReport:
     count_exact: bool
     mechanism: object = field(default=None, repr=False, compare=False)
     empty_reason: EmptyReason | None = None
+    tolerances: ToleranceReport | None = None
 
     def frame(self):
         """The solutions as a pandas DataFrame, one row per solution, in the columns of a batch's
@@ -646,7 +731,7 @@ class SolveReport:
 
         actuated = dict(zip(self.settings.actuated, (float(v) for v in self.settings.inputs)))
         return {
-            "schema": "spherekin.solve/2",
+            "schema": SOLVE_SCHEMA,
             "spherekin_version": __version__,
             "settings": self.settings.as_dict(),
             "unknowns": list(self.unknowns),
@@ -660,11 +745,14 @@ class SolveReport:
                 for number, s in enumerate(self.solutions, start=1)],     # numbered as printed, from 1
             "statistics": self.stats.as_dict(),
             **({} if self.empty_reason is None else {"empty_reason": self.empty_reason.as_dict()}),
+            **({} if self.tolerances is None else {"tolerances": self.tolerances.as_dict()}),
         }
 
 
 #: Schema tag of the singular-set JSON (docs/results-format.md).
 SINGULAR_SCHEMA = "spherekin.singular/1"
+#: The schema of a solve's JSON (docs/results-format.md). /3: the optional ``tolerances`` key (issue 45).
+SOLVE_SCHEMA = "spherekin.solve/3"
 
 
 class CuspSearch(StrEnum):

@@ -121,6 +121,31 @@ def family_inputs(mech, args):
     return grid_inputs(mech, args.grid, args.fix or (), degrees=args.degrees)
 
 
+def add_tolerances_option(p) -> None:
+    """``--tolerances``: the mechanism as built (over the file's ``[tolerances]``)."""
+    p.add_argument("--tolerances", metavar="KEY=DEG,...",
+                   help="the mechanism as built: axes_deg=D (each joint axis within D degrees of the file's), "
+                        "inputs_deg=E (each input within +-E degrees), <joint>=D (that joint's axis); over the "
+                        "file's [tolerances] table (docs/mechanism-format.md)")
+
+
+def with_tolerances(mech, args):
+    """``mech`` with ``--tolerances`` applied over its own (unchanged without the option)."""
+    text = getattr(args, "tolerances", None)
+    if text is None:
+        return mech
+    import dataclasses
+
+    from ..mechanism import parse_tolerances_option
+
+    tolerances = parse_tolerances_option(text, mech.tolerances)
+    try:
+        tolerances.check_joints(mech.joint_names)
+    except ValueError as exc:
+        raise ValueError(f"--tolerances: {exc}") from None
+    return dataclasses.replace(mech, tolerances=tolerances)
+
+
 def engine_note(summary) -> str:
     where = "in this process" if not summary.workers else f"on {summary.workers} Dask worker(s)"
     rate = summary.solved / summary.seconds if summary.seconds > 0 else 0.0

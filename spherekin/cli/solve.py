@@ -7,7 +7,8 @@ import sys
 
 from .. import atomic
 from .errors import Terminated, as_options
-from .options import add_strategy_options, check_output_file, parse_angles, strategy_keywords, whole
+from .options import (add_strategy_options, add_tolerances_option, check_output_file, parse_angles, strategy_keywords,
+                      whole, with_tolerances)
 from .progress import Progress
 
 
@@ -18,7 +19,7 @@ def command(args) -> int:
     from ..search.pruners import check_pruner
 
     check_pruner(args.pruner, args.lp_backend)   # a refused LP backend's reason, before any output
-    mech = load_mechanism(args.file)
+    mech = with_tolerances(load_mechanism(args.file), args)
     inputs = parse_angles("--inputs", args.inputs, mech.actuated, args.degrees, "one per actuated joint")
     values = mech.check_inputs(inputs)
     # every argument and output path is checked before the first line of output (compile checks
@@ -74,6 +75,8 @@ def command(args) -> int:
               "a finer tolerance to separate their roots")
     if report.empty_reason is not None:
         print(f"note: {report.empty_reason.text()}")
+    if report.tolerances is not None:
+        print(report.tolerances.text())
     if args.json:
         import json  # only for --json (each import is paid by every process)
 
@@ -102,9 +105,10 @@ def _write_unsearched(path, mech, values, exc: KeyboardInterrupt) -> None:
 
     from .. import __version__
     from ..mechanism.io import dumps_mechanism
+    from ..results import SOLVE_SCHEMA
 
     signal_name = str(exc) if isinstance(exc, Terminated) else "SIGINT"
-    data = {"schema": "spherekin.solve/2", "spherekin_version": __version__,
+    data = {"schema": SOLVE_SCHEMA, "spherekin_version": __version__,
             "settings": {"mechanism": mech.name, "actuated": list(mech.actuated), "inputs": [float(v) for v in values],
                          "limit": {"error": f"stopped by {signal_name} before the search began",
                                    "interrupted": True}},
@@ -126,6 +130,7 @@ def add_parser(sub_add_parser) -> None:
     so.add_argument("--jobs", type=whole(1), default=1,
                     help="Dask worker processes over the charts of the loop equations, on a local cluster "
                          "(~2-3 s to start: for long solves; default %(default)s)")
+    add_tolerances_option(so)
     so.add_argument("--json", help="write the report (solutions, rotations, statistics) as JSON")
     so.add_argument("--plot", help="draw every solution on the unit sphere, one panel each (.png, .pdf or .svg)")
     so.add_argument("--quiet", action="store_true", help="no progress on stderr")

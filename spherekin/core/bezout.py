@@ -387,12 +387,14 @@ def _distinct_fast(y, h_re, h_im, chart, valid):
     return np.all(apart | ~both, axis=1)
 
 
-def certify_roots(m_iv, candidates, arithmetic: str = "fast") -> QuadricRoots:
+def certify_roots(m_iv, candidates, arithmetic: str = "fast", radii=RADII) -> QuadricRoots:
     """Prove the candidate roots ``candidates`` (K, N, 4) complex (NaN: none) of K systems of three
     quadrics, given by interval matrices ``m_iv`` (2, K, 3, 4, 4) (symmetric; the proof holds for
     every real matrix in them): each polished (:func:`polish`), proven by the Krawczyk test on its
     chart, real or not, and all proven distinct (module doc). ``arithmetic``: one of
-    :data:`ARITHMETICS`. Returns a :class:`QuadricRoots`."""
+    :data:`ARITHMETICS`; ``radii``: the box radii tried, smallest first (default :data:`RADII`, for
+    matrices as wide as a model tolerance; wider matrices, such as those of a mechanism under
+    geometric tolerances, move the roots further and need wider boxes). Returns a :class:`QuadricRoots`."""
     if arithmetic not in ARITHMETICS:
         raise ValueError(f"arithmetic: expected one of {list(ARITHMETICS)}, got {arithmetic!r}")
     m_iv = np.asarray(m_iv, dtype=float)
@@ -419,7 +421,7 @@ def certify_roots(m_iv, candidates, arithmetic: str = "fast") -> QuadricRoots:
     certified = np.zeros(nb, dtype=bool)
     radius = np.full(nb, np.nan)
     re, im = iv.point(a), iv.point(b)
-    for r in RADII:
+    for r in radii:
         todo = np.flatnonzero(finite & ~certified)
         if not len(todo):
             break

@@ -12,6 +12,8 @@
   axes, distal link angles);
 * :mod:`.presets` -- :func:`gosselin` (the paper's example), :func:`general_3rrr`,
   :func:`four_bar`, :func:`five_bar`;
+* :mod:`.tolerances` -- the mechanism as built: :class:`Tolerances` (joint axis cones, input
+  intervals) read from a file's ``[tolerances]`` table;
 * :mod:`.io` -- mechanism files in TOML (:func:`load_mechanism`, :func:`dumps_mechanism`); format in
   docs/mechanism-format.md.
 
@@ -43,6 +45,7 @@ from .model import (
     SingularityReport,
     SphericalMechanism,
 )
+from .tolerances import MAX_TOLERANCE_DEG, Tolerances, parse_tolerances_option
 from .presets import PRESETS, five_bar, four_bar, general_3rrr, gosselin, preset
 from .rrr import (
     PLATFORM_DIRECTION_MIN_SINE,
@@ -63,5 +66,6 @@ __all__ = [
     "PLATFORM_DIRECTION_MIN_SINE", "REFERENCE_MARGIN", "THREE_RRR_KEYS", "ThreeRRRGeometry", "elbow_angle",
     "find_reference_pose", "platform_joint_angle", "rrr_joint_names", "three_rrr",
     "PRESETS", "five_bar", "four_bar", "general_3rrr", "gosselin", "preset",
+    "MAX_TOLERANCE_DEG", "Tolerances", "parse_tolerances_option",
     "KINDS", "MechanismFileError", "dumps_mechanism", "load_mechanism", "mechanism_from_dict",
 ]

@@ -14,6 +14,9 @@ Three kinds, one model (every kind builds the same graph of links and joints, :m
   tables (``name``, ``axis``, optional ``actuated``, ``range``, ``reference_angle``), listed from
   the base to the platform; optional ``name``, ``reference_leg``, ``platform_reference``.
 
+Every kind may carry a ``[tolerances]`` table (``axes_deg``, ``inputs_deg``, ``[tolerances.joints]``:
+:mod:`.tolerances`): the mechanism as built.
+
 Angles are numbers in radians or text such as "pi/2" (see :func:`~.model.parse_angle`). Every
 problem raises :class:`MechanismFileError` (a ValueError) with one message naming the file, the
 key and the problem.
@@ -21,6 +24,7 @@ key and the problem.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import tomllib
@@ -33,6 +37,7 @@ from .checks import shown
 from .graph import Joint, MechanismGraph
 from .model import Leg, SphericalMechanism
 from .rrr import THREE_RRR_KEYS, three_rrr
+from .tolerances import tolerances_from_table
 
 __all__ = ["MechanismFileError", "KINDS", "load_mechanism", "mechanism_from_dict", "dumps_mechanism"]
 
@@ -117,6 +122,14 @@ def _check_keys(where: str, table: Mapping, required, optional) -> None:
 def _build(data) -> SphericalMechanism:
     if not isinstance(data, Mapping):
         raise ValueError(f"expected a table of keys, got {type(data).__name__}")
+    if "tolerances" in data:                         # any kind: the mechanism as built
+        tolerances = tolerances_from_table(data["tolerances"])
+        mech = _build({k: v for k, v in data.items() if k != "tolerances"})
+        try:
+            tolerances.check_joints(mech.joint_names)
+        except ValueError as exc:
+            raise ValueError(str(exc)) from None
+        return dataclasses.replace(mech, tolerances=tolerances)
     if "kind" not in data:
         raise ValueError(f"kind: missing key; expected one of {KINDS}")
     kind = data["kind"]
@@ -211,7 +224,19 @@ def _str(s: str) -> str:
 
 
 def dumps_mechanism(mech: SphericalMechanism) -> str:
-    """The TOML text of a mechanism (the kind it was built as: graph, 3-RRR or general); loads back equal."""
+    """The TOML text of a mechanism (the kind it was built as: graph, 3-RRR or general; its tolerances
+    when it has them); loads back equal."""
+    text = _dumps_body(mech)
+    t = mech.tolerances
+    if t is None:
+        return text
+    lines = ["", "[tolerances]", f"axes_deg = {_num(t.axes_deg)}", f"inputs_deg = {_num(t.inputs_deg)}"]
+    if t.joints:
+        lines += ["", "[tolerances.joints]"] + [f"{_str(n)} = {_num(v)}" for n, v in t.joints]
+    return text + "\n".join(lines) + "\n"
+
+
+def _dumps_body(mech: SphericalMechanism) -> str:
     lines = []
     if mech.kind == "3-RRR" and mech.geometry is not None:
         g = mech.geometry

@@ -60,6 +60,7 @@ from ..core.rotations import cross, normalize_polygon, normalized_closure
 from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik
 from .checks import check_name, check_range, check_rotation, parse_angle, shown
 from .graph import Joint, MechanismGraph, Step
+from .tolerances import Tolerances
 
 __all__ = [
     "PARALLEL_TOL",
@@ -430,6 +431,9 @@ class SphericalMechanism:
     kind: str = "general"
     geometry: object = None
     graph: MechanismGraph | None = None
+    #: How far the as-built mechanism may be from this one (:class:`~.tolerances.Tolerances`; None:
+    #: the nominal mechanism only). Read by :mod:`spherekin.trust.tolerances`.
+    tolerances: Tolerances | None = None
     link_graph: MechanismGraph | None = field(init=False, repr=False, compare=False, default=None)
     loop_geometry: tuple = field(init=False, repr=False, compare=False, default=())
     #: Derived once for the Jacobians and poses (hot in the trust layer): joint name -> Joint; link ->
@@ -447,6 +451,11 @@ class SphericalMechanism:
             self._from_graph()
         else:
             self._from_legs()
+        if self.tolerances is not None:
+            if not isinstance(self.tolerances, Tolerances):
+                raise ValueError(f"tolerances: expected a spherekin.mechanism.Tolerances or None, got "
+                                 f"{type(self.tolerances).__name__}")
+            self.tolerances.check_joints(self.joint_names)
         platform = check_rotation("platform_reference", self.platform_reference)
         object.__setattr__(self, "platform_reference", tuple(tuple(float(v) for v in row) for row in platform))
         graph = self.link_graph
