@@ -648,7 +648,8 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
     dx = (xs[1] - xs[0]) / 2 if len(xs) > 1 else 0.5
     dy = (ys[1] - ys[0]) / 2 if len(ys) > 1 else 0.5
     extent = (xs[0] - dx, xs[-1] + dx, ys[0] - dy, ys[-1] + dy)
-    panels = 2 if measure else 1
+    tolerances = getattr(amap, "worst_error", None) is not None
+    panels = 1 + bool(measure) + tolerances
     fig = Figure(figsize=(MAP_PANEL_INCHES * panels + 0.8 * panels, MAP_PANEL_INCHES + 0.6), dpi=DPI)
     top = max(int(amap.solutions.max()), 1)
     levels = np.arange(top + 1)
@@ -691,12 +692,46 @@ def plot_assembly_map(amap, path=None, *, degrees: bool = False, measure: bool =
             from matplotlib.patches import Patch
             ax2.legend(handles=[Patch(facecolor="white", edgecolor="0.4", label=NO_ASSEMBLY_LABEL)],
                        loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, frameon=False)  # under the axis
+    if tolerances:
+        _draw_tolerance_panel(fig.add_subplot(1, panels, panels), amap, xs, ys, extent, unit)
     fixed = ", ".join(f"{n} = {v * scale:.4g} {unit}" for n, v in amap.fixed.items())
     fig.suptitle(f"{amap.mechanism}" + (f" ({fixed})" if fixed else ""), fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     if out is not None:
         _save(fig, out, fmt)
     return fig
+
+
+def _draw_tolerance_panel(ax, amap, xs, ys, extent, unit: str) -> None:
+    """A map's panel under tolerances (issue 45): the largest proven worst-case rotation error over each
+    grid point's assemblies (degrees; blank where one is not proven), grid points where a singular
+    configuration is proven within the tolerances (the real mechanism may change assembly mode there)
+    marked with a filled black dot, those where the count is not proven constant with a grey x."""
+    from matplotlib.lines import Line2D
+
+    err = np.degrees(amap.worst_error)
+    im = ax.imshow(err.T, origin="lower", extent=extent, aspect="auto", cmap="viridis", interpolation="nearest")
+    bar = ax.figure.colorbar(im, ax=ax, fraction=0.05, pad=0.03)
+    bar.set_label("worst-case rotation error, proven (deg)")
+    ax.set_facecolor("white")
+    handles = []
+    change = amap.count_constant == 0
+    if change.any():
+        ii, jj = np.nonzero(change)
+        ax.plot(xs[ii], ys[jj], "o", color="black", markersize=3, linestyle="none")
+        handles.append(Line2D([], [], marker="o", color="black", markersize=4, linestyle="none",
+                              label="may change assembly mode (singularity proven within the tolerances)"))
+    open_ = np.isnan(amap.count_constant)
+    if open_.any():
+        ii, jj = np.nonzero(open_)
+        ax.plot(xs[ii], ys[jj], "x", color="0.45", markersize=3, linestyle="none")
+        handles.append(Line2D([], [], marker="x", color="0.45", markersize=4, linestyle="none",
+                              label="count not proven constant (or a bound not proven: blank)"))
+    if handles:
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), fontsize=7, frameon=False)
+    ax.set_xlabel(f"{amap.x.name} ({unit})")
+    ax.set_ylabel(f"{amap.y.name} ({unit})")
+    ax.set_title("the mechanism as built: worst case over the tolerances", fontsize=11)
 
 
 def _draw_singular_cells(ax, sset, scale: float, unit: str) -> None:

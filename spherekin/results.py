@@ -549,6 +549,10 @@ class ResultsTable:
         """The column ``name`` (an array of the table's length)."""
         return self.data[self.columns.index(name)]
 
+    def with_columns(self, columns, data, dtypes) -> "ResultsTable":
+        """This table with more columns (names, arrays of its length, kinds of :data:`TABLE_DTYPES`) last."""
+        return ResultsTable(self.columns + tuple(columns), self.data + tuple(data), self.dtypes + tuple(dtypes))
+
     def frame(self):
         """The table as a pandas DataFrame (the dtypes of ``dtypes``)."""
         import pandas as pd

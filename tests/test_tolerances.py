@@ -259,3 +259,47 @@ def test_bad_tolerances_on_the_command_line_are_one_line(option, message):
     assert proc.returncode == 2 and proc.stdout == ""
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("spherekin: error: --tolerances") and message in lines[0]
+
+
+# ---------------------------------------------------------------- families: batch and map
+
+def test_a_batch_table_carries_each_entry_s_bound_and_each_input_s_count_verdict():
+    """The batch's columns under tolerances are each report's own numbers, row by row (an input
+    without assembly: one row, empty)."""
+    from spherekin.batch import solve_many as batch_solve
+
+    mech = dataclasses.replace(general_3rrr(), tolerances=Tolerances(AXES_DEG, INPUTS_DEG))
+    rows = np.array([(0.3, -0.2, 0.5), tuple(TWIN_INPUTS + [1e-5, 0.0, 0.0]), (0.9, -1.2, 0.4)])
+    frame = batch_solve(mech, rows, workers=0)
+    assert list(frame.columns[-3:]) == ["worst_case_rotation_error", "worst_case_rotation_error_lower_bound",
+                                        "count_constant_over_tolerances"]
+    problem = spherekin.compile(mech)
+    for k, row in enumerate(rows):
+        tr = problem.solve(row).tolerances
+        part = frame[frame["input"] == k]
+        # (the batch's chunk and a single solve may differ in the poses' last bits: rtol 1e-12)
+        np.testing.assert_allclose(part["worst_case_rotation_error"].to_numpy(dtype=float),
+                                   [np.nan if a.worst_case_rotation_error is None else a.worst_case_rotation_error
+                                    for a in tr.assemblies], rtol=1e-12)
+        want = {True: "true", False: "false"}[tr.count_constant_over_tolerances]
+        assert set(part["count_constant_over_tolerances"]) == {want}
+
+
+def test_a_map_under_tolerances_draws_the_largest_bound_and_where_the_count_may_change(tmp_path):
+    from spherekin.batch import assembly_map
+    from spherekin.plot import plot_assembly_map
+
+    mech = dataclasses.replace(general_3rrr(), tolerances=Tolerances(AXES_DEG, INPUTS_DEG))
+    amap = assembly_map(mech, "beta1=0.1:0.3:2", "beta2=-0.3:-0.1:2", ["beta3=0.5"], workers=0)
+    problem = spherekin.compile(mech)
+    for i, b1 in enumerate(amap.x.values):
+        for j, b2 in enumerate(amap.y.values):
+            tr = problem.solve((b1, b2, 0.5)).tolerances
+            want = tr.worst_case_rotation_error
+            assert amap.worst_error[i, j] == pytest.approx(want, rel=1e-12) if want is not None else \
+                np.isnan(amap.worst_error[i, j])
+            assert amap.count_constant[i, j] == {True: 1.0, False: 0.0}[tr.count_constant_over_tolerances]
+    assert "under tolerances: worst-case rotation error up to" in amap.table()
+    fig = plot_assembly_map(amap, tmp_path / "map.png")
+    assert len(fig.axes) == 4 and (tmp_path / "map.png").stat().st_size > 0     # two panels, two colour bars
+    assert "as built" in fig.axes[2].get_title()

@@ -185,6 +185,7 @@ def assembly_map(mechanism, x: GridAxis | str, y: GridAxis | str, fixed: Mapping
 
 def _map_frame(mechanism, inputs, out, resume, overwrite, client, scheduler, workers, chunk_size, progress, strategy):
     """The results table of a map's grid (in memory, or written to ``out`` and read back)."""
+    from ..core.columns import TOLERANCE_COLUMNS
     from .maps import MAP_COLUMNS
     from .sinks import read_results
 
@@ -201,5 +202,5 @@ def _map_frame(mechanism, inputs, out, resume, overwrite, client, scheduler, wor
             import warnings
 
             warnings.warn(summary.note, UserWarning, stacklevel=2)
-        frame = read_results(out, columns=MAP_COLUMNS)
+        frame = read_results(out, columns=MAP_COLUMNS + (TOLERANCE_COLUMNS if mechanism.tolerances is not None else ()))
     return frame

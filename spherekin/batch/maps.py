@@ -49,6 +49,12 @@ class AssemblyMap:
     flagged: np.ndarray = field(repr=False)
     measure: np.ndarray = field(repr=False)
     singular_set: object = field(default=None, repr=False)
+    #: Under tolerances (the mechanism's, issue 45), per grid point: the largest proven worst-case
+    #: rotation error over its assemblies (radians; NaN where one is not proven, or none); and whether
+    #: its count is proven constant over the tolerances (1), proven to change (0: a singular
+    #: configuration within them), or undecided (NaN). None for a map without tolerances.
+    worst_error: np.ndarray | None = field(default=None, repr=False)
+    count_constant: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self):
         s = self.singular_set
@@ -79,6 +85,8 @@ class AssemblyMap:
             rows.append(f"  {n:9d}  {c:11d}  {proven:30d}")
         rows.append(f"  entries: {int(self.certified.sum())} certified, {int(self.singular.sum())} singular, "
                     f"{int(self.flagged.sum())} flagged (unverified, cluster or continuum)")
+        if self.worst_error is not None:
+            rows.append("  " + self.tolerance_text())
         if self.singular_set is not None:
             counts = self.singular_set.counts()
             rows.append(f"  certified singular set (cells <= {self.singular_set.tol:.3g} rad): "
@@ -88,14 +96,34 @@ class AssemblyMap:
                 rows.append("  " + self.singular_set.cross_check.text())
         return "\n".join(rows)
 
+    def tolerance_text(self) -> str:
+        """One line: the worst-case rotation error over the map and where the count may change."""
+        err = self.worst_error
+        known = np.isfinite(err)
+        c = self.count_constant
+        parts = []
+        if known.any():
+            parts.append(f"worst-case rotation error up to {np.degrees(err[known].max()):.4g} deg (median "
+                         f"{np.degrees(np.median(err[known])):.4g} deg) at {int(known.sum())} grid point(s) with every "
+                         "assembly bounded")
+        parts.append(f"count proven constant at {int(np.sum(c == 1))} of {c.size} grid points, proven to change "
+                     f"(a singular configuration within the tolerances) at {int(np.sum(c == 0))}, undecided at "
+                     f"{int(np.sum(np.isnan(c)))}")
+        return "under tolerances: " + "; ".join(parts)
+
     def frame(self):
-        """The map as a table: one row per grid point (x, y, solutions, certified, singular, flagged, measure)."""
+        """The map as a table: one row per grid point (x, y, solutions, certified, singular, flagged, measure;
+        under tolerances also worst_case_rotation_error and count_constant_over_tolerances)."""
         import pandas as pd
 
         xx, yy = np.meshgrid(self.x.values, self.y.values, indexing="ij")
-        return pd.DataFrame({self.x.name: xx.ravel(), self.y.name: yy.ravel(), "solutions": self.solutions.ravel(),
-                             "certified": self.certified.ravel(), "singular": self.singular.ravel(),
-                             "flagged": self.flagged.ravel(), "parallel_measure": self.measure.ravel()})
+        data = {self.x.name: xx.ravel(), self.y.name: yy.ravel(), "solutions": self.solutions.ravel(),
+                "certified": self.certified.ravel(), "singular": self.singular.ravel(),
+                "flagged": self.flagged.ravel(), "parallel_measure": self.measure.ravel()}
+        if self.worst_error is not None:
+            data["worst_case_rotation_error"] = self.worst_error.ravel()
+            data["count_constant_over_tolerances"] = self.count_constant.ravel()
+        return pd.DataFrame(data)
 
 
 #: A map's grid point counts as on a cell's edge within this (radians): the grid's values and the cells' edges
@@ -148,6 +176,17 @@ def aggregate(frame, x: GridAxis, y: GridAxis, fixed: Mapping[str, float], mecha
     ok = has & np.isfinite(m)
     np.minimum.at(measure, idx[ok], m[ok])
     measure[np.isinf(measure)] = np.nan
+    worst = constant = None
+    if "worst_case_rotation_error" in frame.columns:
+        err = frame["worst_case_rotation_error"].to_numpy(dtype=float)
+        worst = np.full(size, -np.inf)
+        np.maximum.at(worst, idx[has], np.where(np.isnan(err[has]), np.inf, err[has]))   # one unproven: NaN
+        worst[~np.isfinite(worst)] = np.nan
+        flag = frame["count_constant_over_tolerances"].astype("string").fillna("").to_numpy()
+        constant = np.full(size, np.nan)
+        constant[idx[flag == "true"]] = 1.0
+        constant[idx[flag == "false"]] = 0.0
+        worst, constant = worst.reshape(shape), constant.reshape(shape)
     return AssemblyMap(x, y, dict(fixed), mechanism, count(has), count(has & (status == "certified")),
                        count(has & (status == "singular")), count(has & np.isin(status, FLAGGED)),
-                       measure.reshape(shape), singular_set)
+                       measure.reshape(shape), singular_set, worst, constant)

@@ -18,6 +18,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.columns import TOLERANCE_COLUMNS
 from ..results import QUATERNION_COLUMNS, ROTATION_COLUMNS, ResultsTable, solution_columns, table_columns
 
 __all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "track_rows", "solution_rows",
@@ -26,13 +27,33 @@ __all__ = ["ROTATION_COLUMNS", "QUATERNION_COLUMNS", "columns", "report_rows", "
 
 def columns(mechanism) -> tuple[str, ...]:
     """The column names of the results table of ``mechanism`` (module doc)."""
-    return table_columns(mechanism.actuated, mechanism.loop_unknowns)
+    return table_columns(mechanism.actuated, mechanism.loop_unknowns, mechanism.tolerances is not None)
 
 
 def report_table(mechanism, reports: Sequence, first: int, inputs: np.ndarray) -> ResultsTable:
     """The results table (module doc; a :class:`~spherekin.results.ResultsTable`: no pandas) of
-    ``reports`` (SolveReport of inputs ``first``, ``first + 1``, ...; ``inputs`` their rows, radians)."""
-    return items_table(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
+    ``reports`` (SolveReport of inputs ``first``, ``first + 1``, ...; ``inputs`` their rows, radians);
+    for a mechanism with tolerances, their columns last (:data:`TOLERANCE_COLUMNS`, each report's
+    :class:`~spherekin.results.ToleranceReport`)."""
+    table = items_table(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
+    if mechanism.tolerances is None:
+        return table
+    worst, low, constant = [], [], []
+    for r in reports:
+        tr = r.tolerances
+        rows = max(len(r.solutions), 1)
+        per = list(tr.assemblies) if tr is not None else []
+        for j in range(rows):
+            a = per[j] if j < len(per) and len(r.solutions) else None
+            worst.append(np.nan if a is None or a.worst_case_rotation_error is None else a.worst_case_rotation_error)
+            low.append(np.nan if a is None or a.worst_case_rotation_error_lower_bound is None
+                       else a.worst_case_rotation_error_lower_bound)
+            verdict = None if tr is None else tr.count_constant_over_tolerances
+            constant.append(None if verdict is None else ("true" if verdict else "false"))
+    flags = np.empty(len(constant), dtype=object)
+    flags[:] = constant
+    return table.with_columns(TOLERANCE_COLUMNS, (np.array(worst, dtype=float), np.array(low, dtype=float), flags),
+                              ("float64", "float64", "string"))
 
 
 def report_rows(mechanism, reports: Sequence, first: int, inputs: np.ndarray):

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from .options import add_engine_options, add_grid_options, add_strategy_options, engine_note, family_inputs, strategy_keywords
+from .options import (add_engine_options, add_grid_options, add_strategy_options, add_tolerances_option, engine_note,
+                      family_inputs, strategy_keywords, with_tolerances)
 from .progress import BatchProgress
 
 
@@ -14,7 +15,7 @@ def command(args) -> int:
     from ..batch import prepare_to_file, run_to_file
     from ..mechanism import load_mechanism
 
-    mech = load_mechanism(args.file)
+    mech = with_tolerances(load_mechanism(args.file), args)
     inputs = family_inputs(mech, args)
     job = prepare_to_file(mech, inputs, args.out, resume=args.resume, overwrite=args.overwrite, **strategy_keywords(args))
     print(f"{mech.name or args.file}: direct kinematics of {len(inputs)} input(s) ({inputs.source}) -> {args.out}"
@@ -45,6 +46,7 @@ def add_parser(sub_add_parser) -> None:
     add_grid_options(b)
     b.add_argument("--out", required=True, help="results: a .parquet dataset (directory) or a .csv file, one row "
                                                 "per solution (docs/results-format.md)")
+    add_tolerances_option(b)
     add_engine_options(b)
     add_strategy_options(b)
     b.set_defaults(func=command)

@@ -7,12 +7,13 @@ import sys
 from pathlib import Path
 
 from .. import atomic
-from .options import add_engine_options, add_grid_options, add_strategy_options, check_output_file, check_strategy, family_inputs, strategy_keywords, whole
+from .options import (add_engine_options, add_grid_options, add_strategy_options, add_tolerances_option,
+                      check_output_file, check_strategy, family_inputs, strategy_keywords, whole, with_tolerances)
 from .progress import BatchProgress
 
 
 #: map's options that draw a map of two inputs, not the branches of one (refused there by name).
-_TWO_INPUT_MAP_OPTIONS = (("fix", "--fix"), ("table", "--table"), ("out", "--out"), ("singularity", "--singularity"),
+_TWO_INPUT_MAP_OPTIONS = (("fix", "--fix"), ("table", "--table"), ("tolerances", "--tolerances"), ("out", "--out"), ("singularity", "--singularity"),
                           ("singular", "--singular"), ("singular_tol", "--singular-tol"),
                           ("singular_max_boxes", "--singular-max-boxes"),
                           ("resume", "--resume"), ("overwrite", "--overwrite"), ("scheduler", "--scheduler"),
@@ -24,7 +25,7 @@ def command(args) -> int:
     from ..batch.sinks import check_output_path
     from ..mechanism import load_mechanism
 
-    mech = load_mechanism(args.file)
+    mech = with_tolerances(load_mechanism(args.file), args)
     if len(mech.actuated) == 1 or args.joint:   # one input: its branches and circuits
         return _branches(mech, args)
     if args.json:
@@ -143,6 +144,7 @@ def add_parser(sub_add_parser) -> None:
                          f"default: {SINGULAR_TOL})")
     mp.add_argument("--singular-max-boxes", type=whole(1), default=None, metavar="N",
                     help="with --singular: cap on the boxes its cover processes (reached: the rest is unresolved)")
+    add_tolerances_option(mp)
     mp.add_argument("--table", help="write the map, one row per grid point, as CSV")
     mp.add_argument("--out", help="also write the results table (one row per solution; .parquet or .csv)")
     mp.add_argument("--joint", help="one actuated joint: the passive joint whose angle the branches report and draw "

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from .orientation import QUATERNION_COLUMNS, ROTATION_COLUMNS
 
-__all__ = ["ENTRY_COLUMNS", "MEASURE_COLUMNS", "TRACK_COLUMNS", "MAP_TABLE_COLUMNS", "RESERVED_COLUMNS",
+__all__ = ["ENTRY_COLUMNS", "MEASURE_COLUMNS", "TOLERANCE_COLUMNS", "TRACK_COLUMNS", "MAP_TABLE_COLUMNS", "RESERVED_COLUMNS",
            "table_columns"]
 
 #: After the actuated joints of a results table: which entry of the input, and its status.
@@ -28,12 +28,19 @@ TRACK_COLUMNS = ("row", "proven_steps")
 MAP_TABLE_COLUMNS = ("solutions", "certified", "singular", "flagged", "parallel_measure")
 
 
-def table_columns(actuated, unknowns) -> tuple[str, ...]:
+def table_columns(actuated, unknowns, tolerances: bool = False) -> tuple[str, ...]:
     """The columns of the results table (:func:`spherekin.results.solution_table`) of a mechanism with
-    these actuated joints and passive unknowns (names)."""
+    these actuated joints and passive unknowns (names); ``tolerances``: of a mechanism with tolerances
+    (then :data:`TOLERANCE_COLUMNS` last)."""
     return ("input", *actuated, *ENTRY_COLUMNS, *unknowns, *QUATERNION_COLUMNS, *ROTATION_COLUMNS,
-            *MEASURE_COLUMNS)
+            *MEASURE_COLUMNS, *(TOLERANCE_COLUMNS if tolerances else ()))
 
 
+#: The last columns of the results table of a mechanism with tolerances (issue 45): each entry's
+#: proven worst-case rotation error and the lower bound a geometry reaches (radians; empty where not
+#: proven), and whether its input's count is proven constant over the tolerances ("true", "false":
+#: a singular configuration proven within them; empty: undecided).
+TOLERANCE_COLUMNS = ("worst_case_rotation_error", "worst_case_rotation_error_lower_bound",
+                     "count_constant_over_tolerances")
 #: Every fixed column of a table that also has a column per joint: no joint may be named so.
-RESERVED_COLUMNS = tuple(dict.fromkeys((*table_columns((), ()), *TRACK_COLUMNS, *MAP_TABLE_COLUMNS)))
+RESERVED_COLUMNS = tuple(dict.fromkeys((*table_columns((), (), True), *TRACK_COLUMNS, *MAP_TABLE_COLUMNS)))

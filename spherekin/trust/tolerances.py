@@ -62,7 +62,7 @@ from ..results import AssemblyTolerance, ToleranceReport
 from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
-__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES", "PATH_PIECES",
+__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES", "PATH_PIECES",
            "COUNT_RADII", "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "linear_worst_case"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
@@ -75,6 +75,9 @@ SPHERE_CELLS = 8
 #: value found. Reason: the certified bound's second-order rest is ~1e-2 of it at 0.1 degree
 #: tolerances and the issue asks for 1.25x; 1e-3 keeps this term well below both.
 SPHERE_GAP = 1e-3
+#: Steps of the ascent that finds a good first direction for the sphere's branch and bound (each
+#: step can only increase h; the branch and bound, not the ascent, makes the bound).
+ASCENT_STEPS = 12
 #: Cells kept at one level at most; past it the branch and bound stops with the bound it has (sound,
 #: looser). Reason: a nearly flat maximum (symmetric designs) keeps many cells within the gap; 4,096
 #: cells cost ~1 ms a level.
@@ -249,10 +252,11 @@ def linear_worst_case(g: np.ndarray, blocks) -> tuple[float, float, np.ndarray]:
 
     max |g p| = max over unit n of h(n) = sum_j radius_j |g_j^T n|, a convex function with h(0) = 0.
     The sphere is cut into the radial images of square cells on the faces of the cube [-1, 1]^3 (a
-    branch and bound: each cell halved while it may hold the maximum). A unit vector u of a cell is
-    v / |v| for a point v of the square, so u = sum_k l_k c_k / |v| lies in the convex hull of 0 and
-    the corners c_k scaled by 1 / d (d: the square's distance from the origin, |v| >= d), and by
-    convexity h(u) <= max_k h(c_k) / d: an upper bound within second order of the cell's size.
+    branch and bound: each cell halved while it may hold the maximum). A cell's patch (a convex
+    spherical quadrilateral) lies in the cap about its centre m out to its farthest corner, angle th;
+    a unit u of the cap is (u . m) w with w = u / (u . m) in the tangent disk of radius tan(th) at m,
+    inside the square with corners m + tan(th) (+-e1 +-e2); h >= 0 is homogeneous and convex, so
+    h(u) <= h(w) <= the largest h at those 4 corners: an upper bound within second order of th.
     The lower bound is h at the best cell centre (a unit vector)."""
     blocks = [(cols, float(rad)) for cols, rad in blocks if rad > 0.0]
     if not blocks:
@@ -282,7 +286,25 @@ def linear_worst_case(g: np.ndarray, blocks) -> tuple[float, float, np.ndarray]:
         v[np.arange(len(axis)), _FREE[axis, 1]] = t
         return v
 
+    # a good start prunes most cells at once: ascent n <- grad h(n) / |grad h(n)| (for a convex h,
+    # homogeneous of degree 1, h(grad h(n) / |grad h(n)|) >= |grad h(n)| >= grad h(n) . n = h(n))
+    # from the principal axes of sum_j r_j^2 g_j g_j^T
+    spread = sum(rad * rad * g[:, cols] @ g[:, cols].T for cols, rad in blocks)
+    starts = np.linalg.eigh(spread)[1].T
     best, best_n, upper = -1.0, None, math.inf
+    for n in starts:
+        for _ in range(ASCENT_STEPS):
+            v = n @ g_used                                                     # (P,)
+            norms = np.sqrt((v * v) @ member)                                  # (blocks,)
+            scale = np.where(norms > 0, radii / np.where(norms > 0, norms, 1.0), 0.0)
+            grad = g_used @ (v * (member @ scale))
+            size = float(np.linalg.norm(grad))
+            if size == 0.0:
+                break
+            n = grad / size
+        value = float(h(n[None])[0])
+        if value > best:
+            best, best_n = value, n
     for _ in range(SPHERE_LEVELS):
         centre = points(axis, sign, s, t)
         unit = centre / np.linalg.norm(centre, axis=1, keepdims=True)
@@ -290,10 +312,21 @@ def linear_worst_case(g: np.ndarray, blocks) -> tuple[float, float, np.ndarray]:
         k = int(np.argmax(values))
         if values[k] > best:
             best, best_n = float(values[k]), unit[k]
-        corners = [h(points(axis, sign, s + ds, t + dt)) for ds in (-half, half) for dt in (-half, half)]
-        gap_s, gap_t = np.maximum(np.abs(s) - half, 0.0), np.maximum(np.abs(t) - half, 0.0)
-        dist = np.sqrt(1.0 + gap_s ** 2 + gap_t ** 2)
-        bounds = np.max(corners, axis=0) / dist * (1.0 + ROUNDING)
+        # the cell's patch lies in the cap about its centre m reaching its farthest corner (angle th);
+        # u in the cap is (u . m) w with w in the tangent disk of radius tan(th) at m, inside the
+        # square of corners m + tan(th) (+-e1 +-e2): h(u) <= h(w) <= the largest h at those corners
+        cos_th = np.ones(len(unit))
+        for ds in (-half, half):
+            for dt in (-half, half):
+                c = points(axis, sign, s + ds, t + dt)
+                cos_th = np.minimum(cos_th, np.einsum("ij,ij->i", unit, c) / np.linalg.norm(c, axis=1))
+        th = np.arccos(np.clip(cos_th, -1.0, 1.0)) * (1.0 + ROUNDING) + 1e-15
+        tan_th = np.tan(th)
+        e1 = np.cross(unit, np.eye(3)[np.argmin(np.abs(unit), axis=1)])
+        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+        e2 = np.cross(unit, e1)
+        corners = [h(unit + tan_th[:, None] * (a1 * e1 + a2 * e2)) for a1 in (-1.0, 1.0) for a2 in (-1.0, 1.0)]
+        bounds = np.max(corners, axis=0) * (1.0 + ROUNDING)
         upper = float(bounds.max())
         if upper <= best * (1.0 + SPHERE_GAP):
             break
