@@ -41,7 +41,7 @@ from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_
 from .results import (EmptyReason, SolveReport, SolverStats, EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES,
                       EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many
-from .trust.tolerances import analyse as analyse_tolerances
+from .trust.tolerances import analyse as analyse_tolerances, analyse_pose
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                              check_strategy)
 
@@ -417,10 +417,18 @@ class Problem:
         rows = self._checked_rows("path", path)
         if not len(rows):
             raise ValueError("path: expected at least one row of inputs, got none")
+        # (with tolerances, each pose reached is also analysed under them: TrackedPose.tolerances)
         start = self._assembly_at(rows[0], start, "the first input of the path")
         if not_tracked(self.mechanism) is not None:
-            return track_loops(self.mechanism, rows, start)
-        return track(self.mechanism, rows, start)
+            found = track_loops(self.mechanism, rows, start)
+        else:
+            found = track(self.mechanism, rows, start)
+        tolerances = self.mechanism.tolerances
+        if tolerances is None:
+            return found
+        poses = tuple(dataclasses.replace(p, tolerances=analyse_pose(self.mechanism, tolerances, rows[p.row],
+                                                                     p.platform_rotation)) for p in found.poses)
+        return dataclasses.replace(found, poses=poses)
 
     def free_box(self, home, *, start, inputs=None, **caps):
         """The largest box of inputs home +- r proven to hold the assembly ``start`` without a parallel

@@ -303,3 +303,25 @@ def test_a_map_under_tolerances_draws_the_largest_bound_and_where_the_count_may_
     fig = plot_assembly_map(amap, tmp_path / "map.png")
     assert len(fig.axes) == 4 and (tmp_path / "map.png").stat().st_size > 0     # two panels, two colour bars
     assert "as built" in fig.axes[2].get_title()
+
+
+def test_a_tracked_path_under_tolerances_bounds_every_pose():
+    """track with tolerances: at every pose a bound, and 20 sampled geometries at three rows of the path
+    (the reference's own solve from the tracked pose) stay within it."""
+    mech = dataclasses.replace(general_3rrr(), tolerances=Tolerances(AXES_DEG, INPUTS_DEG))
+    path = np.column_stack([np.linspace(-0.3, 0.3, 7), np.full(7, -0.2), np.full(7, 0.5)])
+    problem = spherekin.compile(mech)
+    track = problem.track(path, start=0)
+    assert len(track.poses) == 7 and all(p.tolerances is not None for p in track.poses)
+    rng = np.random.default_rng(3)
+    ref = np.asarray(mech.platform_reference_matrix)
+    for pose in track.poses[::3]:
+        bound = pose.tolerances.assemblies[0].worst_case_rotation_error
+        assert bound is not None and bound > 0
+        d0 = np.asarray(pose.platform_rotation) @ ref.T
+        x = path[pose.row]
+        for _ in range(20):
+            axes = [[tilt(a, math.radians(AXES_DEG), rng) for a in leg] for leg in nominal_axes(mech)]
+            d = solve_built(built_legs(mech, axes, x + rng.uniform(-1, 1, 3) * math.radians(INPUTS_DEG)), d0)
+            assert rotation_angle(d @ d0.T) <= bound
+    assert "tolerances" in track.as_dict()["poses"][0]

@@ -38,13 +38,17 @@ def report_table(mechanism, reports: Sequence, first: int, inputs: np.ndarray) -
     table = items_table(mechanism, ((first + k, inputs[k], r.unknowns, r.solutions) for k, r in enumerate(reports)))
     if mechanism.tolerances is None:
         return table
+    return _with_tolerance_columns(table, [(len(r.solutions), r.tolerances) for r in reports])
+
+
+def _with_tolerance_columns(table, entries) -> ResultsTable:
+    """``table`` with :data:`TOLERANCE_COLUMNS` last: ``entries`` (number of entries, ToleranceReport or
+    None) per input, in the table's order (an input without entries has one row)."""
     worst, low, constant = [], [], []
-    for r in reports:
-        tr = r.tolerances
-        rows = max(len(r.solutions), 1)
+    for count, tr in entries:
         per = list(tr.assemblies) if tr is not None else []
-        for j in range(rows):
-            a = per[j] if j < len(per) and len(r.solutions) else None
+        for j in range(max(count, 1)):
+            a = per[j] if j < len(per) and count else None
             worst.append(np.nan if a is None or a.worst_case_rotation_error is None else a.worst_case_rotation_error)
             low.append(np.nan if a is None or a.worst_case_rotation_error_lower_bound is None
                        else a.worst_case_rotation_error_lower_bound)
@@ -78,7 +82,10 @@ def track_table(mechanism, track) -> ResultsTable:
         angles = np.array(list(p.passive_angles.values()))
         sol = Solution(angles, angles, angles, 0, p.platform_rotation, p.residual, kind, Status.CERTIFIED)
         items.append((p.row, np.array(list(p.inputs.values())), tuple(p.passive_angles), (sol,)))
-    return items_table(mechanism, items)
+    table = items_table(mechanism, items)
+    if mechanism.tolerances is None:
+        return table
+    return _with_tolerance_columns(table, [(1, p.tolerances) for p in poses])
 
 
 def track_rows(mechanism, track):

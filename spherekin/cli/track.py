@@ -7,7 +7,7 @@ import sys
 import time
 
 from .. import atomic
-from .options import check_output_file, parse_numbers, whole
+from .options import add_tolerances_option, check_output_file, parse_numbers, whole, with_tolerances
 
 
 #: A tracked pose and a solution of the full solve are the same assembly when their rotations (without an
@@ -35,7 +35,7 @@ def command(args) -> int:
     given = [k for k in ("start_rotation", "start_quaternion", "start_solution") if getattr(args, k) is not None]
     if len(given) != 1:
         raise ValueError("expected the start as exactly one of --start-rotation, --start-quaternion, --start-solution")
-    mech = load_mechanism(args.file)
+    mech = with_tolerances(load_mechanism(args.file), args)
     path = read_inputs_csv(mech, args.path, degrees=args.degrees, key="--path")
     if args.start_rotation is not None:
         start = check_rotation("--start-rotation",
@@ -90,6 +90,8 @@ def command(args) -> int:
                   f"bisection to {st.bracket:.1e} rad: "
                   f"{', '.join(format_number(v * scale, '+.12g') for v in st.singular_inputs.values())} ({st.distance:.2e} rad "
                   f"further); parallel_measure at the last proven pose {st.parallel_measure:.3g}")
+    if mech.tolerances is not None and track.poses:
+        print(_tolerance_summary(track, mech.tolerances))
     data = track.as_dict()
     code = 0
     if args.check is not None:
@@ -124,6 +126,27 @@ def command(args) -> int:
         plot_track(track, args.plot, degrees=args.degrees)
         print(f"wrote {args.plot}")
     return code
+
+
+def _tolerance_summary(track, tolerances) -> str:
+    """One line: the largest proven worst-case rotation error along the path and where the count may change."""
+    reports = [p.tolerances for p in track.poses]
+    errors = [(r.assemblies[0].worst_case_rotation_error, p.row) for r, p in zip(reports, track.poses)]
+    proven = [(e, row) for e, row in errors if e is not None]
+    t = tolerances
+    head = f"under tolerances (axes {t.axes_deg:g} deg, inputs {t.inputs_deg:g} deg): "
+    if proven:
+        e, row = max(proven)
+        head += (f"worst-case rotation error up to {e:.3e} rad ({math.degrees(e):.4f} deg, row {row}), proven at "
+                 f"{len(proven)} of {len(errors)} row(s)")
+    else:
+        head += f"no worst-case rotation error proven ({reports[0].assemblies[0].reason})"
+    changes = [p.row for r, p in zip(reports, track.poses) if r.count_constant_over_tolerances is False]
+    open_ = [p.row for r, p in zip(reports, track.poses) if r.count_constant_over_tolerances is None]
+    head += (f"; count proven constant at {len(errors) - len(changes) - len(open_)} row(s), proven to change at "
+             f"{len(changes)}{' (rows ' + ', '.join(map(str, changes[:8])) + ')' if changes else ''}, undecided at "
+             f"{len(open_)}")
+    return head
 
 
 def _same_assembly(solution, pose) -> bool:
@@ -164,6 +187,7 @@ def add_parser(sub_add_parser) -> None:
     tk.add_argument("--degrees", action="store_true", help="path inputs and printed angles in degrees")
     tk.add_argument("--check", type=whole(1), metavar="N", help="also solve fully at every N-th row (and the last) and "
                                                           "confirm the tracked pose is one of the solutions")
+    add_tolerances_option(tk)
     tk.add_argument("--json", help="write one entry per path row (and the stop) as JSON")
     tk.add_argument("--out", help="write the rows as a results table (.csv or .parquet, the columns of batch)")
     tk.add_argument("--plot", help="draw the orientation along the path and the singularity measure (.png, .pdf, .svg)")

@@ -123,13 +123,17 @@ class TrackedPose:
     residual: float
     parallel_measure: float
     proven_steps: int
+    #: Under the mechanism's tolerances (issue 45), what they do to this pose
+    #: (:func:`spherekin.trust.tolerances.analyse_pose`); None without tolerances.
+    tolerances: object = field(default=None, repr=False)
 
     def as_dict(self) -> dict:
         return {"row": self.row, "inputs": dict(self.inputs),
                 "platform_rotation": (None if self.platform_rotation is None
                                       else np.asarray(self.platform_rotation, dtype=float).tolist()),
                 "passive_angles": dict(self.passive_angles), "residual": self.residual,
-                "parallel_measure": self.parallel_measure, "proven_steps": self.proven_steps}
+                "parallel_measure": self.parallel_measure, "proven_steps": self.proven_steps,
+                **({} if self.tolerances is None else {"tolerances": self.tolerances.as_dict()})}
 
 
 @dataclass(frozen=True)

@@ -15,32 +15,33 @@ p = 0, the nominal mechanism.
 
 For a nominal assembly D0, write D = D0 E(y) with E(y) the rotation of the quaternion (1, y): the
 rotation angle between the nominal platform and the built one is 2 atan |y|, and the leg equations
-are three quadrics f(y, p) = r^T (M(D0^T e_i, b_i) - c_i I) r = 0 in r = (1, y). The proof:
+are three quadrics f(y, p) = r^T (M(D0^T e_i, b_i) - c_i I) r = 0 in r = (1, y). Every term is carried
+as a first-order affine form over T (:mod:`spherekin.core.affine`: value, gradient, and a bound on
+the rest, the disks' reach exact), which keeps the dependence on each parameter that intervals lose.
+The proof:
 
-1. *An enclosure for every geometry* (parametric Krawczyk): with C = J_y(0, 0)^-1 and X a box about
-   y = 0, K = -C f(0, P) + (I - C J_y(X, P)) X inside X, all in outward-rounded interval arithmetic
-   over the box hull P of T, proves that for every p in P exactly one root y(p) lies in X and
-   J_y is regular there: the assembly persists, alone, for every geometry and input in the
-   tolerances.
-2. *A tight bound on |y(p)|*: y(p) = integral_0^1 y'(tp) p dt with y' = -J_y^-1 J_p evaluated along
-   the root (inside X, at parameters in P: T is star-shaped about 0), so y(p) is in [D] p for the
-   interval matrix [D] enclosing -J_y^-1 J_p over X x P (J_y^-1 enclosed by a Neumann bound about C).
-   With G the nominal derivative, |y(p)| <= max over T of |G p| + |([D] - G) p|. The first term is
-   the exact maximum of a linear map's norm over the product of disks and intervals: max over unit n
-   of sum_j r_j |G_j^T n|, bounded above by a branch and bound over the sphere (the function is
-   Lipschitz: each cell's bound is its centre's value plus the constant times its radius). The
-   second term is second order in the tolerances. ``worst_case_rotation_error`` = 2 atan of the bound.
+1. *One root for every geometry* (a parametric Krawczyk test): with G = -J_y^-1 J_p the nominal
+   derivative and C = J_y^-1, K = -C f(G p, p) + (I - C J_y(G p + Z, p)) Z inside the box Z, for
+   every p in T, proves exactly one root y(p) = G p + z(p), z(p) in Z, and J_y regular there: the
+   assembly persists, alone, for every geometry and input in the tolerances. f(G p, p) is second
+   order (G is the derivative), so Z is small.
+2. *A tight bound*: |y(p)| <= max over T of |G p| + |Z|. The first term is the exact maximum of a
+   linear map's norm over the product of disks and intervals, max over unit n of
+   h(n) = sum_j r_j |G_j^T n|, bounded above by a branch and bound over the sphere (:func:`linear_worst_case`).
+   ``worst_case_rotation_error`` = 2 atan of the bound, rounded up.
 3. *A lower bound*: the maximizing direction n gives the linearized worst geometry (every axis tilted
-   to its rim along G_j^T n, every input at the end of its interval along n); that geometry is solved
-   by Newton's method from the nominal assembly and its error reported beside the bound
-   (``worst_case_rotation_error_lower_bound``): the truth lies between them.
-4. *The count over the tolerances*: the leg quadrics in the displacement's quaternion, as interval
-   matrices over P, go to the complete count's certificate (:func:`spherekin.core.bezout.certify_roots`,
-   which holds for every matrix in them): 8 roots proven, each real or not, distinct, for every
-   geometry, so the real count never changes: ``count_constant_over_tolerances`` True. When that
-   fails, geometries of T (the ends of the input intervals, the linearized worst ones) are counted
-   with the certificate: two different complete counts prove that a singular configuration lies in
-   T (the count of real roots changes only where two of them meet): False. Otherwise None.
+   to its rim along G_j^T n, every input at the end of its interval along n; and its opposite); that
+   geometry is solved by Newton's method from the nominal assembly and its error reported beside the
+   bound (``worst_case_rotation_error_lower_bound``, the geometry in ``worst_case_geometry``): the
+   truth lies between them.
+4. *The count over the tolerances*: the 8 complex roots of the leg quadrics (in the displacement's
+   quaternion, charts q_k = 1), each proven by the same parametric test in complex disk arithmetic for
+   every p in T, real roots real (their region is its own conjugate), the others proven non-real,
+   the 8 regions proven distinct points of P^3: every root, for every geometry (Bezout), so the real
+   count never changes: ``count_constant_over_tolerances`` True. When that fails, geometries of T (the
+   ends of the input intervals, the linearized worst ones) are counted with the complete count's
+   certificate: two different complete counts prove that a singular configuration lies in T (the
+   real count changes only where two real roots meet): False. Otherwise None.
 
 Departures and limits: only 3-RRRs driven at their base joints (other mechanisms get a report that
 says so); joint ranges on passive joints are not decided under tolerances (the count is then None,
@@ -62,8 +63,8 @@ from ..results import AssemblyTolerance, ToleranceReport
 from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
-__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES", "PATH_PIECES",
-           "COUNT_RADII", "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "linear_worst_case"]
+__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
+           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "linear_worst_case"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
 #: are floats (errors ~1e-16); 1e-9 makes the disk's image cover the whole cone with room, and moves a
@@ -94,15 +95,6 @@ ROUNDING = 1e-12
 KRAWCZYK_START = 1.1
 KRAWCZYK_GROWTH = 1.5
 KRAWCZYK_TRIES = 6
-#: Pieces of the path t p (t in [0, 1]) over which the derivative of the root is enclosed separately
-#: (the remainder of the linear bound). Reason: the derivative's enclosure over the piece ending at t
-#: is about t times as wide as over the whole, so M pieces cut the remainder to (M + 1) / (2 M) of one
-#: piece's; 4 gives 0.625, more gain little against their cost.
-PATH_PIECES = 4
-#: Box radii tried by the complete count over the tolerances (chart units). Reason: the roots move by
-#: ~|J^-1| times the matrices' width (~1e-3 at 0.1 degree); boxes from 1e-6 to 0.1 prove roots moving
-#: that much while staying far apart.
-COUNT_RADII = (1e-6, 1e-5, 1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 1e-1)
 #: Newton steps for the lower bound's geometry (from the nominal root; quadratic convergence from
 #: ~1e-3 reaches rounding in 4).
 NEWTON_STEPS = 8
@@ -592,6 +584,25 @@ def _analysed(sol) -> bool:
     if str(sol.status) == "certified":
         return True
     return str(sol.status) == "singular" and sol.singularity == "serial" and bool(sol.evidence.get("krawczyk_certified"))
+
+
+def analyse_pose(mechanism, tolerances, values, rotation) -> ToleranceReport:
+    """The :class:`~spherekin.results.ToleranceReport` of one assembly (platform rotation ``rotation``
+    (3, 3) at ``values``, radians): a tracked pose. Its one entry is numbered 1; the count verdict is
+    the complete count's over the tolerances (every real root, not only this one)."""
+    info = tolerances.as_dict()
+    why = not_analysed(mechanism)
+    if why is not None or rotation is None:
+        why = why or "no platform rotation (no output link)"
+        return ToleranceReport(info, None, why, (AssemblyTolerance(1, None, reason=why),))
+    if tolerances.zero:
+        return ToleranceReport(info, True, "no tolerance", (AssemblyTolerance(1, 0.0, 0.0, 0.0),))
+    model = ToleranceModel(mechanism, tolerances)
+    terms = model.terms(values)
+    d0 = np.asarray(rotation, dtype=float) @ np.asarray(mechanism.platform_reference_matrix, dtype=float).T
+    a, rim = _assembly(model, terms, values, d0, 1)
+    constant, why = _count(model, terms, values, None, [] if rim is None else [rim])
+    return ToleranceReport(info, constant, why, (a,))
 
 
 def analyse(mechanism, tolerances, values, report) -> ToleranceReport:
