@@ -972,7 +972,9 @@ def plot_singular(sset, path=None, *, degrees: bool = False):
     handles += _draw_singular_extras(ax, sset, scale, dict(facecolor="none", edgecolor=FREE_BOX_COLOUR, linewidth=1.5))
     _legend_below(ax, handles)
     fixed = ", ".join(f"{k} = {v * scale:.4g}" for k, v in sset.fixed.items())
-    ax.set_title(f"parallel singular set, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
+    what = ("parallel singular set for every geometry within the tolerances" if sset.system == "tolerances"
+            else "parallel singular set")
+    ax.set_title(f"{what}, cells <= {sset.tol * scale:.3g} {unit}" + (f" ({fixed})" if fixed else "")
                  + ("" if sset.complete else ", incomplete"), fontsize=10)
     ax.grid(alpha=0.3)
     if out is not None:

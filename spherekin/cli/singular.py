@@ -7,7 +7,7 @@ import sys
 
 from .. import atomic
 from .errors import INTERRUPT_STATUS, SIGTERM_STATUS, signals_stop
-from .options import check_output_file, parse_angles, whole
+from .options import add_tolerances_option, check_output_file, parse_angles, whole, with_tolerances
 from .track import FIX_MATCH
 
 
@@ -25,7 +25,7 @@ def command(args) -> int:
     from ..mechanism import load_mechanism
     from ..singularities import singular
 
-    mech = load_mechanism(args.file)
+    mech = with_tolerances(load_mechanism(args.file), args)
     scale = math.pi / 180.0 if args.degrees else 1.0
     x = parse_range(args.x, "--x", degrees=args.degrees)
     y = parse_range(args.y, "--y", degrees=args.degrees) if args.y else None
@@ -68,8 +68,18 @@ def command(args) -> int:
     if args.max_memory is not None and not (math.isfinite(args.max_memory) and args.max_memory > 0):
         raise ValueError(f"--max-memory: expected a positive number of GiB, got {args.max_memory!r}")
     budget = Budget() if args.max_memory is None else Budget(int(args.max_memory * 2 ** 30))
-    with signals_stop(budget) as signalled:
-        sset = singular(mech, x, y, fixed, tol=args.tol * scale, budget=budget, **caps)   # every check before any work
+    if mech.tolerances is not None:
+        for option, value in (("--home", args.home), ("--mode-change", args.mode_change), ("--max-boxes", args.max_boxes)):
+            if value:
+                raise ValueError(f"{option}: not with tolerances (the singular set under tolerances is cells of the "
+                                 "plane proven free for every geometry; drop --tolerances or the file's [tolerances])")
+        from ..singularities import tolerant_singular
+
+        with signals_stop(budget) as signalled:
+            sset = tolerant_singular(mech, mech.tolerances, x, y, fixed, tol=args.tol * scale, budget=budget)
+    else:
+        with signals_stop(budget) as signalled:
+            sset = singular(mech, x, y, fixed, tol=args.tol * scale, budget=budget, **caps)   # every check before any work
     if signalled:                         # Ctrl-C or SIGTERM: report what was found, nothing more
         home, args.mode_change = None, False
     if home is not None:
@@ -85,8 +95,14 @@ def command(args) -> int:
     unit, show = ("deg", 180.0 / math.pi) if args.degrees else ("rad", 1.0)
     plane = x[0] if y is None else f"{x[0]} x {y[0]}"
     at = ", ".join(f"{k} = {v * show:.6g}" for k, v in fixed.items())
-    print(f"{mech.name or args.file}: parallel singular set over {plane}" + (f" ({at})" if at else "")
-          + f", cells <= {args.tol:.6g} {unit} ({sset.system} system)")
+    if sset.system == "tolerances":
+        t = mech.tolerances
+        print(f"{mech.name or args.file}: parallel singular set over {plane}" + (f" ({at})" if at else "")
+              + f" for every geometry within the tolerances (axes {t.axes_deg:g} deg, inputs {t.inputs_deg:g} deg), "
+              f"cells <= {args.tol:.6g} {unit}: outside the cells, proven free for every such mechanism")
+    else:
+        print(f"{mech.name or args.file}: parallel singular set over {plane}" + (f" ({at})" if at else "")
+              + f", cells <= {args.tol:.6g} {unit} ({sset.system} system)")
     print(f"{'status':<12} {'boxes':>7}")
     for status, n in sset.counts().items():
         print(f"{status:<12} {n:>7}")
@@ -95,6 +111,8 @@ def command(args) -> int:
         print(f"cusps: {kinds['cusp']} proven, {kinds['unresolved']} unresolved")
     elif sset.cusp_search == "none_possible":
         print("cusps: none possible (one loop: its 3 passive joints have at most 2 assemblies, or a continuum)")
+    elif sset.cusp_search == "not_searched" and sset.system == "tolerances":
+        print("cusps: not searched (under tolerances: the cells cover every geometry's singular curve)")
     elif sset.cusp_search == "not_searched":
         print("cusps: not searched " + ("(the run was stopped first)" if sset.stopped and sset.system == "platform" else
                                         "(the loop equations of several loops: only the platform system searches them)"))
@@ -162,6 +180,7 @@ def add_parser(sub_add_parser) -> None:
     sg.add_argument("--max-memory", type=float, default=None, metavar="GB",
                     help="cap on the process's memory (GiB; default: 3/4 of the machine's): reached, the run ends as "
                          "at --max-boxes (the rest reported unresolved)")
+    add_tolerances_option(sg)
     sg.add_argument("--json", help="write the cells as JSON (schema spherekin.singular/1, docs/results-format.md)")
     sg.add_argument("--plot", help="draw the plane with the cells coloured by status (.png, .pdf or .svg)")
     sg.add_argument("--home", metavar="B1,B2,...", help="a home input (one per actuated joint): with "

@@ -10,7 +10,9 @@ seam (:func:`spherekin.singularities.planes.plane_system`), not by naming a syst
 * :mod:`.cell_width`: the cell width T, its bounds and its check (light: no SciPy);
 * :mod:`.cells`: the cover projected onto cells of the plane, their certificates and the cusps';
 * :mod:`.cover`: :func:`singular`, the certified set (:class:`spherekin.results.SingularSet`);
-* :mod:`.modes`: a proven assembly-mode change around a cusp.
+* :mod:`.modes`: a proven assembly-mode change around a cusp;
+* :mod:`.tolerant`: the singular set under tolerances (issue 45): the cells of a plane not proven free
+  of parallel singularities for every geometry within a mechanism's tolerances.
 
 Free boxes (:mod:`spherekin.trust.free_box`) stay in the trust layer: a free box is a certificate of
 one assembly (``Problem.free_box``), a method of the pipeline, which this package sits above.
@@ -20,7 +22,7 @@ one assembly (``Problem.free_box``), a method of the pipeline, which this packag
 #: What the package offers, loaded on first use: the cover imports SciPy (~0.5 s), which a command
 #: that only checks a cell width (:mod:`.cell_width`) must not pay.
 _LAZY = {"SINGULAR_TOL": "cell_width", "check_singular_tol": "cell_width", "singular_min_tol": "cell_width",
-         "singular": "cover", "mode_change": "modes"}
+         "singular": "cover", "mode_change": "modes", "tolerant_singular": "tolerant"}
 
 
 def __getattr__(name):

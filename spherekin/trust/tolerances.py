@@ -64,7 +64,7 @@ from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
 __all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
-           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "linear_worst_case"]
+           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "linear_worst_case"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
 #: are floats (errors ~1e-16); 1e-9 makes the disk's image cover the whole cone with room, and moves a
@@ -121,17 +121,19 @@ class ToleranceModel:
     the tilts (s, t) of its base, elbow and platform axes, then its input's error; module doc).
 
     ``tilt`` (3 legs, 3 axes): tan of each axis cone's half-angle (padded); ``eps`` (3,): each input's
-    half-width (radians); ``fixed_c``: the distal link angles as given (kind "3-RRR") or as built;
+    half-width (radians; ``widen``: actuated joint -> radians added, for a box of inputs); ``fixed_c``: the distal link angles as given (kind "3-RRR") or as built;
     ``space``: the tolerance set (:class:`spherekin.core.affine.ToleranceSet`).
     """
 
-    def __init__(self, mechanism, tolerances):
+    def __init__(self, mechanism, tolerances, widen=None):
         self.mechanism = mechanism
         self.legs = platform_legs(mechanism)
         self.fixed_c = getattr(mechanism.geometry, "distal_link_angles", None) is not None
         self.tilt = np.array([[math.tan(tolerances.axis_rad(name)) for name in leg.names] for leg in self.legs])
         self.tilt *= 1.0 + TILT_PAD
-        self.eps = np.full(len(self.legs), tolerances.inputs_rad * (1.0 + TILT_PAD))
+        widen = dict(widen or {})                      # inputs over a box: name -> half-width (radians)
+        self.eps = np.array([tolerances.inputs_rad + widen.get(leg.names[0], 0.0) for leg in self.legs])
+        self.eps *= 1.0 + TILT_PAD
         self.axes = [[np.asarray(a, dtype=float) for a in (leg.a1, leg.a2, leg.a3)] for leg in self.legs]
         self.bases = [[(perpendicular(a), cross(a, perpendicular(a))) for a in axes] for axes in self.axes]
         self.reference = np.array([leg.reference[0] for leg in self.legs], dtype=float)
@@ -584,6 +586,21 @@ def _analysed(sol) -> bool:
     if str(sol.status) == "certified":
         return True
     return str(sol.status) == "singular" and sol.singularity == "serial" and bool(sol.evidence.get("krawczyk_certified"))
+
+
+def count_over(mechanism, tolerances, centre, widen) -> tuple[bool | None, str]:
+    """Whether the real count is proven constant over every geometry within ``tolerances`` and every
+    input within ``widen`` (radians, per actuated joint; added to the input tolerance) of ``centre``:
+    (True, how) when proven (no parallel singularity there for any such geometry), (False, how) when a
+    singular configuration is proven there, (None, why not) otherwise (``widen``: actuated joint name ->
+    radians). A cell of
+    :func:`spherekin.singularities.tolerant.tolerant_singular`."""
+    why = not_analysed(mechanism)
+    if why is not None:
+        raise ValueError(f"tolerances: {why}")
+    model = ToleranceModel(mechanism, tolerances, widen)
+    values = np.asarray(centre, dtype=float)
+    return _count(model, model.terms(values), values, None, [])
 
 
 def analyse_pose(mechanism, tolerances, values, rotation) -> ToleranceReport:
