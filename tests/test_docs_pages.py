@@ -40,6 +40,7 @@ BLOCKS = {
     "docs/howto/paper-configuration.md": {"python": 2, "sh": 2},
     "docs/howto/strategy.md": {"python": 2, "sh": 0},
     "docs/howto/tracking.md": {"python": 2, "sh": 2},
+    "docs/howto/tolerances.md": {"python": 1, "sh": 1},
 }
 #: Fenced blocks that are not code to run: output shown, file formats (a yaml block: tests/test_cluster.py), Sphinx directives.
 NOT_CODE = {"text", "toml", "json", "yaml", "{toctree}", "{eval-rst}", "{include}", "{literalinclude}"}

@@ -218,6 +218,37 @@ def check_track_plot(proc, code, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def check_tolerances(proc, code, tmp_path):
+    """The tolerances page's Python: the count line and one line per solution; each printed pose is one of
+    the degree-8 reference's at the input, its bound above its lower bound, and 12 geometries sampled in
+    the cones (tests/test_tolerances.py's own tilts and Newton solve) stay within the bound."""
+    from test_tolerances import built_legs, nominal_axes, rotation_angle, solve_built, tilt
+    from spherekin.mechanism import general_3rrr
+
+    lines = proc.stdout.strip().splitlines()
+    assert lines[0] == "True 8", proc.stdout
+    mech = general_3rrr()
+    x = np.array([0.3, -0.2, 0.5])
+    ref_poses = reference_poses_of(mech, x)
+    rng = np.random.default_rng(2)
+    for line in lines[1:]:
+        number, bound, low, rest = line.split(" ", 3)
+        rot = np.array(ast.literal_eval(rest.split("] {")[0] + "]"))
+        assert min(np.abs(rot - r).max() for r in ref_poses) < 1e-8
+        assert 0 < float(low) <= float(bound)
+        d0 = rot @ np.asarray(mech.platform_reference_matrix).T
+        for _ in range(12):
+            axes = [[tilt(a, math.radians(0.1), rng) for a in leg] for leg in nominal_axes(mech)]
+            d = solve_built(built_legs(mech, axes, x + rng.uniform(-1, 1, 3) * math.radians(0.01)), d0)
+            assert rotation_angle(d @ d0.T) <= float(bound)
+
+
+def reference_poses_of(mech, x):
+    from references.peers_closed_form import direct_kinematics, geometry_of
+
+    return direct_kinematics(geometry_of(mech), x)
+
+
 #: Per how-to page: a marker of each python block's code -> its check.
 CHECKS = {
     "docs/howto/own-mechanism.md": {"problem.solve_many": check_compiled_solve_many},
@@ -226,6 +257,7 @@ CHECKS = {
     "docs/howto/maps-singularities.md": {"spherekin.singular(": check_singular},
     "docs/howto/strategy.md": {"for strategy in": check_strategies, "registry.family": check_registries},
     "docs/howto/paper-configuration.md": {"ClosureLoop": check_closure_loop, "four_bar.toml": check_paper_four_bar},
+    "docs/howto/tolerances.md": {"Tolerances(": check_tolerances},
 }
 
 
