@@ -63,7 +63,7 @@ from ..results import AssemblyTolerance, ToleranceReport
 from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
-__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
+__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ASCENT_RATIO", "ASCENT_TRIES", "ASCENT_STEP", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
            "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "linear_worst_case"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
@@ -95,6 +95,14 @@ ROUNDING = 1e-12
 KRAWCZYK_START = 1.1
 KRAWCZYK_GROWTH = 1.5
 KRAWCZYK_TRIES = 6
+#: The lower bound is searched further (:func:`_ascend`) when the bound exceeds it by more than this.
+#: Reason: the linearized worst geometry is within a few percent of the truth where the error is
+#: small; where the bound is far above it the error is nonlinear (a sensitive assembly) and a few
+#: conditional-gradient steps (~25 ms each) find worse geometries.
+ASCENT_RATIO = 1.1
+#: Conditional-gradient steps at most, and the step of their central differences (radians of tilt).
+ASCENT_TRIES = 5
+ASCENT_STEP = 1e-7
 #: Newton steps for the lower bound's geometry (from the nominal root; quadratic convergence from
 #: ~1e-3 reaches rounding in 4).
 NEWTON_STEPS = 8
@@ -355,22 +363,36 @@ def _nominal_derivative(terms, d0):
     return jy_c, -np.linalg.solve(jy_c, f0.lin)
 
 
+def _matmul(a: Affine, b: Affine) -> Affine:
+    """The product of affine matrices a (n, k) and b (k, m) (each entry a form over T)."""
+    return (a[:, :, None] * b[None, :, :]).sum(1)
+
+
+def _preconditioner(jy: Affine, c) -> Affine:
+    """C(p) = 2 C - C J(p) C (the first-order inverse of J(p) about C = J(0)^-1) as an affine matrix:
+    C(p) J(p) = I + O(p^2), where a constant C leaves I - C J(p) first order. A Krawczyk test holds
+    with any preconditioner for each p (a singular one cannot contract)."""
+    cj = jy.contract(np.einsum("ik,jl->ijkl", c, np.eye(3)))                   # C J
+    return (cj.contract(np.einsum("ik,jl->ijkl", np.eye(3), c.T))).scale(-1.0) + c * 2.0
+
+
 @np.errstate(over="ignore", invalid="ignore")       # a box grown past a fold overflows: it then fails the test
 def _krawczyk(terms, d0, g, c):
     """An interval box Z (2, 3) proven to hold, for every p of T, exactly one z with f(G p + z, p) = 0
     (J_y regular there), and K (2, 3) inside it holding that z; None when no radius contracts.
 
-    K = -C f(G p, p) + (I - C J_y(G p + Z, p)) Z: f(G p, p) is second order in the tolerances (G is
-    the derivative), enclosed as an affine form over T; J_y over T and Z likewise."""
-    f, _ = _chart(terms, d0, g, np.zeros(3))
-    cf_lo, cf_hi = f.matvec(c).bounds()
+    K = -C(p) f(G p, p) + (I - C(p) J_y(G p + Z, p)) Z, for each p of T: f(G p, p) is second order in
+    the tolerances (G is the derivative) and C(p) (:func:`_preconditioner`) makes I - C(p) J_y second
+    order in p and first in Z; every term an affine form over T, bounded at the end."""
+    f, jy0 = _chart(terms, d0, g, np.zeros(3))
+    cp = _preconditioner(jy0, c)
+    cf_lo, cf_hi = (cp * f[None, :]).sum(-1).bounds()
     reach = np.maximum(np.abs(cf_lo), np.abs(cf_hi))
     radius = reach * KRAWCZYK_START + 1e-300
     for _ in range(KRAWCZYK_TRIES):
         _, jy = _chart(terms, d0, g, radius)
-        lo, hi = jy.bounds()
-        jy_iv = iv.outward(np.stack([lo, hi]))
-        m = iv.sub(iv.point(np.eye(3)), iv.fmatmul(c, jy_iv))
+        lo, hi = (_matmul(cp, jy).scale(-1.0) + np.eye(3)).bounds()                # I - C(p) J(G p + Z, p)
+        m = iv.outward(np.stack([lo, hi]))
         mz = iv.magnitude(iv.matmul(m, iv.from_bounds(-radius, radius)[..., None])[..., 0])
         k_hi = np.nextafter(reach + mz, math.inf)
         if np.all(k_hi < radius):
@@ -392,6 +414,42 @@ def _newton(model, values, p, d0, steps: int = NEWTON_STEPS) -> np.ndarray | Non
         except np.linalg.LinAlgError:
             return None
     return y if np.all(np.isfinite(y)) else None
+
+
+def _ascend(model, values, d0, p, y, g, z) -> tuple[np.ndarray, np.ndarray]:
+    """A worse geometry than ``p`` (root ``y``), if the nonlinear error grows away from the linear worst
+    case: conditional-gradient steps (the gradient of |y(p)| from the implicit function at (y, p), its
+    maximizer over T at the rims, Newton from y there), at most ASCENT_TRIES, each kept only when it
+    increases |y| and stays in the enclosure (the same assembly). Returns the best (p, y)."""
+    best_p, best_y = p, y
+    for _ in range(ASCENT_TRIES):
+        qs = [form_matrix(d0.T @ e, b, c) for e, b, c in model.point_terms(values, best_p)]
+        r = np.concatenate([[1.0], best_y])
+        jy = np.array([2.0 * (q @ r)[1:] for q in qs])
+        jp = np.empty((3, len(p)))
+        for j in range(len(p)):                          # J_p by central differences (floats: a search, not a proof)
+            step = np.zeros(len(p))
+            step[j] = ASCENT_STEP
+            fs = [np.array([r @ form_matrix(d0.T @ e, b, c) @ r for e, b, c in model.point_terms(values, best_p + sgn * step)])
+                  for sgn in (1.0, -1.0)]
+            jp[:, j] = (fs[0] - fs[1]) / (2.0 * ASCENT_STEP)
+        try:
+            dydp = -np.linalg.solve(jy, jp)
+        except np.linalg.LinAlgError:
+            break
+        grad = best_y @ dydp                                     # d |y|^2 / 2 dp
+        target = np.zeros(len(p))
+        for cols, rad in model.radii():
+            v = grad[cols]
+            norm = float(np.linalg.norm(v))
+            if norm > 0.0 and rad > 0.0:
+                target[cols] = rad / (1.0 + TILT_PAD) * (1.0 - TILT_PAD) * v / norm
+        y_new = _newton(model, values, target, d0)
+        if y_new is None or not np.all(np.abs(y_new - g @ target) <= z[1]) or \
+                np.linalg.norm(y_new) <= np.linalg.norm(best_y) * (1.0 + 1e-12):
+            break
+        best_p, best_y = target, y_new
+    return best_p, best_y
 
 
 def _rim_parameters(model, g, n) -> np.ndarray:
@@ -426,13 +484,16 @@ def _assembly(model, terms, values, d0, number: int) -> tuple[AssemblyTolerance,
     reach = (upper + rest) * (1.0 + ROUNDING)                                   # |y| <= max |G p| + |z|
     bound = float(np.nextafter(2.0 * math.atan(reach) * (1.0 + ROUNDING), math.inf))
     enclosure = _row_reach(g, model.radii()) + iv.magnitude(k)                 # |y_k| over T
-    low, worst = None, None
+    low, worst, worst_y = None, None, None
     for candidate in (rim, -rim):                         # h(n) = h(-n): the two rims of the linear worst case
         y = _newton(model, values, candidate, d0)
         if y is not None and np.all(np.abs(y - g @ candidate) <= z[1]):         # the same assembly (one root there)
             err = 2.0 * math.atan(float(np.linalg.norm(y)))
             if low is None or err > low:
-                low, worst = err, candidate
+                low, worst, worst_y = err, candidate, y
+    if low is not None and bound > ASCENT_RATIO * low:    # far from the bound: search further from the linear case
+        worst, worst_y = _ascend(model, values, d0, worst, worst_y, g, z)
+        low = 2.0 * math.atan(float(np.linalg.norm(worst_y)))
     return AssemblyTolerance(number, bound, low, 2.0 * math.atan(upper), tuple(float(v) for v in enclosure),
                              None if low is not None else "the linearized worst geometry was not solved inside the "
                                                           "enclosure",
