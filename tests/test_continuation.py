@@ -371,7 +371,7 @@ def test_python_attribute_names_are_the_json_keys(mech, fold_tracks):
     kinds = set()
     for tr in tracks:
         data = tr.as_dict()
-        assert data["schema"] == "spherekin.track/2"
+        assert data["schema"] == "spherekin.track/3"
         for obj, d in [(tr, data), (tr.poses[0], data["poses"][0]), *([(tr.stop, data["stop"])] if tr.stop else [])]:
             names = {f.name for f in dataclasses.fields(obj)}
             assert names <= set(d) and set(d) - names <= {"schema", "spherekin_version", "complete"}

@@ -255,7 +255,7 @@ def test_cli_tracks_a_four_bar_and_reports_the_range_stop_in_json(tmp_path, caps
     n = int(np.sum(rows < crossing))
     assert f"{n} of 11 row(s) tracked" in text and "D leaves its joint range" in text
     assert "the tracked pose is one of the solutions of the full solve" in text
-    assert data["schema"] == "spherekin.track/2" and data["passive_joints"] == ["B", "D", "C"]
+    assert data["schema"] == "spherekin.track/3" and data["passive_joints"] == ["B", "D", "C"]
     assert len(data["poses"]) == n and data["stop"]["kind"] == "range" and data["stop"]["joint"] == "D"
     assert abs(data["stop"]["last_proven_inputs"]["A"] - crossing) < 1e-9
     for p in data["poses"]:

@@ -133,7 +133,7 @@ class TrackedPose:
                                       else np.asarray(self.platform_rotation, dtype=float).tolist()),
                 "passive_angles": dict(self.passive_angles), "residual": self.residual,
                 "parallel_measure": self.parallel_measure, "proven_steps": self.proven_steps,
-                **({} if self.tolerances is None else {"tolerances": self.tolerances.as_dict()})}
+                "tolerances": None if self.tolerances is None else self.tolerances.as_dict()}
 
 
 @dataclass(frozen=True)
@@ -198,8 +198,8 @@ class RangeStop:
 
 #: The version of :meth:`Track.as_dict` (the JSON of ``spherekin track``; docs/results-format.md).
 #: 2: Python's attribute names everywhere ("poses", "proven_steps", "rejected_steps", "parallel_measure"),
-#: the stop's "kind" and the range stop.
-TRACK_SCHEMA = "spherekin.track/2"
+#: the stop's "kind" and the range stop. 3: each pose's "tolerances" (issue 45; null without them).
+TRACK_SCHEMA = "spherekin.track/3"
 
 
 @dataclass(frozen=True)

@@ -16,22 +16,24 @@ p = 0, the nominal mechanism.
 For a nominal assembly D0, write D = D0 E(y) with E(y) the rotation of the quaternion (1, y): the
 rotation angle between the nominal platform and the built one is 2 atan |y|, and the leg equations
 are three quadrics f(y, p) = r^T (M(D0^T e_i, b_i) - c_i I) r = 0 in r = (1, y). Every term is carried
-as a first-order affine form over T (:mod:`spherekin.core.affine`: value, gradient, and a bound on
-the rest, the disks' reach exact), which keeps the dependence on each parameter that intervals lose.
+as a second-order Taylor form over T (:mod:`spherekin.core.taylor`: value, gradient, quadratic part and a
+bound on the rest, the disks' reach exact), which keeps the dependence on each parameter that intervals lose.
 The proof:
 
 1. *One root for every geometry* (a parametric Krawczyk test): with G = -J_y^-1 J_p the nominal
-   derivative and C = J_y^-1, K = -C f(G p, p) + (I - C J_y(G p + Z, p)) Z inside the box Z, for
-   every p in T, proves exactly one root y(p) = G p + z(p), z(p) in Z, and J_y regular there: the
-   assembly persists, alone, for every geometry and input in the tolerances. f(G p, p) is second
-   order (G is the derivative), so Z is small.
+   derivative and C(p) = 2C - C J_y(G p, p) C (C = J_y^-1 at the nominal: the inverse to first order
+   in p), K = -C(p) f(G p, p) + (I - C(p) J_y(G p + Z, p)) Z inside the box Z, for every p in T,
+   proves exactly one root y(p) = G p + z(p), z(p) in Z, and J_y regular there: the assembly
+   persists, alone, for every geometry and input in the tolerances. f(G p, p) is second order (G is
+   the derivative) and its quadratic part is carried exactly, so Z is small.
 2. *A tight bound*: |y(p)| <= max over T of |G p| + |Z|. The first term is the exact maximum of a
    linear map's norm over the product of disks and intervals, max over unit n of
    h(n) = sum_j r_j |G_j^T n|, bounded above by a branch and bound over the sphere (:func:`linear_worst_case`).
    ``worst_case_rotation_error`` = 2 atan of the bound, rounded up.
 3. *A lower bound*: the maximizing direction n gives the linearized worst geometry (every axis tilted
    to its rim along G_j^T n, every input at the end of its interval along n; and its opposite); that
-   geometry is solved by Newton's method from the nominal assembly and its error reported beside the
+   geometry is solved by Newton's method from the nominal assembly (where the bound is far above it,
+   conditional-gradient steps search further, :func:`_ascend`) and its error reported beside the
    bound (``worst_case_rotation_error_lower_bound``, the geometry in ``worst_case_geometry``): the
    truth lies between them.
 4. *The count over the tolerances*: the 8 complex roots of the leg quadrics (in the displacement's
@@ -56,7 +58,7 @@ import numpy as np
 
 from ..core import bezout
 from ..core import intervals as iv
-from ..core.affine import Affine, ToleranceSet, cos_sin_shift, stack
+from ..core.taylor import TaylorForm, ToleranceSet, cos_sin_shift, inverse_norm, stack
 from ..core.rotations import cross
 from ..mechanism.chains import perpendicular
 from ..results import AssemblyTolerance, ToleranceReport
@@ -130,7 +132,7 @@ class ToleranceModel:
 
     ``tilt`` (3 legs, 3 axes): tan of each axis cone's half-angle (padded); ``eps`` (3,): each input's
     half-width (radians; ``widen``: actuated joint -> radians added, for a box of inputs); ``fixed_c``: the distal link angles as given (kind "3-RRR") or as built;
-    ``space``: the tolerance set (:class:`spherekin.core.affine.ToleranceSet`).
+    ``space``: the tolerance set (:class:`spherekin.core.taylor.ToleranceSet`).
     """
 
     def __init__(self, mechanism, tolerances, widen=None):
@@ -157,20 +159,18 @@ class ToleranceModel:
             out.append(([_PER_LEG * i + 6], float(self.eps[i])))
         return out
 
-    def _axis(self, i: int, k: int) -> Affine:
+    def _axis(self, i: int, k: int) -> TaylorForm:
         """Axis k of leg i as built: (a + s u1 + t u2) / |a + s u1 + t u2| over its disk."""
         a, (u1, u2) = self.axes[i][k], self.bases[i][k]
         col = _PER_LEG * i + 2 * k
         w = self.space.constant(a) + self.space.symbol(col) * self.space.constant(u1) \
             + self.space.symbol(col + 1) * self.space.constant(u2)
-        r2 = float(self.tilt[i, k]) ** 2
-        # 1 / |w| within [1 / sqrt(1 + r^2), 1] (u1, u2 orthonormal to a up to rounding: 1e-15 spare)
-        lam = Affine(self.space, np.array(1.0), np.zeros(self.space.size),
-                     np.array(1.0 - 1.0 / math.sqrt(1.0 + r2) + 1e-15))
+        # 1 / |w|: |w|^2 = 1 + s^2 + t^2 (u1, u2 orthonormal to a up to rounding: 1e-15 spare)
+        lam = inverse_norm(self.space, (col, col + 1), float(self.tilt[i, k]), 1e-15)
         return w * lam
 
     def terms(self, values) -> list:
-        """Each leg's (e, b, c) as affine forms over T at inputs ``values`` (radians): e = Rot(a1', d +
+        """Each leg's (e, b, c) as Taylor forms over T at inputs ``values`` (radians): e = Rot(a1', d +
         eps) a2', b = a3', c = cos(alpha2) (as given) or a2' . a3' (as built)."""
         d = np.asarray(values, dtype=float) - self.reference
         out = []
@@ -181,7 +181,8 @@ class ToleranceModel:
             if self.fixed_c:
                 ax = self.axes[i]
                 c0 = float(np.dot(ax[1], ax[2]))
-                c = Affine(self.space, np.array(c0), np.zeros(self.space.size), np.array(4.0 * np.finfo(float).eps))
+                c = self.space.constant(c0) + TaylorForm(self.space, np.array(0.0), np.zeros(self.space.size),
+                                                         np.zeros((self.space.size,) * 2), np.array(4.0 * np.finfo(float).eps))
             else:
                 c = a2.dot(a3)
             out.append((e, a3, c))
@@ -221,16 +222,17 @@ class ToleranceModel:
 
 
 def _form(e, b, c):
-    """q^T M q = e . S(q) b - c |q|^2 (e, b vectors (3,), c a number: affine forms): M (4, 4) affine."""
+    """q^T M q = e . S(q) b - c |q|^2 (e, b vectors (3,), c a number: Taylor forms): M (4, 4) a form."""
     return (e[:, None] * b[None, :]).contract(_T) - c.scale(np.eye(4))     # M_jk = T_jkmn e_m b_n
 
 
 def _chart(terms, d0, g, z):
-    """f (3,) and J_y (3, 3) as affine forms over T at y = G p + z (z: |z_k| <= z_k, an extra bound;
+    """f (3,) and J_y (3, 3) as Taylor forms over T at y = G p + z (z: |z_k| <= z_k, an extra bound;
     0 for f(G p, p)) for the nominal assembly D0 = ``d0``: leg i is r^T (M(D0^T e_i, b_i) - c_i I) r,
     r = (1, y)."""
     space = terms[0][0].space
-    y = Affine(space, np.zeros(3), np.asarray(g, dtype=float), np.asarray(z, dtype=float))
+    size = space.size
+    y = TaylorForm(space, np.zeros(3), np.asarray(g, dtype=float), np.zeros((3, size, size)), np.asarray(z, dtype=float))
     r = stack([space.constant(1.0)] + [y[k] for k in range(3)], 0)
     f, jy = [], []
     for e, b, c in terms:
@@ -363,13 +365,13 @@ def _nominal_derivative(terms, d0):
     return jy_c, -np.linalg.solve(jy_c, f0.lin)
 
 
-def _matmul(a: Affine, b: Affine) -> Affine:
-    """The product of affine matrices a (n, k) and b (k, m) (each entry a form over T)."""
+def _matmul(a: TaylorForm, b: TaylorForm) -> TaylorForm:
+    """The product of matrices of forms a (n, k) and b (k, m) (each entry a form over T)."""
     return (a[:, :, None] * b[None, :, :]).sum(1)
 
 
-def _preconditioner(jy: Affine, c) -> Affine:
-    """C(p) = 2 C - C J(p) C (the first-order inverse of J(p) about C = J(0)^-1) as an affine matrix:
+def _preconditioner(jy: TaylorForm, c) -> TaylorForm:
+    """C(p) = 2 C - C J(p) C (the first-order inverse of J(p) about C = J(0)^-1) as a matrix of forms:
     C(p) J(p) = I + O(p^2), where a constant C leaves I - C J(p) first order. A Krawczyk test holds
     with any preconditioner for each p (a singular one cannot contract)."""
     cj = jy.contract(np.einsum("ik,jl->ijkl", c, np.eye(3)))                   # C J
@@ -383,7 +385,7 @@ def _krawczyk(terms, d0, g, c):
 
     K = -C(p) f(G p, p) + (I - C(p) J_y(G p + Z, p)) Z, for each p of T: f(G p, p) is second order in
     the tolerances (G is the derivative) and C(p) (:func:`_preconditioner`) makes I - C(p) J_y second
-    order in p and first in Z; every term an affine form over T, bounded at the end."""
+    order in p and first in Z; every term a Taylor form over T, bounded at the end."""
     f, jy0 = _chart(terms, d0, g, np.zeros(3))
     cp = _preconditioner(jy0, c)
     cf_lo, cf_hi = (cp * f[None, :]).sum(-1).bounds()
@@ -524,7 +526,7 @@ def _complete_over(model, quadrics, q0) -> tuple[bool, int, str]:
     """The complete count over T (module doc, step 4) for the 8 roots q0 (8, 4) of the nominal
     quadrics: each root r on its chart k (q_k = 1), q = q0 + P y (P: the free components), proven by
     a parametric Krawczyk test in complex disk arithmetic, K = -C f(G p, p) + (I - C J(G p + Z, p)) Z
-    inside Z (Z: a product of complex disks about 0; f(G p, p) second order, as an affine form): for
+    inside Z (Z: a product of complex disks about 0; f(G p, p) second order, as a Taylor form): for
     every geometry p of T exactly one root in q0 + P (G p + Z). A real root (real q0, real G: the
     region is its own conjugate) is then real for every p; a non-real one is proven non-real when an
     imaginary part cannot reach 0 over its region; the 8 regions are proven distinct points of P^3.
@@ -546,7 +548,8 @@ def _complete_over(model, quadrics, q0) -> tuple[bool, int, str]:
         return False, 0, "a root of the nominal quadrics is singular"
 
     def system(rho):
-        y = Affine(space, np.zeros((n, 3), dtype=complex), g, np.broadcast_to(rho, (n, 3)).copy())
+        y = TaylorForm(space, np.zeros((n, 3), dtype=complex), g, np.zeros((n, 3, space.size, space.size), dtype=complex),
+                       np.broadcast_to(rho, (n, 3)).copy())
         q = y.bmatvec(basis) + q0                                               # (8, 4)
         qq = (quadrics[None] * q[:, None, None, :]).sum(-1)                     # Q_i q (8, 3, 4)
         f = (qq * q[:, None, :]).sum(-1)                                        # (8, 3)

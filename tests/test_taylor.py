@@ -1,5 +1,6 @@
-"""Affine forms over a tolerance set (spherekin/core/affine.py): every value of the function, at every
-parameter of the set, lies within the form's bounds; the reach of a linear form is exact.
+"""Second-order Taylor forms over a tolerance set (spherekin/core/taylor.py): every value of the
+function, at every parameter of the set, lies within the form's bounds; the reach of a linear form is
+exact; a quadratic part is carried exactly (no second-order term left in the bound).
 
 The functions are evaluated here directly in floats at sampled parameters (disks' rims and insides,
 intervals' ends), not through the module.
@@ -13,7 +14,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spherekin.core.affine import Affine, ToleranceSet, cos_sin_shift, stack
+from spherekin.core.taylor import TaylorForm, ToleranceSet, cos_sin_shift, inverse_norm, stack
 
 #: Two disks (parameters 0-1 and 2-3) and an interval (parameter 4).
 BLOCKS = (([0, 1], 0.01), ([2, 3], 0.003), ([4], 0.02))
@@ -69,8 +70,8 @@ def test_products_rotations_and_trig_hold_every_sampled_value(seed):
 
     values = [direct(p) for p in samples(rng, 200)]
     assert lo <= min(values) and max(values) <= hi
-    # and the bounds are first-order tight: the spread is within a few percent of the sampled one
-    assert hi - lo <= 1.2 * (max(values) - min(values)) + 1e-3
+    # and the bounds are tight: not much wider than the spread of the samples (which falls short of the extremes)
+    assert hi - lo <= 1.5 * (max(values) - min(values)) + 1e-5
 
 
 def test_complex_forms_hold_every_sampled_value():
@@ -78,13 +79,30 @@ def test_complex_forms_hold_every_sampled_value():
     space = ToleranceSet(BLOCKS, 5)
     z0 = rng.normal(size=3) + 1j * rng.normal(size=3)
     g = rng.normal(size=(3, 5)) + 1j * rng.normal(size=(3, 5))
-    y = Affine(space, z0, g, np.zeros(3))
+    y = TaylorForm(space, z0, g, np.zeros((3, 5, 5)), np.zeros(3))
     m = rng.normal(size=(3, 3)) + 1j * rng.normal(size=(3, 3))
     form = (y * y).matvec(m)
     centre, radius = form.disk()
     for p in samples(rng, 200):
         w = z0 + g @ p
         assert np.all(np.abs(m @ (w * w) - centre) <= radius)
+
+
+def test_a_quadratic_part_is_carried_exactly():
+    """(a + L p)^2 has no rest but rounding: its quadratic part is L L^T, its bound tiny; the unit-norm
+    factor 1 / sqrt(1 + s^2 + t^2) holds every sampled value."""
+    space = ToleranceSet(BLOCKS, 5)
+    rng = np.random.default_rng(4)
+    lin = rng.normal(size=5)
+    x = TaylorForm(space, np.array(0.7), lin, np.zeros((5, 5)), np.array(0.0))
+    sq = x * x
+    assert np.allclose(sq.quad, np.outer(lin, lin)) and sq.rad < 1e-13
+    lam = inverse_norm(space, (0, 1), 0.01, 0.0)
+    lo, hi = lam.bounds()
+    for p in samples(rng, 200):
+        assert lo <= 1.0 / math.sqrt(1.0 + p[0] ** 2 + p[1] ** 2) <= hi
+        value = 0.7 + lin @ p
+        assert abs(value * value - (sq.c + sq.lin @ p + p @ sq.quad @ p)) <= sq.rad + 1e-15
 
 
 def test_stack_and_indexing_keep_each_form():
