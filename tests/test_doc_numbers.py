@@ -62,6 +62,9 @@ QUOTES = [
       "gf": ("engine-throughput", "engine.general_3rrr.engine_over_floor", ratio),
       "gb": ("engine-throughput", "engine.general_3rrr.engine_over_boxes", ratio),
       "e": ("engine-throughput", "engine.gosselin.engine_per_s", rate)}),
+    ("README.md", r"at most 2 assemblies\): (?P<four>[\d,]+) and (?P<five>[\d,]+) certified solves per second",
+     {"four": ("engine-throughput", "engine.four-bar.engine_per_s", rate),
+      "five": ("engine-throughput", "engine.five-bar.engine_per_s", rate)}),
     ("docs/howto/maps-singularities.md", r"solution (?P<a>\d+) comes back as solution (?P<b>\d+) after (?P<steps>\d+) "
      r"proven steps, without crossing a singularity \((?P<cpu>[\d.]+) s of CPU time in all",
      {"a": ("mode-change", "mode_change.start_solution", str), "b": ("mode-change", "mode_change.end_solution", str),
@@ -103,6 +106,9 @@ def test_the_file_says_what_ran_and_where(numbers):
     engine = numbers["runs"]["engine-throughput"]["engine"]
     for mech in ("general_3rrr", "gosselin"):                  # the throughput quoted: the complete count's
         assert engine[mech]["system"] == "complete" and engine[mech]["strategy"]["formulation"] == "complete"
+        assert engine[mech]["inputs"] == 4096 and engine[mech]["repeats"] == 3
+    for mech in ("four-bar", "five-bar"):                      # and the one-loop count's, each at its own chunk
+        assert engine[mech]["system"] == "complete-loop" and engine[mech]["chunk"] >= 1
         assert engine[mech]["inputs"] == 4096 and engine[mech]["repeats"] == 3
 
 

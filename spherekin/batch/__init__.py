@@ -17,9 +17,12 @@ processes (one per core by default; in this process for a handful of inputs), se
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 from .inputs import GridAxis, InputSet, array_inputs, grid_inputs, read_inputs_csv
+
+if TYPE_CHECKING:                 # the map's type, for annotations (maps.py is imported when a map is made)
+    from .maps import AssemblyMap
 
 __all__ = ["solve_many", "solve_to_file", "prepare_to_file", "run_to_file", "FileJob", "assembly_map", "AssemblyMap", "branch_map", "BranchMap", "GridAxis", "InputSet", "grid_inputs",
            "read_inputs_csv", "read_results", "RunSummary"]

@@ -57,7 +57,7 @@ import numpy as np
 from ..closure import ClosureLoop, Term, Unknown
 from ..core.angles import MAX_INPUT_ANGLE, check_turn, in_range, in_range_many, into_range, wrap
 from ..core.rotations import cross, normalize_polygon, normalized_closure
-from .chains import axis_rotations, chain_rotation, current_axes, perpendicular, serial_ik
+from .chains import axis_rotations, current_axes, perpendicular, serial_ik
 from .checks import check_name, check_range, check_rotation, parse_angle, shown
 from .graph import Joint, MechanismGraph, Step
 from .tolerances import Tolerances
