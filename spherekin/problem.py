@@ -41,7 +41,8 @@ from .systems import (AUTO, CONTINUUM_TOL, LOOP_FORMULATION, ON_CAP_CHOICES, ON_
 from .results import (EmptyReason, SolveReport, SolverStats, EMPTY_INCONSISTENT, EMPTY_OUTSIDE_RANGES,
                       EMPTY_OUTSIDE_WORKSPACE)
 from .trust.solutions import count_summary, finalize_many
-from .trust.tolerances import analyse as analyse_tolerances, analyse_pose
+from .trust.loop_tolerances import analyse_loops
+from .trust.tolerances import analyse as analyse_tolerances, analyse_pose, not_analysed as tolerances_not_analysed
 from .search.boxloop import (DEFAULT_MAX_BOXES, DEFAULT_PARAMETERIZATION, DEFAULT_PRUNER, DEFAULT_TOL, SolverLimitError,
                              check_strategy)
 
@@ -171,7 +172,8 @@ class Problem:
         tolerances = self.mechanism.tolerances
         if tolerances is None:
             return report
-        return dataclasses.replace(report, tolerances=analyse_tolerances(self.mechanism, tolerances, values, report))
+        analysis = analyse_tolerances if tolerances_not_analysed(self.mechanism) is None else analyse_loops
+        return dataclasses.replace(report, tolerances=analysis(self.mechanism, tolerances, values, report))
 
     def _explained(self, report: SolveReport, values) -> SolveReport:
         """``report`` with ``empty_reason`` set where it has no solution (and no cap or Ctrl-C)."""

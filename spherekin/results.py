@@ -455,7 +455,9 @@ class AssemblyTolerance:
     half the rotation angle, per component) of the box proven to hold this assembly, and no other
     root, for every geometry within the tolerances; ``worst_case_geometry``: the geometry that reaches
     the lower bound (``axes``: joint name -> axis, base frame at the reference configuration;
-    ``inputs``: actuated joint -> radians), to build and check.
+    ``inputs``: actuated joint -> radians), to build and check; ``worst_case_joint_error`` (on the loop
+    equations: any mechanism): passive joint -> a proven bound on how far its reading can be from the
+    nominal one, and ``worst_case_joint_error_lower_bound`` the same for one geometry solved, per joint.
     """
 
     solution: int
@@ -465,6 +467,8 @@ class AssemblyTolerance:
     enclosure_radius: tuple | None = None
     reason: str | None = None
     worst_case_geometry: Mapping | None = None
+    worst_case_joint_error: Mapping | None = None
+    worst_case_joint_error_lower_bound: Mapping | None = None
 
     @property
     def tightness(self) -> float | None:
@@ -477,7 +481,9 @@ class AssemblyTolerance:
                 "worst_case_rotation_error_lower_bound": self.worst_case_rotation_error_lower_bound,
                 "linear_worst_case": self.linear_worst_case,
                 "enclosure_radius": None if self.enclosure_radius is None else list(self.enclosure_radius),
-                "tightness": self.tightness, "reason": self.reason, "worst_case_geometry": self.worst_case_geometry}
+                "tightness": self.tightness, "reason": self.reason, "worst_case_geometry": self.worst_case_geometry,
+                "worst_case_joint_error": self.worst_case_joint_error,
+                "worst_case_joint_error_lower_bound": self.worst_case_joint_error_lower_bound}
 
 
 @dataclass(frozen=True)
@@ -509,7 +515,14 @@ class ToleranceReport:
                    "the tolerances is proven)", None: "count not proven constant"}[self.count_constant_over_tolerances]
         lines = [head + verdict + f": {self.count_reason}"]
         for a in self.assemblies:
-            if a.worst_case_rotation_error is None:
+            if a.worst_case_joint_error is not None:
+                joints = ", ".join(f"{n} <= {v:.3e}" + ("" if a.worst_case_joint_error_lower_bound.get(n) is None else
+                                                         f" (reached {a.worst_case_joint_error_lower_bound[n]:.3e})")
+                                   for n, v in a.worst_case_joint_error.items())
+                rot = ("" if a.worst_case_rotation_error is None else
+                       f"; output rotation <= {a.worst_case_rotation_error:.3e}")
+                lines.append(f"  solution {a.solution}: worst-case joint error (rad) {joints}{rot}")
+            elif a.worst_case_rotation_error is None:
                 lines.append(f"  solution {a.solution}: worst-case rotation error not proven ({a.reason})")
             else:
                 lines.append(f"  solution {a.solution}: worst-case rotation error <= {a.worst_case_rotation_error:.3e} rad "

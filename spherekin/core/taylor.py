@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ROUND", "ToleranceSet", "TaylorForm", "stack", "cos_sin_shift", "inverse_norm"]
+__all__ = ["ROUND", "ToleranceSet", "TaylorForm", "stack", "cos_sin_shift", "cos_sin", "inverse_norm"]
 
 #: Relative allowance for rounding added to each result's bound (see the module doc).
 ROUND = 1e-14
@@ -259,3 +259,23 @@ def inverse_norm(space: ToleranceSet, columns, radius: float, slack: float) -> T
     for k in columns:
         quad[k, k] = -0.5
     return TaylorForm(space, np.array(1.0), np.zeros(space.size), quad, np.array(0.375 * radius ** 4 + slack))
+
+
+def cos_sin(u: TaylorForm) -> tuple[TaylorForm, TaylorForm]:
+    """cos u and sin u of a real form u = u0 + v (u0 its centre): with w = 1 - v^2 / 2,
+    cos u = cos u0 w - sin u0 v and sin u = sin u0 w + cos u0 v, within |cos u0| |v|^4 / 24 +
+    |sin u0| |v|^3 / 6 (and the same with cos and sin exchanged), |v| bounded by its reach (Taylor's
+    remainders of cos v and sin v)."""
+    space = u.space
+    u0 = u.c
+    v = u - u0
+    r = v.reach() * (1.0 + ROUND)
+    w = space.constant(np.ones(np.shape(u0))) - (v * v).scale(0.5)
+    c0, s0 = np.cos(u0), np.sin(u0)
+    eps = 4.0 * np.finfo(float).eps * (1.0 + r)
+    rest_c = np.abs(c0) * r ** 4 / 24.0 + np.abs(s0) * r ** 3 / 6.0 + eps
+    rest_s = np.abs(s0) * r ** 4 / 24.0 + np.abs(c0) * r ** 3 / 6.0 + eps
+    cos_u = w.scale(c0) - v.scale(s0)
+    sin_u = w.scale(s0) + v.scale(c0)
+    return (TaylorForm(space, cos_u.c, cos_u.lin, cos_u.quad, cos_u.rad + rest_c),
+            TaylorForm(space, sin_u.c, sin_u.lin, sin_u.quad, sin_u.rad + rest_s))

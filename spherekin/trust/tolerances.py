@@ -66,7 +66,8 @@ from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
 __all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ASCENT_RATIO", "ASCENT_TRIES", "ASCENT_STEP", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
-           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "linear_worst_case"]
+           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "tilted_axis", "axis_basis",
+           "krawczyk_over", "linear_worst_case", "row_reach", "matmul_forms"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
 #: are floats (errors ~1e-16); 1e-9 makes the disk's image cover the whole cone with room, and moves a
@@ -126,6 +127,22 @@ def not_analysed(mechanism) -> str | None:
 
 # ---------------------------------------------------------------- the model
 
+def tilted_axis(space: ToleranceSet, a, basis, col: int, radius: float) -> TaylorForm:
+    """A joint axis as built, (a + s u1 + t u2) / |a + s u1 + t u2| with (s, t) the parameters ``col``,
+    ``col + 1`` in their disk of ``radius`` (tan of the cone's half-angle): a form (3,) over T."""
+    u1, u2 = basis
+    w = space.constant(a) + space.symbol(col) * space.constant(u1) + space.symbol(col + 1) * space.constant(u2)
+    # 1 / |w|: |w|^2 = 1 + s^2 + t^2 (u1, u2 orthonormal to a up to rounding: 1e-15 spare)
+    return w * inverse_norm(space, (col, col + 1), radius, 1e-15)
+
+
+def axis_basis(a) -> tuple[np.ndarray, np.ndarray]:
+    """An orthonormal basis (u1, u2) of the plane normal to the unit axis ``a`` (the tilt's directions)."""
+    u1 = perpendicular(a)
+    return u1, cross(a, u1)
+
+
+
 class ToleranceModel:
     """The leg equations of a base-driven 3-RRR as functions of its 21 tolerance parameters (per leg:
     the tilts (s, t) of its base, elbow and platform axes, then its input's error; module doc).
@@ -145,7 +162,7 @@ class ToleranceModel:
         self.eps = np.array([tolerances.inputs_rad + widen.get(leg.names[0], 0.0) for leg in self.legs])
         self.eps *= 1.0 + TILT_PAD
         self.axes = [[np.asarray(a, dtype=float) for a in (leg.a1, leg.a2, leg.a3)] for leg in self.legs]
-        self.bases = [[(perpendicular(a), cross(a, perpendicular(a))) for a in axes] for axes in self.axes]
+        self.bases = [[axis_basis(a) for a in axes] for axes in self.axes]
         self.reference = np.array([leg.reference[0] for leg in self.legs], dtype=float)
         self.space = ToleranceSet(tuple(self.radii()), _PER_LEG * len(self.legs))
 
@@ -160,14 +177,8 @@ class ToleranceModel:
         return out
 
     def _axis(self, i: int, k: int) -> TaylorForm:
-        """Axis k of leg i as built: (a + s u1 + t u2) / |a + s u1 + t u2| over its disk."""
-        a, (u1, u2) = self.axes[i][k], self.bases[i][k]
-        col = _PER_LEG * i + 2 * k
-        w = self.space.constant(a) + self.space.symbol(col) * self.space.constant(u1) \
-            + self.space.symbol(col + 1) * self.space.constant(u2)
-        # 1 / |w|: |w|^2 = 1 + s^2 + t^2 (u1, u2 orthonormal to a up to rounding: 1e-15 spare)
-        lam = inverse_norm(self.space, (col, col + 1), float(self.tilt[i, k]), 1e-15)
-        return w * lam
+        """Axis k of leg i as built (:func:`tilted_axis`)."""
+        return tilted_axis(self.space, self.axes[i][k], self.bases[i][k], _PER_LEG * i + 2 * k, float(self.tilt[i, k]))
 
     def terms(self, values) -> list:
         """Each leg's (e, b, c) as Taylor forms over T at inputs ``values`` (radians): e = Rot(a1', d +
@@ -346,7 +357,7 @@ def linear_worst_case(g: np.ndarray, blocks) -> tuple[float, float, np.ndarray]:
     return max(upper, best * (1.0 + SPHERE_GAP)) * (1.0 + ROUNDING), best, best_n
 
 
-def _row_reach(m, blocks) -> np.ndarray:
+def row_reach(m, blocks) -> np.ndarray:
     """(3,) max over the tolerance set of |(m p)_k| for each row k of m (3, P) (floats, >= 0):
     sum_j radius_j |m_kj| over the blocks (a disk's two columns by their Euclidean norm)."""
     out = np.zeros(m.shape[0])
@@ -365,7 +376,7 @@ def _nominal_derivative(terms, d0):
     return jy_c, -np.linalg.solve(jy_c, f0.lin)
 
 
-def _matmul(a: TaylorForm, b: TaylorForm) -> TaylorForm:
+def matmul_forms(a: TaylorForm, b: TaylorForm) -> TaylorForm:
     """The product of matrices of forms a (n, k) and b (k, m) (each entry a form over T)."""
     return (a[:, :, None] * b[None, :, :]).sum(1)
 
@@ -374,26 +385,30 @@ def _preconditioner(jy: TaylorForm, c) -> TaylorForm:
     """C(p) = 2 C - C J(p) C (the first-order inverse of J(p) about C = J(0)^-1) as a matrix of forms:
     C(p) J(p) = I + O(p^2), where a constant C leaves I - C J(p) first order. A Krawczyk test holds
     with any preconditioner for each p (a singular one cannot contract)."""
-    cj = jy.contract(np.einsum("ik,jl->ijkl", c, np.eye(3)))                   # C J
-    return (cj.contract(np.einsum("ik,jl->ijkl", np.eye(3), c.T))).scale(-1.0) + c * 2.0
+    n = len(c)
+    cj = jy.contract(np.einsum("ik,jl->ijkl", c, np.eye(n)))                   # C J
+    return (cj.contract(np.einsum("ik,jl->ijkl", np.eye(n), c.T))).scale(-1.0) + c * 2.0
 
 
 @np.errstate(over="ignore", invalid="ignore")       # a box grown past a fold overflows: it then fails the test
-def _krawczyk(terms, d0, g, c):
-    """An interval box Z (2, 3) proven to hold, for every p of T, exactly one z with f(G p + z, p) = 0
-    (J_y regular there), and K (2, 3) inside it holding that z; None when no radius contracts.
+def krawczyk_over(chart, c):
+    """An interval box Z (2, n) proven to hold, for every p of T, exactly one z with f(G p + z, p) = 0
+    (J regular there), and K (2, n) inside it holding that z; None when no radius contracts.
+    ``chart(z)``: (f, J) as forms over T at G p + (a box of radii z) (n equations in n unknowns);
+    ``c``: the inverse of J at the nominal.
 
-    K = -C(p) f(G p, p) + (I - C(p) J_y(G p + Z, p)) Z, for each p of T: f(G p, p) is second order in
-    the tolerances (G is the derivative) and C(p) (:func:`_preconditioner`) makes I - C(p) J_y second
+    K = -C(p) f(G p, p) + (I - C(p) J(G p + Z, p)) Z, for each p of T: f(G p, p) is second order in
+    the tolerances (G is the derivative) and C(p) (:func:`_preconditioner`) makes I - C(p) J second
     order in p and first in Z; every term a Taylor form over T, bounded at the end."""
-    f, jy0 = _chart(terms, d0, g, np.zeros(3))
+    n = len(c)
+    f, jy0 = chart(np.zeros(n))
     cp = _preconditioner(jy0, c)
     cf_lo, cf_hi = (cp * f[None, :]).sum(-1).bounds()
     reach = np.maximum(np.abs(cf_lo), np.abs(cf_hi))
     radius = reach * KRAWCZYK_START + 1e-300
     for _ in range(KRAWCZYK_TRIES):
-        _, jy = _chart(terms, d0, g, radius)
-        lo, hi = (_matmul(cp, jy).scale(-1.0) + np.eye(3)).bounds()                # I - C(p) J(G p + Z, p)
+        _, jy = chart(radius)
+        lo, hi = (matmul_forms(cp, jy).scale(-1.0) + np.eye(n)).bounds()                # I - C(p) J(G p + Z, p)
         m = iv.outward(np.stack([lo, hi]))
         mz = iv.magnitude(iv.matmul(m, iv.from_bounds(-radius, radius)[..., None])[..., 0])
         k_hi = np.nextafter(reach + mz, math.inf)
@@ -476,7 +491,7 @@ def _assembly(model, terms, values, d0, number: int) -> tuple[AssemblyTolerance,
         return AssemblyTolerance(number, None, reason="the nominal assembly is singular (J_y not invertible)"), None
     upper, _, n = linear_worst_case(g, model.radii())
     rim = _rim_parameters(model, g, n)
-    box = _krawczyk(terms, d0, g, c)
+    box = krawczyk_over(lambda z: _chart(terms, d0, g, z), c)
     if box is None:
         return AssemblyTolerance(number, None, linear_worst_case=2.0 * math.atan(upper),
                                  reason="the assembly was not proven to persist over the tolerances (the Krawczyk "
@@ -485,7 +500,7 @@ def _assembly(model, terms, values, d0, number: int) -> tuple[AssemblyTolerance,
     rest = float(np.linalg.norm(iv.magnitude(k))) * (1.0 + ROUNDING)
     reach = (upper + rest) * (1.0 + ROUNDING)                                   # |y| <= max |G p| + |z|
     bound = float(np.nextafter(2.0 * math.atan(reach) * (1.0 + ROUNDING), math.inf))
-    enclosure = _row_reach(g, model.radii()) + iv.magnitude(k)                 # |y_k| over T
+    enclosure = row_reach(g, model.radii()) + iv.magnitude(k)                 # |y_k| over T
     low, worst, worst_y = None, None, None
     for candidate in (rim, -rim):                         # h(n) = h(-n): the two rims of the linear worst case
         y = _newton(model, values, candidate, d0)
