@@ -520,7 +520,9 @@ class ToleranceReport:
                                                          f" (reached {a.worst_case_joint_error_lower_bound[n]:.3e})")
                                    for n, v in a.worst_case_joint_error.items())
                 rot = ("" if a.worst_case_rotation_error is None else
-                       f"; output rotation <= {a.worst_case_rotation_error:.3e}")
+                       f"; output rotation <= {a.worst_case_rotation_error:.3e}" +
+                       ("" if a.worst_case_rotation_error_lower_bound is None else
+                        f" (reached {a.worst_case_rotation_error_lower_bound:.3e})"))
                 lines.append(f"  solution {a.solution}: worst-case joint error (rad) {joints}{rot}")
             elif a.worst_case_rotation_error is None:
                 lines.append(f"  solution {a.solution}: worst-case rotation error not proven ({a.reason})")

@@ -92,3 +92,47 @@ def test_a_redundantly_actuated_mechanism_is_declined():
 
     mech = load_mechanism("examples/general_3rrr.toml")
     assert loops_not_analysed(mech) is None                    # 2 loops, 6 passive joints
+
+
+def built_mechanism(mech, rng, delta):
+    """``mech`` (legs) with every joint axis tilted by delta about a random normal (the reference's own tilt)."""
+    legs = tuple(dataclasses.replace(leg, joints=tuple(dataclasses.replace(j, axis=tuple(tilt(np.asarray(j.axis, float),
+                                                                                          delta, rng)))
+                                                       for j in leg.joints)) for leg in mech.legs)
+    return dataclasses.replace(mech, legs=legs)
+
+
+def test_a_one_loop_count_proven_constant_is_every_sampled_geometry_s():
+    """The four-bar at 0.4: the count over the tolerances proven constant (2); 20 built four-bars (axes at the
+    rims, inputs at the ends) have 2 assemblies by the 50-digit two-leg reference."""
+    from references import edge_references as er
+    from spherekin.mechanism import four_bar
+
+    mech = four_bar()
+    report = spherekin.compile(dataclasses.replace(mech, tolerances=Tolerances(AXES_DEG, INPUTS_DEG))).solve((0.4,))
+    assert report.tolerances.count_constant_over_tolerances is True
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        built = built_mechanism(mech, rng, math.radians(AXES_DEG))
+        x = (0.4 + math.radians(INPUTS_DEG) * rng.choice([-1.0, 1.0]),)
+        assert er.two_leg_reference(built, x).count == 2
+
+
+def test_next_to_a_branch_point_the_one_loop_count_is_not_proven_constant():
+    """The rocker-driven four-bar 1e-5 rad inside a limit of its input (a branch point: the two assemblies
+    meet there), inputs within 0.01 degree: the count over the tolerances is not proven constant; where it says
+    false, the built mechanism at the input's far end has none (the 50-digit reference)."""
+    from references import edge_references as er
+    from test_trust_many import rocker_driven_four_bar
+
+    mech = rocker_driven_four_bar()
+    edge = er.two_leg_edges(mech)[0]
+    for dist in (1e-5, -1e-5):
+        x = tuple(er.inputs_at(edge, dist)[0])
+        report = spherekin.compile(dataclasses.replace(mech, tolerances=Tolerances(0.0, INPUTS_DEG))).solve(x)
+        verdict = report.tolerances.count_constant_over_tolerances
+        assert verdict is not True, (dist, report.tolerances.count_reason)
+        counts = {er.two_leg_reference(mech, (x[0] + s * math.radians(INPUTS_DEG) * 0.999,)).count for s in (-1, 1)}
+        assert counts == {0, 2}                              # the reference: the count does change within them
+        if verdict is False:
+            assert "branch point" in report.tolerances.count_reason

@@ -18,8 +18,9 @@ Z, for every p in T. Then, per passive joint j, ``worst_case_joint_error[j]`` <=
 row j of G over T + |Z_j|; with an output link, ``worst_case_rotation_error`` bounds the rotation
 between the nominal output and the built one (the skew part of the output's rotation against its
 nominal: a linear maximum over the sphere plus the rest, its arcsine); each beside a lower bound, the
-linearized worst geometry solved by Newton's method. The count over the tolerances is not decided on
-the loop equations (null): :mod:`spherekin.trust.tolerances` decides it for the platform system.
+linearized worst geometry solved by Newton's method. The count over the tolerances is decided for a
+one-loop mechanism with three passive joints (the sign of A^2 + B^2 - C^2, :func:`_one_loop_count`),
+not for several loops (null); :mod:`spherekin.trust.tolerances` decides it for the platform system.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ __all__ = ["LoopToleranceModel", "loops_not_analysed", "analyse_loops"]
 
 #: The count over the tolerances on the loop equations: not decided (the module doc).
 COUNT_UNDECIDED = ("the count over the tolerances is decided for 3-RRRs driven at their base (the platform "
-                   "system); on the loop equations it is not")
+                   "system) and for one-loop mechanisms; on the loop equations of several loops it is not")
 
 
 def loops_not_analysed(mechanism) -> str | None:
@@ -281,6 +282,67 @@ def _output_rotation(model, values, theta0, g, z, axes, rotation):
     return bound, low
 
 
+def _one_loop_count(model, values) -> tuple[bool | None, str]:
+    """The count over the tolerances of a one-loop mechanism with three passive joints (module doc of
+    :mod:`spherekin.systems.one_loop`): around the loop from its first passive joint p,
+    Rot(a_p, x) K1 Rot(a_q, y) K2 Rot(a_r, z) K3 = I and A cos y + B sin y = C with b = K1 a_q,
+    c = K1 K2 a_r, G c = K3^T a_r: A = a_p . (c - (b . c) b), B = a_p . (b x c), C = a_p . G c -
+    (b . c)(a_p . b). D = A^2 + B^2 - C^2 as a Taylor form over T: D > 0 everywhere proves 2 assemblies
+    for every geometry, D < 0 none (Bezout on the projective line); else (None, why)."""
+    mech = model.mechanism
+    if len(mech.loop_geometry) != 1 or len(model.passive) != 3:
+        return None, COUNT_UNDECIDED
+    loop = mech.loop_geometry[0]
+    cycle = [(st.joint, st.sign) for st in loop.up] + [(st.joint, -st.sign) for st in reversed(loop.down)]
+    first = next(k for k, (name, _) in enumerate(cycle) if name in model.passive)
+    cycle = cycle[first:] + cycle[:first]
+    places = [k for k, (name, _) in enumerate(cycle) if name in model.passive]
+    axes = model.axis_forms()
+    zero = np.zeros((len(model.passive), model.space.size))
+    readings = model.readings(values, np.zeros(len(model.passive)), zero, np.zeros(len(model.passive)))
+
+    def product(part):
+        out = model.space.constant(np.eye(3))
+        for name, sign in part:
+            j = model.joints[model.index[name]]
+            angle = (readings[name] - j.reference_angle).scale(float(sign))
+            out = matmul_forms(out, model._rotation(axes[model.index[name]], angle))
+        return out
+
+    p, q, r = places
+    k1, k2, k3 = product(cycle[p + 1:q]), product(cycle[q + 1:r]), product(cycle[r + 1:])
+    a_p, a_q, a_r = (axes[model.index[cycle[k][0]]] for k in (p, q, r))
+    b = matmul_forms(k1, a_q[:, None])[:, 0]
+    c = matmul_forms(matmul_forms(k1, k2), a_r[:, None])[:, 0]
+    k3t = stack([stack([k3[col, row] for col in range(3)], 0) for row in range(3)], 0)
+    gc = matmul_forms(k3t, a_r[:, None])[:, 0]
+    bc = b.dot(c)
+    a = a_p.dot(c - b * bc)
+    bb = a_p.dot(b.cross(c))
+    cc = a_p.dot(gc) - bc * a_p.dot(b)
+    d = a * a + bb * bb - cc * cc
+    lo, hi = d.bounds()
+    if lo > 0.0:
+        return True, ("the loop's A^2 + B^2 - C^2 is positive for every geometry and input within the tolerances "
+                      "(a Taylor form over them): 2 assemblies, always")
+    if hi < 0.0:
+        return True, ("the loop's A^2 + B^2 - C^2 is negative for every geometry and input within the tolerances: "
+                      "no assembly, always")
+    # D's value at two geometries of T, each proven by the form (value within rad + its rounding): opposite
+    # signs prove a branch point (two assemblies meeting) between them, inside T (convex)
+    signs = set()
+    for sign in (1.0, -1.0):
+        pt = model.rim(sign * d.lin)
+        value = float(d.c + d.lin @ pt + pt @ d.quad @ pt)
+        if abs(value) > float(d.rad) * (1.0 + ROUNDING) + 1e-12 * (1.0 + abs(float(d.c))):
+            signs.add(value > 0.0)
+    if len(signs) == 2:
+        return False, ("the loop's A^2 + B^2 - C^2 is proven positive at one geometry within the tolerances and "
+                       "negative at another: a branch point (two assemblies meeting) lies between them")
+    return None, (f"the loop's A^2 + B^2 - C^2 may change sign within the tolerances (its enclosure [{lo:.2e}, "
+                  f"{hi:.2e}]): a branch point may lie within them")
+
+
 def analyse_loops(mechanism, tolerances, values, report) -> ToleranceReport:
     """The :class:`~spherekin.results.ToleranceReport` of ``report`` (the nominal solve at ``values``) on
     the loop equations: per assembly ``worst_case_joint_error`` (and, with an output link,
@@ -301,4 +363,8 @@ def analyse_loops(mechanism, tolerances, values, report) -> ToleranceReport:
         angles = dict(zip(report.unknowns, np.asarray(sol.angles, dtype=float)))
         theta0 = np.array([angles[name] for name in model.passive])
         out.append(_assembly(model, np.asarray(values, dtype=float), theta0, k, sol.platform_rotation))
-    return ToleranceReport(info, None, COUNT_UNDECIDED, tuple(out))
+    constant, why = (None, "the nominal count is not proven") if not report.count_exact else \
+        _one_loop_count(model, np.asarray(values, dtype=float))
+    if constant and any(mechanism.ranges.get(n) is not None for n in mechanism.passive):
+        constant, why = None, "passive joint ranges are not decided under tolerances; " + why
+    return ToleranceReport(info, constant, why, tuple(out))

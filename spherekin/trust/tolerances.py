@@ -407,6 +407,8 @@ def krawczyk_over(chart, c):
     reach = np.maximum(np.abs(cf_lo), np.abs(cf_hi))
     radius = reach * KRAWCZYK_START + 1e-300
     for _ in range(KRAWCZYK_TRIES):
+        if not np.all(np.isfinite(radius)):         # the forms blew up (next to a singularity): not proven
+            return None
         _, jy = chart(radius)
         lo, hi = (matmul_forms(cp, jy).scale(-1.0) + np.eye(n)).bounds()                # I - C(p) J(G p + Z, p)
         m = iv.outward(np.stack([lo, hi]))
