@@ -603,13 +603,14 @@ def solution_columns(actuated, unknowns, items, measures=None) -> ResultsTable:
             arr = SolutionArrays(arr.angles[:, [list(their_names).index(n) for n in names]], arr.status,
                                  arr.singularity, arr.residual, arr.rotations)
         r = len(arr.residual)
-        if not r:                              # no solution: one row, its solution columns empty
+        rows = max(r, 1)                       # an input without solution keeps one row, its solution columns empty
+        if rows > r:
             arr = SolutionArrays(np.full((1, len(names)), np.nan), _objects([None]), _objects([None]),
                                  np.full(1, np.nan), np.full((1, 3, 3), np.nan))
-        idx.append(np.full(max(r, 1), index, dtype=np.int64))
-        sol += list(range(1, r + 1)) if r else [None]          # numbered from 1, as printed tables and the JSON
-        has.append(np.full(max(r, 1), r > 0))
-        inp.append(np.broadcast_to(row, (max(r, 1), len(actuated))))
+        idx.append(np.full(rows, index, dtype=np.int64))
+        sol += list(range(1, r + 1)) + [None] * (rows - r)     # numbered from 1, as printed tables and the JSON
+        has.append(np.arange(rows) < r)
+        inp.append(np.broadcast_to(row, (rows, len(actuated))))
         blocks.append(arr)
     has = np.concatenate(has) if has else np.zeros(0, dtype=bool)
     idx = np.concatenate(idx) if idx else np.zeros(0, dtype=np.int64)
