@@ -493,12 +493,15 @@ class ToleranceReport:
     ``inputs_deg``, ``joints``); ``count_constant_over_tolerances``: True only when proven (no assembly
     appears, vanishes or meets another for any geometry and input within them), False when a singular
     configuration is proven within them, None when undecided; ``count_reason`` says how, or why not;
-    ``assemblies``: one :class:`AssemblyTolerance` per entry of the report, in its order."""
+    ``assemblies``: one :class:`AssemblyTolerance` per entry of the report, in its order;
+    ``count_witnesses``: where the count is proven to change, the two geometries (``axes``, ``inputs``, as
+    :attr:`AssemblyTolerance.worst_case_geometry`) whose proven counts differ, to build and check."""
 
     tolerances: Mapping
     count_constant_over_tolerances: bool | None
     count_reason: str
     assemblies: tuple = ()
+    count_witnesses: tuple = ()
 
     @property
     def worst_case_rotation_error(self) -> float | None:
@@ -535,7 +538,7 @@ class ToleranceReport:
     def as_dict(self) -> dict:
         return {"tolerances": dict(self.tolerances), "count_constant_over_tolerances": self.count_constant_over_tolerances,
                 "count_reason": self.count_reason, "worst_case_rotation_error": self.worst_case_rotation_error,
-                "assemblies": [a.as_dict() for a in self.assemblies]}
+                "assemblies": [a.as_dict() for a in self.assemblies], "count_witnesses": list(self.count_witnesses)}
 
 
 #: The pandas dtype of each kind of column of a results table (:class:`ResultsTable`): ``int64``

@@ -599,6 +599,8 @@ def _complete_over(model, quadrics, q0) -> tuple[bool, int, str]:
     real = np.all(q0.imag == 0.0, axis=1) & np.all(g.imag == 0.0, axis=(1, 2))
     centre = np.array([reg[0] for reg in region])                               # (8, 4)
     radius = np.array([reg[1] for reg in region])
+    # (a pair's regions are mirror images, so one meeting the real space meets its partner's and the
+    # distinctness below fails too: this test is the direct statement of what the count needs)
     nonreal = np.any(np.abs(centre.imag) > radius, axis=1) & ~real
     if not np.all(real | nonreal):
         return False, int(real.sum()), "a complex root may become real within the tolerances"
@@ -623,17 +625,19 @@ def _point_count(model, values, p) -> tuple[bool, int]:
     return bool(proof.complete[0]), int(proof.n_real[0])
 
 
-def _count(model, terms, values, nominal: int | None, directions) -> tuple[bool | None, str]:
+def _count(model, terms, values, nominal: int | None, directions) -> tuple[bool | None, str, tuple]:
     """The module doc's step 4; ``nominal``: the nominal solve's count (None: not comparable, joint
-    ranges); ``directions``: geometries of T to count when the complete count over T fails."""
+    ranges); ``directions``: geometries of T to count when the complete count over T fails. Returns
+    (verdict, how, witnesses): for False the two geometries (``ToleranceModel.geometry``) whose proven
+    counts differ, to build and check; else ()."""
     quadrics = stack([_form(e, b, c) for e, b, c in terms], 0)                  # (3, 4, 4) over T
     q0 = _roots(model, values, quadrics)
     complete, real, why_not = (False, 0, "no 8 candidates") if q0 is None else _complete_over(model, quadrics, q0)
     if complete and (nominal is None or real == nominal):
         return True, (f"all {bezout.BEZOUT_BOUND} complex roots proven, each real or not and all distinct, for every "
-                      f"geometry and input within the tolerances (the complete count over them): {real} real, always")
+                      f"geometry and input within the tolerances (the complete count over them): {real} real, always"), ()
     if complete:
-        return None, f"the complete count over the tolerances gives {real} real roots, the nominal solve {nominal}"
+        return None, f"the complete count over the tolerances gives {real} real roots, the nominal solve {nominal}", ()
     # two geometries of T with different proven counts prove a singular configuration between them
     size = model.space.size
     eps = model.eps / (1.0 + TILT_PAD) * (1.0 - TILT_PAD)
@@ -651,10 +655,11 @@ def _count(model, terms, values, nominal: int | None, directions) -> tuple[bool 
         if seen and n_real not in seen:
             other = next(iter(seen))
             return False, (f"two geometries within the tolerances have {other} and {n_real} real roots (each count "
-                           "proven complete): the count changes between them, at a singular configuration")
+                           "proven complete): the count changes between them, at a singular configuration"), \
+                (model.geometry(values, seen[other]), model.geometry(values, p))
         seen.setdefault(n_real, p)
     return None, (f"the complete count did not hold over the whole tolerances ({why_not}: a singular configuration "
-                  "may lie within them), and no two geometries tried had different counts")
+                  "may lie within them), and no two geometries tried had different counts"), ()
 
 
 # ---------------------------------------------------------------- a report
@@ -681,7 +686,7 @@ def count_over(mechanism, tolerances, centre, widen) -> tuple[bool | None, str]:
         raise ValueError(f"tolerances: {why}")
     model = ToleranceModel(mechanism, tolerances, widen)
     values = np.asarray(centre, dtype=float)
-    return _count(model, model.terms(values), values, None, [])
+    return _count(model, model.terms(values), values, None, [])[:2]
 
 
 def analyse_pose(mechanism, tolerances, values, rotation) -> ToleranceReport:
@@ -699,8 +704,8 @@ def analyse_pose(mechanism, tolerances, values, rotation) -> ToleranceReport:
     terms = model.terms(values)
     d0 = np.asarray(rotation, dtype=float) @ np.asarray(mechanism.platform_reference_matrix, dtype=float).T
     a, rim = _assembly(model, terms, values, d0, 1)
-    constant, why = _count(model, terms, values, None, [] if rim is None else [rim])
-    return ToleranceReport(info, constant, why, (a,))
+    constant, why, witnesses = _count(model, terms, values, None, [] if rim is None else [rim])
+    return ToleranceReport(info, constant, why, (a,), witnesses)
 
 
 def analyse(mechanism, tolerances, values, report) -> ToleranceReport:
@@ -733,8 +738,8 @@ def analyse(mechanism, tolerances, values, report) -> ToleranceReport:
     if not report.count_exact:
         return ToleranceReport(info, None, "the nominal count is not proven", tuple(out))
     ranged = [n for n in mechanism.passive if mechanism.ranges.get(n) is not None]
-    constant, why = _count(model, terms, values, None if ranged else len(entries), directions)
+    constant, why, witnesses = _count(model, terms, values, None if ranged else len(entries), directions)
     if ranged and constant:
         constant, why = None, (f"the joint ranges of {', '.join(ranged)} are not decided under tolerances (an "
                                "assembly may cross a range end); " + why)
-    return ToleranceReport(info, constant, why, tuple(out))
+    return ToleranceReport(info, constant, why, tuple(out), witnesses)
