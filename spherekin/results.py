@@ -503,6 +503,11 @@ class ToleranceReport:
     assemblies: tuple = ()
     count_witnesses: tuple = ()
 
+    @classmethod
+    def uncovered(cls, tolerances: Mapping, why: str, entries: int) -> "ToleranceReport":
+        """The report of a mechanism an analysis does not cover: ``why`` for the count and each of ``entries``."""
+        return cls(tolerances, None, why, tuple(AssemblyTolerance(k, None, reason=why) for k in range(1, entries + 1)))
+
     @property
     def worst_case_rotation_error(self) -> float | None:
         """The largest proven bound over the assemblies (radians; None when one is not proven or there are none)."""

@@ -34,7 +34,7 @@ from ..core.taylor import TaylorForm, ToleranceSet, cos_sin, stack
 from ..mechanism.chains import axis_rotations
 from ..results import AssemblyTolerance, ToleranceReport
 from .tolerances import (NEWTON_STEPS, ROUNDING, TILT_PAD, axis_basis, krawczyk_over, linear_worst_case, matmul_forms,
-                         row_reach, tilted_axis)
+                         rim_of, row_reach, tilted_axis)
 
 __all__ = ["LoopToleranceModel", "loops_not_analysed", "analyse_loops"]
 
@@ -196,14 +196,8 @@ class LoopToleranceModel:
         return theta if np.all(np.isfinite(theta)) else None
 
     def rim(self, direction) -> np.ndarray:
-        """The geometry of T maximizing direction . p (each block at its rim along it), shrunk by the pad."""
-        p = np.zeros(self.space.size)
-        for cols, rad in self.blocks:
-            v = direction[cols]
-            norm = float(np.linalg.norm(v))
-            if norm > 0.0 and rad > 0.0:
-                p[cols] = rad / (1.0 + TILT_PAD) * (1.0 - TILT_PAD) * v / norm
-        return p
+        """The geometry of T maximizing direction . p (:func:`spherekin.trust.tolerances.rim_of`)."""
+        return rim_of(self.blocks, direction)
 
 
 def _assembly(model, values, theta0, number: int, rotation) -> AssemblyTolerance:
@@ -351,8 +345,7 @@ def analyse_loops(mechanism, tolerances, values, report) -> ToleranceReport:
     entries = list(report.solutions)
     why = loops_not_analysed(mechanism)
     if why is not None:
-        return ToleranceReport(info, None, why, tuple(AssemblyTolerance(k, None, reason=why)
-                                                      for k in range(1, len(entries) + 1)))
+        return ToleranceReport.uncovered(info, why, len(entries))
     model = LoopToleranceModel(mechanism, tolerances)
     out = []
     for k, sol in enumerate(entries, start=1):

@@ -67,7 +67,7 @@ from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, pl
 
 __all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ASCENT_RATIO", "ASCENT_TRIES", "ASCENT_STEP", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
            "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "tilted_axis", "axis_basis",
-           "krawczyk_over", "linear_worst_case", "row_reach", "matmul_forms"]
+           "krawczyk_over", "linear_worst_case", "row_reach", "matmul_forms", "rim_of"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
 #: are floats (errors ~1e-16); 1e-9 makes the disk's image cover the whole cone with room, and moves a
@@ -456,13 +456,7 @@ def _ascend(model, values, d0, p, y, g, z) -> tuple[np.ndarray, np.ndarray]:
             dydp = -np.linalg.solve(jy, jp)
         except np.linalg.LinAlgError:
             break
-        grad = best_y @ dydp                                     # d |y|^2 / 2 dp
-        target = np.zeros(len(p))
-        for cols, rad in model.radii():
-            v = grad[cols]
-            norm = float(np.linalg.norm(v))
-            if norm > 0.0 and rad > 0.0:
-                target[cols] = rad / (1.0 + TILT_PAD) * (1.0 - TILT_PAD) * v / norm
+        target = rim_of(model.radii(), best_y @ dydp)             # along d |y|^2 / 2 dp
         y_new = _newton(model, values, target, d0)
         if y_new is None or not np.all(np.abs(y_new - g @ target) <= z[1]) or \
                 np.linalg.norm(y_new) <= np.linalg.norm(best_y) * (1.0 + 1e-12):
@@ -471,12 +465,13 @@ def _ascend(model, values, d0, p, y, g, z) -> tuple[np.ndarray, np.ndarray]:
     return best_p, best_y
 
 
-def _rim_parameters(model, g, n) -> np.ndarray:
-    """The linearized worst geometry for direction n: each disk's tilt at its rim along g_j^T n, each
-    input at the end of its interval along n (inside T: the radii are shrunk by the pad)."""
-    p = np.zeros(g.shape[1])
-    for cols, rad in model.radii():
-        v = n @ g[:, cols]
+def rim_of(blocks, direction) -> np.ndarray:
+    """The geometry of T maximizing ``direction`` . p: each block (disk or interval, ``blocks`` as
+    :meth:`ToleranceModel.radii`) at its rim along its part of ``direction`` (inside T: the radii are
+    shrunk by the pad). The linearized worst geometry for a direction n of a linear map G is rim_of(n G)."""
+    p = np.zeros(len(direction))
+    for cols, rad in blocks:
+        v = direction[cols]
         norm = float(np.linalg.norm(v))
         if norm > 0.0 and rad > 0.0:
             p[cols] = rad / (1.0 + TILT_PAD) * (1.0 - TILT_PAD) * v / norm
@@ -492,7 +487,7 @@ def _assembly(model, terms, values, d0, number: int) -> tuple[AssemblyTolerance,
     except np.linalg.LinAlgError:
         return AssemblyTolerance(number, None, reason="the nominal assembly is singular (J_y not invertible)"), None
     upper, _, n = linear_worst_case(g, model.radii())
-    rim = _rim_parameters(model, g, n)
+    rim = rim_of(model.radii(), n @ g)
     box = krawczyk_over(lambda z: _chart(terms, d0, g, z), c)
     if box is None:
         return AssemblyTolerance(number, None, linear_worst_case=2.0 * math.atan(upper),
@@ -697,7 +692,7 @@ def analyse_pose(mechanism, tolerances, values, rotation) -> ToleranceReport:
     why = not_analysed(mechanism)
     if why is not None or rotation is None:
         why = why or "no platform rotation (no output link)"
-        return ToleranceReport(info, None, why, (AssemblyTolerance(1, None, reason=why),))
+        return ToleranceReport.uncovered(info, why, 1)
     if tolerances.zero:
         return ToleranceReport(info, True, "no tolerance", (AssemblyTolerance(1, 0.0, 0.0, 0.0),))
     model = ToleranceModel(mechanism, tolerances)
@@ -715,8 +710,7 @@ def analyse(mechanism, tolerances, values, report) -> ToleranceReport:
     entries = list(report.solutions)
     why = not_analysed(mechanism)
     if why is not None:
-        return ToleranceReport(info, None, why, tuple(AssemblyTolerance(k, None, reason=why)
-                                                      for k in range(1, len(entries) + 1)))
+        return ToleranceReport.uncovered(info, why, len(entries))
     if tolerances.zero:
         return ToleranceReport(info, True if report.count_exact else None,
                                "no tolerance: the nominal count" if report.count_exact else "the nominal count is not proven",
