@@ -65,9 +65,10 @@ from ..results import AssemblyTolerance, ToleranceReport
 from ..systems.complete import MODEL_TOLERANCE, circle_candidates
 from ..systems.platform import QUADRATIC_TENSOR, form_matrix, not_applicable, platform_legs
 
-__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ASCENT_RATIO", "ASCENT_TRIES", "ASCENT_STEP", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
-           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "tilted_axis", "axis_basis",
-           "krawczyk_over", "linear_worst_case", "row_reach", "matmul_forms", "rim_of"]
+__all__ = ["TILT_PAD", "SPHERE_CELLS", "SPHERE_GAP", "SPHERE_LEVELS", "SPHERE_MAX_CELLS", "ASCENT_STEPS", "ASCENT_RATIO",
+           "ASCENT_TRIES", "ASCENT_STEP", "ROUNDING", "KRAWCZYK_START", "KRAWCZYK_GROWTH", "KRAWCZYK_TRIES",
+           "NEWTON_STEPS", "ToleranceModel", "not_analysed", "analyse", "analyse_pose", "count_over", "tilted_axis",
+           "axis_basis", "krawczyk_over", "linear_worst_case", "row_reach", "matmul_forms", "rim_of"]
 
 #: Relative pad on each tilt radius tan(delta) (and on the input half-width). Reason: u1, u2 and tan
 #: are floats (errors ~1e-16); 1e-9 makes the disk's image cover the whole cone with room, and moves a
